@@ -1,0 +1,234 @@
+//! Building a person-specific AAM from landmarked images.
+
+use crate::appearance::AppearanceModel;
+use crate::error::{Error, Result};
+use crate::frame::ReferenceFrame;
+use crate::image::Image;
+use crate::model::{LandmarkScheme, Model, Reference};
+use crate::pca::{mean, pca};
+use crate::shape::{generalised_procrustes, ShapeModel};
+use crate::similarity::Similarity;
+
+/// One training example: an image and its landmarks (0-based image coordinates).
+#[derive(Clone, Debug)]
+pub struct TrainingImage {
+    /// A name for it (the file stem), used to name a reference image.
+    pub name: String,
+    /// The RGBA image.
+    pub image: Image,
+    /// Its landmarks, interleaved.
+    pub landmarks: Vec<f32>,
+}
+
+/// Which face the bases `s0`, `A0` show, and so what the modes are computed about.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub enum ReferenceChoice {
+    /// The training mean (the paper's default).
+    #[default]
+    Mean,
+    /// The training image with this name.
+    Named(String),
+    /// The training image whose aligned shape is closest to the frame model's base shape
+    /// (requires building in another model's frame).
+    ClosestToFrame,
+}
+
+/// Options of [`Builder`].
+#[derive(Clone, Debug)]
+pub struct BuildOptions {
+    /// A short name stored in the model.
+    pub name: String,
+    /// Fraction of shape variance kept (default 0.98).
+    pub shape_variance: f64,
+    /// Fraction of appearance variance kept (default 0.98).
+    pub appearance_variance: f64,
+    /// Width of the base face in frame pixels when the model has its own frame (default 150).
+    pub face_width: f32,
+    /// Most shape modes kept.
+    pub max_shape_modes: usize,
+    /// Most appearance modes kept.
+    pub max_appearance_modes: usize,
+    /// The reference face.
+    pub reference: ReferenceChoice,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            name: String::from("model"),
+            shape_variance: 0.98,
+            appearance_variance: 0.98,
+            face_width: 150.0,
+            max_shape_modes: 64,
+            max_appearance_modes: 64,
+            reference: ReferenceChoice::Mean,
+        }
+    }
+}
+
+/// Builds models (menpofit's "builder": it knows training, not fitting or rendering).
+#[derive(Clone, Debug, Default)]
+pub struct Builder {
+    /// The options used by [`Builder::build`].
+    pub options: BuildOptions,
+}
+
+impl Builder {
+    /// A builder with these options.
+    pub fn new(options: BuildOptions) -> Self {
+        Builder { options }
+    }
+
+    /// Builds a model from landmarked images, in its own reference frame (`frame_of = None`)
+    /// or in the reference frame of another model (`Some(source)`), so that both models'
+    /// shapes share one coordinate system and their appearance vectors the same pixels.
+    ///
+    /// Requires: at least 2 images, all with the same landmark count (and the frame model's,
+    /// when given), finite landmarks, variance fractions in `(0, 1]`.
+    /// Ensures: a valid [`Model`] whose shape modes are orthonormal with descending variances.
+    pub fn build(&self, images: &[TrainingImage], frame_of: Option<&Model>) -> Result<Model> {
+        let o = &self.options;
+        if images.len() < 2 {
+            return Err(Error::Training(format!(
+                "{} training image(s); at least 2 are needed (15-20 recommended)",
+                images.len()
+            )));
+        }
+        for (what, f) in [("shape", o.shape_variance), ("appearance", o.appearance_variance)] {
+            if !(f > 0.0 && f <= 1.0) {
+                return Err(Error::Training(format!("{what} variance fraction {f} not in (0, 1]")));
+            }
+        }
+        if !(o.face_width >= 8.0 && o.face_width <= 1024.0) {
+            return Err(Error::Training(format!("face width {} not in 8..=1024", o.face_width)));
+        }
+        let n = images[0].landmarks.len();
+        for t in images {
+            if t.landmarks.len() != n || n < 6 || n % 2 != 0 {
+                return Err(Error::Training(format!(
+                    "'{}' has {} landmarks, '{}' has {}",
+                    t.name,
+                    t.landmarks.len() / 2,
+                    images[0].name,
+                    n / 2
+                )));
+            }
+            if t.landmarks.iter().any(|v| !v.is_finite()) {
+                return Err(Error::Training(format!("'{}' has non-finite landmarks", t.name)));
+            }
+            t.image.view()?;
+        }
+        if let Some(f) = frame_of {
+            if f.shape.base.len() != n {
+                return Err(Error::Incompatible(format!(
+                    "training landmarks have {} points, the frame model '{}' has {}",
+                    n / 2,
+                    f.name,
+                    f.landmarks()
+                )));
+            }
+        }
+
+        // Shape: Procrustes alignment into model coordinates.
+        let raw: Vec<Vec<f64>> =
+            images.iter().map(|t| t.landmarks.iter().map(|&v| v as f64).collect()).collect();
+        let aligned: Vec<Vec<f64>> = match frame_of {
+            Some(f) => {
+                let r: Vec<f64> = f.shape.base.iter().map(|&v| v as f64).collect();
+                generalised_procrustes(&raw, Some(&r)).0
+            }
+            None => {
+                let (aligned, unit_mean) = generalised_procrustes(&raw, None);
+                let xs = unit_mean.iter().step_by(2);
+                let width = xs.clone().copied().fold(f64::MIN, f64::max)
+                    - xs.copied().fold(f64::MAX, f64::min);
+                let k = o.face_width as f64 / width.max(1e-12);
+                aligned.into_iter().map(|s| s.into_iter().map(|v| v * k).collect()).collect()
+            }
+        };
+
+        // The reference face.
+        let ref_index: Option<usize> = match &o.reference {
+            ReferenceChoice::Mean => None,
+            ReferenceChoice::Named(name) => Some(
+                images.iter().position(|t| &t.name == name).ok_or_else(|| {
+                    Error::Training(format!(
+                        "reference image '{name}' is not among the training images"
+                    ))
+                })?,
+            ),
+            ReferenceChoice::ClosestToFrame => {
+                let f = frame_of.ok_or_else(|| {
+                    Error::Training(
+                        "the closest-to-reference choice needs a frame model (--frame)".into(),
+                    )
+                })?;
+                let d = |s: &Vec<f64>| -> f64 {
+                    s.iter().zip(&f.shape.base).map(|(a, &b)| (a - b as f64).powi(2)).sum()
+                };
+                (0..aligned.len()).min_by(|&a, &b| d(&aligned[a]).total_cmp(&d(&aligned[b])))
+            }
+        };
+        let shape_centre = match ref_index {
+            Some(i) => aligned[i].clone(),
+            None => mean(&aligned),
+        };
+        let sp = pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes);
+        let shape = ShapeModel {
+            base: shape_centre.iter().map(|&v| v as f32).collect(),
+            modes: sp.modes,
+            variances: sp.variances,
+        };
+
+        // Reference frame.
+        let frame = match frame_of {
+            Some(f) => f.frame.clone(),
+            None => ReferenceFrame::from_base(&shape.base)?,
+        };
+
+        // Appearance: each image sampled at its landmarks into the frame.
+        let npx = frame.n_pixels() * 3;
+        let mut buf = vec![0f32; npx];
+        let mut samples: Vec<Vec<f64>> = Vec::with_capacity(images.len());
+        for t in images {
+            crate::warp::sample_rgb(&frame, &t.image.view()?, &t.landmarks, &mut buf)?;
+            samples.push(buf.iter().map(|&v| v as f64).collect());
+        }
+        let app_centre = match ref_index {
+            Some(i) => samples[i].clone(),
+            None => mean(&samples),
+        };
+        let ap = pca(&samples, &app_centre, o.appearance_variance, o.max_appearance_modes);
+        let appearance = AppearanceModel {
+            base: app_centre.iter().map(|&v| v as f32).collect(),
+            modes: ap.modes,
+            variances: ap.variances,
+        };
+
+        // Average pose (for placing the base face on a canvas like the training images).
+        let (mut a, mut b, mut tx, mut ty) = (0.0, 0.0, 0.0, 0.0);
+        for t in images {
+            let p = Similarity::align(&shape.base, &t.landmarks);
+            a += p.a;
+            b += p.b;
+            tx += p.tx;
+            ty += p.ty;
+        }
+        let k = images.len() as f32;
+        let mean_pose = Similarity { a: a / k, b: b / k, tx: tx / k, ty: ty / k };
+
+        Ok(Model {
+            name: o.name.clone(),
+            scheme: LandmarkScheme::for_count(n / 2),
+            shape,
+            appearance,
+            frame,
+            reference: match ref_index {
+                Some(i) => Reference::Training(images[i].name.clone()),
+                None => Reference::Mean,
+            },
+            mean_pose,
+            image_size: [images[0].image.width, images[0].image.height],
+        })
+    }
+}

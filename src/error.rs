@@ -1,0 +1,61 @@
+//! The one error type of the library.
+
+use crate::format::FormatError;
+
+/// Everything that can go wrong in facemimic, with a message that names the problem.
+///
+/// Contract: every fallible public function returns this type; no public function panics on
+/// bad input (corrupt files, mismatched models, NaN parameters, images without landmarks).
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A landmark file could not be parsed, or has the wrong number of points.
+    #[error("landmarks: {0}")]
+    Landmarks(String),
+    /// A model file is corrupt, truncated, of another version, or exceeds a limit.
+    #[error("model file: {0}")]
+    Format(#[from] FormatError),
+    /// A model cannot be built from the given training data.
+    #[error("training: {0}")]
+    Training(String),
+    /// Two models cannot be used together (different landmark scheme or reference frame).
+    #[error("incompatible models: {0}")]
+    Incompatible(String),
+    /// Parameters have the wrong length or are not finite.
+    #[error("parameters: {0}")]
+    Params(String),
+    /// An image has the wrong size or layout.
+    #[error("image: {0}")]
+    Image(String),
+    /// Reading or writing a file failed.
+    #[error("{0}")]
+    Io(String),
+}
+
+impl From<std::io::Error> for Error {
+    fn from(e: std::io::Error) -> Self {
+        Error::Io(e.to_string())
+    }
+}
+
+/// Shorthand for `Result<T, facemimic::Error>`.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Fails with [`Error::Params`] unless every value is finite.
+pub(crate) fn check_finite(what: &str, values: &[f32]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(Error::Params(format!("{what}[{i}] is not finite ({})", values[i]))),
+    }
+}
+
+/// Fails with [`Error::Params`] unless `values.len() == expected`.
+pub(crate) fn check_len(what: &str, values: &[f32], expected: usize) -> Result<()> {
+    if values.len() == expected {
+        Ok(())
+    } else {
+        Err(Error::Params(format!(
+            "{what} has {} values, the model expects {expected}",
+            values.len()
+        )))
+    }
+}

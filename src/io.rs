@@ -1,0 +1,99 @@
+//! Native file input: decoding images and finding their landmark files (not in the wasm build).
+
+use std::path::{Path, PathBuf};
+
+use crate::builder::TrainingImage;
+use crate::error::{Error, Result};
+use crate::image::{Image, MAX_IMAGE_SIDE};
+use crate::landmarks::{parse_asf, parse_pts};
+
+/// Decodes a PNG or JPEG file into RGBA8.
+pub fn read_image(path: &Path) -> Result<Image> {
+    let reader = ::image::ImageReader::open(path)
+        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?
+        .with_guessed_format()
+        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    let (w, h) = reader
+        .into_dimensions()
+        .map_err(|e| Error::Image(format!("{}: {e}", path.display())))?;
+    if w == 0 || h == 0 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
+        return Err(Error::Image(format!("{}: size {w}x{h} not supported", path.display())));
+    }
+    let img = ::image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?
+        .decode()
+        .map_err(|e| Error::Image(format!("{}: {e}", path.display())))?
+        .to_rgba8();
+    Ok(Image { width: img.width(), height: img.height(), data: img.into_raw() })
+}
+
+/// Writes RGBA8 pixels as a PNG file.
+pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
+    ::image::save_buffer(path, rgba, width, height, ::image::ExtendedColorType::Rgba8)
+        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
+}
+
+/// The landmark file beside an image: same stem, `.pts` preferred, else `.asf`.
+pub fn landmark_path(image: &Path) -> Result<PathBuf> {
+    for ext in ["pts", "asf"] {
+        let p = image.with_extension(ext);
+        if p.is_file() {
+            return Ok(p);
+        }
+    }
+    Err(Error::Landmarks(format!(
+        "{}: no landmark file ({} or .asf) beside the image",
+        image.display(),
+        image.with_extension("pts").display()
+    )))
+}
+
+/// Reads the landmarks of an image of the given size from a `.pts` or `.asf` file.
+pub fn read_landmarks(path: &Path, width: u32, height: u32) -> Result<Vec<f32>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    let r = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("asf")) {
+        parse_asf(&text, width, height)
+    } else {
+        parse_pts(&text)
+    };
+    r.map_err(|e| Error::Landmarks(format!("{}: {}", path.display(), e.to_string().trim_start_matches("landmarks: "))))
+}
+
+/// Loads an image and its sibling landmark file.
+pub fn read_training_image(path: &Path) -> Result<TrainingImage> {
+    let lm = landmark_path(path)?;
+    let image = read_image(path)?;
+    let landmarks = read_landmarks(&lm, image.width, image.height)?;
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    Ok(TrainingImage { name, image, landmarks })
+}
+
+/// Reads a list file (one image stem a line, relative to the list's folder; `#` comments) and
+/// resolves each stem to an existing `.jpg`, `.jpeg` or `.png` file.
+pub fn read_list(list: &Path) -> Result<Vec<PathBuf>> {
+    let text = std::fs::read_to_string(list).map_err(|e| Error::Io(format!("{}: {e}", list.display())))?;
+    let dir = list.parent().unwrap_or(Path::new("."));
+    let mut out = Vec::new();
+    for line in text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')) {
+        let base = dir.join(line);
+        let found = if base.extension().is_some() && base.is_file() {
+            Some(base.clone())
+        } else {
+            ["jpg", "jpeg", "png"].iter().map(|e| base.with_extension(e)).find(|p| p.is_file())
+        };
+        out.push(found.ok_or_else(|| {
+            Error::Io(format!("{}: no image for '{line}' (looked for .jpg, .jpeg, .png)", list.display()))
+        })?);
+    }
+    if out.is_empty() {
+        return Err(Error::Io(format!("{}: the list names no image", list.display())));
+    }
+    Ok(out)
+}
+
+/// Writes a tiny-skia pixmap (premultiplied) as a PNG file (straight alpha).
+pub fn write_pixmap(path: &Path, pixmap: &tiny_skia::Pixmap) -> Result<()> {
+    let rgba = crate::render::demultiply(pixmap);
+    write_png(path, pixmap.width(), pixmap.height(), &rgba)
+}

@@ -1,0 +1,162 @@
+//! Landmark files: iBUG `.pts` (read and write) and IMM / AAM-API `.asf` (read).
+//!
+//! Every function returns shapes as interleaved 0-based image coordinates
+//! `(x1, y1, ..., xn, yn)` where integer coordinates are pixel centres.
+
+use crate::error::{Error, Result};
+
+/// Most landmarks a file may hold (guards against absurd inputs).
+pub const MAX_LANDMARKS: usize = 4096;
+
+/// Parses an iBUG `.pts` file. Its coordinates are 1-based pixel coordinates: 1 is subtracted.
+///
+/// Requires: `version: 1`, `n_points: N`, `{`, N lines of two finite numbers, `}`.
+/// Ensures: a vector of `2N` finite values.
+pub fn parse_pts(text: &str) -> Result<Vec<f32>> {
+    let mut lines = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with("//"));
+    let mut n_points: Option<usize> = None;
+    loop {
+        let line = lines
+            .next()
+            .ok_or_else(|| Error::Landmarks("no '{' found: not a .pts file".into()))?;
+        if line == "{" {
+            break;
+        }
+        if let Some(rest) = line.strip_prefix("n_points:") {
+            let n: usize = rest.trim().parse().map_err(|_| {
+                Error::Landmarks(format!("bad n_points value '{}'", rest.trim()))
+            })?;
+            if n == 0 || n > MAX_LANDMARKS {
+                return Err(Error::Landmarks(format!(
+                    "n_points {n} out of range 1..={MAX_LANDMARKS}"
+                )));
+            }
+            n_points = Some(n);
+        } else if !line.starts_with("version:") {
+            return Err(Error::Landmarks(format!("unexpected header line '{line}'")));
+        }
+    }
+    let n = n_points.ok_or_else(|| Error::Landmarks("missing n_points header".into()))?;
+    let mut out = Vec::with_capacity(2 * n);
+    for line in lines {
+        if line == "}" {
+            if out.len() != 2 * n {
+                return Err(Error::Landmarks(format!(
+                    "n_points says {n} but {} points were given",
+                    out.len() / 2
+                )));
+            }
+            return Ok(out);
+        }
+        let mut it = line.split_whitespace();
+        let (x, y) = match (it.next(), it.next(), it.next()) {
+            (Some(x), Some(y), None) => (x, y),
+            _ => return Err(Error::Landmarks(format!("bad point line '{line}'"))),
+        };
+        let parse = |s: &str| -> Result<f32> {
+            s.parse::<f32>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| Error::Landmarks(format!("bad coordinate '{s}'")))
+        };
+        if out.len() >= 2 * n {
+            return Err(Error::Landmarks(format!("more than n_points = {n} points")));
+        }
+        out.push(parse(x)? - 1.0);
+        out.push(parse(y)? - 1.0);
+    }
+    Err(Error::Landmarks("missing closing '}'".into()))
+}
+
+/// Writes a shape (0-based coordinates) as an iBUG `.pts` file (1-based coordinates).
+pub fn write_pts(shape: &[f32]) -> String {
+    let mut s = format!("version: 1\nn_points: {}\n{{\n", shape.len() / 2);
+    for p in shape.chunks_exact(2) {
+        s.push_str(&format!("{:.3} {:.3}\n", p[0] + 1.0, p[1] + 1.0));
+    }
+    s.push_str("}\n");
+    s
+}
+
+/// Parses an IMM / AAM-API `.asf` file, whose coordinates are relative to the image size:
+/// `x = rel_x * width`, `y = rel_y * height`.
+///
+/// Requires: the point count on the first non-comment line, then that many point lines
+/// `<path> <type> <x> <y> <index> <from> <to>`; `width`, `height` > 0.
+pub fn parse_asf(text: &str, width: u32, height: u32) -> Result<Vec<f32>> {
+    if width == 0 || height == 0 {
+        return Err(Error::Landmarks("image size is zero".into()));
+    }
+    let mut lines = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'));
+    let first = lines
+        .next()
+        .ok_or_else(|| Error::Landmarks("empty .asf file".into()))?;
+    let n: usize = first
+        .parse()
+        .map_err(|_| Error::Landmarks(format!("bad point count '{first}' in .asf")))?;
+    if n == 0 || n > MAX_LANDMARKS {
+        return Err(Error::Landmarks(format!("point count {n} out of range 1..={MAX_LANDMARKS}")));
+    }
+    let mut out = Vec::with_capacity(2 * n);
+    for _ in 0..n {
+        let line = lines
+            .next()
+            .ok_or_else(|| Error::Landmarks(format!(".asf ends before its {n} points")))?;
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f.len() < 4 {
+            return Err(Error::Landmarks(format!("bad .asf point line '{line}'")));
+        }
+        let rx: f32 = f[2].parse().ok().filter(|v: &f32| v.is_finite()).ok_or_else(|| {
+            Error::Landmarks(format!("bad relative x '{}' in .asf", f[2]))
+        })?;
+        let ry: f32 = f[3].parse().ok().filter(|v: &f32| v.is_finite()).ok_or_else(|| {
+            Error::Landmarks(format!("bad relative y '{}' in .asf", f[3]))
+        })?;
+        out.push(rx * width as f32);
+        out.push(ry * height as f32);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pts_round_trip_is_zero_based() {
+        let text = "version: 1\nn_points: 2\n{\n1 1\n10.5 20\n}\n";
+        let s = parse_pts(text).unwrap();
+        assert_eq!(s, vec![0.0, 0.0, 9.5, 19.0]);
+        assert_eq!(parse_pts(&write_pts(&s)).unwrap(), s);
+    }
+
+    #[test]
+    fn pts_errors() {
+        for bad in [
+            "",
+            "version: 1\nn_points: 2\n{\n1 1\n}\n",
+            "version: 1\nn_points: 1\n{\n1 x\n}\n",
+            "version: 1\nn_points: 1\n{\n1 1\n",
+            "version: 1\n{\n1 1\n}\n",
+            "version: 1\nn_points: 1\n{\n1 1\n2 2\n}\n",
+            "version: 1\nn_points: 1\n{\nNaN 1\n}\n",
+            "version: 1\nn_points: 99999999\n{\n}\n",
+        ] {
+            assert!(parse_pts(bad).is_err(), "accepted {bad:?}");
+        }
+    }
+
+    #[test]
+    fn asf_relative() {
+        let text = "# comment\n2\n0 0 0.5 0.25 0 1 1\n0 0 0.1 0.2 1 0 0\nimage.jpg\n";
+        let s = parse_asf(text, 200, 100).unwrap();
+        assert_eq!(s, vec![100.0, 25.0, 20.0, 20.0]);
+        assert!(parse_asf("3\n0 0 0.5 0.5 0 0 0\n", 10, 10).is_err());
+    }
+}

@@ -1,0 +1,43 @@
+//! # facemimic
+//!
+//! Real-time facial expression cloning with Active Appearance Models (Theobald, Matthews,
+//! Cohn & Boker, "Real-time expression cloning using appearance models", ICMI 2007).
+//!
+//! The crate is a pure-Rust core (no browser knowledge) with a thin wasm-bindgen layer
+//! (`wasm` module, wasm32 only) and a thin CLI (`src/bin/facemimic`). See `ARCHITECTURE.md`.
+//!
+//! - [`Builder`] builds a person-specific [`Model`] from landmarked images: a Procrustes-aligned
+//!   PCA shape model (Eq. 1), a shape-normalised PCA appearance model (Eq. 2) and a triangulated
+//!   [`ReferenceFrame`].
+//! - [`format`] reads and writes the versioned binary model file (`.fmm`).
+//! - [`Renderer`] warps an instance onto any shape with tiny-skia.
+#![warn(missing_docs)]
+
+mod appearance;
+mod builder;
+mod error;
+mod frame;
+mod image;
+pub mod landmarks;
+mod model;
+mod pca;
+mod render;
+mod shape;
+mod similarity;
+mod warp;
+pub mod format;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod io;
+
+pub use appearance::{synthesise, AppearanceModel};
+pub use builder::{BuildOptions, Builder, ReferenceChoice, TrainingImage};
+pub use error::{Error, Result};
+pub use frame::{triangulate, FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
+pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
+pub use model::{LandmarkScheme, Model, Params, Reference};
+pub use pca::{pca, Pca};
+pub use render::{demultiply, demultiply_into, triangle_affine, Renderer};
+pub use shape::{generalised_procrustes, ShapeModel};
+pub use similarity::{PoseJson, Similarity};
+pub use tiny_skia;
+pub use warp::sample_rgb;

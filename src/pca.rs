@@ -1,0 +1,104 @@
+//! Principal component analysis about a given centre (the mean, or a reference sample).
+
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// The result of [`pca`]: orthonormal modes (row-major, one mode per row of length `dim`) and
+/// their variances, in descending order.
+#[derive(Clone, Debug)]
+pub struct Pca {
+    /// `modes.len() == variances.len() * dim`; mode `i` is `modes[i*dim..(i+1)*dim]`.
+    pub modes: Vec<f32>,
+    /// Variance of each mode (eigenvalue of the covariance about the centre), descending.
+    pub variances: Vec<f32>,
+    /// Sum of all eigenvalues (total variance about the centre).
+    pub total_variance: f64,
+}
+
+/// PCA of `samples` (each of length `dim`) about `centre`.
+///
+/// Uses the Gram ("snapshot") matrix when there are fewer samples than dimensions (always the
+/// case for appearance: 20 images of ~50k values), the covariance matrix otherwise. Both go
+/// through nalgebra's symmetric eigensolver. Variances use the `1/(n-1)` normalisation.
+///
+/// Keeps the fewest leading modes whose variances add up to at least `fraction` of the total,
+/// at most `max_modes`, and never modes of (numerically) zero variance.
+/// Ensures: modes orthonormal (re-orthogonalised in f64), each mode's sign chosen so that its
+/// largest-magnitude component is positive (deterministic output).
+pub fn pca(samples: &[Vec<f64>], centre: &[f64], fraction: f64, max_modes: usize) -> Pca {
+    let n = samples.len();
+    let dim = centre.len();
+    let denom = (n.max(2) - 1) as f64;
+    // Deviations, n x dim.
+    let x = DMatrix::from_fn(n, dim, |r, c| samples[r][c] - centre[c]);
+    let (eigvals, dirs): (Vec<f64>, Vec<Vec<f64>>) = if n < dim {
+        let gram = (&x * x.transpose()) / denom;
+        let eig = SymmetricEigen::new(gram);
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+        let mut vals = Vec::new();
+        let mut dirs = Vec::new();
+        for k in order {
+            let lam = eig.eigenvalues[k].max(0.0);
+            let v = eig.eigenvectors.column(k);
+            // mode = X^T v, normalised.
+            let m = x.transpose() * v;
+            vals.push(lam);
+            dirs.push(m.iter().copied().collect());
+        }
+        (vals, dirs)
+    } else {
+        let cov = (x.transpose() * &x) / denom;
+        let eig = SymmetricEigen::new(cov);
+        let mut order: Vec<usize> = (0..dim).collect();
+        order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+        let vals = order.iter().map(|&k| eig.eigenvalues[k].max(0.0)).collect();
+        let dirs = order.iter().map(|&k| eig.eigenvectors.column(k).iter().copied().collect()).collect();
+        (vals, dirs)
+    };
+    let total: f64 = eigvals.iter().sum();
+    let mut modes: Vec<Vec<f64>> = Vec::new();
+    let mut variances = Vec::new();
+    let mut acc = 0.0;
+    for (lam, mut d) in eigvals.into_iter().zip(dirs) {
+        if modes.len() >= max_modes || total <= 0.0 || lam <= total * 1e-9 {
+            break;
+        }
+        if acc >= fraction * total && !modes.is_empty() {
+            break;
+        }
+        // Gram-Schmidt against the kept modes, then normalise.
+        for m in &modes {
+            let dot: f64 = d.iter().zip(m).map(|(a, b)| a * b).sum();
+            d.iter_mut().zip(m).for_each(|(a, b)| *a -= dot * b);
+        }
+        let norm = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !(norm > 1e-12) {
+            break;
+        }
+        d.iter_mut().for_each(|v| *v /= norm);
+        let big = d.iter().copied().fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
+        if big < 0.0 {
+            d.iter_mut().for_each(|v| *v = -*v);
+        }
+        acc += lam;
+        modes.push(d);
+        variances.push(lam as f32);
+    }
+    Pca {
+        modes: modes.iter().flat_map(|m| m.iter().map(|&v| v as f32)).collect(),
+        variances,
+        total_variance: total,
+    }
+}
+
+/// The mean of equal-length samples.
+pub fn mean(samples: &[Vec<f64>]) -> Vec<f64> {
+    let dim = samples.first().map_or(0, Vec::len);
+    let mut m = vec![0.0; dim];
+    for s in samples {
+        m.iter_mut().zip(s).for_each(|(a, b)| *a += b);
+    }
+    let n = samples.len().max(1) as f64;
+    m.iter_mut().for_each(|v| *v /= n);
+    m
+}

@@ -1,0 +1,204 @@
+//! Rendering: the piecewise-affine warp of an appearance from the reference frame onto a
+//! shape, rasterised with tiny-skia.
+
+use glam::{Affine2, Mat2, Vec2};
+use tiny_skia::{FillRule, FilterQuality, Paint, PathBuilder, Pattern, Pixmap, PixmapMut, SpreadMode, Transform};
+
+use crate::error::{check_len, Error, Result};
+use crate::frame::ReferenceFrame;
+use crate::model::{Model, Params};
+use crate::similarity::Similarity;
+
+/// Reusable rendering state for one reference frame: the appearance texture, the synthesis
+/// buffers and a recycled path. Create once per model (or per frame shape) and reuse: after
+/// the first call, rendering allocates nothing of its own per frame.
+///
+/// Contract: [`Renderer::draw`] paints exactly the pixels whose centres fall inside the warped
+/// mesh (non-anti-aliased fills share edges exactly, so there are no cracks and no double-painted
+/// seams); pixels outside are left untouched.
+pub struct Renderer {
+    texture: Pixmap,
+    frame_fingerprint: u64,
+    appearance: Vec<f32>,
+    /// Instance landmarks in image coordinates (render's scratch).
+    instance: Vec<f32>,
+    /// Destination points in target pixels (warp's scratch).
+    shape: Vec<f32>,
+    path: Option<PathBuilder>,
+}
+
+impl std::fmt::Debug for Renderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Renderer")
+            .field("texture", &(self.texture.width(), self.texture.height()))
+            .field("frame_fingerprint", &self.frame_fingerprint)
+            .finish()
+    }
+}
+
+/// The affine map taking triangle `src` onto triangle `dst` (`None` when `src` is degenerate).
+pub fn triangle_affine(src: [Vec2; 3], dst: [Vec2; 3]) -> Option<Affine2> {
+    let s = Mat2::from_cols(src[1] - src[0], src[2] - src[0]);
+    let det = s.determinant();
+    if !(det.abs() > 1e-12) {
+        return None;
+    }
+    let d = Mat2::from_cols(dst[1] - dst[0], dst[2] - dst[0]);
+    let m = d * s.inverse();
+    let t = dst[0] - m * src[0];
+    Some(Affine2::from_mat2_translation(m, t))
+}
+
+impl Renderer {
+    /// A renderer for models on `frame`.
+    pub fn new(frame: &ReferenceFrame) -> Result<Renderer> {
+        let texture = Pixmap::new(frame.width(), frame.height())
+            .ok_or_else(|| Error::Image("frame too large for a pixmap".into()))?;
+        Ok(Renderer {
+            texture,
+            frame_fingerprint: frame.fingerprint(),
+            appearance: vec![0.0; frame.n_pixels() * 3],
+            instance: vec![0.0; frame.vertices().len()],
+            shape: vec![0.0; frame.vertices().len()],
+            path: Some(PathBuilder::with_capacity(4, 4)),
+        })
+    }
+
+    /// The texture of the last appearance drawn (frame-sized, premultiplied RGBA; transparent
+    /// outside the mesh and its padding ring). Useful to show the shape-normalised appearance.
+    pub fn texture(&self) -> &Pixmap {
+        &self.texture
+    }
+
+    /// Writes an appearance vector (`3N`, RGB in `0..=1`) into the frame texture, with the
+    /// padding ring copied from the nearest inside pixels.
+    pub fn upload(&mut self, frame: &ReferenceFrame, appearance: &[f32]) -> Result<()> {
+        self.check_frame(frame)?;
+        check_len("appearance", appearance, frame.n_pixels() * 3)?;
+        let w = frame.width() as usize;
+        let data = self.texture.data_mut();
+        for (px, rgb) in frame.pixels().iter().zip(appearance.chunks_exact(3)) {
+            let k = (px.y as usize * w + px.x as usize) * 4;
+            data[k] = to_u8(rgb[0]);
+            data[k + 1] = to_u8(rgb[1]);
+            data[k + 2] = to_u8(rgb[2]);
+            data[k + 3] = 255;
+        }
+        for &(k, src) in frame.padding() {
+            let px = frame.pixels()[src as usize];
+            let s = (px.y as usize * w + px.x as usize) * 4;
+            let d = k as usize * 4;
+            data.copy_within(s..s + 4, d);
+        }
+        Ok(())
+    }
+
+    fn check_frame(&self, frame: &ReferenceFrame) -> Result<()> {
+        if frame.fingerprint() != self.frame_fingerprint {
+            return Err(Error::Incompatible("renderer was made for another reference frame".into()));
+        }
+        Ok(())
+    }
+
+    /// Warps the uploaded texture onto `image_shape` (image coordinates, pixel centres on
+    /// integers) mapped through `view` (image to target pixels), one pattern-shaded,
+    /// non-anti-aliased triangle fill per mesh triangle.
+    pub fn warp(
+        &mut self,
+        frame: &ReferenceFrame,
+        image_shape: &[f32],
+        view: &Similarity,
+        target: &mut PixmapMut<'_>,
+    ) -> Result<()> {
+        self.check_frame(frame)?;
+        check_len("shape", image_shape, frame.vertices().len())?;
+        crate::error::check_finite("shape", image_shape)?;
+        let [ox, oy] = frame.origin();
+        let v = frame.vertices();
+        // Destination points in tiny-skia space (pixel centres at +0.5).
+        for (d, s) in self.shape.chunks_exact_mut(2).zip(image_shape.chunks_exact(2)) {
+            let (x, y) = view.apply_point(s[0], s[1]);
+            d[0] = x + 0.5;
+            d[1] = y + 0.5;
+        }
+        let texture = self.texture.as_ref();
+        for t in frame.triangles() {
+            let src = t.map(|i| {
+                Vec2::new(v[2 * i as usize] + ox + 0.5, v[2 * i as usize + 1] + oy + 0.5)
+            });
+            let dst = t.map(|i| Vec2::new(self.shape[2 * i as usize], self.shape[2 * i as usize + 1]));
+            let Some(m) = triangle_affine(src, dst) else { continue };
+            let tr = Transform::from_row(
+                m.matrix2.x_axis.x,
+                m.matrix2.x_axis.y,
+                m.matrix2.y_axis.x,
+                m.matrix2.y_axis.y,
+                m.translation.x,
+                m.translation.y,
+            );
+            let mut pb = self.path.take().unwrap_or_default();
+            pb.move_to(dst[0].x, dst[0].y);
+            pb.line_to(dst[1].x, dst[1].y);
+            pb.line_to(dst[2].x, dst[2].y);
+            pb.close();
+            let Some(path) = pb.finish() else {
+                self.path = Some(PathBuilder::new());
+                continue;
+            };
+            let paint = Paint {
+                shader: Pattern::new(texture, SpreadMode::Pad, FilterQuality::Bilinear, 1.0, tr),
+                anti_alias: false,
+                ..Paint::default()
+            };
+            target.fill_path(&path, &paint, FillRule::Winding, Transform::identity(), None);
+            self.path = Some(path.clear());
+        }
+        Ok(())
+    }
+
+    /// Renders a model instance: synthesises the shape (Eq. 1, posed) and appearance (Eq. 2),
+    /// uploads and warps. `view` maps image coordinates to target pixels.
+    pub fn render(
+        &mut self,
+        model: &Model,
+        params: &Params,
+        view: &Similarity,
+        target: &mut PixmapMut<'_>,
+    ) -> Result<()> {
+        model.check_params(params)?;
+        self.check_frame(&model.frame)?;
+        let mut appearance = std::mem::take(&mut self.appearance);
+        model.appearance.instance_unchecked(&params.appearance, &mut appearance);
+        let r = self.upload(&model.frame, &appearance);
+        self.appearance = appearance;
+        r?;
+        // Taking the buffer out of `self` (and back) moves it without allocating.
+        let mut instance = std::mem::take(&mut self.instance);
+        model.shape.instance_unchecked(&params.shape, &mut instance);
+        params.pose.apply_in_place(&mut instance);
+        let r = self.warp(&model.frame, &instance, view, target);
+        self.instance = instance;
+        r
+    }
+}
+
+#[inline]
+fn to_u8(v: f32) -> u8 {
+    (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+}
+
+/// The pixmap's pixels as straight (non-premultiplied) RGBA8, as PNG files and `ImageData` use.
+pub fn demultiply(pixmap: &Pixmap) -> Vec<u8> {
+    let mut out = Vec::with_capacity(pixmap.data().len());
+    demultiply_into(pixmap.as_ref(), &mut out);
+    out
+}
+
+/// [`demultiply`] into a reusable buffer (cleared first; no allocation once it is large enough).
+pub fn demultiply_into(pixmap: tiny_skia::PixmapRef<'_>, out: &mut Vec<u8>) {
+    out.clear();
+    for p in pixmap.pixels() {
+        let c = p.demultiply();
+        out.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
+    }
+}

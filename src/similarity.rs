@@ -1,0 +1,185 @@
+//! 2D similarity transforms (the pose that places a normalised shape in an image).
+
+use serde::{Deserialize, Serialize};
+
+/// A 2D similarity transform `x' = [a -b; b a] x + t`: uniform scale `sqrt(a^2+b^2)`, rotation
+/// `atan2(b, a)`, translation `t`.
+///
+/// Represents the pose of a face: it maps model coordinates (the normalised, Procrustes-aligned
+/// shape space, centred on the origin) to image coordinates (0-based pixels, pixel centres on
+/// integers). Kept apart from the shape parameters `p`, as the paper's notes require.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(from = "PoseJson", into = "PoseJson")]
+pub struct Similarity {
+    /// `scale * cos(rotation)`.
+    pub a: f32,
+    /// `scale * sin(rotation)`.
+    pub b: f32,
+    /// Translation along x.
+    pub tx: f32,
+    /// Translation along y.
+    pub ty: f32,
+}
+
+impl Default for Similarity {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Similarity {
+    /// The identity transform.
+    pub const IDENTITY: Similarity = Similarity { a: 1.0, b: 0.0, tx: 0.0, ty: 0.0 };
+
+    /// Builds a transform from scale, rotation (radians) and translation.
+    pub fn from_parts(scale: f32, rotation: f32, tx: f32, ty: f32) -> Self {
+        Similarity { a: scale * rotation.cos(), b: scale * rotation.sin(), tx, ty }
+    }
+
+    /// Uniform scale factor.
+    pub fn scale(&self) -> f32 {
+        (self.a * self.a + self.b * self.b).sqrt()
+    }
+
+    /// Rotation in radians.
+    pub fn rotation(&self) -> f32 {
+        self.b.atan2(self.a)
+    }
+
+    /// Maps one point.
+    #[inline]
+    pub fn apply_point(&self, x: f32, y: f32) -> (f32, f32) {
+        (self.a * x - self.b * y + self.tx, self.b * x + self.a * y + self.ty)
+    }
+
+    /// Maps an interleaved shape `(x1, y1, ..., xn, yn)` into `out` (same length).
+    pub fn apply(&self, shape: &[f32], out: &mut [f32]) {
+        for (src, dst) in shape.chunks_exact(2).zip(out.chunks_exact_mut(2)) {
+            let (x, y) = self.apply_point(src[0], src[1]);
+            dst[0] = x;
+            dst[1] = y;
+        }
+    }
+
+    /// Maps an interleaved shape in place.
+    pub fn apply_in_place(&self, shape: &mut [f32]) {
+        for p in shape.chunks_exact_mut(2) {
+            let (x, y) = self.apply_point(p[0], p[1]);
+            p[0] = x;
+            p[1] = y;
+        }
+    }
+
+    /// The inverse transform (identity-like garbage is avoided: a zero scale yields `None`).
+    pub fn inverse(&self) -> Option<Similarity> {
+        let d = self.a * self.a + self.b * self.b;
+        if !(d > 1e-20) || !d.is_finite() {
+            return None;
+        }
+        let (ia, ib) = (self.a / d, -self.b / d);
+        Some(Similarity {
+            a: ia,
+            b: ib,
+            tx: -(ia * self.tx - ib * self.ty),
+            ty: -(ib * self.tx + ia * self.ty),
+        })
+    }
+
+    /// `self ∘ other`: first `other`, then `self`.
+    pub fn compose(&self, other: &Similarity) -> Similarity {
+        Similarity {
+            a: self.a * other.a - self.b * other.b,
+            b: self.b * other.a + self.a * other.b,
+            tx: self.a * other.tx - self.b * other.ty + self.tx,
+            ty: self.b * other.tx + self.a * other.ty + self.ty,
+        }
+    }
+
+    /// True when all four numbers are finite and the scale is non-zero.
+    pub fn is_valid(&self) -> bool {
+        [self.a, self.b, self.tx, self.ty].iter().all(|v| v.is_finite()) && self.scale() > 0.0
+    }
+
+    /// The least-squares similarity that maps `src` onto `dst` (both interleaved, same length):
+    /// minimises `sum |T(src_i) - dst_i|^2`. Closed form (Umeyama without reflection).
+    pub fn align(src: &[f32], dst: &[f32]) -> Similarity {
+        let n = (src.len().min(dst.len()) / 2).max(1) as f64;
+        let (mut sx, mut sy, mut dx, mut dy) = (0f64, 0f64, 0f64, 0f64);
+        for (s, d) in src.chunks_exact(2).zip(dst.chunks_exact(2)) {
+            sx += s[0] as f64;
+            sy += s[1] as f64;
+            dx += d[0] as f64;
+            dy += d[1] as f64;
+        }
+        let (sx, sy, dx, dy) = (sx / n, sy / n, dx / n, dy / n);
+        let (mut num_a, mut num_b, mut den) = (0f64, 0f64, 0f64);
+        for (s, d) in src.chunks_exact(2).zip(dst.chunks_exact(2)) {
+            let (x, y) = (s[0] as f64 - sx, s[1] as f64 - sy);
+            let (u, v) = (d[0] as f64 - dx, d[1] as f64 - dy);
+            num_a += x * u + y * v;
+            num_b += x * v - y * u;
+            den += x * x + y * y;
+        }
+        if den <= 0.0 {
+            return Similarity { a: 1.0, b: 0.0, tx: (dx - sx) as f32, ty: (dy - sy) as f32 };
+        }
+        let a = num_a / den;
+        let b = num_b / den;
+        Similarity {
+            a: a as f32,
+            b: b as f32,
+            tx: (dx - (a * sx - b * sy)) as f32,
+            ty: (dy - (b * sx + a * sy)) as f32,
+        }
+    }
+}
+
+/// The human-readable form of a pose used in JSON (`project`, `--params`): scale, rotation in
+/// radians, translation in pixels.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct PoseJson {
+    /// Uniform scale from model coordinates to image pixels.
+    pub scale: f32,
+    /// Rotation in radians (counter-clockwise in a y-down image looks clockwise).
+    pub rotation: f32,
+    /// Translation along x, pixels.
+    pub tx: f32,
+    /// Translation along y, pixels.
+    pub ty: f32,
+}
+
+impl From<Similarity> for PoseJson {
+    fn from(s: Similarity) -> Self {
+        PoseJson { scale: s.scale(), rotation: s.rotation(), tx: s.tx, ty: s.ty }
+    }
+}
+
+impl From<PoseJson> for Similarity {
+    fn from(p: PoseJson) -> Self {
+        Similarity::from_parts(p.scale, p.rotation, p.tx, p.ty)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inverse_and_compose() {
+        let s = Similarity::from_parts(2.0, 0.3, 5.0, -7.0);
+        let i = s.inverse().unwrap();
+        let id = s.compose(&i);
+        assert!((id.a - 1.0).abs() < 1e-6 && id.b.abs() < 1e-6 && id.tx.abs() < 1e-5);
+    }
+
+    #[test]
+    fn align_recovers_transform() {
+        let src = [0.0, 0.0, 1.0, 0.0, 0.0, 2.0, -1.0, 1.0];
+        let t = Similarity::from_parts(1.7, -0.4, 3.0, 9.0);
+        let mut dst = [0.0; 8];
+        t.apply(&src, &mut dst);
+        let r = Similarity::align(&src, &dst);
+        assert!((r.a - t.a).abs() < 1e-5 && (r.b - t.b).abs() < 1e-5);
+        assert!((r.tx - t.tx).abs() < 1e-4 && (r.ty - t.ty).abs() < 1e-4);
+    }
+}
