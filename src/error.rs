@@ -26,6 +26,14 @@ pub enum Error {
     /// An image has the wrong size or layout.
     #[error("image: {0}")]
     Image(String),
+    /// An error about a named file.
+    #[error("{file}: {source}")]
+    File {
+        /// The file's name or path.
+        file: String,
+        /// What went wrong.
+        source: Box<Error>,
+    },
     /// Reading or writing a file failed.
     #[error("{0}")]
     Io(String),
@@ -34,6 +42,14 @@ pub enum Error {
 impl From<std::io::Error> for Error {
     fn from(e: std::io::Error) -> Self {
         Error::Io(e.to_string())
+    }
+}
+
+impl Error {
+    /// Prefixes the message with where it happened (a file name), keeping the variant for
+    /// [`Error::Format`] by turning it into a context-carrying [`Error::File`].
+    pub fn with_context(self, context: &str) -> Error {
+        Error::File { file: context.to_string(), source: Box::new(self) }
     }
 }
 

@@ -97,3 +97,16 @@ pub fn write_pixmap(path: &Path, pixmap: &tiny_skia::Pixmap) -> Result<()> {
     let rgba = crate::render::demultiply(pixmap);
     write_png(path, pixmap.width(), pixmap.height(), &rgba)
 }
+
+/// Reads and validates a `.fmm` model file.
+pub fn read_model_file(path: &Path) -> Result<crate::Model> {
+    let bytes = std::fs::read(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    crate::format::read_model(&bytes)
+        .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))
+}
+
+/// Writes a model as a `.fmm` file.
+pub fn write_model_file(path: &Path, model: &crate::Model) -> Result<()> {
+    std::fs::write(path, crate::format::write_model(model))
+        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
+}

@@ -14,6 +14,10 @@
 #![warn(missing_docs)]
 
 mod appearance;
+pub mod clone;
+pub mod fit;
+#[cfg(target_arch = "wasm32")]
+pub mod wasm;
 mod builder;
 mod error;
 mod frame;

@@ -1,0 +1,2 @@
+//! Benchmarks (clone): being written.
+fn main() {}

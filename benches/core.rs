@@ -1,0 +1,2 @@
+//! Benchmarks (core): being written.
+fn main() {}

@@ -1,0 +1,2 @@
+//! Benchmarks (fit): being written.
+fn main() {}

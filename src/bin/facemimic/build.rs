@@ -1,0 +1,77 @@
+//! `facemimic build`.
+
+use std::path::PathBuf;
+
+use facemimic::{io, BuildOptions, Builder, ReferenceChoice, Result};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Where to write the model (.fmm).
+    #[arg(long, value_name = "MODEL.fmm")]
+    out: PathBuf,
+    /// Build in the reference frame of this model (needed to clone from it onto this one).
+    #[arg(long, value_name = "REF.fmm")]
+    frame: Option<PathBuf>,
+    /// Fraction of shape variance to keep.
+    #[arg(long, default_value_t = 0.98, value_name = "F")]
+    shape_variance: f64,
+    /// Fraction of appearance variance to keep.
+    #[arg(long, default_value_t = 0.98, value_name = "F")]
+    appearance_variance: f64,
+    /// Face width in reference-frame pixels (own frame only).
+    #[arg(long, default_value_t = 150.0, value_name = "PX")]
+    face_width: f32,
+    /// The reference face: `mean` (default), `closest` (the training image closest to the
+    /// --frame model's reference) or the name (file stem) of a training image.
+    #[arg(long, default_value = "mean", value_name = "REF")]
+    reference: String,
+    /// Model name stored in the file (default: the output's file stem).
+    #[arg(long)]
+    name: Option<String>,
+    /// A list of image stems, one a line, relative to the list's folder.
+    #[arg(long, value_name = "FILE")]
+    list: Option<PathBuf>,
+    /// Images (PNG or JPEG), each with a sibling .pts or .asf landmark file.
+    #[arg(value_name = "IMAGE")]
+    images: Vec<PathBuf>,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let mut paths = a.images.clone();
+    if let Some(list) = &a.list {
+        paths.extend(io::read_list(list)?);
+    }
+    if paths.is_empty() {
+        return Err(facemimic::Error::Training("no training images given (IMAGE... or --list)".into()));
+    }
+    let images = paths.iter().map(|p| io::read_training_image(p)).collect::<Result<Vec<_>>>()?;
+    let frame_model = a.frame.as_deref().map(io::read_model_file).transpose()?;
+    let reference = match a.reference.as_str() {
+        "mean" => ReferenceChoice::Mean,
+        "closest" => ReferenceChoice::ClosestToFrame,
+        name => ReferenceChoice::Named(name.to_string()),
+    };
+    let name = a.name.clone().unwrap_or_else(|| {
+        a.out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
+    });
+    let builder = Builder::new(BuildOptions {
+        name,
+        shape_variance: a.shape_variance,
+        appearance_variance: a.appearance_variance,
+        face_width: a.face_width,
+        reference,
+        ..BuildOptions::default()
+    });
+    let model = builder.build(&images, frame_model.as_ref())?;
+    io::write_model_file(&a.out, &model)?;
+    eprintln!(
+        "facemimic: built '{}' from {} images: {} shape modes, {} appearance modes, {} frame pixels -> {}",
+        model.name,
+        images.len(),
+        model.shape.n_modes(),
+        model.appearance.n_modes(),
+        model.frame.n_pixels(),
+        a.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,40 @@
+//! `facemimic inspect`.
+
+use std::path::PathBuf;
+
+use facemimic::{io, Reference, Result};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The model file.
+    #[arg(value_name = "MODEL.fmm")]
+    model: PathBuf,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let m = io::read_model_file(&a.model)?;
+    let total = |v: &[f32]| v.iter().sum::<f32>();
+    let json = serde_json::json!({
+        "name": m.name,
+        "landmarks": m.landmarks(),
+        "scheme": format!("{:?}", m.scheme),
+        "triangles": m.frame.triangles().len(),
+        "frame_width": m.frame.width(),
+        "frame_height": m.frame.height(),
+        "pixels": m.frame.n_pixels(),
+        "channels": 3,
+        "shape_modes": m.shape.n_modes(),
+        "appearance_modes": m.appearance.n_modes(),
+        "shape_sigma": m.shape.sigmas(),
+        "appearance_sigma": m.appearance.sigmas(),
+        "shape_variance_share": m.shape.variances.iter().map(|v| v / total(&m.shape.variances)).collect::<Vec<_>>(),
+        "appearance_variance_share": m.appearance.variances.iter().map(|v| v / total(&m.appearance.variances)).collect::<Vec<_>>(),
+        "frame_fingerprint": format!("{:016x}", m.frame.fingerprint()),
+        "reference": match &m.reference { Reference::Mean => "mean".to_string(), Reference::Training(n) => n.clone() },
+        "image_width": m.image_size[0],
+        "image_height": m.image_size[1],
+        "mean_pose": m.mean_pose,
+    });
+    println!("{json}");
+    Ok(())
+}

@@ -1,0 +1,73 @@
+//! `facemimic render`.
+
+use std::path::{Path, PathBuf};
+
+use facemimic::{io, Error, Params, Renderer, Result, Similarity};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The model to render.
+    #[arg(long, value_name = "MODEL.fmm")]
+    model: PathBuf,
+    /// Parameters as printed by `facemimic project` (default: the base face at its mean pose).
+    #[arg(long, value_name = "P.json")]
+    params: Option<PathBuf>,
+    /// Canvas width (default: the training images' width).
+    #[arg(long, value_name = "W")]
+    width: Option<u32>,
+    /// Canvas height (default: the training images' height).
+    #[arg(long, value_name = "H")]
+    height: Option<u32>,
+    /// The PNG to write.
+    #[arg(long, value_name = "OUT.png")]
+    out: PathBuf,
+    /// Also write the instance's landmarks (canvas pixel coordinates) as .pts.
+    #[arg(long, value_name = "OUT.pts")]
+    out_pts: Option<PathBuf>,
+}
+
+/// Reads a parameters JSON file.
+pub fn read_params(path: &Path) -> Result<Params> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    serde_json::from_str(&text).map_err(|e| Error::Params(format!("{}: {e}", path.display())))
+}
+
+/// Renders `params` of `model` on a `width x height` canvas (dark grey background) and writes
+/// the PNG and optionally the landmarks.
+pub fn render_to_files(
+    model: &facemimic::Model,
+    params: &Params,
+    width: u32,
+    height: u32,
+    out: &Path,
+    out_pts: Option<&Path>,
+) -> Result<()> {
+    if width == 0 || height == 0 || width > facemimic::MAX_IMAGE_SIDE || height > facemimic::MAX_IMAGE_SIDE {
+        return Err(Error::Image(format!("canvas size {width}x{height} not supported")));
+    }
+    let mut pixmap = facemimic::tiny_skia::Pixmap::new(width, height)
+        .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
+    pixmap.fill(facemimic::tiny_skia::Color::from_rgba8(32, 32, 36, 255));
+    let mut renderer = Renderer::new(&model.frame)?;
+    renderer.render(model, params, &Similarity::IDENTITY, &mut pixmap.as_mut())?;
+    io::write_pixmap(out, &pixmap)?;
+    if let Some(p) = out_pts {
+        let mut shape = vec![0.0; model.landmarks() * 2];
+        model.image_shape(params, &mut shape)?;
+        std::fs::write(p, facemimic::landmarks::write_pts(&shape))
+            .map_err(|e| Error::Io(format!("{}: {e}", p.display())))?;
+    }
+    Ok(())
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let model = io::read_model_file(&a.model)?;
+    let params = match &a.params {
+        Some(p) => read_params(p)?,
+        None => model.base_params(),
+    };
+    model.check_params(&params)?;
+    let width = a.width.unwrap_or(model.image_size[0]);
+    let height = a.height.unwrap_or(model.image_size[1]);
+    render_to_files(&model, &params, width, height, &a.out, a.out_pts.as_deref())
+}

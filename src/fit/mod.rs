@@ -1,0 +1,1 @@
+//! AAM fitting and tracking. Being written: see issue 5.

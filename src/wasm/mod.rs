@@ -1,0 +1,1 @@
+//! The wasm-bindgen glue (wasm32 only). Being written: see issue 4.
