@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Builds the default models and the bundled source track into www/models/ from the GRID frames
+# in data/grid (CC BY 4.0). Idempotent: does nothing when the outputs are newer than the inputs.
+#   www/models/spk07.fmm             the source (spk07, 20 training frames of spk07_pwij3p)
+#   www/models/spkNN.fmm             every other speaker, built in spk07's reference frame
+#   www/models/spk07-track.json      spk07's unseen clip (75 frames) projected into the source
+#   www/models/manifest.json         what the page loads by default
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=www/models
+bin=target/release/facemimic
+mkdir -p "$out"
+
+cargo build --release --bin facemimic -q
+
+stamp="$out/.stamp"
+if [ -f "$stamp" ] && [ -z "$(find data/grid "$bin" -newer "$stamp" -print -quit)" ]; then
+  echo "build-models: up to date" >&2
+  exit 0
+fi
+
+source_clip=data/grid/spk07_pwij3p
+"$bin" build --name spk07 --out "$out/spk07.fmm" --list "$source_clip/train20.txt"
+targets=()
+for dir in data/grid/spk*_*; do
+  clip=$(basename "$dir")
+  spk=${clip%%_*}
+  [ "$spk" = spk07 ] && continue
+  "$bin" build --name "$spk" --frame "$out/spk07.fmm" --out "$out/$spk.fmm" --list "$dir/train20.txt"
+  targets+=("$spk")
+done
+
+# The source track: every frame of the unseen clip, projected from its landmarks.
+track_clip=data/grid/spk07_id2_vcd_swwp2s
+{
+  echo '['
+  first=1
+  for img in "$track_clip"/*.jpg; do
+    [ $first = 1 ] || echo ','
+    first=0
+    "$bin" project --model "$out/spk07.fmm" "$img"
+  done
+  echo ']'
+} > "$out/spk07-track.json.tmp"
+mv "$out/spk07-track.json.tmp" "$out/spk07-track.json"
+
+python3 - "$out" "${targets[@]}" <<'PY'
+import json, sys
+out, targets = sys.argv[1], sys.argv[2:]
+default = [t for t in ["spk02", "spk03", "spk06", "spk10"] if t in targets]
+manifest = {
+    "source": "spk07.fmm",
+    "track": {"file": "spk07-track.json", "fps": 25,
+              "description": "GRID speaker 7, clip id2_vcd_swwp2s (unseen), projected from its landmarks"},
+    "targets": [f"{t}.fmm" for t in default],
+    "library": [f"{t}.fmm" for t in targets],
+    "credits": "GRID audio-visual corpus (Cooke, Barker, Cunningham & Shao, 2006), CC BY 4.0",
+}
+json.dump(manifest, open(f"{out}/manifest.json", "w"), indent=2)
+PY
+touch "$stamp"
+echo "build-models: $(ls "$out"/*.fmm | wc -l) models and a $(python3 -c "import json;print(len(json.load(open('$out/spk07-track.json'))))")-frame track in $out" >&2

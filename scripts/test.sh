@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Sets up what is missing and runs every test: native unit + integration tests (numerics, real
+# data, model file, CLI, cloning, fitting), the same numerics compiled to wasm under Node, the
+# canvas path in headless Chromium (wasm-bindgen-test), and the end-to-end browser tests of the
+# page and the npm package (playwright-core + Debian chromium). Safe to run again.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export CARGO_TERM_COLOR=never
+step() { printf '\n==== %s ====\n' "$*"; }
+
+step "set-up"
+bash scripts/setup.sh --browser
+
+step "format and lints"
+cargo fmt --all -- --check
+cargo clippy --all-targets -q -- -D warnings
+
+step "native tests"
+cargo test --all-targets
+
+step "build the wasm package and the default models"
+bash scripts/build-wasm.sh
+bash scripts/build-models.sh
+
+step "wasm tests (Node, then headless Chromium)"
+cargo test --target wasm32-unknown-unknown
+
+step "end-to-end browser tests"
+node --test --test-concurrency=1 tests/e2e/
