@@ -1,0 +1,207 @@
+// Shared helpers for the browser end-to-end tests (node:test + playwright-core + Debian chromium).
+//
+//   const server = await serveStatic('www');        // { url, port, close() }
+//   const browser = await launchBrowser();          // playwright Browser
+//   await screenshot(page, 'page-desktop');         // -> artifacts/page-desktop.png
+//
+// Nothing here touches the network beyond 127.0.0.1.
+
+import http from 'node:http';
+import fs from 'node:fs';
+import fsp from 'node:fs/promises';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+/** The repository root (two levels above this file). */
+export const ROOT = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
+
+/** Where screenshots and other test outputs go (gitignored). */
+export const ARTIFACTS = path.join(ROOT, 'artifacts');
+
+/** The browser the tests drive (Debian's package; override with CHROMIUM=/path). */
+export const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+
+/** Flags for a quiet, offline, headless chromium. */
+export const CHROMIUM_ARGS = [
+  '--headless',
+  '--no-sandbox',
+  '--disable-gpu',
+  '--disable-background-networking',
+  '--disable-component-update',
+  '--disable-sync',
+  '--no-first-run',
+  '--disable-quic',
+];
+
+const MIME = {
+  '.html': 'text/html; charset=utf-8',
+  '.js': 'text/javascript; charset=utf-8',
+  '.mjs': 'text/javascript; charset=utf-8',
+  '.css': 'text/css; charset=utf-8',
+  '.json': 'application/json; charset=utf-8',
+  '.wasm': 'application/wasm',
+  '.svg': 'image/svg+xml',
+  '.png': 'image/png',
+  '.jpg': 'image/jpeg',
+  '.ico': 'image/x-icon',
+  '.txt': 'text/plain; charset=utf-8',
+  '.md': 'text/plain; charset=utf-8',
+  '.ts': 'text/plain; charset=utf-8',
+  '.fmm': 'application/octet-stream',
+};
+
+/**
+ * Serve a directory (relative to the repo root, or absolute) on 127.0.0.1 at a free port.
+ * GET/HEAD only; paths are confined to the directory; `/` and directories serve `index.html`.
+ * Returns `{ url, port, requests, close }`; `requests` lists every path asked for (so a test can
+ * check that nothing outside the origin was wanted).
+ */
+export async function serveStatic(dir) {
+  const base = path.resolve(ROOT, dir);
+  const requests = [];
+  const server = http.createServer(async (req, res) => {
+    try {
+      const url = new URL(req.url, 'http://127.0.0.1');
+      requests.push(url.pathname);
+      if (req.method !== 'GET' && req.method !== 'HEAD') {
+        res.writeHead(405).end();
+        return;
+      }
+      let file = path.join(base, decodeURIComponent(url.pathname));
+      if (file !== base && !file.startsWith(base + path.sep)) {
+        res.writeHead(403).end();
+        return;
+      }
+      let st = await fsp.stat(file).catch(() => null);
+      if (st && st.isDirectory()) {
+        file = path.join(file, 'index.html');
+        st = await fsp.stat(file).catch(() => null);
+      }
+      if (!st || !st.isFile()) {
+        res.writeHead(404, { 'content-type': 'text/plain' }).end('not found');
+        return;
+      }
+      const type = MIME[path.extname(file).toLowerCase()] || 'application/octet-stream';
+      res.writeHead(200, { 'content-type': type, 'content-length': st.size, 'cache-control': 'no-store' });
+      if (req.method === 'HEAD') res.end();
+      else fs.createReadStream(file).pipe(res);
+    } catch (e) {
+      res.writeHead(500, { 'content-type': 'text/plain' }).end(String(e));
+    }
+  });
+  await new Promise((resolve, reject) => {
+    server.once('error', reject);
+    server.listen(0, '127.0.0.1', resolve);
+  });
+  const { port } = server.address();
+  return {
+    url: `http://127.0.0.1:${port}/`,
+    port,
+    requests,
+    close: () =>
+      new Promise((resolve) => {
+        server.closeAllConnections?.();
+        server.close(() => resolve());
+      }),
+  };
+}
+
+/** Launch headless chromium with the standard flags (extra args appended). */
+export async function launchBrowser(extraArgs = []) {
+  return chromium.launch({
+    executablePath: CHROMIUM,
+    headless: true,
+    args: [...CHROMIUM_ARGS, ...extraArgs],
+  });
+}
+
+/** True when the browser binary exists (tests skip with a message otherwise). */
+export function haveChromium() {
+  return fs.existsSync(CHROMIUM);
+}
+
+/** Save a full-page PNG screenshot as `artifacts/<name>.png`; returns the path. */
+export async function screenshot(page, name, options = {}) {
+  await fsp.mkdir(ARTIFACTS, { recursive: true });
+  const file = path.join(ARTIFACTS, `${name}.png`);
+  await page.screenshot({ path: file, fullPage: true, ...options });
+  return file;
+}
+
+/**
+ * Statistics of a canvas's centre region (the middle `frac` of each side), computed in the page:
+ * `{ width, height, mean, variance, distinct }` over the RGB values. A painted face has a large
+ * variance; a blank or one-colour canvas has ~0.
+ */
+export async function canvasStats(page, selector, frac = 0.5) {
+  return page.$eval(
+    selector,
+    (canvas, frac) => {
+      const w = canvas.width;
+      const h = canvas.height;
+      if (!w || !h) return { width: w, height: h, mean: 0, variance: 0, distinct: 0 };
+      const ctx = canvas.getContext('2d');
+      const cw = Math.max(1, Math.round(w * frac));
+      const ch = Math.max(1, Math.round(h * frac));
+      const data = ctx.getImageData(Math.round((w - cw) / 2), Math.round((h - ch) / 2), cw, ch).data;
+      let sum = 0;
+      let sum2 = 0;
+      let n = 0;
+      const seen = new Set();
+      for (let i = 0; i < data.length; i += 4) {
+        const lum = 0.299 * data[i] + 0.587 * data[i + 1] + 0.114 * data[i + 2];
+        sum += lum;
+        sum2 += lum * lum;
+        n++;
+        if (seen.size < 4096) seen.add((data[i] << 16) | (data[i + 1] << 8) | data[i + 2]);
+      }
+      const mean = sum / n;
+      return { width: w, height: h, mean, variance: sum2 / n - mean * mean, distinct: seen.size };
+    },
+    frac,
+  );
+}
+
+/** A cheap fingerprint of a canvas's pixels (to tell whether it changed). */
+export async function canvasDigest(page, selector) {
+  return page.$eval(selector, (canvas) => {
+    const ctx = canvas.getContext('2d');
+    const data = ctx.getImageData(0, 0, canvas.width, canvas.height).data;
+    let h = 2166136261 >>> 0;
+    for (let i = 0; i < data.length; i += 4) {
+      h = Math.imul(h ^ data[i], 16777619) >>> 0;
+      h = Math.imul(h ^ data[i + 1], 16777619) >>> 0;
+      h = Math.imul(h ^ data[i + 2], 16777619) >>> 0;
+    }
+    return h.toString(16);
+  });
+}
+
+/** Mean absolute per-channel difference between two canvases' current pixels, as returned by `canvasPixels`. */
+export function meanAbsDiff(a, b) {
+  if (a.length !== b.length) return Infinity;
+  let s = 0;
+  for (let i = 0; i < a.length; i++) s += Math.abs(a[i] - b[i]);
+  return s / a.length;
+}
+
+/** A canvas's RGB pixels on a grid of every `step`-th pixel, as a plain array (for `meanAbsDiff`). */
+export async function canvasPixels(page, selector, step = 3) {
+  return page.$eval(
+    selector,
+    (canvas, step) => {
+      const { width: w, height: h } = canvas;
+      const data = canvas.getContext('2d').getImageData(0, 0, w, h).data;
+      const out = [];
+      for (let y = 0; y < h; y += step) {
+        for (let x = 0; x < w; x += step) {
+          const i = (y * w + x) * 4;
+          out.push(data[i], data[i + 1], data[i + 2]);
+        }
+      }
+      return out;
+    },
+    step,
+  );
+}
