@@ -1,0 +1,427 @@
+// End-to-end tests of the demo page (www/): served from 127.0.0.1, driven in Debian's headless
+// chromium through playwright-core. Needs the wasm package (scripts/build-wasm.sh -> www/pkg/)
+// and the default models (scripts/build-models.sh -> www/models/). Screenshots go to artifacts/.
+//
+//   node --test --test-concurrency=1 tests/e2e/
+
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { execFileSync } from 'node:child_process';
+import {
+  ROOT,
+  CHROMIUM,
+  serveStatic,
+  launchBrowser,
+  haveChromium,
+  screenshot,
+  canvasStats,
+  canvasPixels,
+  meanAbsDiff,
+} from './lib.mjs';
+
+// FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
+const WWW = path.resolve(ROOT, process.env.FACEMIMIC_WWW || 'www');
+const MODELS = path.join(WWW, 'models');
+
+let server;
+let browser;
+let manifest;
+
+before(async () => {
+  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
+  assert.ok(
+    fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')),
+    'www/pkg/facemimic.js is missing: run scripts/build-wasm.sh',
+  );
+  assert.ok(fs.existsSync(path.join(MODELS, 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  manifest = JSON.parse(fs.readFileSync(path.join(MODELS, 'manifest.json'), 'utf8'));
+  server = await serveStatic(WWW);
+  browser = await launchBrowser();
+});
+
+after(async () => {
+  await browser?.close();
+  await server?.close();
+});
+
+/** Open the page in a fresh context; fail on page errors and on any request off the origin. */
+async function openPage(t, { width = 1440, height = 900, dpr = 1, autoplay = true } = {}) {
+  const context = await browser.newContext({
+    viewport: { width, height },
+    deviceScaleFactor: dpr,
+    acceptDownloads: true,
+    reducedMotion: autoplay ? 'no-preference' : 'reduce',
+  });
+  const page = await context.newPage();
+  const errors = [];
+  const offOrigin = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('console', (m) => {
+    if (m.type() === 'error') errors.push(m.text());
+  });
+  page.on('request', (r) => {
+    const u = r.url();
+    if (!u.startsWith(server.url) && !u.startsWith('blob:') && !u.startsWith('data:')) offOrigin.push(u);
+  });
+  t.after(async () => {
+    await context.close();
+  });
+  await page.goto(server.url);
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
+  return {
+    page,
+    errors,
+    offOrigin,
+    /** Wait until at least `n` more frames have been rendered. */
+    async frames(n = 2) {
+      const start = Number(await page.getAttribute('body', 'data-frames'));
+      await page.waitForFunction((s) => Number(document.body.dataset.frames) >= s, start + n, { timeout: 10_000 });
+    },
+  };
+}
+
+const TARGETS = '.face-card.target canvas.face';
+const SOURCE = '.face-card.source canvas.face';
+
+async function assertFace(page, selector, what) {
+  const s = await canvasStats(page, selector);
+  assert.ok(s.width > 50 && s.height > 50, `${what}: canvas backing store is ${s.width}x${s.height}`);
+  // A face (skin, eyes, mouth, hair, background) varies a lot; a blank or flat canvas does not.
+  assert.ok(s.variance > 60 && s.distinct > 200, `${what}: centre looks blank (${JSON.stringify(s)})`);
+  return s;
+}
+
+async function pause(page) {
+  if ((await page.getAttribute('#play', 'aria-pressed')) === 'true') await page.click('#play');
+  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'false');
+}
+
+async function setSlider(page, id, value) {
+  await page.$eval(
+    `#${id}`,
+    (el, v) => {
+      el.focus();
+      el.value = String(v);
+      el.dispatchEvent(new Event('input', { bubbles: true }));
+    },
+    value,
+  );
+}
+
+/** Drop files on an element through a synthetic DataTransfer (as a user's drag and drop would). */
+async function dropFiles(page, selector, files) {
+  const payload = files.map((f) => ({ name: f.name, b64: Buffer.from(f.bytes).toString('base64') }));
+  await page.$eval(
+    selector,
+    (el, payload) => {
+      const dt = new DataTransfer();
+      for (const f of payload) {
+        const bin = atob(f.b64);
+        const bytes = new Uint8Array(bin.length);
+        for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+        dt.items.add(new File([bytes], f.name, { type: 'application/octet-stream' }));
+      }
+      for (const type of ['dragenter', 'dragover', 'drop']) {
+        el.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
+      }
+    },
+    payload,
+  );
+}
+
+function modelBytes(file) {
+  return fs.readFileSync(path.join(MODELS, file));
+}
+
+test('the page opens playing, with the source and every default target painted as a face', async (t) => {
+  const { page, errors, offOrigin, frames } = await openPage(t);
+  const nTargets = manifest.targets.length;
+  assert.ok(nTargets >= 4, `the manifest lists ${nTargets} default targets`);
+  assert.equal(await page.locator(TARGETS).count(), nTargets);
+  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'true', 'the track plays on load');
+  await frames(3);
+  await assertFace(page, SOURCE, 'source');
+  for (let i = 0; i < nTargets; i++) await assertFace(page, `${TARGETS} >> nth=${i}`, `target ${i + 1}`);
+  // The targets are different people: their pixels differ.
+  const a = await canvasPixels(page, `${TARGETS} >> nth=0`);
+  const b = await canvasPixels(page, `${TARGETS} >> nth=1`);
+  assert.ok(meanAbsDiff(a, b) > 3, 'two targets look identical');
+  // One slider per source mode.
+  const info = await page.$$eval('#shape-sliders input[type=range], #app-sliders input[type=range]', (els) => els.length);
+  assert.ok(info > 2, `only ${info} sliders`);
+  // Readouts show numbers.
+  await page.waitForFunction(() => /^\d+$/.test(document.getElementById('ro-fps').textContent));
+  const map = await page.textContent('#ro-map');
+  assert.match(map, /^\d+\.\d+ ms$/);
+  await screenshot(page, 'page-desktop');
+  assert.deepEqual(offOrigin, [], 'requests left the origin');
+  assert.deepEqual(errors, [], 'page errors');
+});
+
+test('backing stores are the CSS size times devicePixelRatio, and the phone layout fits', async (t) => {
+  const { page, errors, frames } = await openPage(t, { width: 390, height: 844, dpr: 2 });
+  await frames(2);
+  const sizes = await page.$$eval('canvas.face', (cs) =>
+    cs
+      .filter((c) => c.offsetParent !== null)
+      .map((c) => {
+        const r = c.getBoundingClientRect();
+        return { w: c.width, h: c.height, cw: r.width * devicePixelRatio, ch: r.height * devicePixelRatio };
+      }),
+  );
+  assert.ok(sizes.length >= 5);
+  for (const s of sizes) {
+    assert.ok(Math.abs(s.w - s.cw) <= 1 && Math.abs(s.h - s.ch) <= 1, `canvas ${s.w}x${s.h} for ${s.cw}x${s.ch} device px`);
+  }
+  const overflow = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
+  assert.ok(overflow <= 0, `the page scrolls sideways by ${overflow}px on a phone`);
+  await assertFace(page, SOURCE, 'source (phone)');
+  await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 (phone)');
+  await screenshot(page, 'page-phone', { fullPage: false });
+  await screenshot(page, 'page-phone-full');
+  assert.deepEqual(errors, []);
+});
+
+test('moving a slider pauses the track and changes the targets; so does the method', async (t) => {
+  const { page, errors, frames } = await openPage(t);
+  await frames(2);
+  await setSlider(page, 'p-shape-0', 0);
+  await frames(2);
+  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'false', 'the slider paused playback');
+  assert.equal(await page.$eval('#source-kind', (s) => s.value), 'sliders');
+  const before = await canvasPixels(page, `${TARGETS} >> nth=0`);
+  await setSlider(page, 'p-shape-0', 2.5);
+  await frames(2);
+  const moved = await canvasPixels(page, `${TARGETS} >> nth=0`);
+  assert.ok(meanAbsDiff(before, moved) > 0.5, `target did not change with the slider (${meanAbsDiff(before, moved)})`);
+  // The source follows the sliders too.
+  assert.match(await page.$eval('#p-shape-0 + output', (o) => o.value), /^\+2\.50σ$/);
+
+  // Method: substitute differs from map + residual for the same expression.
+  await page.click('label:has(input[value="substitute"])');
+  await frames(2);
+  const substituted = await canvasPixels(page, `${TARGETS} >> nth=0`);
+  assert.ok(meanAbsDiff(moved, substituted) > 0.2, `method change did not change the target (${meanAbsDiff(moved, substituted)})`);
+  await page.click('label:has(input[value="map"])');
+  await frames(2);
+  const mapped = await canvasPixels(page, `${TARGETS} >> nth=0`);
+  assert.ok(meanAbsDiff(mapped, substituted) > 0.2, 'map and substitute look the same');
+  await screenshot(page, 'page-slider-substitute-vs-map');
+
+  // Gain 0 gives the target's reference face: different again.
+  await setSlider(page, 'gain', 0);
+  await frames(2);
+  const zero = await canvasPixels(page, `${TARGETS} >> nth=0`);
+  assert.ok(meanAbsDiff(zero, mapped) > 0.2, 'gain 0 did not change the target');
+  assert.equal(await page.$eval('#gain-out', (o) => o.value), '0.00');
+
+  // Reset restores the defaults.
+  await page.click('#reset');
+  await frames(1);
+  assert.equal(await page.$eval('input[name=method]:checked', (r) => r.value), 'map-residual');
+  assert.equal(await page.$eval('#gain', (r) => r.value), '1');
+  assert.equal(await page.$eval('#p-shape-0', (r) => r.value), '0');
+  assert.deepEqual(errors, []);
+});
+
+test('play advances the track at 25 fps and the sliders follow it; space toggles', async (t) => {
+  const { page, errors } = await openPage(t);
+  await pause(page);
+  await page.$eval('#scrub', (el) => {
+    el.value = '0';
+    el.dispatchEvent(new Event('input', { bubbles: true }));
+  });
+  assert.match(await page.textContent('#frame-counter'), /^1 \/ \d+$/);
+  const slidersBefore = await page.$$eval('#shape-sliders input', (els) => els.map((e) => e.value).join());
+  await page.click('#play');
+  const t0 = Date.now();
+  await page.waitForTimeout(1200);
+  const counter = await page.textContent('#frame-counter');
+  const elapsed = (Date.now() - t0) / 1000;
+  const frame = Number(counter.split('/')[0]);
+  // 25 frames per second of track time (allow for start-up and a loaded machine).
+  assert.ok(frame > 5 && frame <= Math.ceil(elapsed * 25) + 2, `frame ${frame} after ${elapsed.toFixed(2)} s`);
+  const slidersAfter = await page.$$eval('#shape-sliders input', (els) => els.map((e) => e.value).join());
+  assert.notEqual(slidersAfter, slidersBefore, 'the sliders did not follow the track');
+  // Space pauses (focus on the page body, not a button).
+  await page.evaluate(() => document.activeElement?.blur());
+  await page.keyboard.press('Space');
+  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'false');
+  const stopped = await page.textContent('#frame-counter');
+  await page.waitForTimeout(300);
+  assert.equal(await page.textContent('#frame-counter'), stopped, 'paused track still moves');
+  await page.keyboard.press('Space');
+  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'true');
+  assert.deepEqual(errors, []);
+});
+
+test('dropping valid models adds and replaces targets; removing one works', async (t) => {
+  const { page, errors, frames } = await openPage(t);
+  const loaded = new Set(manifest.targets);
+  const spare = (manifest.library || []).filter((f) => !loaded.has(f));
+  assert.ok(spare.length >= 2, 'the library needs two models that are not default targets');
+  const n0 = await page.locator(TARGETS).count();
+
+  await dropFiles(page, '#add-card', [{ name: spare[0], bytes: modelBytes(spare[0]) }]);
+  await page.waitForFunction((n) => document.querySelectorAll('.face-card.target').length === n, n0 + 1);
+  await frames(2);
+  const name0 = spare[0].replace(/\.fmm$/, '');
+  assert.equal(await page.textContent('.face-card.target >> nth=-1 >> .name'), name0);
+  await assertFace(page, `${TARGETS} >> nth=-1`, `dropped ${spare[0]}`);
+
+  // The file picker adds too.
+  await page.setInputFiles('#file-input', path.join(MODELS, spare[1]));
+  await page.waitForFunction((n) => document.querySelectorAll('.face-card.target').length === n, n0 + 2);
+
+  // Dropping on a target replaces it.
+  await dropFiles(page, '.face-card.target >> nth=0', [{ name: spare[0], bytes: modelBytes(spare[0]) }]);
+  await page.waitForFunction((name) => document.querySelector('.face-card.target .name').textContent === name, name0);
+  assert.equal(await page.locator(TARGETS).count(), n0 + 2);
+
+  // Remove the first target.
+  await page.click('.face-card.target >> nth=0 >> [data-action=remove]');
+  assert.equal(await page.locator(TARGETS).count(), n0 + 1);
+  await frames(2);
+  await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 after removal');
+  await screenshot(page, 'page-models-added');
+  assert.deepEqual(errors, []);
+});
+
+test('bad files show an error naming the file and the reason; the page keeps rendering', async (t) => {
+  const { page, frames } = await openPage(t);
+  const n0 = await page.locator(TARGETS).count();
+  const good = modelBytes(manifest.targets[0]);
+
+  const corrupt = Buffer.from(good);
+  for (let i = 200; i < corrupt.length; i += 97) corrupt[i] ^= 0x5a; // bit rot after the header
+  const future = Buffer.from(good);
+  future.writeUInt32LE(7, 8); // format version 7
+  const junk = Buffer.from('this is not a facemimic model\n');
+
+  const cases = [
+    ['corrupt.fmm', corrupt, /checksum|crc|corrupt/i],
+    ['from-the-future.fmm', future, /version/i],
+    ['notes.fmm', junk, /magic|not a|model file/i],
+  ];
+  for (const [name, bytes, reason] of cases) {
+    await dropFiles(page, '#add-card', [{ name, bytes }]);
+    const toast = page.locator('.toast.error', { hasText: name });
+    await toast.waitFor({ timeout: 5000 });
+    const text = await toast.textContent();
+    assert.match(text, reason, `error for ${name} gives the reason: ${text}`);
+  }
+  // Dropped on the source, a bad file also leaves the source as it was.
+  await dropFiles(page, '.face-card.source', [{ name: 'corrupt-source.fmm', bytes: corrupt }]);
+  await page.locator('.toast.error', { hasText: 'corrupt-source.fmm' }).waitFor();
+  assert.equal(await page.textContent('.face-card.source .name'), manifest.source.replace(/\.fmm$/, ''));
+
+  assert.equal(await page.locator(TARGETS).count(), n0, 'a bad file changed the targets');
+  await screenshot(page, 'page-bad-files');
+
+  // Still playing and still drawing faces.
+  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'true');
+  const f0 = await page.textContent('#frame-counter');
+  await frames(5);
+  await page.waitForTimeout(200);
+  assert.notEqual(await page.textContent('#frame-counter'), f0, 'playback stopped after the errors');
+  await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 after the errors');
+
+  // The notices are dismissible.
+  const before = await page.locator('.toast.error').count();
+  await page.click('.toast.error >> nth=0 >> .toast-close');
+  assert.equal(await page.locator('.toast.error').count(), before - 1);
+});
+
+test('a model built in another reference frame is refused as a target', async (t) => {
+  const bin = path.join(ROOT, 'target', 'release', 'facemimic');
+  if (!fs.existsSync(bin)) {
+    t.skip('target/release/facemimic not built (scripts/build-models.sh builds it)');
+    return;
+  }
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'facemimic-e2e-'));
+  t.after(() => fs.rmSync(dir, { recursive: true, force: true }));
+  const clip = path.join(ROOT, 'data', 'grid', 'spk02_brbk7n');
+  const out = path.join(dir, 'own-frame.fmm');
+  // Built without --frame: spk02 in its own reference frame, incompatible with spk07's.
+  execFileSync(bin, ['build', '--name', 'own-frame', '--out', out, '--list', path.join(clip, 'train20.txt')], {
+    stdio: 'pipe',
+  });
+  const { page } = await openPage(t);
+  const n0 = await page.locator(TARGETS).count();
+  await dropFiles(page, '#add-card', [{ name: 'own-frame.fmm', bytes: fs.readFileSync(out) }]);
+  const toast = page.locator('.toast.error', { hasText: 'own-frame.fmm' });
+  await toast.waitFor({ timeout: 5000 });
+  assert.match(await toast.textContent(), /incompatible|frame/i);
+  assert.equal(await page.locator(TARGETS).count(), n0);
+});
+
+test('the compare view shows the three methods on one target as three different faces', async (t) => {
+  const { page, errors, frames } = await openPage(t);
+  await page.check('#compare-on');
+  await page.selectOption('#compare-target', '1');
+  await frames(3);
+  await pause(page);
+  // An expressive frame: mouth mode pushed so the methods visibly differ.
+  await setSlider(page, 'p-shape-0', 2.5);
+  await setSlider(page, 'p-shape-1', -2);
+  await frames(2);
+  const ids = ['cmp-substitute', 'cmp-map', 'cmp-map-residual'];
+  const px = [];
+  for (const id of ids) {
+    await assertFace(page, `#${id}`, id);
+    px.push(await canvasPixels(page, `#${id}`));
+  }
+  assert.ok(meanAbsDiff(px[0], px[1]) > 0.2, 'substitute = map');
+  assert.ok(meanAbsDiff(px[0], px[2]) > 0.2, 'substitute = map-residual');
+  const name = await page.textContent('#compare-name');
+  assert.equal(name, await page.textContent('.face-card.target >> nth=1 >> .name'));
+  await page.locator('#compare').scrollIntoViewIfNeeded();
+  await screenshot(page, 'page-compare');
+  assert.deepEqual(errors, []);
+});
+
+test('the inspector animates a mode and lists the variance shares', async (t) => {
+  const { page, errors } = await openPage(t);
+  await assertFace(page, '#inspect-mean', 'inspector mean');
+  const a = await canvasPixels(page, '#inspect-mode');
+  await page.waitForTimeout(400);
+  const b = await canvasPixels(page, '#inspect-mode');
+  assert.ok(meanAbsDiff(a, b) > 0.1, 'the mode animation is still');
+  const bars = await page.locator('#inspect-bars .bar').count();
+  assert.equal(bars, await page.locator('#shape-sliders input').count());
+  await page.click('label:has(input[value="appearance"][name="inspect-kind"])');
+  assert.equal(await page.locator('#inspect-bars .bar').count(), await page.locator('#app-sliders input').count());
+  await page.click('#inspect-bars .bar >> nth=2');
+  assert.match(await page.textContent('#inspect-mode-caption'), /^Appearance 3 /);
+  // Inspect a target.
+  await page.selectOption('#inspect-model', '0');
+  const targetName = await page.textContent('.face-card.target >> nth=0 >> .name');
+  await page.waitForFunction((n) => document.querySelector('#inspect-info dd')?.textContent === n, targetName);
+  await page.locator('.inspector').scrollIntoViewIfNeeded();
+  await screenshot(page, 'page-inspector', { fullPage: false });
+  assert.deepEqual(errors, []);
+});
+
+test('PNG snapshot and WebM recording produce downloads', async (t) => {
+  const { page, errors } = await openPage(t);
+  const [png] = await Promise.all([page.waitForEvent('download'), page.click('#snapshot')]);
+  assert.match(png.suggestedFilename(), /^facemimic-.*\.png$/);
+  const pngPath = await png.path();
+  const head = fs.readFileSync(pngPath).subarray(0, 8);
+  assert.deepEqual([...head], [0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a]);
+  fs.copyFileSync(pngPath, path.join(ROOT, 'artifacts', 'snapshot.png'));
+
+  await page.click('#record');
+  assert.equal(await page.getAttribute('#record', 'aria-pressed'), 'true');
+  await page.waitForTimeout(1500);
+  const [webm] = await Promise.all([page.waitForEvent('download'), page.click('#record')]);
+  assert.match(webm.suggestedFilename(), /^facemimic-.*\.webm$/);
+  const data = fs.readFileSync(await webm.path());
+  assert.ok(data.length > 10_000, `the video is only ${data.length} bytes`);
+  assert.deepEqual([...data.subarray(0, 4)], [0x1a, 0x45, 0xdf, 0xa3], 'not a WebM (EBML) file');
+  assert.equal(await page.locator('#downloads li').count(), 2);
+  assert.deepEqual(errors, []);
+});

@@ -1,0 +1,79 @@
+// Canvases drawn at their device-pixel size: the backing store is the CSS box times
+// devicePixelRatio, kept in step with layout by a ResizeObserver (and DPR changes, e.g. moving
+// the window to another screen or zooming). `onResize` is told so the page can redraw at once.
+
+const contexts = new WeakMap();
+
+/** The 2D context of a canvas, created once (opaque: faces are drawn over a solid background). */
+export function ctx2d(canvas) {
+  let ctx = contexts.get(canvas);
+  if (!ctx) {
+    ctx = canvas.getContext('2d', { alpha: false });
+    contexts.set(canvas, ctx);
+  }
+  return ctx;
+}
+
+/** Set one canvas's backing store from its CSS box; returns true when the size changed. */
+export function fitCanvas(canvas, entry) {
+  const dpr = window.devicePixelRatio || 1;
+  let w;
+  let h;
+  const box = entry?.devicePixelContentBoxSize?.[0];
+  if (box) {
+    // Exact device pixels where the browser reports them (no rounding seams).
+    w = box.inlineSize;
+    h = box.blockSize;
+  } else {
+    const r = canvas.getBoundingClientRect();
+    w = Math.round(r.width * dpr);
+    h = Math.round(r.height * dpr);
+  }
+  w = Math.max(1, Math.min(4096, w));
+  h = Math.max(1, Math.min(4096, h));
+  if (canvas.width === w && canvas.height === h) return false;
+  canvas.width = w;
+  canvas.height = h;
+  return true;
+}
+
+/**
+ * Keep canvases sized to their device pixels. `watch(canvas)` starts, `unwatch(canvas)` stops;
+ * `onResize(canvas)` runs after a canvas's backing store changed.
+ */
+export class HiDpi {
+  constructor(onResize) {
+    this.onResize = onResize;
+    this.observer = new ResizeObserver((entries) => {
+      for (const e of entries) {
+        if (e.target.isConnected && fitCanvas(e.target, e)) this.onResize(e.target);
+      }
+    });
+    this.canvases = new Set();
+    this.watchDpr();
+  }
+  watch(canvas) {
+    this.canvases.add(canvas);
+    try {
+      this.observer.observe(canvas, { box: 'device-pixel-content-box' });
+    } catch {
+      this.observer.observe(canvas);
+    }
+    fitCanvas(canvas);
+  }
+  unwatch(canvas) {
+    this.canvases.delete(canvas);
+    this.observer.unobserve(canvas);
+  }
+  watchDpr() {
+    const mq = matchMedia(`(resolution: ${window.devicePixelRatio || 1}dppx)`);
+    mq.addEventListener(
+      'change',
+      () => {
+        for (const c of this.canvases) if (fitCanvas(c)) this.onResize(c);
+        this.watchDpr();
+      },
+      { once: true },
+    );
+  }
+}

@@ -1,0 +1,166 @@
+// The inspector (the paper's Fig. 1): a model's mean face, one mode animated as
+// base + k sigma * sin(t), its sizes, and a bar chart of each mode's share of the variance
+// (the bars are buttons: pick a mode by clicking one or with the arrow keys).
+
+import { ctx2d } from './canvas.js';
+
+const PERIOD = 2.4; // seconds per oscillation
+
+export class Inspector {
+  constructor(wasm, els) {
+    this.wasm = wasm;
+    this.els = els; // { mean, mode, caption, bars, info, kind (fieldset), sigma, sigmaOut }
+    this.model = null;
+    this.info = null;
+    this.kind = 'shape';
+    this.mode = 0;
+    this.sigmas = Number(els.sigma.value);
+    this.meanDirty = true;
+    this.failed = false;
+    els.kind.addEventListener('change', (e) => {
+      if (e.target.name === 'inspect-kind') this.setKind(e.target.value);
+    });
+    els.sigma.addEventListener('input', () => {
+      this.sigmas = Number(els.sigma.value);
+      els.sigmaOut.value = `±${this.sigmas}σ`;
+      this.caption();
+    });
+  }
+
+  /** Show another model (a JS API `Model`, with its `info()`), keeping the kind and mode when they exist. */
+  show(model, info, label) {
+    this.model = model;
+    this.info = info;
+    this.label = label;
+    this.failed = false;
+    const n = this.count();
+    if (this.mode >= n) this.mode = 0;
+    this.meanDirty = true;
+    this.bars();
+    this.details();
+    this.caption();
+  }
+
+  count() {
+    if (!this.info) return 0;
+    return this.kind === 'shape' ? this.info.shapeModes : this.info.appearanceModes;
+  }
+
+  setKind(kind) {
+    this.kind = kind;
+    this.mode = 0;
+    this.bars();
+    this.caption();
+  }
+
+  select(mode) {
+    this.mode = mode;
+    for (const b of this.els.bars.children) {
+      const on = Number(b.dataset.mode) === mode;
+      b.setAttribute('aria-checked', String(on));
+      b.tabIndex = on ? 0 : -1;
+    }
+    this.caption();
+  }
+
+  caption() {
+    const n = this.count();
+    const share = this.shares()[this.mode];
+    this.els.caption.textContent = n
+      ? `${this.kind === 'shape' ? 'Shape' : 'Appearance'} ${this.mode + 1} ±${this.sigmas}σ · ${pct(share)}`
+      : 'No modes';
+  }
+
+  shares() {
+    if (!this.info) return [];
+    return this.kind === 'shape' ? this.info.shapeVarianceShare : this.info.appearanceVarianceShare;
+  }
+
+  bars() {
+    const host = this.els.bars;
+    host.replaceChildren();
+    const shares = this.shares();
+    const max = Math.max(1e-9, ...shares);
+    shares.forEach((s, i) => {
+      const b = document.createElement('button');
+      b.type = 'button';
+      b.className = 'bar';
+      b.dataset.mode = String(i);
+      b.setAttribute('role', 'radio');
+      b.setAttribute('aria-checked', String(i === this.mode));
+      b.setAttribute('aria-label', `Mode ${i + 1}: ${pct(s)} of the variance`);
+      b.title = `Mode ${i + 1}: ${pct(s)}`;
+      b.tabIndex = i === this.mode ? 0 : -1;
+      b.style.setProperty('--h', `${Math.max(2, (s / max) * 100)}%`);
+      b.addEventListener('click', () => this.select(i));
+      b.addEventListener('keydown', (e) => {
+        const step = { ArrowRight: 1, ArrowDown: 1, ArrowLeft: -1, ArrowUp: -1 }[e.key];
+        if (step) {
+          e.preventDefault();
+          const j = Math.max(0, Math.min(shares.length - 1, i + step));
+          this.select(j);
+          host.children[j].focus();
+        }
+      });
+      host.append(b);
+    });
+  }
+
+  details() {
+    const i = this.info;
+    const rows = [
+      ['Name', i.name],
+      ['Landmarks', i.landmarks],
+      ['Triangles', i.triangles],
+      ['Frame', `${i.frameWidth}×${i.frameHeight} px, ${i.pixels.toLocaleString()} inside`],
+      ['Shape modes', `${i.shapeModes} (${pct(sum(i.shapeVarianceShare))} kept)`],
+      ['Appearance modes', `${i.appearanceModes}`],
+      ['Reference', i.reference],
+      ['Images', `${i.imageWidth}×${i.imageHeight}`],
+      ['Frame id', String(i.fingerprint).slice(0, 12)],
+    ];
+    const dl = this.els.info;
+    dl.replaceChildren();
+    for (const [k, v] of rows) {
+      const div = document.createElement('div');
+      const dt = document.createElement('dt');
+      dt.textContent = k;
+      const dd = document.createElement('dd');
+      dd.textContent = String(v);
+      div.append(dt, dd);
+      dl.append(div);
+    }
+  }
+
+  /** Redraw the mean when asked (resize, model change). */
+  invalidate() {
+    this.meanDirty = true;
+  }
+
+  /** Draw (called once per animation frame with the page clock in seconds). */
+  tick(t) {
+    if (!this.model || this.failed || this.count() === 0) return;
+    try {
+      if (this.meanDirty) {
+        this.wasm.renderMode(this.model, 'appearance', 0, 0, ctx2d(this.els.mean));
+        this.meanDirty = false;
+      }
+      const k = this.sigmas * Math.sin((2 * Math.PI * t) / PERIOD);
+      this.wasm.renderMode(this.model, this.kind, this.mode, k, ctx2d(this.els.mode));
+    } catch (e) {
+      // Do not flood: report once per model.
+      this.failed = true;
+      console.error('facemimic inspector:', e);
+    }
+  }
+}
+
+function sum(a) {
+  return a.reduce((x, y) => x + y, 0);
+}
+
+export function pct(x) {
+  if (!Number.isFinite(x)) return '–';
+  const v = x * 100;
+  return `${v >= 10 ? v.toFixed(0) : v.toFixed(1)}%`;
+}

@@ -1,0 +1,41 @@
+// Non-blocking notices: errors that name the file and the reason, and short confirmations.
+// Each notice has a close button; confirmations fade on their own, errors stay until dismissed
+// (or until there are too many, the oldest go first).
+
+const MAX = 5;
+
+/** Show a notice. kind: "error" | "info". Returns the element. */
+export function notify(kind, title, detail = '') {
+  const host = document.getElementById('toasts');
+  const el = document.createElement('div');
+  el.className = `toast ${kind}`;
+  el.setAttribute('role', kind === 'error' ? 'alert' : 'status');
+  const text = document.createElement('div');
+  text.className = 'toast-text';
+  const t = document.createElement('strong');
+  t.textContent = title;
+  text.append(t);
+  if (detail) {
+    const d = document.createElement('span');
+    d.textContent = detail;
+    text.append(d);
+  }
+  const close = document.createElement('button');
+  close.type = 'button';
+  close.className = 'toast-close';
+  close.setAttribute('aria-label', 'Dismiss');
+  close.textContent = '×';
+  close.addEventListener('click', () => el.remove());
+  el.append(text, close);
+  host.append(el);
+  while (host.children.length > MAX) host.firstElementChild.remove();
+  if (kind !== 'error') setTimeout(() => el.remove(), 4000);
+  return el;
+}
+
+/** An error notice for a file: "<file>: <reason>". */
+export function fileError(fileName, err) {
+  const reason = err instanceof Error ? err.message : String(err);
+  console.warn(`facemimic: ${fileName}: ${reason}`);
+  return notify('error', `Could not load ${fileName}`, reason);
+}
