@@ -75,10 +75,20 @@ async function openPage(t, { width = 1440, height = 900, dpr = 1, autoplay = tru
     page,
     errors,
     offOrigin,
-    /** Wait until at least `n` more frames have been rendered. */
+    /**
+     * Let the page draw: wait for `n` animation frames (the page renders every frame while
+     * playing, and once after any change while paused).
+     */
     async frames(n = 2) {
-      const start = Number(await page.getAttribute('body', 'data-frames'));
-      await page.waitForFunction((s) => Number(document.body.dataset.frames) >= s, start + n, { timeout: 10_000 });
+      await page.evaluate(
+        (n) =>
+          new Promise((resolve) => {
+            let k = 0;
+            const step = () => (++k > n ? resolve() : requestAnimationFrame(step));
+            requestAnimationFrame(step);
+          }),
+        n,
+      );
     },
   };
 }
@@ -325,7 +335,7 @@ test('bad files show an error naming the file and the reason; the page keeps ren
   assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'true');
   const f0 = await page.textContent('#frame-counter');
   await frames(5);
-  await page.waitForTimeout(200);
+  await page.waitForTimeout(300);
   assert.notEqual(await page.textContent('#frame-counter'), f0, 'playback stopped after the errors');
   await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 after the errors');
 

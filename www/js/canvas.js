@@ -17,18 +17,21 @@ export function ctx2d(canvas) {
 /** Set one canvas's backing store from its CSS box; returns true when the size changed. */
 export function fitCanvas(canvas, entry) {
   const dpr = window.devicePixelRatio || 1;
-  let w;
-  let h;
-  const box = entry?.devicePixelContentBoxSize?.[0];
+  // CSS size x devicePixelRatio. (The observer's device-pixel-content-box is not used: it
+  // ignores emulated pixel ratios and browser zoom in some builds.)
+  const box = entry?.contentBoxSize?.[0];
+  let cssW;
+  let cssH;
   if (box) {
-    // Exact device pixels where the browser reports them (no rounding seams).
-    w = box.inlineSize;
-    h = box.blockSize;
+    cssW = box.inlineSize;
+    cssH = box.blockSize;
   } else {
     const r = canvas.getBoundingClientRect();
-    w = Math.round(r.width * dpr);
-    h = Math.round(r.height * dpr);
+    cssW = r.width;
+    cssH = r.height;
   }
+  let w = Math.round(cssW * dpr);
+  let h = Math.round(cssH * dpr);
   w = Math.max(1, Math.min(4096, w));
   h = Math.max(1, Math.min(4096, h));
   if (canvas.width === w && canvas.height === h) return false;
@@ -54,11 +57,7 @@ export class HiDpi {
   }
   watch(canvas) {
     this.canvases.add(canvas);
-    try {
-      this.observer.observe(canvas, { box: 'device-pixel-content-box' });
-    } catch {
-      this.observer.observe(canvas);
-    }
+    this.observer.observe(canvas);
     fitCanvas(canvas);
   }
   unwatch(canvas) {
