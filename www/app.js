@@ -67,8 +67,9 @@ async function main() {
     app.inspector?.invalidate();
   });
 
-  // The built-in sources. The tracking work registers 'video' and 'webcam' here from its own
-  // module, offered only when the package exports `Tracker`.
+  // The built-in sources. The tracking work adds 'video' and 'webcam' the same way, from its
+  // own module, with `available: (wasm) => typeof wasm.Tracker === 'function'`, so the menu
+  // offers them only with a package that can track.
   registerSource('track', {
     label: 'Recorded track',
     available: () => app.track !== null,
@@ -266,6 +267,13 @@ function makeCard(role) {
   replace.addEventListener('click', () => pickFiles(slot()));
   tools.querySelector('[data-action="remove"]')?.addEventListener('click', () => removeTarget(entryOf(el)));
   dropZone(el, slot);
+  // Clicking a face shows its model in the inspector.
+  canvas.addEventListener('click', () => {
+    const entry = role === 'source' ? app.source : entryOf(el);
+    if (!entry) return;
+    app.inspector.show(entry.model, entry.info, role);
+    refreshModelLists();
+  });
   return { el, canvas };
 }
 

@@ -66,8 +66,9 @@ export class Inspector {
   caption() {
     const n = this.count();
     const share = this.shares()[this.mode];
+    this.els.caption.title = `${pct(share)} of the variance`;
     this.els.caption.textContent = n
-      ? `${this.kind === 'shape' ? 'Shape' : 'Appearance'} ${this.mode + 1} ±${this.sigmas}σ · ${pct(share)}`
+      ? `${this.kind === 'shape' ? 'Shape' : 'Appearance'} ${this.mode + 1} ±${this.sigmas}σ`
       : 'No modes';
   }
 
