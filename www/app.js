@@ -467,7 +467,7 @@ function buildControls() {
     kind: $('inspect-kind'),
     sigma: $('inspect-sigma'),
     sigmaOut: $('inspect-sigma-out'),
-  });
+  }, { background: FACE_BG });
   for (const id of ['inspect-mean', 'inspect-mode', 'cmp-substitute', 'cmp-map', 'cmp-map-residual']) {
     app.hidpi.watch($(id));
   }

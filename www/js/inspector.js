@@ -7,7 +7,8 @@ import { ctx2d } from './canvas.js';
 const PERIOD = 2.4; // seconds per oscillation
 
 export class Inspector {
-  constructor(wasm, els) {
+  constructor(wasm, els, options = {}) {
+    this.options = options; // RenderOptions (background)
     this.wasm = wasm;
     this.els = els; // { mean, mode, caption, bars, info, kind (fieldset), sigma, sigmaOut }
     this.model = null;
@@ -140,14 +141,19 @@ export class Inspector {
 
   /** Draw (called once per animation frame with the page clock in seconds). */
   tick(t) {
-    if (!this.model || this.failed || this.count() === 0) return;
+    if (!this.model || this.failed) return;
     try {
       if (this.meanDirty) {
-        this.wasm.renderMode(this.model, 'appearance', 0, 0, ctx2d(this.els.mean));
+        // sigmas = 0 draws the base face; any mode that exists will do.
+        const kind = this.info.appearanceModes > 0 ? 'appearance' : 'shape';
+        if (this.info.appearanceModes + this.info.shapeModes > 0) {
+          this.wasm.renderMode(this.model, kind, 0, 0, ctx2d(this.els.mean), this.options);
+        }
         this.meanDirty = false;
       }
+      if (this.count() === 0) return;
       const k = this.sigmas * Math.sin((2 * Math.PI * t) / PERIOD);
-      this.wasm.renderMode(this.model, this.kind, this.mode, k, ctx2d(this.els.mode));
+      this.wasm.renderMode(this.model, this.kind, this.mode, k, ctx2d(this.els.mode), this.options);
     } catch (e) {
       // Do not flood: report once per model.
       this.failed = true;
