@@ -670,7 +670,7 @@ function syncTransport() {
   const btn = $('play');
   const playing = !!t && app.active === t && t.playing;
   btn.disabled = !t;
-  btn.setAttribute('aria-pressed', String(playing));
+  btn.dataset.state = playing ? 'playing' : 'paused';
   btn.querySelector('.label').textContent = playing ? 'Pause' : 'Play';
   btn.classList.toggle('playing', playing);
   const scrub = $('scrub');
@@ -822,7 +822,7 @@ async function toggleRecording() {
   if (app.recorder) {
     const rec = app.recorder;
     app.recorder = null;
-    btn.setAttribute('aria-pressed', 'false');
+    btn.dataset.state = 'idle';
     btn.querySelector('.label').textContent = 'Record WebM';
     btn.classList.remove('recording');
     try {
@@ -843,7 +843,7 @@ async function toggleRecording() {
     notify('error', 'Cannot record', message(e));
     return;
   }
-  btn.setAttribute('aria-pressed', 'true');
+  btn.dataset.state = 'recording';
   btn.querySelector('.label').textContent = 'Stop recording';
   btn.classList.add('recording');
   app.dirty = true;

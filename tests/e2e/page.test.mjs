@@ -105,8 +105,8 @@ async function assertFace(page, selector, what) {
 }
 
 async function pause(page) {
-  if ((await page.getAttribute('#play', 'aria-pressed')) === 'true') await page.click('#play');
-  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'false');
+  if ((await page.getAttribute('#play', 'data-state')) === 'playing') await page.click('#play');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'paused');
 }
 
 async function setSlider(page, id, value) {
@@ -151,7 +151,7 @@ test('the page opens playing, with the source and every default target painted a
   const nTargets = manifest.targets.length;
   assert.ok(nTargets >= 4, `the manifest lists ${nTargets} default targets`);
   assert.equal(await page.locator(TARGETS).count(), nTargets);
-  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'true', 'the track plays on load');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'playing', 'the track plays on load');
   await frames(3);
   await assertFace(page, SOURCE, 'source');
   for (let i = 0; i < nTargets; i++) await assertFace(page, `${TARGETS} >> nth=${i}`, `target ${i + 1}`);
@@ -200,7 +200,7 @@ test('moving a slider pauses the track and changes the targets; so does the meth
   await frames(2);
   await setSlider(page, 'p-shape-0', 0);
   await frames(2);
-  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'false', 'the slider paused playback');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'paused', 'the slider paused playback');
   assert.equal(await page.$eval('#source-kind', (s) => s.value), 'sliders');
   const before = await canvasPixels(page, `${TARGETS} >> nth=0`);
   await setSlider(page, 'p-shape-0', 2.5);
@@ -259,12 +259,12 @@ test('play advances the track at 25 fps and the sliders follow it; space toggles
   // Space pauses (focus on the page body, not a button).
   await page.evaluate(() => document.activeElement?.blur());
   await page.keyboard.press('Space');
-  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'false');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'paused');
   const stopped = await page.textContent('#frame-counter');
   await page.waitForTimeout(300);
   assert.equal(await page.textContent('#frame-counter'), stopped, 'paused track still moves');
   await page.keyboard.press('Space');
-  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'true');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'playing');
   assert.deepEqual(errors, []);
 });
 
@@ -332,7 +332,7 @@ test('bad files show an error naming the file and the reason; the page keeps ren
   await screenshot(page, 'page-bad-files');
 
   // Still playing and still drawing faces.
-  assert.equal(await page.getAttribute('#play', 'aria-pressed'), 'true');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'playing');
   const f0 = await page.textContent('#frame-counter');
   await frames(5);
   await page.waitForTimeout(300);
@@ -425,7 +425,7 @@ test('PNG snapshot and WebM recording produce downloads', async (t) => {
   fs.copyFileSync(pngPath, path.join(ROOT, 'artifacts', 'snapshot.png'));
 
   await page.click('#record');
-  assert.equal(await page.getAttribute('#record', 'aria-pressed'), 'true');
+  assert.equal(await page.getAttribute('#record', 'data-state'), 'recording');
   await page.waitForTimeout(1500);
   const [webm] = await Promise.all([page.waitForEvent('download'), page.click('#record')]);
   assert.match(webm.suggestedFilename(), /^facemimic-.*\.webm$/);
