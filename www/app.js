@@ -884,22 +884,15 @@ function render(t) {
   c.update();
   const opts = { background: FACE_BG, mesh: app.settings.mesh };
   c.renderSource(ctx2d(app.source.canvas), opts);
-  const tm = c.timings();
-  let map = tm.mapMs;
-  let synth = tm.synthMs;
-  let raster = tm.rasterMs;
-  let blit = tm.blitMs;
-  for (let i = 0; i < app.targets.length; i++) {
-    c.renderTarget(i, ctx2d(app.targets[i].canvas), opts);
-    const ti = c.timings();
-    raster += ti.rasterMs;
-    blit += ti.blitMs;
-  }
+  for (let i = 0; i < app.targets.length; i++) c.renderTarget(i, ctx2d(app.targets[i].canvas), opts);
   if (!$('compare').hidden && app.targets.length) {
     const i = Math.min(app.compareIndex, app.targets.length - 1);
-    $('compare-name').textContent = app.targets[i].name;
+    if ($('compare-name').textContent !== app.targets[i].name) $('compare-name').textContent = app.targets[i].name;
     for (const m of METHODS) c.renderTargetWithMethod(i, m, ctx2d($(`cmp-${m}`)), opts);
   }
+  // The stage timings accumulate from update() over every render call of this frame.
+  const tm = c.timings();
+  const { mapMs: map, synthMs: synth, rasterMs: raster, blitMs: blit } = tm;
   if (app.recorder) composite(compositeCanvas, recordTiles());
 
   // Per-frame timings, smoothed.
