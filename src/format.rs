@@ -1,21 +1,957 @@
-//! The `.fmm` model file (being written: see docs/model-format.md once it lands).
+//! The `.fmm` model file: a versioned, little-endian binary format (specified in
+//! `docs/model-format.md`).
+//!
+//! [`write_model`] serialises a [`Model`]; [`read_model`] parses and validates one. Reading
+//! never panics, checks every header value against the explicit [`LIMITS`], compares the byte
+//! length the header implies (computed with checked arithmetic) with the actual length before
+//! allocating any array, verifies a CRC-32 of the whole file, and finally rebuilds the
+//! reference frame from the stored mesh and checks that it yields the stored pixel count and
+//! fingerprint. Every failure is a [`FormatError`] variant naming the problem.
 
-use crate::model::Model;
+use crate::appearance::AppearanceModel;
+use crate::frame::{ReferenceFrame, MAX_FRAME_SIDE};
+use crate::image::MAX_IMAGE_SIDE;
+use crate::model::{LandmarkScheme, Model, Reference};
+use crate::shape::ShapeModel;
+use crate::similarity::Similarity;
 
-/// Errors reading a model file.
-#[derive(Debug, thiserror::Error, PartialEq)]
+/// The eight bytes every `.fmm` file starts with: `\x89 F M M \r \n \x1a \n` (the PNG trick:
+/// a non-ASCII first byte and line-ending bytes expose text-mode transfers and truncation).
+pub const MAGIC: [u8; 8] = [0x89, b'F', b'M', b'M', b'\r', b'\n', 0x1a, b'\n'];
+
+/// The format version this library writes and the only one it reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Size in bytes of the fixed header (version 1).
+pub const HEADER_LEN: usize = 112;
+
+/// Size in bytes of the trailing checksum.
+pub const CHECKSUM_LEN: usize = 4;
+
+/// Scheme tag: any layout with `landmarks` points.
+pub const SCHEME_GENERIC: u32 = 0;
+/// Scheme tag: the 68-point iBUG layout (requires `landmarks == 68`).
+pub const SCHEME_IBUG68: u32 = 1;
+/// Reference tag: the bases show the training mean (reference name length must be 0).
+pub const REFERENCE_MEAN: u32 = 0;
+/// Reference tag: the bases show the named training image.
+pub const REFERENCE_TRAINING: u32 = 1;
+
+/// The explicit limits a model file must respect (see `docs/model-format.md`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// Landmarks `n`: `3..=max_landmarks`.
+    pub max_landmarks: u32,
+    /// Triangles `t`: `1..=max_triangles`.
+    pub max_triangles: u32,
+    /// Frame width and height: `1..=max_frame_side` (= [`MAX_FRAME_SIDE`]).
+    pub max_frame_side: u32,
+    /// Frame pixels inside the mesh `N`: `1..=max_pixels`.
+    pub max_pixels: u32,
+    /// Shape modes `m`: `0..=max_shape_modes` (and `m <= 2n`).
+    pub max_shape_modes: u32,
+    /// Appearance modes `l`: `0..=max_appearance_modes` (and `l <= 3N`).
+    pub max_appearance_modes: u32,
+    /// Model name: at most this many bytes of UTF-8.
+    pub max_name_bytes: u32,
+    /// Reference image name: at most this many bytes of UTF-8.
+    pub max_reference_name_bytes: u32,
+    /// Training image width and height: `1..=max_image_side` (= [`MAX_IMAGE_SIDE`]).
+    pub max_image_side: u32,
+    /// Frame grid area: `width * height <= area_per_pixel * N + area_slack`, so that a small
+    /// file cannot make the reader allocate a large grid.
+    pub area_per_pixel: u64,
+    /// See [`Limits::area_per_pixel`].
+    pub area_slack: u64,
+    /// Rasterisation work: the sum over triangles of their bounding boxes (in grid cells,
+    /// clipped to the grid) must be at most `coverage_per_cell * width * height +
+    /// coverage_per_triangle * t`.
+    pub coverage_per_cell: u64,
+    /// See [`Limits::coverage_per_cell`].
+    pub coverage_per_triangle: u64,
+    /// Tolerance of the mode checks: `|<s_i, s_j> - delta_ij| <= orthonormal_tolerance` for the
+    /// shape modes (every pair), `| |A_i|^2 - 1 | <=` it for the appearance modes (norms only).
+    pub orthonormal_tolerance: f32,
+}
+
+/// The limits of format version 1.
+pub const LIMITS: Limits = Limits {
+    max_landmarks: 1024,
+    max_triangles: 8192,
+    max_frame_side: MAX_FRAME_SIDE,
+    max_pixels: 4_194_304,
+    max_shape_modes: 256,
+    max_appearance_modes: 256,
+    max_name_bytes: 256,
+    max_reference_name_bytes: 256,
+    max_image_side: MAX_IMAGE_SIDE,
+    area_per_pixel: 4,
+    area_slack: 4096,
+    coverage_per_cell: 16,
+    coverage_per_triangle: 64,
+    orthonormal_tolerance: 1e-3,
+};
+
+/// Why a model file was rejected. Each variant names the problem precisely.
+#[derive(Debug, Clone, thiserror::Error, PartialEq)]
 pub enum FormatError {
-    /// Not a facemimic model.
-    #[error("not a facemimic model (bad magic)")]
+    /// The file does not start with [`MAGIC`].
+    #[error("not a facemimic model (bad magic bytes)")]
     BadMagic,
+    /// The format version is not one this reader understands.
+    #[error("format version {found} is not supported (this reader supports version {supported}); a newer facemimic may read it")]
+    UnsupportedVersion {
+        /// Version in the file.
+        found: u32,
+        /// Version this reader supports.
+        supported: u32,
+    },
+    /// The file ends before the header or the data the header describes.
+    #[error("truncated: {needed} bytes needed, {available} available")]
+    Truncated {
+        /// Bytes the header (or the fixed header size) requires.
+        needed: u64,
+        /// Bytes present.
+        available: u64,
+    },
+    /// Bytes follow the checksum.
+    #[error("{} trailing bytes after the model (expected {expected} bytes, found {found})", found.saturating_sub(*expected))]
+    TrailingBytes {
+        /// Length the header implies.
+        expected: u64,
+        /// Actual length.
+        found: u64,
+    },
+    /// The file length stored in the header disagrees with the length its dimensions imply.
+    #[error("header states a file length of {stated} bytes but its dimensions imply {implied}")]
+    LengthMismatch {
+        /// The header's `file_length` field.
+        stated: u64,
+        /// The length computed from the header's dimensions.
+        implied: u64,
+    },
+    /// The reserved flags field is not zero.
+    #[error("reserved flags are {value:#x}, expected 0")]
+    ReservedFlags {
+        /// The flags value.
+        value: u32,
+    },
+    /// A header value exceeds its limit.
+    #[error("{what} is {value}, more than the limit {limit}")]
+    LimitExceeded {
+        /// Which quantity.
+        what: &'static str,
+        /// Its value.
+        value: u64,
+        /// The limit.
+        limit: u64,
+    },
+    /// A header value is below its minimum (e.g. zero landmarks).
+    #[error("{what} is {value}, less than the minimum {minimum}")]
+    BelowMinimum {
+        /// Which quantity.
+        what: &'static str,
+        /// Its value.
+        value: u64,
+        /// The minimum.
+        minimum: u64,
+    },
+    /// The channel count is not 3 (RGB).
+    #[error("{found} channels, only 3 (RGB) are supported")]
+    UnsupportedChannels {
+        /// Channels in the file.
+        found: u32,
+    },
+    /// Unknown landmark scheme tag.
+    #[error("unknown landmark scheme tag {tag}")]
+    BadSchemeTag {
+        /// The tag.
+        tag: u32,
+    },
+    /// Unknown reference tag.
+    #[error("unknown reference tag {tag}")]
+    BadReferenceTag {
+        /// The tag.
+        tag: u32,
+    },
+    /// Header values contradict each other.
+    #[error("inconsistent dimensions: {0}")]
+    InconsistentDimensions(String),
+    /// The CRC-32 of the file does not match the stored one (bit flips, bad transfer).
+    #[error("checksum mismatch: stored {stored:08x}, computed {computed:08x} (file corrupt)")]
+    ChecksumMismatch {
+        /// Checksum in the file.
+        stored: u32,
+        /// Checksum of the bytes read.
+        computed: u32,
+    },
+    /// A name is not valid UTF-8.
+    #[error("the {field} is not valid UTF-8")]
+    InvalidUtf8 {
+        /// Which name ("model name" or "reference name").
+        field: &'static str,
+    },
+    /// The alignment padding after the names is not zero.
+    #[error("padding after the names is not zero")]
+    NonZeroPadding,
+    /// An array holds NaN or an infinity.
+    #[error("{array}[{index}] is not finite")]
+    NonFinite {
+        /// Which array.
+        array: &'static str,
+        /// Index of the first bad value.
+        index: u64,
+    },
+    /// A variance is negative.
+    #[error("{array}[{index}] is negative ({value})")]
+    NegativeVariance {
+        /// Which array.
+        array: &'static str,
+        /// Index of the mode.
+        index: u32,
+        /// The value.
+        value: f32,
+    },
+    /// Modes are not orthonormal: `<mode_i, mode_j>` is `dot` (should be 1 when `i == j`,
+    /// 0 otherwise).
+    #[error("{array} are not orthonormal: <mode {i}, mode {j}> = {dot}")]
+    NotOrthonormal {
+        /// Which modes ("shape modes" or "appearance modes").
+        array: &'static str,
+        /// First mode.
+        i: u32,
+        /// Second mode.
+        j: u32,
+        /// Their dot product.
+        dot: f32,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} uses vertex {index}, but there are only {landmarks} landmarks")]
+    InvalidTriangleIndex {
+        /// Triangle number.
+        triangle: u32,
+        /// The bad vertex index.
+        index: u32,
+        /// Number of landmarks.
+        landmarks: u32,
+    },
+    /// The stored mesh and grid do not make a valid reference frame.
+    #[error("bad reference frame: {0}")]
+    BadFrame(String),
+    /// The frame rebuilt from the mesh has a different pixel count than the header states.
+    #[error("header states {header} frame pixels, the mesh yields {recomputed}")]
+    PixelCountMismatch {
+        /// The header's pixel count.
+        header: u32,
+        /// The count recomputed from the mesh.
+        recomputed: u64,
+    },
+    /// The frame rebuilt from the mesh has a different fingerprint than the stored one.
+    #[error("frame fingerprint mismatch: stored {stored:016x}, recomputed {recomputed:016x}")]
+    FingerprintMismatch {
+        /// Fingerprint in the file.
+        stored: u64,
+        /// Fingerprint of the rebuilt frame.
+        recomputed: u64,
+    },
 }
 
-/// Serialises a model.
-pub fn write_model(_model: &Model) -> Vec<u8> {
-    Vec::new()
+// ---------------------------------------------------------------------------------------------
+// CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320, init and final xor 0xFFFFFFFF: the CRC
+// of zlib, PNG and gzip).
+
+const CRC_TABLE: [u32; 256] = {
+    let mut table = [0u32; 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut c = i as u32;
+        let mut k = 0;
+        while k < 8 {
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+            k += 1;
+        }
+        table[i] = c;
+        i += 1;
+    }
+    table
+};
+
+/// CRC-32 (IEEE, as zlib's `crc32`) of `bytes`. `crc32(b"123456789") == 0xCBF43926`.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xFFFF_FFFFu32;
+    for &b in bytes {
+        c = CRC_TABLE[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8);
+    }
+    c ^ 0xFFFF_FFFF
 }
 
-/// Parses and validates a model.
-pub fn read_model(_bytes: &[u8]) -> Result<Model, FormatError> {
-    Err(FormatError::BadMagic)
+// ---------------------------------------------------------------------------------------------
+// Header offsets (version 1).
+
+const OFF_VERSION: usize = 8;
+const OFF_FLAGS: usize = 12;
+const OFF_FILE_LENGTH: usize = 16;
+const OFF_LANDMARKS: usize = 24;
+const OFF_TRIANGLES: usize = 28;
+const OFF_FRAME_WIDTH: usize = 32;
+const OFF_FRAME_HEIGHT: usize = 36;
+const OFF_ORIGIN_X: usize = 40;
+const OFF_ORIGIN_Y: usize = 44;
+const OFF_PIXELS: usize = 48;
+const OFF_CHANNELS: usize = 52;
+const OFF_SHAPE_MODES: usize = 56;
+const OFF_APPEARANCE_MODES: usize = 60;
+const OFF_SCHEME: usize = 64;
+const OFF_REFERENCE: usize = 68;
+const OFF_NAME_LEN: usize = 72;
+const OFF_REFERENCE_NAME_LEN: usize = 76;
+const OFF_POSE: usize = 80;
+const OFF_IMAGE_WIDTH: usize = 96;
+const OFF_IMAGE_HEIGHT: usize = 100;
+const OFF_FINGERPRINT: usize = 104;
+
+/// Byte offsets of the header fields (version 1), for tools and tests that patch headers.
+pub mod offsets {
+    /// `u32` format version.
+    pub const VERSION: usize = super::OFF_VERSION;
+    /// `u32` reserved flags (0).
+    pub const FLAGS: usize = super::OFF_FLAGS;
+    /// `u64` total file length in bytes, checksum included.
+    pub const FILE_LENGTH: usize = super::OFF_FILE_LENGTH;
+    /// `u32` landmarks `n`.
+    pub const LANDMARKS: usize = super::OFF_LANDMARKS;
+    /// `u32` triangles `t`.
+    pub const TRIANGLES: usize = super::OFF_TRIANGLES;
+    /// `u32` frame width `W`.
+    pub const FRAME_WIDTH: usize = super::OFF_FRAME_WIDTH;
+    /// `u32` frame height `H`.
+    pub const FRAME_HEIGHT: usize = super::OFF_FRAME_HEIGHT;
+    /// `f32` frame origin x.
+    pub const ORIGIN_X: usize = super::OFF_ORIGIN_X;
+    /// `f32` frame origin y.
+    pub const ORIGIN_Y: usize = super::OFF_ORIGIN_Y;
+    /// `u32` frame pixels `N`.
+    pub const PIXELS: usize = super::OFF_PIXELS;
+    /// `u32` channels (3).
+    pub const CHANNELS: usize = super::OFF_CHANNELS;
+    /// `u32` shape modes `m`.
+    pub const SHAPE_MODES: usize = super::OFF_SHAPE_MODES;
+    /// `u32` appearance modes `l`.
+    pub const APPEARANCE_MODES: usize = super::OFF_APPEARANCE_MODES;
+    /// `u32` landmark scheme tag.
+    pub const SCHEME: usize = super::OFF_SCHEME;
+    /// `u32` reference tag.
+    pub const REFERENCE: usize = super::OFF_REFERENCE;
+    /// `u32` model name length in bytes.
+    pub const NAME_LEN: usize = super::OFF_NAME_LEN;
+    /// `u32` reference name length in bytes.
+    pub const REFERENCE_NAME_LEN: usize = super::OFF_REFERENCE_NAME_LEN;
+    /// `4 x f32` mean pose `a, b, tx, ty`.
+    pub const POSE: usize = super::OFF_POSE;
+    /// `u32` training image width.
+    pub const IMAGE_WIDTH: usize = super::OFF_IMAGE_WIDTH;
+    /// `u32` training image height.
+    pub const IMAGE_HEIGHT: usize = super::OFF_IMAGE_HEIGHT;
+    /// `u64` frame fingerprint.
+    pub const FINGERPRINT: usize = super::OFF_FINGERPRINT;
+}
+
+/// Rounds `x` up to a multiple of 4.
+fn pad4(x: u64) -> u64 {
+    (4 - x % 4) % 4
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing.
+
+/// Serialises a model into the `.fmm` format (version [`FORMAT_VERSION`]).
+///
+/// Infallible: it writes what the model holds. A model from [`crate::Builder::build`] or
+/// [`read_model`] within the [`LIMITS`] reads back equal (`read_model(&write_model(&m)) ==
+/// Ok(m)`); a model that breaks its invariants or the limits is written faithfully and rejected
+/// by [`read_model`].
+pub fn write_model(model: &Model) -> Vec<u8> {
+    let n2 = model.shape.base.len();
+    let m = model.shape.variances.len();
+    let l = model.appearance.variances.len();
+    let frame = &model.frame;
+    let name = model.name.as_bytes();
+    let (ref_tag, ref_name): (u32, &[u8]) = match &model.reference {
+        Reference::Mean => (REFERENCE_MEAN, &[]),
+        Reference::Training(s) => (REFERENCE_TRAINING, s.as_bytes()),
+    };
+    let names = name.len() + ref_name.len();
+    let padding = pad4(names as u64) as usize;
+    let floats = model.shape.base.len()
+        + model.shape.modes.len()
+        + m
+        + frame.vertices().len()
+        + 3 * frame.triangles().len()
+        + model.appearance.base.len()
+        + model.appearance.modes.len()
+        + l;
+    let total = HEADER_LEN + names + padding + 4 * floats + CHECKSUM_LEN;
+    let mut out = Vec::with_capacity(total);
+    let u32le = |out: &mut Vec<u8>, v: u32| out.extend_from_slice(&v.to_le_bytes());
+    let f32le = |out: &mut Vec<u8>, v: f32| out.extend_from_slice(&v.to_le_bytes());
+    let as_u32 = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
+
+    out.extend_from_slice(&MAGIC);
+    u32le(&mut out, FORMAT_VERSION);
+    u32le(&mut out, 0);
+    out.extend_from_slice(&(total as u64).to_le_bytes());
+    u32le(&mut out, as_u32(n2 / 2));
+    u32le(&mut out, as_u32(frame.triangles().len()));
+    u32le(&mut out, frame.width());
+    u32le(&mut out, frame.height());
+    f32le(&mut out, frame.origin()[0]);
+    f32le(&mut out, frame.origin()[1]);
+    u32le(&mut out, as_u32(model.appearance.base.len() / 3));
+    u32le(&mut out, 3);
+    u32le(&mut out, as_u32(m));
+    u32le(&mut out, as_u32(l));
+    u32le(
+        &mut out,
+        match model.scheme {
+            LandmarkScheme::Ibug68 => SCHEME_IBUG68,
+            LandmarkScheme::Generic(_) => SCHEME_GENERIC,
+        },
+    );
+    u32le(&mut out, ref_tag);
+    u32le(&mut out, as_u32(name.len()));
+    u32le(&mut out, as_u32(ref_name.len()));
+    let p = model.mean_pose;
+    for v in [p.a, p.b, p.tx, p.ty] {
+        f32le(&mut out, v);
+    }
+    u32le(&mut out, model.image_size[0]);
+    u32le(&mut out, model.image_size[1]);
+    out.extend_from_slice(&frame.fingerprint().to_le_bytes());
+    debug_assert_eq!(out.len(), HEADER_LEN);
+
+    out.extend_from_slice(name);
+    out.extend_from_slice(ref_name);
+    out.extend(std::iter::repeat_n(0u8, padding));
+    let arrays: [&[f32]; 4] = [
+        &model.shape.base,
+        &model.shape.modes,
+        &model.shape.variances,
+        frame.vertices(),
+    ];
+    for a in arrays {
+        a.iter().for_each(|&v| f32le(&mut out, v));
+    }
+    frame
+        .triangles()
+        .iter()
+        .flatten()
+        .for_each(|&i| u32le(&mut out, i));
+    let arrays: [&[f32]; 3] = [
+        &model.appearance.base,
+        &model.appearance.modes,
+        &model.appearance.variances,
+    ];
+    for a in arrays {
+        a.iter().for_each(|&v| f32le(&mut out, v));
+    }
+    let crc = crc32(&out);
+    u32le(&mut out, crc);
+    debug_assert_eq!(out.len(), total);
+    out
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading.
+
+/// Little-endian reads at fixed offsets of a slice whose length was checked beforehand; a
+/// missing byte reads as a truncation error rather than a panic.
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], FormatError> {
+        let end = self
+            .pos
+            .checked_add(n)
+            .filter(|&e| e <= self.bytes.len())
+            .ok_or(FormatError::Truncated {
+                needed: self.pos as u64 + n as u64,
+                available: self.bytes.len() as u64,
+            })?;
+        let s = &self.bytes[self.pos..end];
+        self.pos = end;
+        Ok(s)
+    }
+
+    /// Reads `count` f32 values, rejecting non-finite ones.
+    fn f32s(&mut self, count: usize, array: &'static str) -> Result<Vec<f32>, FormatError> {
+        let bytes = self.take(count.checked_mul(4).ok_or(FormatError::Truncated {
+            needed: u64::MAX,
+            available: self.bytes.len() as u64,
+        })?)?;
+        let mut out = Vec::with_capacity(count);
+        for (i, c) in bytes.chunks_exact(4).enumerate() {
+            let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            if !v.is_finite() {
+                return Err(FormatError::NonFinite {
+                    array,
+                    index: i as u64,
+                });
+            }
+            out.push(v);
+        }
+        Ok(out)
+    }
+}
+
+fn u32_at(b: &[u8], off: usize) -> u32 {
+    // Callers check `b.len() >= HEADER_LEN` (or `off + 4`) first.
+    u32::from_le_bytes([b[off], b[off + 1], b[off + 2], b[off + 3]])
+}
+
+fn f32_at(b: &[u8], off: usize) -> f32 {
+    f32::from_bits(u32_at(b, off))
+}
+
+fn u64_at(b: &[u8], off: usize) -> u64 {
+    u32_at(b, off) as u64 | (u32_at(b, off + 4) as u64) << 32
+}
+
+/// Fails unless `min <= value <= max`.
+fn check_range(what: &'static str, value: u32, min: u32, max: u32) -> Result<(), FormatError> {
+    if value > max {
+        return Err(FormatError::LimitExceeded {
+            what,
+            value: value as u64,
+            limit: max as u64,
+        });
+    }
+    if value < min {
+        return Err(FormatError::BelowMinimum {
+            what,
+            value: value as u64,
+            minimum: min as u64,
+        });
+    }
+    Ok(())
+}
+
+/// The header of a version-1 file, validated against the limits.
+struct Header {
+    file_length: u64,
+    n: u32,
+    t: u32,
+    width: u32,
+    height: u32,
+    origin: [f32; 2],
+    pixels: u32,
+    m: u32,
+    l: u32,
+    scheme: u32,
+    reference: u32,
+    name_len: u32,
+    ref_name_len: u32,
+    pose: Similarity,
+    image_size: [u32; 2],
+    fingerprint: u64,
+}
+
+impl Header {
+    /// Parses and validates the header: magic, version, flags, every dimension against its
+    /// limit, the tags, and the consistency of the dimensions.
+    fn parse(b: &[u8]) -> Result<Header, FormatError> {
+        let avail = b.len() as u64;
+        let prefix = b.len().min(MAGIC.len());
+        if b[..prefix] != MAGIC[..prefix] {
+            return Err(FormatError::BadMagic);
+        }
+        if b.len() >= OFF_VERSION + 4 {
+            let version = u32_at(b, OFF_VERSION);
+            if version != FORMAT_VERSION {
+                return Err(FormatError::UnsupportedVersion {
+                    found: version,
+                    supported: FORMAT_VERSION,
+                });
+            }
+        }
+        if b.len() < HEADER_LEN {
+            return Err(FormatError::Truncated {
+                needed: HEADER_LEN as u64,
+                available: avail,
+            });
+        }
+        let flags = u32_at(b, OFF_FLAGS);
+        if flags != 0 {
+            return Err(FormatError::ReservedFlags { value: flags });
+        }
+        let lim = &LIMITS;
+        let h = Header {
+            file_length: u64_at(b, OFF_FILE_LENGTH),
+            n: u32_at(b, OFF_LANDMARKS),
+            t: u32_at(b, OFF_TRIANGLES),
+            width: u32_at(b, OFF_FRAME_WIDTH),
+            height: u32_at(b, OFF_FRAME_HEIGHT),
+            origin: [f32_at(b, OFF_ORIGIN_X), f32_at(b, OFF_ORIGIN_Y)],
+            pixels: u32_at(b, OFF_PIXELS),
+            m: u32_at(b, OFF_SHAPE_MODES),
+            l: u32_at(b, OFF_APPEARANCE_MODES),
+            scheme: u32_at(b, OFF_SCHEME),
+            reference: u32_at(b, OFF_REFERENCE),
+            name_len: u32_at(b, OFF_NAME_LEN),
+            ref_name_len: u32_at(b, OFF_REFERENCE_NAME_LEN),
+            pose: Similarity {
+                a: f32_at(b, OFF_POSE),
+                b: f32_at(b, OFF_POSE + 4),
+                tx: f32_at(b, OFF_POSE + 8),
+                ty: f32_at(b, OFF_POSE + 12),
+            },
+            image_size: [u32_at(b, OFF_IMAGE_WIDTH), u32_at(b, OFF_IMAGE_HEIGHT)],
+            fingerprint: u64_at(b, OFF_FINGERPRINT),
+        };
+        check_range("landmarks", h.n, 3, lim.max_landmarks)?;
+        check_range("triangles", h.t, 1, lim.max_triangles)?;
+        check_range("frame width", h.width, 1, lim.max_frame_side)?;
+        check_range("frame height", h.height, 1, lim.max_frame_side)?;
+        if !h.origin[0].is_finite() || !h.origin[1].is_finite() {
+            let index = if h.origin[0].is_finite() { 1 } else { 0 };
+            return Err(FormatError::NonFinite {
+                array: "frame origin",
+                index,
+            });
+        }
+        check_range("frame pixels", h.pixels, 1, lim.max_pixels)?;
+        let channels = u32_at(b, OFF_CHANNELS);
+        if channels != 3 {
+            return Err(FormatError::UnsupportedChannels { found: channels });
+        }
+        check_range("shape modes", h.m, 0, lim.max_shape_modes)?;
+        check_range("appearance modes", h.l, 0, lim.max_appearance_modes)?;
+        match h.scheme {
+            SCHEME_GENERIC => {}
+            SCHEME_IBUG68 if h.n == 68 => {}
+            SCHEME_IBUG68 => {
+                return Err(FormatError::InconsistentDimensions(format!(
+                    "the iBUG-68 scheme needs 68 landmarks, the header has {}",
+                    h.n
+                )))
+            }
+            tag => return Err(FormatError::BadSchemeTag { tag }),
+        }
+        match h.reference {
+            REFERENCE_MEAN if h.ref_name_len != 0 => {
+                return Err(FormatError::InconsistentDimensions(format!(
+                    "the reference is the mean but a reference name of {} bytes is given",
+                    h.ref_name_len
+                )))
+            }
+            REFERENCE_MEAN | REFERENCE_TRAINING => {}
+            tag => return Err(FormatError::BadReferenceTag { tag }),
+        }
+        check_range("model name length", h.name_len, 0, lim.max_name_bytes)?;
+        check_range(
+            "reference name length",
+            h.ref_name_len,
+            0,
+            lim.max_reference_name_bytes,
+        )?;
+        let pose = [h.pose.a, h.pose.b, h.pose.tx, h.pose.ty];
+        if let Some(i) = pose.iter().position(|v| !v.is_finite()) {
+            return Err(FormatError::NonFinite {
+                array: "mean pose",
+                index: i as u64,
+            });
+        }
+        check_range("image width", h.image_size[0], 1, lim.max_image_side)?;
+        check_range("image height", h.image_size[1], 1, lim.max_image_side)?;
+
+        // Consistency of the dimensions (all products fit in u64: the factors are limited).
+        let area = h.width as u64 * h.height as u64;
+        if h.pixels as u64 > area {
+            return Err(FormatError::InconsistentDimensions(format!(
+                "{} frame pixels do not fit a {}x{} grid",
+                h.pixels, h.width, h.height
+            )));
+        }
+        let area_limit = lim.area_per_pixel * h.pixels as u64 + lim.area_slack;
+        if area > area_limit {
+            return Err(FormatError::LimitExceeded {
+                what: "frame area (width x height) for the pixel count",
+                value: area,
+                limit: area_limit,
+            });
+        }
+        if h.m as u64 > 2 * h.n as u64 {
+            return Err(FormatError::InconsistentDimensions(format!(
+                "{} shape modes for {} shape values (at most one mode per value)",
+                h.m,
+                2 * h.n
+            )));
+        }
+        if h.l as u64 > 3 * h.pixels as u64 {
+            return Err(FormatError::InconsistentDimensions(format!(
+                "{} appearance modes for {} appearance values (at most one mode per value)",
+                h.l,
+                3 * h.pixels as u64
+            )));
+        }
+        Ok(h)
+    }
+
+    /// The file length the dimensions imply, with checked arithmetic (`None` on overflow,
+    /// which the limits make impossible).
+    fn implied_length(&self) -> Option<u64> {
+        let (n2, m, t, px3, l) = (
+            2 * self.n as u64,
+            self.m as u64,
+            self.t as u64,
+            3 * self.pixels as u64,
+            self.l as u64,
+        );
+        let names = self.name_len as u64 + self.ref_name_len as u64;
+        let shape = n2.checked_mul(m)?.checked_add(2 * n2)?.checked_add(m)?;
+        let appearance = px3.checked_mul(l)?.checked_add(px3)?.checked_add(l)?;
+        let words = shape
+            .checked_add(t.checked_mul(3)?)?
+            .checked_add(appearance)?;
+        (HEADER_LEN as u64)
+            .checked_add(names)?
+            .checked_add(pad4(names))?
+            .checked_add(words.checked_mul(4)?)?
+            .checked_add(CHECKSUM_LEN as u64)
+    }
+}
+
+/// Checks `|<a_i, a_j> - delta_ij| <= tol` for every pair of rows (`all_pairs`) or only the
+/// norms, in f64.
+fn check_orthonormal(
+    array: &'static str,
+    modes: &[f32],
+    dim: usize,
+    all_pairs: bool,
+) -> Result<(), FormatError> {
+    if dim == 0 {
+        return Ok(());
+    }
+    let tol = LIMITS.orthonormal_tolerance as f64;
+    let rows: Vec<&[f32]> = modes.chunks_exact(dim).collect();
+    for (i, a) in rows.iter().enumerate() {
+        let others = if all_pairs { &rows[..=i] } else { &rows[i..=i] };
+        let first = if all_pairs { 0 } else { i };
+        for (k, b) in others.iter().enumerate() {
+            let j = first + k;
+            let dot: f64 = a
+                .iter()
+                .zip(b.iter())
+                .map(|(&x, &y)| x as f64 * y as f64)
+                .sum();
+            let target = if i == j { 1.0 } else { 0.0 };
+            if !((dot - target).abs() <= tol) {
+                return Err(FormatError::NotOrthonormal {
+                    array,
+                    i: i as u32,
+                    j: j as u32,
+                    dot: dot as f32,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_variances(array: &'static str, v: &[f32]) -> Result<(), FormatError> {
+    match v.iter().position(|&x| x < 0.0) {
+        Some(i) => Err(FormatError::NegativeVariance {
+            array,
+            index: i as u32,
+            value: v[i],
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The sum over triangles of their bounding boxes in grid cells, clipped to the grid (an upper
+/// bound of the work [`ReferenceFrame::new`] does rasterising the mesh).
+fn raster_work(vertices: &[f32], triangles: &[[u32; 3]], origin: [f32; 2], w: u32, h: u32) -> u64 {
+    let mut total = 0u64;
+    for t in triangles {
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &i in t {
+            let i = i as usize;
+            let (x, y) = match (vertices.get(2 * i), vertices.get(2 * i + 1)) {
+                (Some(&x), Some(&y)) => (x as f64 + origin[0] as f64, y as f64 + origin[1] as f64),
+                _ => continue,
+            };
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        let x0 = x0.floor().max(0.0);
+        let y0 = y0.floor().max(0.0);
+        let x1 = x1.ceil().min(w as f64 - 1.0);
+        let y1 = y1.ceil().min(h as f64 - 1.0);
+        if x1 >= x0 && y1 >= y0 {
+            total = total.saturating_add(((x1 - x0 + 1.0) * (y1 - y0 + 1.0)) as u64);
+        }
+    }
+    total
+}
+
+/// Parses and validates a `.fmm` model file.
+///
+/// Checks, in this order (the first failure is returned): magic, version, header length,
+/// reserved flags, every header value against [`LIMITS`] and the tags, the consistency of the
+/// dimensions, the stated file length against the one the dimensions imply, the actual length
+/// (truncation, trailing bytes), the CRC-32, the names' UTF-8, the padding, every array
+/// (finite values, triangle indices, non-negative variances, orthonormal modes), the
+/// rasterisation work, and finally the reference frame rebuilt from the mesh (its pixel count
+/// and fingerprint must equal the stored ones).
+///
+/// Never panics, and allocates nothing before the file's length has been checked against the
+/// length its header implies; all allocations are then bounded by a small multiple of the file
+/// size (the frame grid by the area limit).
+pub fn read_model(bytes: &[u8]) -> Result<Model, FormatError> {
+    let h = Header::parse(bytes)?;
+    let implied = h.implied_length().ok_or(FormatError::LimitExceeded {
+        what: "implied file length",
+        value: u64::MAX,
+        limit: u64::MAX - 1,
+    })?;
+    if h.file_length != implied {
+        return Err(FormatError::LengthMismatch {
+            stated: h.file_length,
+            implied,
+        });
+    }
+    let found = bytes.len() as u64;
+    if found < implied {
+        return Err(FormatError::Truncated {
+            needed: implied,
+            available: found,
+        });
+    }
+    if found > implied {
+        return Err(FormatError::TrailingBytes {
+            expected: implied,
+            found,
+        });
+    }
+    // From here on every size fits in usize: it is at most bytes.len().
+    let body = bytes.len() - CHECKSUM_LEN;
+    let stored = u32_at(bytes, body);
+    let computed = crc32(&bytes[..body]);
+    if stored != computed {
+        return Err(FormatError::ChecksumMismatch { stored, computed });
+    }
+
+    let mut c = Cursor {
+        bytes: &bytes[..body],
+        pos: HEADER_LEN,
+    };
+    let name = std::str::from_utf8(c.take(h.name_len as usize)?)
+        .map_err(|_| FormatError::InvalidUtf8 {
+            field: "model name",
+        })?
+        .to_string();
+    let ref_name = std::str::from_utf8(c.take(h.ref_name_len as usize)?)
+        .map_err(|_| FormatError::InvalidUtf8 {
+            field: "reference name",
+        })?
+        .to_string();
+    let padding = pad4(h.name_len as u64 + h.ref_name_len as u64) as usize;
+    if c.take(padding)?.iter().any(|&b| b != 0) {
+        return Err(FormatError::NonZeroPadding);
+    }
+
+    let (n2, m, t, px3, l) = (
+        2 * h.n as usize,
+        h.m as usize,
+        h.t as usize,
+        3 * h.pixels as usize,
+        h.l as usize,
+    );
+    let shape_base = c.f32s(n2, "shape base")?;
+    let shape_modes = c.f32s(n2 * m, "shape modes")?;
+    let shape_variances = c.f32s(m, "shape variances")?;
+    let vertices = c.f32s(n2, "frame vertices")?;
+    let tri_bytes = c.take(12 * t)?;
+    let mut triangles = Vec::with_capacity(t);
+    for (k, tri) in tri_bytes.chunks_exact(12).enumerate() {
+        let idx = [u32_at(tri, 0), u32_at(tri, 4), u32_at(tri, 8)];
+        if let Some(&bad) = idx.iter().find(|&&i| i >= h.n) {
+            return Err(FormatError::InvalidTriangleIndex {
+                triangle: k as u32,
+                index: bad,
+                landmarks: h.n,
+            });
+        }
+        triangles.push(idx);
+    }
+    let app_base = c.f32s(px3, "appearance base")?;
+    let app_modes = c.f32s(px3 * l, "appearance modes")?;
+    let app_variances = c.f32s(l, "appearance variances")?;
+    debug_assert_eq!(c.pos, body);
+
+    check_variances("shape variances", &shape_variances)?;
+    check_variances("appearance variances", &app_variances)?;
+    check_orthonormal("shape modes", &shape_modes, n2, true)?;
+    check_orthonormal("appearance modes", &app_modes, px3, false)?;
+
+    let work = raster_work(&vertices, &triangles, h.origin, h.width, h.height);
+    let work_limit = LIMITS.coverage_per_cell * (h.width as u64 * h.height as u64)
+        + LIMITS.coverage_per_triangle * h.t as u64;
+    if work > work_limit {
+        return Err(FormatError::LimitExceeded {
+            what: "sum of triangle bounding boxes (grid cells)",
+            value: work,
+            limit: work_limit,
+        });
+    }
+    let frame = ReferenceFrame::new(vertices, triangles, h.width, h.height, h.origin)
+        .map_err(|e| FormatError::BadFrame(e.to_string()))?;
+    if frame.n_pixels() as u64 != h.pixels as u64 {
+        return Err(FormatError::PixelCountMismatch {
+            header: h.pixels,
+            recomputed: frame.n_pixels() as u64,
+        });
+    }
+    if frame.fingerprint() != h.fingerprint {
+        return Err(FormatError::FingerprintMismatch {
+            stored: h.fingerprint,
+            recomputed: frame.fingerprint(),
+        });
+    }
+
+    Ok(Model {
+        name,
+        scheme: if h.scheme == SCHEME_IBUG68 {
+            LandmarkScheme::Ibug68
+        } else {
+            LandmarkScheme::Generic(h.n)
+        },
+        shape: ShapeModel {
+            base: shape_base,
+            modes: shape_modes,
+            variances: shape_variances,
+        },
+        appearance: AppearanceModel {
+            base: app_base,
+            modes: app_modes,
+            variances: app_variances,
+        },
+        frame,
+        reference: if h.reference == REFERENCE_TRAINING {
+            Reference::Training(ref_name)
+        } else {
+            Reference::Mean
+        },
+        mean_pose: h.pose,
+        image_size: h.image_size,
+    })
 }
