@@ -1,1 +1,698 @@
-//! Expression cloning (section 3 of the paper). Being written: see issue 3.
+//! Expression cloning (section 3 of the paper): map a source face's parameters onto any number
+//! of target faces.
+//!
+//! A source model (`s0, S, A0, A`) and a target model (`s0*, S*, A0*, A*`) built in the same
+//! reference frame (same landmark scheme, same frame pixels; build the target with
+//! `facemimic build --frame SOURCE.fmm`) form a [`Pair`]. Per pair, once:
+//! `R = S*^T S` ([`inner_products`]), `Ra = A*^T A`, and the shape residual directions
+//! `delta_i = (I - S* S*^T) s_i` ([`residual_directions`]). Per frame the [`Cloner`] then
+//! costs a few small matrix-vector products plus one appearance synthesis per target.
+//!
+//! The three methods ([`Method`]), each in one named function:
+//! - `substitute` (Fig. 4 A, the baseline), [`substitute_shape`]: `s = s0* + S p`,
+//!   `A = A0* + A lambda`.
+//! - `map` (Eq. 3, Fig. 4 B), [`map_params`] then [`map_shape`]: `s = s0* + S* (R p)`,
+//!   `A = A0* + A* (Ra lambda)`.
+//! - `map-residual` (Eq. 4, Fig. 4 C), [`map_shape`] then [`add_residual`]:
+//!   `s = s0* + S* (R p) + sum_i delta_i p_i`. The residual is ADDED back (the paper's printed
+//!   `delta_t - delta_s` would remove it; see `NOTES.md`). Appearance residuals are not added.
+//!
+//! Before mapping, [`apply_gains`] scales the source parameters (global and per-mode gain);
+//! after mapping, [`constrain`] limits the target parameters to `+-k sigma*`.
+//!
+//! What the constraint bounds, precisely: for `map` and `map-residual`, every mapped target
+//! parameter (`p*_j`, `lambda*_j`) is clamped to `[-k sigma*_j, k sigma*_j]`, with `sigma*_j`
+//! the target mode's training standard deviation; for `substitute`, whose instance uses the
+//! SOURCE modes, the (gained) source parameters are clamped to `+-k sigma_i` of the source
+//! modes. It does NOT bound the residual term of `map-residual`: `sum_i delta_i p_i` lies
+//! outside the span of the target's shape modes (it is exactly what the target model cannot
+//! express), so it has no target parameter to clamp; it grows linearly with the (gained)
+//! source parameters. Nor does it bound the pose.
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::error::{check_finite, Error, Result};
+use crate::model::{Model, Params};
+use crate::similarity::Similarity;
+
+/// How source parameters become a target face.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// Fig. 4 A, the baseline: the target's base shape and appearance plus the SOURCE's modes
+    /// times the source parameters (see [`substitute_shape`]).
+    Substitute,
+    /// Eq. 3, Fig. 4 B: source parameters mapped into the target's basis by inner products
+    /// (see [`map_params`], [`map_shape`]).
+    #[default]
+    Map,
+    /// Eq. 4, Fig. 4 C: `Map` plus the shape residual the target basis cannot express, added
+    /// back (see [`add_residual`]).
+    MapResidual,
+}
+
+impl Method {
+    /// All methods, in the order of the paper's Fig. 4.
+    pub const ALL: [Method; 3] = [Method::Substitute, Method::Map, Method::MapResidual];
+
+    /// The method's name as used by the API, the CLI and the page.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Substitute => "substitute",
+            Method::Map => "map",
+            Method::MapResidual => "map-residual",
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
+            Error::Params(format!(
+                "unknown cloning method '{s}' (expected substitute, map or map-residual)"
+            ))
+        })
+    }
+}
+
+/// Options of one cloned frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CloneOptions {
+    /// The method (default [`Method::Map`]).
+    pub method: Method,
+    /// Global gain on the source parameters (default 1; 0 gives the target's reference face,
+    /// >1 exaggerates, negative inverts). Must be finite.
+    pub gain: f32,
+    /// Per source shape mode gains, multiplied with `gain`. Empty = all 1; a shorter vector
+    /// leaves the remaining modes at 1; longer than the source's mode count is an error.
+    pub shape_gains: Vec<f32>,
+    /// Per source appearance mode gains (same rules as `shape_gains`).
+    pub appearance_gains: Vec<f32>,
+    /// `Some(k)`: mapped target parameters limited to `+-k sigma*` (see the module docs for
+    /// what this does and does not bound); `None`: no limit. Default `Some(3.0)`. `k` must be
+    /// finite and non-negative.
+    pub clamp: Option<f32>,
+    /// `true`: the target follows the source's head motion (the source pose relative to the
+    /// source's mean pose, applied around the target's mean pose); `false` (default): the
+    /// target stays at its own mean pose.
+    pub follow_pose: bool,
+}
+
+impl Default for CloneOptions {
+    fn default() -> Self {
+        CloneOptions {
+            method: Method::Map,
+            gain: 1.0,
+            shape_gains: Vec::new(),
+            appearance_gains: Vec::new(),
+            clamp: Some(3.0),
+            follow_pose: false,
+        }
+    }
+}
+
+impl CloneOptions {
+    /// Checks the options against a source model: finite gains, per-mode gain vectors no
+    /// longer than the source's mode counts, a finite non-negative clamp.
+    pub fn validate(&self, source: &Model) -> Result<()> {
+        if !self.gain.is_finite() {
+            return Err(Error::Params(format!("gain {} is not finite", self.gain)));
+        }
+        for (what, g, m) in [
+            ("shape gains", &self.shape_gains, source.shape.n_modes()),
+            ("appearance gains", &self.appearance_gains, source.appearance.n_modes()),
+        ] {
+            if g.len() > m {
+                return Err(Error::Params(format!(
+                    "{} {what} given, the source '{}' has {m} modes",
+                    g.len(),
+                    source.name
+                )));
+            }
+            check_finite(what, g)?;
+        }
+        if let Some(k) = self.clamp {
+            if !(k.is_finite() && k >= 0.0) {
+                return Err(Error::Params(format!(
+                    "clamp {k} must be a finite number of standard deviations >= 0"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The equations, one function each.
+
+/// The gain (section 3): `out_i = gain * g_i * p_i`, with `g_i = per_mode[i]` or 1 where
+/// `per_mode` is shorter. Scales the source parameters before mapping: 0 gives the target's
+/// reference face, 1 the faithful expression, >1 an exaggerated one.
+pub fn apply_gains(p: &[f32], gain: f32, per_mode: &[f32], out: &mut [f32]) {
+    for (i, (o, &v)) in out.iter_mut().zip(p).enumerate() {
+        *o = gain * per_mode.get(i).copied().unwrap_or(1.0) * v;
+    }
+}
+
+/// The inner-product matrix of section 3.1, `R = T^T S` (rows = target modes, columns =
+/// source modes, row-major `q x r`): `R[j][i] = <t_j, s_i>`. Used for shape (`R = S*^T S`) and
+/// appearance (`Ra = A*^T A`). Accumulates in f64. `target` and `source` are row-major mode
+/// matrices whose rows are `dim` long.
+pub fn inner_products(target: &[f32], source: &[f32], dim: usize) -> Vec<f32> {
+    if dim == 0 {
+        return Vec::new();
+    }
+    let mut r = Vec::with_capacity((target.len() / dim) * (source.len() / dim));
+    for t in target.chunks_exact(dim) {
+        for s in source.chunks_exact(dim) {
+            r.push(dot64(t, s) as f32);
+        }
+    }
+    r
+}
+
+/// The residual directions of section 3.2 (Eq. 4), per unit of source parameter:
+/// `delta_i = (I - S* S*^T) s_i = s_i - sum_j R[j][i] s*_j`, the part of source shape mode
+/// `i` the target's shape basis cannot express. (The paper perturbs by one sigma, `sqrt
+/// gamma_i`, which is the same direction scaled.) Row-major `r x 2n`, computed in f64.
+pub fn residual_directions(target: &[f32], source: &[f32], dim: usize) -> Vec<f32> {
+    if dim == 0 {
+        return Vec::new();
+    }
+    let mut out = Vec::with_capacity(source.len());
+    let mut acc = vec![0f64; dim];
+    for s in source.chunks_exact(dim) {
+        acc.iter_mut().zip(s).for_each(|(a, &v)| *a = v as f64);
+        for t in target.chunks_exact(dim) {
+            let c = dot64(t, s);
+            acc.iter_mut().zip(t).for_each(|(a, &v)| *a -= c * v as f64);
+        }
+        out.extend(acc.iter().map(|&v| v as f32));
+    }
+    out
+}
+
+/// Eq. 3's parameter mapping: `p* = R p` (`R` row-major `q x r`, `p` length `r`, `out`
+/// length `q`). A target mode pointing the other way than the source's has a negative inner
+/// product, so signs need no care; a source mode spread over several target modes maps onto
+/// all of them.
+pub fn map_params(r: &[f32], p: &[f32], out: &mut [f32]) {
+    let cols = p.len();
+    if cols == 0 {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        return;
+    }
+    for (o, row) in out.iter_mut().zip(r.chunks_exact(cols)) {
+        *o = row.iter().zip(p).map(|(a, b)| a * b).sum();
+    }
+}
+
+/// The constraint (section 3.1): every parameter limited to `[-k sigma_j, k sigma_j]` of the
+/// model it multiplies (the target's for `map`, the source's for `substitute`), so only
+/// plausible faces are produced. Per parameter (a box, not an ellipsoid).
+pub fn constrain(params: &mut [f32], sigmas: &[f32], k: f32) {
+    for (p, s) in params.iter_mut().zip(sigmas) {
+        let lim = k * s;
+        *p = p.clamp(-lim, lim);
+    }
+}
+
+/// Substitute (Fig. 4 A, the baseline of section 4): `s = s0* + S p`, the target's base shape
+/// with the SOURCE's shape modes; in f64 into `acc` (`2n`). The appearance is
+/// `A = A0* + A lambda` ([`synthesise_blocked`] with the target's base and the source's
+/// modes).
+pub fn substitute_shape(target_base: &[f32], source_modes: &[f32], p: &[f32], acc: &mut [f64]) {
+    linear_f64(target_base, source_modes, p, acc);
+}
+
+/// Eq. 3, shape: `s = s0* + S* p*` with `p* = R p` already mapped (and constrained), in f64
+/// into `acc` (`2n`). The appearance is `A = A0* + A* lambda*` ([`synthesise_blocked`]).
+pub fn map_shape(target_base: &[f32], target_modes: &[f32], mapped: &[f32], acc: &mut [f64]) {
+    linear_f64(target_base, target_modes, mapped, acc);
+}
+
+/// Eq. 4's residual term, with the sign that ADDS BACK what the target basis cannot express:
+/// `acc += sum_i delta_i p_i` (`delta` row-major `r x 2n` from [`residual_directions`], `p`
+/// the gained source parameters). Without the constraint, [`map_shape`] followed by this gives
+/// exactly the source's displacement `S p` on the target's base shape.
+pub fn add_residual(delta: &[f32], p: &[f32], acc: &mut [f64]) {
+    let d = acc.len();
+    if d == 0 {
+        return;
+    }
+    for (&pi, row) in p.iter().zip(delta.chunks_exact(d)) {
+        if pi != 0.0 {
+            let pi = pi as f64;
+            acc.iter_mut().zip(row).for_each(|(a, &v)| *a += pi * v as f64);
+        }
+    }
+}
+
+/// Pose (section 3; the paper places the cloned face on the target's video): with
+/// `follow = false` the target stays at its `target_mean` pose; with `follow = true` it
+/// moves as the source moves relative to the source's mean pose:
+/// `target_mean ∘ source_mean^-1 ∘ source_pose` (the relative motion is taken in model
+/// coordinates, so a source head turned by 10 degrees and shifted by a tenth of its face width
+/// turns the target by 10 degrees and shifts it by a tenth of ITS face width).
+pub fn target_pose(
+    source_mean_inverse: &Similarity,
+    source_pose: &Similarity,
+    target_mean: &Similarity,
+    follow: bool,
+) -> Similarity {
+    if follow {
+        target_mean.compose(&source_mean_inverse.compose(source_pose))
+    } else {
+        *target_mean
+    }
+}
+
+/// `out = base + sum_i w_i modes_i` (modes row-major, `base.len()` each), processed in
+/// cache-sized blocks of the output so each block stays in L1 while every mode streams
+/// through once; zero weights are skipped. Per element the sum runs in mode order, so the
+/// result is bit-identical to [`crate::synthesise`]. Allocates nothing.
+pub fn synthesise_blocked(base: &[f32], modes: &[f32], w: &[f32], out: &mut [f32]) {
+    const BLOCK: usize = 2048;
+    let d = base.len();
+    if d == 0 || out.len() != d {
+        return;
+    }
+    let n = w.len().min(modes.len() / d);
+    let mut start = 0;
+    while start < d {
+        let end = (start + BLOCK).min(d);
+        let o = &mut out[start..end];
+        o.copy_from_slice(&base[start..end]);
+        for (i, &wi) in w[..n].iter().enumerate() {
+            if wi != 0.0 {
+                let m = &modes[i * d + start..i * d + end];
+                for (a, &b) in o.iter_mut().zip(m) {
+                    *a += wi * b;
+                }
+            }
+        }
+        start = end;
+    }
+}
+
+/// A pose that keeps every posed coordinate finite: valid, scale and translation below 1e15.
+fn pose_in_range(p: &Similarity) -> bool {
+    const MAX: f32 = 1e15;
+    p.is_valid() && p.scale() < MAX && p.tx.abs() < MAX && p.ty.abs() < MAX
+}
+
+fn linear_f64(base: &[f32], modes: &[f32], w: &[f32], acc: &mut [f64]) {
+    let d = acc.len();
+    acc.iter_mut().zip(base).for_each(|(a, &b)| *a = b as f64);
+    if d == 0 {
+        return;
+    }
+    for (&wi, row) in w.iter().zip(modes.chunks_exact(d)) {
+        if wi != 0.0 {
+            let wi = wi as f64;
+            acc.iter_mut().zip(row).for_each(|(a, &v)| *a += wi * v as f64);
+        }
+    }
+}
+
+fn dot64(a: &[f32], b: &[f32]) -> f64 {
+    let mut acc = [0f64; 4];
+    let n = a.len().min(b.len());
+    let chunks = n / 4;
+    for c in 0..chunks {
+        let o = c * 4;
+        for l in 0..4 {
+            acc[l] += a[o + l] as f64 * b[o + l] as f64;
+        }
+    }
+    let mut s = acc.iter().sum::<f64>();
+    for k in chunks * 4..n {
+        s += a[k] as f64 * b[k] as f64;
+    }
+    s
+}
+
+// ---------------------------------------------------------------------------------------
+// Per-pair precomputation.
+
+/// The per source-target precomputation of section 3: `R = S*^T S`, `Ra = A*^T A` and the
+/// residual directions `delta_i = (I - S* S*^T) s_i`, plus the target's sigmas for the
+/// constraint. Depends on the two models only, never on a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pair {
+    shape_map: Vec<f32>,
+    appearance_map: Vec<f32>,
+    residual: Vec<f32>,
+    target_shape_sigmas: Vec<f32>,
+    target_appearance_sigmas: Vec<f32>,
+    source_modes: [usize; 2],
+    target_modes: [usize; 2],
+}
+
+impl Pair {
+    /// Precomputes the pair, after checking that both models are internally consistent and
+    /// compatible (same landmark scheme, same reference frame): [`Error::Incompatible`]
+    /// naming what differs otherwise.
+    pub fn new(source: &Model, target: &Model) -> Result<Pair> {
+        check_model(source)?;
+        check_model(target)?;
+        source.check_compatible(target)?;
+        let d = source.shape.base.len();
+        let da = source.appearance.len();
+        Ok(Pair {
+            shape_map: inner_products(&target.shape.modes, &source.shape.modes, d),
+            appearance_map: inner_products(&target.appearance.modes, &source.appearance.modes, da),
+            residual: residual_directions(&target.shape.modes, &source.shape.modes, d),
+            target_shape_sigmas: target.shape.sigmas(),
+            target_appearance_sigmas: target.appearance.sigmas(),
+            source_modes: [source.shape.n_modes(), source.appearance.n_modes()],
+            target_modes: [target.shape.n_modes(), target.appearance.n_modes()],
+        })
+    }
+
+    /// `R = S*^T S`, row-major `q x r` (target shape modes x source shape modes).
+    pub fn shape_map(&self) -> &[f32] {
+        &self.shape_map
+    }
+
+    /// `Ra = A*^T A`, row-major `l* x l`.
+    pub fn appearance_map(&self) -> &[f32] {
+        &self.appearance_map
+    }
+
+    /// The residual direction `delta_i` of source shape mode `i` (`2n` values, model
+    /// coordinates per unit of `p_i`). `None` when `i` is out of range.
+    pub fn residual(&self, i: usize) -> Option<&[f32]> {
+        let d = self.residual.len().checked_div(self.source_modes[0])?;
+        self.residual.get(i * d..(i + 1) * d)
+    }
+
+    /// `|delta_i|` per source shape mode: the fraction (0..1, source modes being unit vectors)
+    /// of each source mode that the target's shape basis cannot express. A diagnostic of how
+    /// much `map` under-articulates each mode.
+    pub fn residual_norms(&self) -> Vec<f32> {
+        (0..self.source_modes[0])
+            .filter_map(|i| self.residual(i))
+            .map(|r| dot64(r, r).sqrt() as f32)
+            .collect()
+    }
+}
+
+/// Checks the dimensions a [`Model`] promises (a hand-made model could break them), so that
+/// cloning can index without checks.
+fn check_model(m: &Model) -> Result<()> {
+    let bad = |what: String| {
+        Err(Error::Incompatible(format!("model '{}' is inconsistent: {what}", m.name)))
+    };
+    let d = m.shape.base.len();
+    let da = m.appearance.base.len();
+    if d == 0 || d != 2 * m.frame.landmarks() || d != 2 * m.scheme.count() {
+        return bad(format!(
+            "{} shape values for {} frame landmarks ({:?})",
+            d,
+            m.frame.landmarks(),
+            m.scheme
+        ));
+    }
+    if da != 3 * m.frame.n_pixels() {
+        return bad(format!("{da} appearance values for {} frame pixels", m.frame.n_pixels()));
+    }
+    if m.shape.modes.len() != d * m.shape.n_modes() {
+        return bad(format!("{} shape mode values for {} modes", m.shape.modes.len(), m.shape.n_modes()));
+    }
+    if m.appearance.modes.len() != da * m.appearance.n_modes() {
+        return bad(format!(
+            "{} appearance mode values for {} modes",
+            m.appearance.modes.len(),
+            m.appearance.n_modes()
+        ));
+    }
+    if m.shape.variances.iter().chain(&m.appearance.variances).any(|v| !(v.is_finite() && *v >= 0.0)) {
+        return bad("a variance is negative or not finite".into());
+    }
+    if !m.mean_pose.is_valid() || m.mean_pose.inverse().is_none() {
+        return bad("its mean pose is not a valid similarity".into());
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------
+// The cloner.
+
+/// One target: its model, the pair's precomputation and the output buffers of the last frame.
+#[derive(Clone, Debug)]
+struct Target {
+    model: Model,
+    pair: Pair,
+    params: Params,
+    shape: Vec<f32>,
+    appearance: Vec<f32>,
+}
+
+impl Target {
+    fn new(source: &Model, model: Model) -> Result<Target> {
+        let pair = Pair::new(source, &model)?;
+        let params = model.base_params();
+        let mut shape = model.shape.base.clone();
+        params.pose.apply_in_place(&mut shape);
+        let appearance = model.appearance.base.clone();
+        Ok(Target { model, pair, params, shape, appearance })
+    }
+}
+
+/// One source model cloned onto any number of target models.
+///
+/// Represents: the source [`Model`], `N` target models each with its [`Pair`] precomputation,
+/// and per target the output of the last [`Cloner::clone_frame`]: the target parameters, the
+/// posed target shape (image coordinates) and the target appearance (frame pixels). Before
+/// the first frame (and right after [`Cloner::add_target`]) a target's outputs hold its
+/// reference face at its mean pose.
+///
+/// Ensures: every target is compatible with the source (same landmark scheme and frame);
+/// `clone_frame` allocates nothing; a failed call leaves every output untouched.
+///
+/// Rendering target `i`: `renderer.upload(&cloner.target(i).frame, cloner.target_appearance(i))`
+/// then `renderer.warp(&cloner.target(i).frame, cloner.target_shape(i), &view, &mut pixmap)`.
+#[derive(Clone, Debug)]
+pub struct Cloner {
+    source: Model,
+    source_mean_inverse: Similarity,
+    source_shape_sigmas: Vec<f32>,
+    source_appearance_sigmas: Vec<f32>,
+    targets: Vec<Target>,
+    gained_shape: Vec<f32>,
+    gained_appearance: Vec<f32>,
+    acc: Vec<f64>,
+}
+
+impl Cloner {
+    /// A cloner for `source`, with no targets yet. Fails if the model is inconsistent.
+    pub fn new(source: Model) -> Result<Cloner> {
+        check_model(&source)?;
+        let inv = source
+            .mean_pose
+            .inverse()
+            .ok_or_else(|| Error::Incompatible("the source's mean pose is degenerate".into()))?;
+        Ok(Cloner {
+            source_mean_inverse: inv,
+            source_shape_sigmas: source.shape.sigmas(),
+            source_appearance_sigmas: source.appearance.sigmas(),
+            targets: Vec::new(),
+            gained_shape: vec![0.0; source.shape.n_modes()],
+            gained_appearance: vec![0.0; source.appearance.n_modes()],
+            acc: vec![0.0; source.shape.base.len()],
+            source,
+        })
+    }
+
+    /// The source model.
+    pub fn source(&self) -> &Model {
+        &self.source
+    }
+
+    /// Replaces the source model, recomputing every pair. On error (the new source is
+    /// inconsistent or incompatible with a target, named in the message) the cloner keeps its
+    /// old state untouched. Targets' outputs are reset to their reference faces.
+    pub fn set_source(&mut self, source: Model) -> Result<()> {
+        let mut fresh = Cloner::new(source)?;
+        let mut targets = Vec::with_capacity(self.targets.len());
+        for t in &self.targets {
+            targets.push(Target::new(&fresh.source, t.model.clone())?);
+        }
+        fresh.targets = targets;
+        *self = fresh;
+        Ok(())
+    }
+
+    /// Adds a target model (precomputing its pair) and returns its index. Fails with
+    /// [`Error::Incompatible`] naming what differs (landmark count/scheme, frame
+    /// fingerprint, size, pixel count) when it is not in the source's reference frame.
+    pub fn add_target(&mut self, target: Model) -> Result<usize> {
+        let t = Target::new(&self.source, target)?;
+        self.targets.push(t);
+        Ok(self.targets.len() - 1)
+    }
+
+    /// Removes target `index` and returns its model; later targets move down by one.
+    pub fn remove_target(&mut self, index: usize) -> Result<Model> {
+        self.check_index(index)?;
+        Ok(self.targets.remove(index).model)
+    }
+
+    /// Replaces target `index` (same checks as [`Cloner::add_target`]; on error nothing
+    /// changes).
+    pub fn replace_target(&mut self, index: usize, target: Model) -> Result<()> {
+        self.check_index(index)?;
+        self.targets[index] = Target::new(&self.source, target)?;
+        Ok(())
+    }
+
+    fn check_index(&self, index: usize) -> Result<()> {
+        if index < self.targets.len() {
+            Ok(())
+        } else {
+            Err(Error::Params(format!(
+                "target index {index} out of range ({} target(s))",
+                self.targets.len()
+            )))
+        }
+    }
+
+    /// Number of targets.
+    pub fn n_targets(&self) -> usize {
+        self.targets.len()
+    }
+
+    /// Target model `index`. Panics when `index >= n_targets()` (like slice indexing); use
+    /// [`Cloner::get_target`] for a checked lookup.
+    pub fn target(&self, index: usize) -> &Model {
+        &self.targets[index].model
+    }
+
+    /// Target model `index`, or `None` when out of range.
+    pub fn get_target(&self, index: usize) -> Option<&Model> {
+        self.targets.get(index).map(|t| &t.model)
+    }
+
+    /// The precomputation of the pair (source, target `index`), or `None`.
+    pub fn pair(&self, index: usize) -> Option<&Pair> {
+        self.targets.get(index).map(|t| &t.pair)
+    }
+
+    /// Clones one source frame onto every target in one call. Allocates nothing.
+    ///
+    /// Requires: `source` fits the source model (lengths, finite values, valid pose) and the
+    /// options are valid ([`CloneOptions::validate`]); otherwise [`Error::Params`] and no
+    /// output changes.
+    /// Ensures, per target: [`Cloner::target_params`] holds the target parameters (for
+    /// `substitute`, see there), [`Cloner::target_shape`] the posed shape in image
+    /// coordinates, [`Cloner::target_appearance`] the appearance on the frame pixels.
+    pub fn clone_frame(&mut self, source: &Params, options: &CloneOptions) -> Result<()> {
+        self.source.check_params(source)?;
+        options.validate(&self.source)?;
+        for t in &self.targets {
+            let pose = target_pose(
+                &self.source_mean_inverse,
+                &source.pose,
+                &t.model.mean_pose,
+                options.follow_pose,
+            );
+            if !pose_in_range(&pose) {
+                return Err(Error::Params(format!(
+                    "the pose for target '{}' is out of range (scale {}, translation {}, {})",
+                    t.model.name,
+                    pose.scale(),
+                    pose.tx,
+                    pose.ty
+                )));
+            }
+        }
+        apply_gains(&source.shape, options.gain, &options.shape_gains, &mut self.gained_shape);
+        apply_gains(
+            &source.appearance,
+            options.gain,
+            &options.appearance_gains,
+            &mut self.gained_appearance,
+        );
+        if options.method == Method::Substitute {
+            if let Some(k) = options.clamp {
+                constrain(&mut self.gained_shape, &self.source_shape_sigmas, k);
+                constrain(&mut self.gained_appearance, &self.source_appearance_sigmas, k);
+            }
+        }
+        let (p, lambda) = (&self.gained_shape, &self.gained_appearance);
+        for t in &mut self.targets {
+            let m = &t.model;
+            t.params.pose =
+                target_pose(&self.source_mean_inverse, &source.pose, &m.mean_pose, options.follow_pose);
+            map_params(&t.pair.shape_map, p, &mut t.params.shape);
+            map_params(&t.pair.appearance_map, lambda, &mut t.params.appearance);
+            match options.method {
+                Method::Substitute => {
+                    substitute_shape(&m.shape.base, &self.source.shape.modes, p, &mut self.acc);
+                    synthesise_blocked(
+                        &m.appearance.base,
+                        &self.source.appearance.modes,
+                        lambda,
+                        &mut t.appearance,
+                    );
+                }
+                Method::Map | Method::MapResidual => {
+                    if let Some(k) = options.clamp {
+                        constrain(&mut t.params.shape, &t.pair.target_shape_sigmas, k);
+                        constrain(&mut t.params.appearance, &t.pair.target_appearance_sigmas, k);
+                    }
+                    map_shape(&m.shape.base, &m.shape.modes, &t.params.shape, &mut self.acc);
+                    if options.method == Method::MapResidual {
+                        add_residual(&t.pair.residual, p, &mut self.acc);
+                    }
+                    synthesise_blocked(
+                        &m.appearance.base,
+                        &m.appearance.modes,
+                        &t.params.appearance,
+                        &mut t.appearance,
+                    );
+                }
+            }
+            let pose = t.params.pose;
+            for (o, a) in t.shape.chunks_exact_mut(2).zip(self.acc.chunks_exact(2)) {
+                let (x, y) = pose.apply_point(a[0] as f32, a[1] as f32);
+                o[0] = x;
+                o[1] = y;
+            }
+        }
+        Ok(())
+    }
+
+    /// The target parameters of the last frame for target `index`: pose, `p*`, `lambda*`.
+    ///
+    /// For `map` and `map-residual`: the mapped (and, with a clamp, constrained) target
+    /// parameters `R p`, `Ra lambda` (for `map-residual` the shape additionally carries the
+    /// residual, which no target parameter describes). For `substitute`: the least-squares
+    /// projection of the substituted instance onto the target model, `S*^T (s - s0*) = R p`
+    /// and `A*^T (A - A0*) = Ra lambda` (unclamped; the instance itself uses the source's
+    /// modes and is in [`Cloner::target_shape`] / [`Cloner::target_appearance`]).
+    /// Panics when `index` is out of range.
+    pub fn target_params(&self, index: usize) -> &Params {
+        &self.targets[index].params
+    }
+
+    /// Target `index`'s instance landmarks of the last frame, posed, in image coordinates
+    /// (`2n` values). Panics when `index` is out of range.
+    pub fn target_shape(&self, index: usize) -> &[f32] {
+        &self.targets[index].shape
+    }
+
+    /// Target `index`'s appearance of the last frame: `3N` RGB values on the frame pixels,
+    /// ready for [`crate::Renderer::upload`]. Panics when `index` is out of range.
+    pub fn target_appearance(&self, index: usize) -> &[f32] {
+        &self.targets[index].appearance
+    }
+}
