@@ -1,0 +1,1289 @@
+//! The `.fmm` model file: exact round trips, a table of corrupt / truncated / hostile files each
+//! rejected with the expected error, random bytes and random mutations that never panic, and
+//! hostile headers that neither allocate nor take time.
+//!
+//! The models are synthetic (built in memory from generated landmarks and RGBA images), so the
+//! numeric tests also run under wasm (`cargo test --target wasm32-unknown-unknown --test
+//! format`). The allocation-counting test is native only.
+
+use std::sync::OnceLock;
+
+use facemimic::format::{
+    crc32, offsets, read_model, write_model, FormatError, FORMAT_VERSION, HEADER_LEN, LIMITS, MAGIC,
+};
+use facemimic::{BuildOptions, Builder, Image, Model, Reference, ReferenceChoice, TrainingImage};
+
+// ------------------------------------------------------------------------------------------
+// Synthetic models.
+
+/// xorshift64* (deterministic, no dependency).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    /// Uniform in `[-1, 1)`.
+    fn sym(&mut self) -> f32 {
+        (self.next() >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+    }
+    fn below(&mut self, n: usize) -> usize {
+        if n == 0 {
+            0
+        } else {
+            (self.next() % n as u64) as usize
+        }
+    }
+}
+
+/// `count` face-like training images with `n` landmarks: a Fermat-spiral point set (well spread
+/// over an ellipse) under a random similarity and two smooth deformations, on 96x96 RGBA images
+/// with a pose-dependent texture.
+fn training_set(n: usize, count: usize, seed: u64, prefix: &str) -> Vec<TrainingImage> {
+    let mut rng = Rng(seed);
+    (0..count)
+        .map(|k| {
+            let (smile, squash) = (rng.sym(), rng.sym());
+            let scale = 30.0 * (1.0 + 0.08 * rng.sym());
+            let rot = 0.12 * rng.sym();
+            let (tx, ty) = (48.0 + 4.0 * rng.sym(), 48.0 + 4.0 * rng.sym());
+            let mut landmarks = Vec::with_capacity(2 * n);
+            for i in 0..n {
+                let r = ((i as f32 + 0.5) / n as f32).sqrt();
+                let th = i as f32 * 2.399_963;
+                let (x, y) = (r * th.cos(), 1.2 * r * th.sin());
+                let y = y + 0.15 * smile * x * x;
+                let x = x * (1.0 + 0.1 * squash * y);
+                let (c, s) = (rot.cos(), rot.sin());
+                landmarks.push(scale * (c * x - s * y) + tx);
+                landmarks.push(scale * (s * x + c * y) + ty);
+            }
+            let (w, h) = (96u32, 96u32);
+            let phase = rng.sym() * 3.0;
+            let bright = 40.0 * rng.sym();
+            let mut data = Vec::with_capacity((w * h * 4) as usize);
+            for y in 0..h {
+                for x in 0..w {
+                    let (xf, yf) = (x as f32, y as f32);
+                    let r = 128.0 + 90.0 * (0.2 * xf + phase).sin() + bright;
+                    let g = 128.0 + 90.0 * (0.15 * yf - phase).cos();
+                    let b = 64.0 + ((xf - tx) * (yf - ty) * 0.05).abs().min(180.0);
+                    data.extend_from_slice(&[
+                        r.clamp(0.0, 255.0) as u8,
+                        g.clamp(0.0, 255.0) as u8,
+                        b.clamp(0.0, 255.0) as u8,
+                        255,
+                    ]);
+                }
+            }
+            TrainingImage {
+                name: format!("{prefix}{k}"),
+                image: Image {
+                    width: w,
+                    height: h,
+                    data,
+                },
+                landmarks,
+            }
+        })
+        .collect()
+}
+
+struct Models {
+    /// 68 landmarks (iBUG scheme), its own frame, mean reference, name of 7 bytes (1 pad byte).
+    a: Model,
+    /// Built in `a`'s frame with a named reference and a non-ASCII name.
+    b: Model,
+    /// 30 landmarks (generic scheme), no modes at all (a mean-only model).
+    c: Model,
+}
+
+fn models() -> &'static Models {
+    static MODELS: OnceLock<Models> = OnceLock::new();
+    MODELS.get_or_init(|| {
+        let opts = |name: &str| BuildOptions {
+            name: name.into(),
+            face_width: 40.0,
+            ..BuildOptions::default()
+        };
+        let a = Builder::new(opts("synth-a"))
+            .build(&training_set(68, 6, 7, "a"), None)
+            .unwrap();
+        let b = Builder::new(BuildOptions {
+            reference: ReferenceChoice::Named("b3".into()),
+            ..opts("synth-b \u{2713}")
+        })
+        .build(&training_set(68, 6, 99, "b"), Some(&a))
+        .unwrap();
+        let c = Builder::new(BuildOptions {
+            max_shape_modes: 0,
+            max_appearance_modes: 0,
+            ..opts("c")
+        })
+        .build(&training_set(30, 6, 3, "c"), None)
+        .unwrap();
+        Models { a, b, c }
+    })
+}
+
+// ------------------------------------------------------------------------------------------
+// Byte surgery.
+
+fn get_u32(b: &[u8], off: usize) -> u32 {
+    u32::from_le_bytes(b[off..off + 4].try_into().unwrap())
+}
+fn set_u32(b: &mut [u8], off: usize, v: u32) {
+    b[off..off + 4].copy_from_slice(&v.to_le_bytes());
+}
+fn set_u64(b: &mut [u8], off: usize, v: u64) {
+    b[off..off + 8].copy_from_slice(&v.to_le_bytes());
+}
+fn set_f32(b: &mut [u8], off: usize, v: f32) {
+    set_u32(b, off, v.to_bits());
+}
+fn get_f32(b: &[u8], off: usize) -> f32 {
+    f32::from_bits(get_u32(b, off))
+}
+/// Rewrites the trailing CRC-32 so that the checksum is not what rejects the file.
+fn fix_crc(b: &mut [u8]) {
+    let body = b.len() - 4;
+    let c = crc32(&b[..body]);
+    set_u32(b, body, c);
+}
+fn patched(v: &[u8], off: usize, val: u32) -> Vec<u8> {
+    let mut b = v.to_vec();
+    set_u32(&mut b, off, val);
+    b
+}
+
+/// Byte offsets of the arrays of a written model.
+struct Layout {
+    pad: usize,
+    shape_base: usize,
+    shape_modes: usize,
+    shape_variances: usize,
+    vertices: usize,
+    triangles: usize,
+    app_base: usize,
+    app_modes: usize,
+    app_variances: usize,
+    crc: usize,
+}
+
+fn layout(m: &Model) -> Layout {
+    let names = m.name.len()
+        + match &m.reference {
+            Reference::Mean => 0,
+            Reference::Training(s) => s.len(),
+        };
+    let pad = HEADER_LEN + names;
+    let shape_base = pad + (4 - names % 4) % 4;
+    let shape_modes = shape_base + 4 * m.shape.base.len();
+    let shape_variances = shape_modes + 4 * m.shape.modes.len();
+    let vertices = shape_variances + 4 * m.shape.variances.len();
+    let triangles = vertices + 4 * m.frame.vertices().len();
+    let app_base = triangles + 12 * m.frame.triangles().len();
+    let app_modes = app_base + 4 * m.appearance.base.len();
+    let app_variances = app_modes + 4 * m.appearance.modes.len();
+    let crc = app_variances + 4 * m.appearance.variances.len();
+    Layout {
+        pad,
+        shape_base,
+        shape_modes,
+        shape_variances,
+        vertices,
+        triangles,
+        app_base,
+        app_modes,
+        app_variances,
+        crc,
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// Round trips.
+
+#[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
+fn round_trip_is_exact() {
+    let ms = models();
+    for m in [&ms.a, &ms.b, &ms.c] {
+        let bytes = write_model(m);
+        assert_eq!(&bytes[..8], &MAGIC);
+        assert_eq!(get_u32(&bytes, offsets::VERSION), FORMAT_VERSION);
+        assert_eq!(bytes.len(), layout(m).crc + 4, "layout of '{}'", m.name);
+        let back = read_model(&bytes).unwrap_or_else(|e| panic!("'{}': {e}", m.name));
+        assert_eq!(&back, m);
+        // Fields PartialEq on the frame does not cover: the recomputed pixels and padding.
+        assert_eq!(back.frame.pixels(), m.frame.pixels());
+        assert_eq!(back.frame.padding(), m.frame.padding());
+        assert_eq!(back.frame.fingerprint(), m.frame.fingerprint());
+        // Writing is deterministic: a second round gives the same bytes.
+        assert_eq!(write_model(&back), bytes);
+    }
+    // The three models exercise the scheme tags, both reference kinds and zero modes.
+    assert_eq!(ms.a.scheme, facemimic::LandmarkScheme::Ibug68);
+    assert_eq!(ms.c.scheme, facemimic::LandmarkScheme::Generic(30));
+    assert_eq!(ms.b.reference, Reference::Training("b3".into()));
+    assert_eq!(ms.b.frame, ms.a.frame);
+    assert!(ms.a.shape.n_modes() > 1 && ms.a.appearance.n_modes() > 1);
+    assert_eq!((ms.c.shape.n_modes(), ms.c.appearance.n_modes()), (0, 0));
+}
+
+#[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
+fn crc32_matches_the_standard_check_value() {
+    assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+    assert_eq!(crc32(b""), 0);
+}
+
+// ------------------------------------------------------------------------------------------
+// The table of bad files.
+
+enum Expect {
+    Exact(FormatError),
+    Like(&'static str, fn(&FormatError) -> bool),
+}
+
+fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
+    use Expect::{Exact, Like};
+    use FormatError as E;
+    let ms = models();
+    let (a, b) = (&ms.a, &ms.b);
+    let v = write_model(a);
+    let len = v.len() as u64;
+    let lay = layout(a);
+    let (n, t) = (a.landmarks() as u32, a.frame.triangles().len() as u32);
+    let (w, h) = (a.frame.width(), a.frame.height());
+    let px = a.frame.n_pixels() as u32;
+    let (m, l) = (a.shape.n_modes() as u64, a.appearance.n_modes() as u64);
+    let mut cases: Vec<(String, Vec<u8>, Expect)> = Vec::new();
+    let mut add = |name: &str, bytes: Vec<u8>, e: Expect| cases.push((name.to_string(), bytes, e));
+    let lim = |what: &'static str, value: u32, limit: u32| {
+        Exact(E::LimitExceeded {
+            what,
+            value: value as u64,
+            limit: limit as u64,
+        })
+    };
+    let below = |what: &'static str, value: u32, minimum: u32| {
+        Exact(E::BelowMinimum {
+            what,
+            value: value as u64,
+            minimum: minimum as u64,
+        })
+    };
+
+    // Magic, version, truncation.
+    add(
+        "empty file",
+        vec![],
+        Exact(E::Truncated {
+            needed: HEADER_LEN as u64,
+            available: 0,
+        }),
+    );
+    add(
+        "magic only",
+        MAGIC.to_vec(),
+        Exact(E::Truncated {
+            needed: 112,
+            available: 8,
+        }),
+    );
+    add(
+        "4 bytes of magic",
+        MAGIC[..4].to_vec(),
+        Exact(E::Truncated {
+            needed: 112,
+            available: 4,
+        }),
+    );
+    add(
+        "a GIF",
+        b"GIF89a\x01\x00\x01\x00".to_vec(),
+        Exact(E::BadMagic),
+    );
+    add("one byte, not magic", vec![0x00], Exact(E::BadMagic));
+    let mut x = v.clone();
+    x[0] = b'F';
+    add("first magic byte changed", x, Exact(E::BadMagic));
+    let mut x = v.clone();
+    x[4] = b'\n'; // a text-mode transfer turning \r\n into \n would shift this byte
+    add("CR of the magic changed", x, Exact(E::BadMagic));
+    add(
+        "version 0",
+        patched(&v, offsets::VERSION, 0),
+        Exact(E::UnsupportedVersion {
+            found: 0,
+            supported: FORMAT_VERSION,
+        }),
+    );
+    add(
+        "version + 1",
+        patched(&v, offsets::VERSION, FORMAT_VERSION + 1),
+        Exact(E::UnsupportedVersion {
+            found: FORMAT_VERSION + 1,
+            supported: FORMAT_VERSION,
+        }),
+    );
+    add(
+        "version u32::MAX in a 12-byte file",
+        patched(&v[..12], offsets::VERSION, u32::MAX),
+        Exact(E::UnsupportedVersion {
+            found: u32::MAX,
+            supported: FORMAT_VERSION,
+        }),
+    );
+    add(
+        "truncated at 50",
+        v[..50].to_vec(),
+        Exact(E::Truncated {
+            needed: 112,
+            available: 50,
+        }),
+    );
+    add(
+        "truncated at 111",
+        v[..111].to_vec(),
+        Exact(E::Truncated {
+            needed: 112,
+            available: 111,
+        }),
+    );
+    add(
+        "header only",
+        v[..HEADER_LEN].to_vec(),
+        Exact(E::Truncated {
+            needed: len,
+            available: 112,
+        }),
+    );
+    add(
+        "half the file",
+        v[..v.len() / 2].to_vec(),
+        Exact(E::Truncated {
+            needed: len,
+            available: len / 2,
+        }),
+    );
+    add(
+        "checksum missing",
+        v[..v.len() - 4].to_vec(),
+        Exact(E::Truncated {
+            needed: len,
+            available: len - 4,
+        }),
+    );
+    add(
+        "last byte missing",
+        v[..v.len() - 1].to_vec(),
+        Exact(E::Truncated {
+            needed: len,
+            available: len - 1,
+        }),
+    );
+    let mut x = v.clone();
+    x.push(0);
+    add(
+        "one trailing byte",
+        x,
+        Exact(E::TrailingBytes {
+            expected: len,
+            found: len + 1,
+        }),
+    );
+    let mut x = v.clone();
+    x.extend_from_slice(b"garbage after the model");
+    add(
+        "trailing garbage",
+        x,
+        Exact(E::TrailingBytes {
+            expected: len,
+            found: len + 23,
+        }),
+    );
+    let mut x = v.clone();
+    x.extend_from_slice(&v);
+    add(
+        "two models concatenated",
+        x,
+        Exact(E::TrailingBytes {
+            expected: len,
+            found: 2 * len,
+        }),
+    );
+
+    // Header fields.
+    add(
+        "reserved flags set",
+        patched(&v, offsets::FLAGS, 1),
+        Exact(E::ReservedFlags { value: 1 }),
+    );
+    let mut x = v.clone();
+    set_u64(&mut x, offsets::FILE_LENGTH, len + 4);
+    add(
+        "stated length + 4",
+        x,
+        Exact(E::LengthMismatch {
+            stated: len + 4,
+            implied: len,
+        }),
+    );
+    let mut x = v.clone();
+    set_u64(&mut x, offsets::FILE_LENGTH, u64::MAX);
+    add(
+        "stated length u64::MAX",
+        x,
+        Exact(E::LengthMismatch {
+            stated: u64::MAX,
+            implied: len,
+        }),
+    );
+    add(
+        "landmarks 0",
+        patched(&v, offsets::LANDMARKS, 0),
+        below("landmarks", 0, 3),
+    );
+    add(
+        "landmarks 2",
+        patched(&v, offsets::LANDMARKS, 2),
+        below("landmarks", 2, 3),
+    );
+    add(
+        "landmarks limit+1",
+        patched(&v, offsets::LANDMARKS, 1025),
+        lim("landmarks", 1025, 1024),
+    );
+    add(
+        "landmarks u32::MAX",
+        patched(&v, offsets::LANDMARKS, u32::MAX),
+        lim("landmarks", u32::MAX, 1024),
+    );
+    add(
+        "landmarks 69 with the iBUG-68 scheme",
+        patched(&v, offsets::LANDMARKS, 69),
+        Like("InconsistentDimensions", |e| {
+            matches!(e, E::InconsistentDimensions(_))
+        }),
+    );
+    let mut x = patched(&v, offsets::LANDMARKS, 69);
+    set_u32(&mut x, offsets::SCHEME, 0);
+    let implied = len + 4 * (2 * 2 + 2 * m);
+    add(
+        "landmarks 69 (generic)",
+        x,
+        Exact(E::LengthMismatch {
+            stated: len,
+            implied,
+        }),
+    );
+    add(
+        "triangles 0",
+        patched(&v, offsets::TRIANGLES, 0),
+        below("triangles", 0, 1),
+    );
+    add(
+        "triangles limit+1",
+        patched(&v, offsets::TRIANGLES, 8193),
+        lim("triangles", 8193, 8192),
+    );
+    add(
+        "triangles u32::MAX",
+        patched(&v, offsets::TRIANGLES, u32::MAX),
+        lim("triangles", u32::MAX, 8192),
+    );
+    add(
+        "triangles + 1",
+        patched(&v, offsets::TRIANGLES, t + 1),
+        Exact(E::LengthMismatch {
+            stated: len,
+            implied: len + 12,
+        }),
+    );
+    add(
+        "frame width 0",
+        patched(&v, offsets::FRAME_WIDTH, 0),
+        below("frame width", 0, 1),
+    );
+    add(
+        "frame width limit+1",
+        patched(&v, offsets::FRAME_WIDTH, 2049),
+        lim("frame width", 2049, 2048),
+    );
+    add(
+        "frame width u32::MAX",
+        patched(&v, offsets::FRAME_WIDTH, u32::MAX),
+        lim("frame width", u32::MAX, 2048),
+    );
+    add(
+        "frame height 0",
+        patched(&v, offsets::FRAME_HEIGHT, 0),
+        below("frame height", 0, 1),
+    );
+    add(
+        "frame height limit+1",
+        patched(&v, offsets::FRAME_HEIGHT, 2049),
+        lim("frame height", 2049, 2048),
+    );
+    add(
+        "frame height u32::MAX",
+        patched(&v, offsets::FRAME_HEIGHT, u32::MAX),
+        lim("frame height", u32::MAX, 2048),
+    );
+    let mut x = v.clone();
+    set_f32(&mut x, offsets::ORIGIN_X, f32::NAN);
+    add(
+        "origin x NaN",
+        x,
+        Exact(E::NonFinite {
+            array: "frame origin",
+            index: 0,
+        }),
+    );
+    let mut x = v.clone();
+    set_f32(&mut x, offsets::ORIGIN_Y, f32::INFINITY);
+    add(
+        "origin y infinite",
+        x,
+        Exact(E::NonFinite {
+            array: "frame origin",
+            index: 1,
+        }),
+    );
+    add(
+        "pixels 0",
+        patched(&v, offsets::PIXELS, 0),
+        below("frame pixels", 0, 1),
+    );
+    add(
+        "pixels limit+1",
+        patched(&v, offsets::PIXELS, 4_194_305),
+        lim("frame pixels", 4_194_305, 4_194_304),
+    );
+    add(
+        "pixels u32::MAX",
+        patched(&v, offsets::PIXELS, u32::MAX),
+        lim("frame pixels", u32::MAX, 4_194_304),
+    );
+    add(
+        "pixels more than the grid holds",
+        patched(&v, offsets::PIXELS, w * h + 1),
+        Like("InconsistentDimensions", |e| {
+            matches!(e, E::InconsistentDimensions(_))
+        }),
+    );
+    add(
+        "pixels + 1",
+        patched(&v, offsets::PIXELS, px + 1),
+        Exact(E::LengthMismatch {
+            stated: len,
+            implied: len + 12 * (1 + l),
+        }),
+    );
+    let mut x = patched(&v, offsets::FRAME_WIDTH, 2048);
+    set_u32(&mut x, offsets::FRAME_HEIGHT, 2048);
+    add(
+        "2048x2048 frame with few pixels",
+        x,
+        Exact(E::LimitExceeded {
+            what: "frame area (width x height) for the pixel count",
+            value: 2048 * 2048,
+            limit: 4 * px as u64 + 4096,
+        }),
+    );
+    add(
+        "channels 4",
+        patched(&v, offsets::CHANNELS, 4),
+        Exact(E::UnsupportedChannels { found: 4 }),
+    );
+    add(
+        "channels 0",
+        patched(&v, offsets::CHANNELS, 0),
+        Exact(E::UnsupportedChannels { found: 0 }),
+    );
+    add(
+        "shape modes limit+1",
+        patched(&v, offsets::SHAPE_MODES, 257),
+        lim("shape modes", 257, 256),
+    );
+    add(
+        "shape modes u32::MAX",
+        patched(&v, offsets::SHAPE_MODES, u32::MAX),
+        lim("shape modes", u32::MAX, 256),
+    );
+    add(
+        "shape modes 0",
+        patched(&v, offsets::SHAPE_MODES, 0),
+        Exact(E::LengthMismatch {
+            stated: len,
+            implied: len - 4 * m * (2 * n as u64 + 1),
+        }),
+    );
+    let mut x = patched(&v, offsets::LANDMARKS, 3);
+    set_u32(&mut x, offsets::SCHEME, 0);
+    set_u32(&mut x, offsets::SHAPE_MODES, 7);
+    add(
+        "more shape modes than shape values",
+        x,
+        Like("InconsistentDimensions", |e| {
+            matches!(e, E::InconsistentDimensions(_))
+        }),
+    );
+    add(
+        "appearance modes limit+1",
+        patched(&v, offsets::APPEARANCE_MODES, 257),
+        lim("appearance modes", 257, 256),
+    );
+    add(
+        "appearance modes u32::MAX",
+        patched(&v, offsets::APPEARANCE_MODES, u32::MAX),
+        lim("appearance modes", u32::MAX, 256),
+    );
+    add(
+        "appearance modes 0",
+        patched(&v, offsets::APPEARANCE_MODES, 0),
+        Exact(E::LengthMismatch {
+            stated: len,
+            implied: len - 4 * l * (3 * px as u64 + 1),
+        }),
+    );
+    let mut x = patched(&v, offsets::PIXELS, 1);
+    set_u32(&mut x, offsets::APPEARANCE_MODES, 4);
+    add(
+        "more appearance modes than appearance values",
+        x,
+        Like("InconsistentDimensions", |e| {
+            matches!(e, E::InconsistentDimensions(_))
+        }),
+    );
+    add(
+        "scheme tag 2",
+        patched(&v, offsets::SCHEME, 2),
+        Exact(E::BadSchemeTag { tag: 2 }),
+    );
+    add(
+        "reference tag 7",
+        patched(&v, offsets::REFERENCE, 7),
+        Exact(E::BadReferenceTag { tag: 7 }),
+    );
+    add(
+        "mean reference with a name",
+        patched(&v, offsets::REFERENCE_NAME_LEN, 3),
+        Like("InconsistentDimensions", |e| {
+            matches!(e, E::InconsistentDimensions(_))
+        }),
+    );
+    add(
+        "name length limit+1",
+        patched(&v, offsets::NAME_LEN, 257),
+        lim("model name length", 257, 256),
+    );
+    add(
+        "name length u32::MAX",
+        patched(&v, offsets::NAME_LEN, u32::MAX),
+        lim("model name length", u32::MAX, 256),
+    );
+    let wb = write_model(b);
+    add(
+        "reference name length limit+1",
+        patched(&wb, offsets::REFERENCE_NAME_LEN, 257),
+        lim("reference name length", 257, 256),
+    );
+    let mut x = v.clone();
+    set_f32(&mut x, offsets::POSE + 8, f32::NEG_INFINITY);
+    add(
+        "mean pose tx infinite",
+        x,
+        Exact(E::NonFinite {
+            array: "mean pose",
+            index: 2,
+        }),
+    );
+    add(
+        "image width 0",
+        patched(&v, offsets::IMAGE_WIDTH, 0),
+        below("image width", 0, 1),
+    );
+    add(
+        "image height limit+1",
+        patched(&v, offsets::IMAGE_HEIGHT, 8193),
+        lim("image height", 8193, 8192),
+    );
+
+    // Hostile headers: a small file claiming a huge model.
+    let mut hostile = v[..HEADER_LEN].to_vec();
+    set_u32(&mut hostile, offsets::FRAME_WIDTH, 2048);
+    set_u32(&mut hostile, offsets::FRAME_HEIGHT, 2048);
+    set_u32(&mut hostile, offsets::PIXELS, 4_194_304);
+    set_u32(&mut hostile, offsets::SHAPE_MODES, 136);
+    set_u32(&mut hostile, offsets::APPEARANCE_MODES, 256);
+    set_u32(&mut hostile, offsets::TRIANGLES, 8192);
+    let huge =
+        112 + 8 + 4 * (2 * 68 * 136 + 4 * 68 + 136 + 3 * 8192 + 3 * 4_194_304 * 257 + 256) + 4;
+    let mut x = hostile.clone();
+    set_u64(&mut x, offsets::FILE_LENGTH, huge);
+    x.resize(200, 0);
+    add(
+        "200 bytes claiming 256 modes x 4M pixels",
+        x,
+        Exact(E::Truncated {
+            needed: huge,
+            available: 200,
+        }),
+    );
+    let mut x = hostile.clone();
+    set_u64(&mut x, offsets::FILE_LENGTH, 200);
+    x.resize(200, 0);
+    add(
+        "hostile header stating its real length",
+        x,
+        Exact(E::LengthMismatch {
+            stated: 200,
+            implied: huge,
+        }),
+    );
+
+    // Payload corruption.
+    let mut x = v.clone();
+    x[lay.app_base + 101] ^= 0x10;
+    add(
+        "flipped payload bit",
+        x,
+        Like("ChecksumMismatch", |e| {
+            matches!(e, E::ChecksumMismatch { .. })
+        }),
+    );
+    let mut x = v.clone();
+    x[lay.crc] ^= 0x01;
+    add(
+        "flipped checksum bit",
+        x,
+        Like("ChecksumMismatch", |e| {
+            matches!(e, E::ChecksumMismatch { .. })
+        }),
+    );
+    let mut x = v.clone();
+    x[offsets::FINGERPRINT] ^= 0x80;
+    add(
+        "flipped fingerprint bit, CRC left",
+        x,
+        Like("ChecksumMismatch", |e| {
+            matches!(e, E::ChecksumMismatch { .. })
+        }),
+    );
+
+    // Payload corruption with the checksum rewritten, so that the validation itself must fire.
+    let fixed = |f: &dyn Fn(&mut Vec<u8>)| {
+        let mut x = v.clone();
+        f(&mut x);
+        fix_crc(&mut x);
+        x
+    };
+    add(
+        "NaN in the shape base",
+        fixed(&|x| set_f32(x, lay.shape_base, f32::NAN)),
+        Exact(E::NonFinite {
+            array: "shape base",
+            index: 0,
+        }),
+    );
+    add(
+        "infinity in the shape modes",
+        fixed(&|x| set_f32(x, lay.shape_modes + 4 * 5, f32::INFINITY)),
+        Exact(E::NonFinite {
+            array: "shape modes",
+            index: 5,
+        }),
+    );
+    add(
+        "NaN in the frame vertices",
+        fixed(&|x| set_f32(x, lay.vertices + 4 * 9, f32::NAN)),
+        Exact(E::NonFinite {
+            array: "frame vertices",
+            index: 9,
+        }),
+    );
+    add(
+        "NaN in the appearance modes",
+        fixed(&|x| set_f32(x, lay.app_modes + 4 * 17, f32::NAN)),
+        Exact(E::NonFinite {
+            array: "appearance modes",
+            index: 17,
+        }),
+    );
+    add(
+        "NaN in the appearance variances",
+        fixed(&|x| set_f32(x, lay.app_variances, f32::NAN)),
+        Exact(E::NonFinite {
+            array: "appearance variances",
+            index: 0,
+        }),
+    );
+    add(
+        "triangle index = landmarks",
+        fixed(&|x| set_u32(x, lay.triangles + 4, n)),
+        Exact(E::InvalidTriangleIndex {
+            triangle: 0,
+            index: n,
+            landmarks: n,
+        }),
+    );
+    add(
+        "triangle index u32::MAX",
+        fixed(&|x| set_u32(x, lay.triangles + 12 * 5 + 8, u32::MAX)),
+        Exact(E::InvalidTriangleIndex {
+            triangle: 5,
+            index: u32::MAX,
+            landmarks: n,
+        }),
+    );
+    add(
+        "model name not UTF-8",
+        fixed(&|x| x[HEADER_LEN + 2] = 0xFF),
+        Exact(E::InvalidUtf8 {
+            field: "model name",
+        }),
+    );
+    let lay_b = layout(b);
+    let mut x = wb.clone();
+    x[lay_b.pad - 1] = 0xC0; // last byte of the reference name: a truncated 2-byte sequence
+    fix_crc(&mut x);
+    add(
+        "reference name not UTF-8",
+        x,
+        Exact(E::InvalidUtf8 {
+            field: "reference name",
+        }),
+    );
+    assert!(
+        lay.shape_base > lay.pad,
+        "model a's names must need padding"
+    );
+    add(
+        "non-zero padding",
+        fixed(&|x| x[lay.pad] = 1),
+        Exact(E::NonZeroPadding),
+    );
+    add(
+        "negative shape variance",
+        fixed(&|x| set_f32(x, lay.shape_variances + 4, -1.0)),
+        Exact(E::NegativeVariance {
+            array: "shape variances",
+            index: 1,
+            value: -1.0,
+        }),
+    );
+    add(
+        "negative appearance variance",
+        fixed(&|x| set_f32(x, lay.app_variances, -0.5)),
+        Exact(E::NegativeVariance {
+            array: "appearance variances",
+            index: 0,
+            value: -0.5,
+        }),
+    );
+    add(
+        "shape mode 0 doubled",
+        fixed(&|x| {
+            for k in 0..2 * n as usize {
+                let off = lay.shape_modes + 4 * k;
+                let val = get_f32(x, off);
+                set_f32(x, off, 2.0 * val);
+            }
+        }),
+        Like(
+            "NotOrthonormal{shape modes, 0, 0}",
+            |e| matches!(e, E::NotOrthonormal { array: "shape modes", i: 0, j: 0, dot } if (dot - 4.0).abs() < 1e-3),
+        ),
+    );
+    add(
+        "shape mode 1 a copy of mode 0",
+        fixed(&|x| {
+            let d = 8 * n as usize;
+            let src = x[lay.shape_modes..lay.shape_modes + d].to_vec();
+            x[lay.shape_modes + d..lay.shape_modes + 2 * d].copy_from_slice(&src);
+        }),
+        Like(
+            "NotOrthonormal{shape modes, 1, 0}",
+            |e| matches!(e, E::NotOrthonormal { array: "shape modes", i: 1, j: 0, dot } if (dot - 1.0).abs() < 1e-3),
+        ),
+    );
+    let d3 = 12 * px as usize;
+    add(
+        "appearance mode 1 zeroed",
+        fixed(&|x| x[lay.app_modes + d3..lay.app_modes + 2 * d3].fill(0)),
+        Exact(E::NotOrthonormal {
+            array: "appearance modes",
+            i: 1,
+            j: 1,
+            dot: 0.0,
+        }),
+    );
+    add(
+        "wrong fingerprint",
+        fixed(&|x| x[offsets::FINGERPRINT] ^= 1),
+        Exact(E::FingerprintMismatch {
+            stored: a.frame.fingerprint() ^ 1,
+            recomputed: a.frame.fingerprint(),
+        }),
+    );
+    add(
+        "mesh shrunk (pixel count no longer matches)",
+        fixed(&|x| {
+            for k in 0..2 * n as usize {
+                let off = lay.vertices + 4 * k;
+                let val = get_f32(x, off);
+                set_f32(x, off, 0.8 * val);
+            }
+        }),
+        Like("PixelCountMismatch", |e| {
+            matches!(e, E::PixelCountMismatch { .. })
+        }),
+    );
+    add(
+        "all triangles degenerate",
+        fixed(&|x| x[lay.triangles..lay.app_base].fill(0)),
+        Like("BadFrame", |e| matches!(e, E::BadFrame(_))),
+    );
+    // Every triangle spans the whole mesh: the rasterisation work exceeds its limit.
+    let ext = {
+        let vs = a.frame.vertices();
+        let arg = |f: &dyn Fn(usize) -> f32| {
+            (0..n as usize)
+                .max_by(|&i, &j| f(i).total_cmp(&f(j)))
+                .unwrap() as u32
+        };
+        [
+            arg(&|i| -vs[2 * i]),
+            arg(&|i| vs[2 * i]),
+            arg(&|i| vs[2 * i + 1]),
+            arg(&|i| -vs[2 * i + 1]),
+        ]
+    };
+    add(
+        "overlapping triangles covering the grid",
+        fixed(&|x| {
+            for k in 0..t as usize {
+                let tri = if k % 2 == 0 {
+                    [ext[0], ext[1], ext[2]]
+                } else {
+                    [ext[0], ext[1], ext[3]]
+                };
+                for (c, &i) in tri.iter().enumerate() {
+                    set_u32(x, lay.triangles + 12 * k + 4 * c, i);
+                }
+            }
+        }),
+        Like("LimitExceeded{sum of triangle bounding boxes}", |e| {
+            matches!(
+                e,
+                E::LimitExceeded {
+                    what: "sum of triangle bounding boxes (grid cells)",
+                    ..
+                }
+            )
+        }),
+    );
+    cases
+}
+
+#[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
+fn corrupt_truncated_and_hostile_files_are_rejected_with_the_expected_error() {
+    let cases = bad_cases();
+    assert!(cases.len() >= 25, "only {} cases", cases.len());
+    let mut failures = Vec::new();
+    for (name, bytes, expect) in &cases {
+        let got = read_model(bytes);
+        let ok = match (&got, expect) {
+            (Err(e), Expect::Exact(want)) => e == want,
+            (Err(e), Expect::Like(_, f)) => f(e),
+            (Ok(_), _) => false,
+        };
+        if !ok {
+            let want = match expect {
+                Expect::Exact(w) => format!("{w:?}"),
+                Expect::Like(s, _) => s.to_string(),
+            };
+            failures.push(format!(
+                "{name}: expected {want}, got {:?}",
+                got.as_ref().map(|m| &m.name)
+            ));
+        }
+        // Every message is one readable line.
+        if let Err(e) = got {
+            let msg = e.to_string();
+            assert!(
+                !msg.is_empty() && !msg.contains('\n'),
+                "{name}: message {msg:?}"
+            );
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
+}
+
+// ------------------------------------------------------------------------------------------
+// Fuzzing: random bytes and random mutations never panic.
+
+#[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
+fn random_bytes_and_mutations_never_panic() {
+    let ms = models();
+    let valid: Vec<Vec<u8>> = [&ms.a, &ms.b, &ms.c]
+        .iter()
+        .map(|m| write_model(m))
+        .collect();
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let (mut ok, mut err) = (0usize, 0usize);
+    let mut tally = |r: Result<Model, FormatError>| match r {
+        Ok(_) => ok += 1,
+        Err(_) => err += 1,
+    };
+
+    // 1. Random buffers: plain noise, noise behind the magic, noise behind a valid header.
+    for i in 0..3000 {
+        let len = rng.below(if i % 10 == 0 { 4000 } else { 400 });
+        let mut x: Vec<u8> = (0..len).map(|_| rng.next() as u8).collect();
+        match i % 3 {
+            0 => {}
+            1 => {
+                let k = len.min(12);
+                let mut head = MAGIC.to_vec();
+                head.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+                x[..k].copy_from_slice(&head[..k]);
+            }
+            _ => {
+                let src = &valid[rng.below(3)];
+                let k = len.min(HEADER_LEN);
+                x[..k].copy_from_slice(&src[..k]);
+                if len >= HEADER_LEN {
+                    set_u64(&mut x, offsets::FILE_LENGTH, len as u64);
+                }
+            }
+        }
+        tally(read_model(&x));
+    }
+
+    // 2. Mutations of valid files: byte flips, header fields set to random or boundary values,
+    //    truncations, splices, with the length and checksum fixed up half of the time so that
+    //    the deeper validation runs too.
+    let specials = [
+        0u32,
+        1,
+        2,
+        3,
+        67,
+        68,
+        255,
+        256,
+        257,
+        1024,
+        2048,
+        8192,
+        0x7FFF_FFFF,
+        u32::MAX,
+    ];
+    for i in 0..3000 {
+        let src = &valid[i % 3];
+        let mut x = src.clone();
+        match rng.below(5) {
+            0 => {
+                for _ in 0..1 + rng.below(4) {
+                    let k = rng.below(x.len());
+                    x[k] ^= 1 << rng.below(8);
+                }
+            }
+            1 => {
+                let off = 8 + 4 * rng.below((HEADER_LEN - 8) / 4);
+                let val = if rng.below(2) == 0 {
+                    rng.next() as u32
+                } else {
+                    specials[rng.below(specials.len())]
+                };
+                set_u32(&mut x, off, val);
+            }
+            2 => x.truncate(rng.below(x.len())),
+            3 => {
+                let (from, to) = (rng.below(x.len()), rng.below(x.len()));
+                let k = rng.below(64).min(x.len() - from.max(to));
+                let piece = x[from..from + k].to_vec();
+                x[to..to + k].copy_from_slice(&piece);
+            }
+            _ => {
+                // An array value replaced by a random bit pattern (NaNs, huge, tiny, negative).
+                let k = HEADER_LEN + 4 * rng.below((x.len() - HEADER_LEN - 4) / 4);
+                set_u32(&mut x, k, rng.next() as u32);
+            }
+        }
+        if i % 2 == 0 && x.len() >= HEADER_LEN + 4 {
+            let n = x.len() as u64;
+            set_u64(&mut x, offsets::FILE_LENGTH, n);
+            fix_crc(&mut x);
+        }
+        tally(read_model(&x));
+    }
+    assert_eq!(ok + err, 6000);
+    assert!(err > 5000, "{err} rejections of 6000 random inputs");
+}
+
+// ------------------------------------------------------------------------------------------
+// Hostile headers: quick, and (natively, with a counting allocator) no allocation.
+
+#[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
+fn hostile_header_is_rejected_before_any_allocation_of_its_arrays() {
+    let v = write_model(&models().a);
+    let mut x = v[..HEADER_LEN].to_vec();
+    x.resize(200, 0);
+    set_u32(&mut x, offsets::FRAME_WIDTH, 2048);
+    set_u32(&mut x, offsets::FRAME_HEIGHT, 2048);
+    set_u32(&mut x, offsets::PIXELS, LIMITS.max_pixels);
+    set_u32(
+        &mut x,
+        offsets::SHAPE_MODES,
+        136, /* = 2n, the most 68 landmarks allow */
+    );
+    set_u32(
+        &mut x,
+        offsets::APPEARANCE_MODES,
+        LIMITS.max_appearance_modes,
+    );
+    let implied = 112
+        + 8
+        + 4 * (2 * 68 * 136 + 4 * 68 + 136 + 3 * v_triangles(&v) + 3 * 4_194_304 * 257 + 256)
+        + 4;
+    set_u64(&mut x, offsets::FILE_LENGTH, implied);
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let start = std::time::Instant::now();
+        let (r, peak) = counting::peak_during(|| read_model(&x));
+        let elapsed = start.elapsed();
+        assert_eq!(
+            r,
+            Err(FormatError::Truncated {
+                needed: implied,
+                available: 200
+            })
+        );
+        assert!(
+            implied > 12_000_000_000,
+            "the header claims {implied} bytes"
+        );
+        assert!(
+            peak <= 1024,
+            "rejecting a 200-byte hostile file allocated {peak} bytes"
+        );
+        assert!(elapsed.as_millis() < 50, "took {elapsed:?}");
+        eprintln!("hostile 200-byte header claiming {implied} bytes: rejected in {elapsed:?}, peak allocation {peak} bytes");
+    }
+    #[cfg(target_arch = "wasm32")]
+    assert_eq!(
+        read_model(&x),
+        Err(FormatError::Truncated {
+            needed: implied,
+            available: 200
+        })
+    );
+}
+
+fn v_triangles(v: &[u8]) -> u64 {
+    get_u32(v, offsets::TRIANGLES) as u64
+}
+
+/// Reading a valid file allocates a bounded multiple of its size, and a file whose header
+/// claims a huge frame grid for few pixels is rejected without allocating the grid.
+#[cfg(not(target_arch = "wasm32"))]
+#[test]
+fn allocations_are_bounded_by_the_file_size() {
+    for m in [&models().a, &models().b, &models().c] {
+        let v = write_model(m);
+        let (r, peak) = counting::peak_during(|| read_model(&v));
+        assert!(r.is_ok());
+        let ratio = peak as f64 / v.len() as f64;
+        eprintln!(
+            "'{}': {} bytes, peak allocation while reading {peak} bytes ({ratio:.2}x)",
+            m.name,
+            v.len()
+        );
+        assert!(
+            peak <= 16 * v.len() + 64 * 1024,
+            "'{}': peak {peak} for a {}-byte file",
+            m.name,
+            v.len()
+        );
+    }
+    let v = write_model(&models().a);
+    let mut x = patched(&v, offsets::FRAME_WIDTH, 2048);
+    set_u32(&mut x, offsets::FRAME_HEIGHT, 2048);
+    fix_crc(&mut x);
+    let (r, peak) = counting::peak_during(|| read_model(&x));
+    assert!(matches!(r, Err(FormatError::LimitExceeded { .. })), "{r:?}");
+    assert!(peak <= 1024, "peak {peak}");
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+#[global_allocator]
+static ALLOC: counting::Counting = counting::Counting;
+
+/// A global allocator that counts, per thread and only while asked to, the bytes live above the
+/// starting point (tests run on several threads; each measures its own).
+#[cfg(not(target_arch = "wasm32"))]
+mod counting {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    thread_local! {
+        static ON: Cell<bool> = const { Cell::new(false) };
+        static LIVE: Cell<isize> = const { Cell::new(0) };
+        static PEAK: Cell<isize> = const { Cell::new(0) };
+    }
+
+    fn note(delta: isize) {
+        let _ = ON.try_with(|on| {
+            if on.get() {
+                let live = LIVE.with(|l| {
+                    l.set(l.get() + delta);
+                    l.get()
+                });
+                PEAK.with(|p| p.set(p.get().max(live)));
+            }
+        });
+    }
+
+    pub struct Counting;
+
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+            note(l.size() as isize);
+            unsafe { System.alloc(l) }
+        }
+        unsafe fn alloc_zeroed(&self, l: Layout) -> *mut u8 {
+            note(l.size() as isize);
+            unsafe { System.alloc_zeroed(l) }
+        }
+        unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+            note(-(l.size() as isize));
+            unsafe { System.dealloc(p, l) }
+        }
+        unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+            note(new as isize - l.size() as isize);
+            unsafe { System.realloc(p, l, new) }
+        }
+    }
+
+    /// Runs `f` and returns its result and the peak of bytes allocated (and not yet freed)
+    /// on this thread while it ran. The result itself counts (it is alive at the end).
+    pub fn peak_during<T>(f: impl FnOnce() -> T) -> (T, usize) {
+        LIVE.with(|l| l.set(0));
+        PEAK.with(|p| p.set(0));
+        ON.with(|o| o.set(true));
+        let r = f();
+        ON.with(|o| o.set(false));
+        (r, PEAK.with(|p| p.get()).max(0) as usize)
+    }
+}
