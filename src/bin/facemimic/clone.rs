@@ -1,10 +1,110 @@
-//! `facemimic clone` (being written by the cloning work).
+//! `facemimic clone`: one source frame cloned onto one target model.
 
-use facemimic::{Error, Result};
+use std::path::{Path, PathBuf};
+
+use facemimic::clone::{CloneOptions, Cloner, Method};
+use facemimic::{io, Error, Renderer, Result, Similarity};
 
 #[derive(clap::Args)]
-pub struct Args {}
+#[command(group(clap::ArgGroup::new("input").required(true).args(["params", "image"])))]
+pub struct Args {
+    /// The source model (the face whose expression is cloned).
+    #[arg(long, value_name = "S.fmm")]
+    source: PathBuf,
+    /// The target model, built in the source's reference frame (`build --frame S.fmm`).
+    #[arg(long, value_name = "T.fmm")]
+    target: PathBuf,
+    /// Source parameters as printed by `facemimic project --model S.fmm`.
+    #[arg(long, value_name = "P.json")]
+    params: Option<PathBuf>,
+    /// A source image with its landmark file (.pts/.asf beside it), projected into the source.
+    #[arg(long, value_name = "IMAGE")]
+    image: Option<PathBuf>,
+    /// substitute (Fig. 4 A), map (Eq. 3) or map-residual (Eq. 4).
+    #[arg(long, default_value = "map", value_name = "METHOD",
+          value_parser = clap::builder::PossibleValuesParser::new(["substitute", "map", "map-residual"]))]
+    method: String,
+    /// Gain on the source parameters: 0 = the target's reference face, 1 = faithful,
+    /// >1 = exaggerated.
+    #[arg(long, default_value_t = 1.0, value_name = "G", allow_negative_numbers = true)]
+    gain: f32,
+    /// Limit the mapped target parameters to +-K standard deviations of the target.
+    #[arg(long, default_value_t = 3.0, value_name = "K", conflicts_with = "no_clamp")]
+    clamp: f32,
+    /// No limit on the mapped target parameters.
+    #[arg(long)]
+    no_clamp: bool,
+    /// The target follows the source's head motion (default: it stays at its mean pose).
+    #[arg(long)]
+    follow_pose: bool,
+    /// Canvas width (default: the target's training image width).
+    #[arg(long, value_name = "W")]
+    width: Option<u32>,
+    /// Canvas height (default: the target's training image height).
+    #[arg(long, value_name = "H")]
+    height: Option<u32>,
+    /// Write the rendered target face (PNG).
+    #[arg(long, value_name = "OUT.png")]
+    out: Option<PathBuf>,
+    /// Write the cloned target shape's landmarks (image coordinates, .pts).
+    #[arg(long, value_name = "OUT.pts")]
+    out_pts: Option<PathBuf>,
+    /// Write the target parameters (JSON like `project`'s); without any --out* option they
+    /// are printed on stdout.
+    #[arg(long, value_name = "OUT.json")]
+    out_params: Option<PathBuf>,
+}
 
-pub fn run(_a: Args) -> Result<()> {
-    Err(Error::Params("clone is not available yet".into()))
+fn write(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).map_err(|e| Error::Io(format!("{}: {e}", path.display())))
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let method: Method = a.method.parse()?;
+    let source = io::read_model_file(&a.source)?;
+    let target = io::read_model_file(&a.target)?;
+    let params = match (&a.params, &a.image) {
+        (Some(p), _) => super::render::read_params(p)?,
+        (None, Some(img)) => {
+            let t = io::read_training_image(img)?;
+            source.project(&t.image.view()?, &t.landmarks).map_err(|e| e.with_context(&img.display().to_string()))?
+        }
+        (None, None) => return Err(Error::Params("give --params or --image".into())),
+    };
+    let width = a.width.unwrap_or(target.image_size[0]);
+    let height = a.height.unwrap_or(target.image_size[1]);
+    if width == 0 || height == 0 || width > facemimic::MAX_IMAGE_SIDE || height > facemimic::MAX_IMAGE_SIDE {
+        return Err(Error::Image(format!("canvas size {width}x{height} not supported")));
+    }
+    let options = CloneOptions {
+        method,
+        gain: a.gain,
+        clamp: if a.no_clamp { None } else { Some(a.clamp) },
+        follow_pose: a.follow_pose,
+        ..CloneOptions::default()
+    };
+    let mut cloner = Cloner::new(source)?;
+    cloner.add_target(target)?;
+    cloner.clone_frame(&params, &options)?;
+
+    if let Some(out) = &a.out {
+        let mut pixmap = facemimic::tiny_skia::Pixmap::new(width, height)
+            .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
+        pixmap.fill(facemimic::tiny_skia::Color::from_rgba8(32, 32, 36, 255));
+        let frame = &cloner.target(0).frame;
+        let mut renderer = Renderer::new(frame)?;
+        renderer.upload(frame, cloner.target_appearance(0))?;
+        renderer.warp(frame, cloner.target_shape(0), &Similarity::IDENTITY, &mut pixmap.as_mut())?;
+        io::write_pixmap(out, &pixmap)?;
+    }
+    if let Some(p) = &a.out_pts {
+        write(p, &facemimic::landmarks::write_pts(cloner.target_shape(0)))?;
+    }
+    let json = serde_json::to_string(cloner.target_params(0)).map_err(|e| Error::Io(e.to_string()))?;
+    match &a.out_params {
+        Some(p) => write(p, &format!("{json}\n"))?,
+        None if a.out.is_none() && a.out_pts.is_none() => println!("{json}"),
+        None => {}
+    }
+    Ok(())
 }
