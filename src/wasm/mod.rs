@@ -1,1 +1,109 @@
-//! The wasm-bindgen glue (wasm32 only). Being written: see issue 4.
+//! The wasm-bindgen glue (wasm32 only): the JavaScript API of the npm package `facemimic`.
+//!
+//! A thin layer over the core: [`JsModel`] (`Model` in JS) wraps [`crate::Model`] and
+//! [`crate::format`], [`JsCloner`] (`Cloner`) wraps [`crate::clone::Cloner`], and rendering goes
+//! through [`crate::Renderer`] into a reusable tiny-skia pixmap per canvas size, then into the
+//! canvas with `putImageData`. The contract is `npm/README.md`.
+//!
+//! Every entry point validates its input and returns `Result<_, JsError>`: a bad model file,
+//! mismatched models, NaN parameters or a wrong argument throw a JS `Error` whose message
+//! names the problem; nothing panics across the boundary (a panic hook logs any bug to the
+//! console as a safety net).
+
+use wasm_bindgen::prelude::*;
+
+use crate::model::Params;
+
+mod cloner;
+mod model;
+mod surface;
+
+pub use cloner::JsCloner;
+pub use model::{render_mode, JsModel};
+
+/// Converts a library error into a JS `Error` (its message names the problem).
+pub(crate) fn js_err(e: crate::Error) -> JsError {
+    JsError::new(&e.to_string())
+}
+
+/// Parameters from JS: `{ pose: { scale, rotation, tx, ty }, shape: number[], appearance: number[] }`
+/// (arrays may be typed arrays).
+pub(crate) fn params_from_js(value: &JsValue) -> Result<Params, JsError> {
+    if !value.is_object() {
+        return Err(JsError::new(&format!(
+            "parameters: expected {{ pose: {{ scale, rotation, tx, ty }}, shape: [...], appearance: [...] }}, got {}",
+            surface::describe(value)
+        )));
+    }
+    serde_wasm_bindgen::from_value(value.clone())
+        .map_err(|e| JsError::new(&format!("parameters: {e}")))
+}
+
+/// Parameters to JS as a plain object with number arrays.
+pub(crate) fn params_to_js(params: &Params) -> Result<JsValue, JsError> {
+    serde_wasm_bindgen::to_value(params).map_err(|e| JsError::new(&format!("parameters: {e}")))
+}
+
+/// The view (image coordinates -> canvas pixels) with which `model` is drawn into a
+/// `width x height` canvas: its base shape at its mean pose, bounding box centred, the box's
+/// larger side at 85% of the smaller canvas side. Stable for a model and a canvas size.
+pub fn canvas_view(model: &crate::Model, width: u32, height: u32) -> crate::Similarity {
+    surface::fit_view(surface::base_box(model), width, height)
+}
+
+/// The package version (the crate's).
+#[wasm_bindgen]
+pub fn version() -> String {
+    env!("CARGO_PKG_VERSION").to_string()
+}
+
+#[wasm_bindgen]
+extern "C" {
+    #[wasm_bindgen(js_namespace = console, js_name = error)]
+    fn console_error(message: &str);
+}
+
+/// Installs a panic hook that reports any panic (a bug: the API validates its input) on the
+/// console before the module traps. Runs once when the module is instantiated.
+#[wasm_bindgen(start)]
+fn start() {
+    std::panic::set_hook(Box::new(|info| {
+        console_error(&format!(
+            "facemimic: internal error (please report): {info}"
+        ));
+    }));
+}
+
+#[wasm_bindgen(typescript_custom_section)]
+const TS_TYPES: &'static str = r##"
+/** Pose: similarity from model coordinates to image pixels. */
+export interface Pose { scale: number; rotation: number; tx: number; ty: number }
+/** One face instance: pose, shape parameters p, appearance parameters lambda. */
+export interface Params { pose: Pose; shape: number[]; appearance: number[] }
+/** Parameters accepted as input (typed arrays allowed). */
+export type ParamsInput = { pose: Pose; shape: ArrayLike<number>; appearance: ArrayLike<number> };
+/** What `Model.info()` returns. */
+export interface ModelInfo {
+  name: string; landmarks: number; triangles: number; frameWidth: number; frameHeight: number;
+  pixels: number; channels: 3; shapeModes: number; appearanceModes: number;
+  shapeSigma: number[]; appearanceSigma: number[];
+  /** Each mode's share of the kept variance. */
+  shapeVarianceShare: number[]; appearanceVarianceShare: number[];
+  /** The reference frame's fingerprint, hex: models with equal fingerprints can be cloned. */
+  fingerprint: string;
+  /** "mean" or the name of the training image the bases show. */
+  reference: string;
+  imageWidth: number; imageHeight: number;
+}
+/** Cloning method (the paper's Fig. 4 A, B, C). */
+export type Method = "substitute" | "map" | "map-residual";
+/** Rendering options. */
+export interface RenderOptions {
+  /** CSS hex colour (#rgb, #rgba, #rrggbb, #rrggbbaa) or "transparent"; default "#202024". */
+  background?: string;
+  /** Overlay the triangle mesh (thin, semi-transparent). Default false. */
+  mesh?: boolean;
+}
+/** Milliseconds spent per stage since the last `update()` (mapping, synthesis, rasterising, blitting). */
+export interface Timings { mapMs: number; synthMs: number; rasterMs: number; blitMs: number }
+"##;

@@ -1,0 +1,585 @@
+//! `Cloner` for JavaScript: one source driving many targets, rendered into canvases.
+
+use std::str::FromStr;
+
+use wasm_bindgen::prelude::*;
+use web_sys::ImageData;
+
+use super::model::{model_info, JsModel};
+use super::surface::{
+    base_box, fit_view, now_ms, paint, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
+};
+use super::{js_err, params_from_js, params_to_js};
+use crate::clone::{CloneOptions, Cloner, Method};
+use crate::model::{Model, Params};
+use crate::render::Renderer;
+use crate::similarity::Similarity;
+
+/// Stage timings accumulated since the last `update()`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Timings {
+    map: f64,
+    synth: f64,
+    raster: f64,
+    blit: f64,
+}
+
+/// A one-target cloner that renders a target with another method than the main one (the
+/// compare view), rebuilt when the targets change.
+struct Compare {
+    /// Which target of the main cloner it mirrors, and the main cloner's generation then.
+    index: usize,
+    generation: u64,
+    cloner: Cloner,
+}
+
+/// One source model cloned onto any number of targets (the paper's section 3), with rendering
+/// into canvases. Models are copied in; the cloner owns its copies.
+#[wasm_bindgen(js_name = Cloner)]
+pub struct JsCloner {
+    cloner: Cloner,
+    options: CloneOptions,
+    source_params: Params,
+    renderer: Renderer,
+    /// Scratch: source appearance (3N) and source landmarks (2n).
+    appearance: Vec<f32>,
+    shape: Vec<f32>,
+    /// Bounding boxes of the mean placements: source, then one per target.
+    source_box: [f32; 4],
+    target_boxes: Vec<[f32; 4]>,
+    overlay: MeshOverlay,
+    timings: Timings,
+    compare: Option<Compare>,
+    /// Bumped whenever the source or the targets change.
+    generation: u64,
+}
+
+fn parse_method(method: &str) -> Result<Method, JsError> {
+    Method::from_str(method).map_err(js_err)
+}
+
+impl JsCloner {
+    /// The Rust cloner.
+    pub fn cloner(&self) -> &Cloner {
+        &self.cloner
+    }
+
+    /// The options used by `update()`.
+    pub fn options(&self) -> &CloneOptions {
+        &self.options
+    }
+
+    fn check_index(&self, index: u32) -> Result<usize, JsError> {
+        let i = index as usize;
+        if i < self.cloner.n_targets() {
+            Ok(i)
+        } else {
+            Err(JsError::new(&format!(
+                "target index {index} out of range ({} target(s))",
+                self.cloner.n_targets()
+            )))
+        }
+    }
+
+    fn set_options(&mut self, options: CloneOptions) -> Result<(), JsError> {
+        options.validate(self.cloner.source()).map_err(js_err)?;
+        self.options = options;
+        Ok(())
+    }
+
+    /// Uploads `appearance` and warps `shape` (image coordinates) of a model on the shared
+    /// frame into the sink, adding the stage times.
+    #[allow(clippy::too_many_arguments)]
+    fn draw(
+        renderer: &mut Renderer,
+        overlay: &mut MeshOverlay,
+        timings: &mut Timings,
+        model: &Model,
+        appearance: &[f32],
+        shape: &[f32],
+        bbox: [f32; 4],
+        sink: Sink<'_>,
+        options: &RenderOptions,
+    ) -> Result<(), JsError> {
+        let t0 = now_ms();
+        renderer.upload(&model.frame, appearance).map_err(js_err)?;
+        timings.synth += now_ms() - t0;
+        let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
+            let view: Similarity = fit_view(bbox, w, h);
+            renderer
+                .warp(&model.frame, shape, &view, pixmap)
+                .map_err(js_err)?;
+            if options.mesh {
+                overlay.draw(&model.frame, shape, &view, pixmap);
+            }
+            Ok(())
+        })?;
+        timings.raster += stages.raster;
+        timings.blit += stages.blit;
+        Ok(())
+    }
+
+    fn render_source_into(
+        &mut self,
+        sink: Sink<'_>,
+        options: &RenderOptions,
+    ) -> Result<(), JsError> {
+        let model = self.cloner.source();
+        let t0 = now_ms();
+        model
+            .image_shape(&self.source_params, &mut self.shape)
+            .map_err(js_err)?;
+        model
+            .appearance
+            .instance_unchecked(&self.source_params.appearance, &mut self.appearance);
+        self.timings.synth += now_ms() - t0;
+        Self::draw(
+            &mut self.renderer,
+            &mut self.overlay,
+            &mut self.timings,
+            model,
+            &self.appearance,
+            &self.shape,
+            self.source_box,
+            sink,
+            options,
+        )
+    }
+
+    fn render_target_into(
+        &mut self,
+        index: usize,
+        sink: Sink<'_>,
+        options: &RenderOptions,
+    ) -> Result<(), JsError> {
+        let Some(model) = self.cloner.get_target(index) else {
+            return Err(JsError::new(&format!("target index {index} out of range")));
+        };
+        let bbox = self
+            .target_boxes
+            .get(index)
+            .copied()
+            .unwrap_or_else(|| base_box(model));
+        Self::draw(
+            &mut self.renderer,
+            &mut self.overlay,
+            &mut self.timings,
+            model,
+            self.cloner.target_appearance(index),
+            self.cloner.target_shape(index),
+            bbox,
+            sink,
+            options,
+        )
+    }
+
+    fn changed(&mut self) {
+        self.generation += 1;
+        self.compare = None;
+    }
+}
+
+#[wasm_bindgen(js_class = Cloner)]
+impl JsCloner {
+    /// A cloner driven by `source` (copied), with no targets yet.
+    #[wasm_bindgen(constructor)]
+    pub fn new(source: &JsModel) -> Result<JsCloner, JsError> {
+        let model: Model = source.model().clone();
+        let renderer = Renderer::new(&model.frame).map_err(js_err)?;
+        let source_params = model.base_params();
+        let appearance = vec![0.0; model.appearance.len()];
+        let shape = vec![0.0; model.shape.base.len()];
+        let source_box = base_box(&model);
+        let cloner = Cloner::new(model).map_err(js_err)?;
+        Ok(JsCloner {
+            cloner,
+            options: CloneOptions::default(),
+            source_params,
+            renderer,
+            appearance,
+            shape,
+            source_box,
+            target_boxes: Vec::new(),
+            overlay: MeshOverlay::default(),
+            timings: Timings::default(),
+            compare: None,
+            generation: 0,
+        })
+    }
+
+    /// Replaces the source model (copied). Throws if it is inconsistent or a target is
+    /// incompatible with it; the cloner is unchanged then. The source parameters reset to the
+    /// new source's base face, and per-mode gains longer than its mode counts are dropped.
+    #[wasm_bindgen(js_name = setSource)]
+    pub fn set_source(&mut self, source: &JsModel) -> Result<(), JsError> {
+        let model = source.model().clone();
+        let renderer = Renderer::new(&model.frame).map_err(js_err)?;
+        let params = model.base_params();
+        let source_box = base_box(&model);
+        let (m, l) = (model.shape.n_modes(), model.appearance.n_modes());
+        let (n2, d) = (model.shape.base.len(), model.appearance.len());
+        self.cloner.set_source(model).map_err(js_err)?;
+        self.renderer = renderer;
+        self.source_params = params;
+        self.source_box = source_box;
+        self.appearance = vec![0.0; d];
+        self.shape = vec![0.0; n2];
+        self.options.shape_gains.truncate(m);
+        self.options.appearance_gains.truncate(l);
+        self.changed();
+        Ok(())
+    }
+
+    /// Adds a target (copied) and returns its index. Throws `incompatible models: ...` naming
+    /// what differs when it is not built in the source's reference frame.
+    #[wasm_bindgen(js_name = addTarget)]
+    pub fn add_target(&mut self, target: &JsModel) -> Result<u32, JsError> {
+        let model = target.model().clone();
+        let bbox = base_box(&model);
+        let i = self.cloner.add_target(model).map_err(js_err)?;
+        self.target_boxes.push(bbox);
+        self.changed();
+        Ok(i as u32)
+    }
+
+    /// Removes target `index`; later targets move down by one.
+    #[wasm_bindgen(js_name = removeTarget)]
+    pub fn remove_target(&mut self, index: u32) -> Result<(), JsError> {
+        let i = self.check_index(index)?;
+        self.cloner.remove_target(i).map_err(js_err)?;
+        if i < self.target_boxes.len() {
+            self.target_boxes.remove(i);
+        }
+        self.changed();
+        Ok(())
+    }
+
+    /// Replaces target `index` with `target` (copied); on error nothing changes.
+    #[wasm_bindgen(js_name = replaceTarget)]
+    pub fn replace_target(&mut self, index: u32, target: &JsModel) -> Result<(), JsError> {
+        let i = self.check_index(index)?;
+        let model = target.model().clone();
+        let bbox = base_box(&model);
+        self.cloner.replace_target(i, model).map_err(js_err)?;
+        if let Some(b) = self.target_boxes.get_mut(i) {
+            *b = bbox;
+        }
+        self.changed();
+        Ok(())
+    }
+
+    /// Number of targets.
+    #[wasm_bindgen(getter, js_name = targetCount)]
+    pub fn target_count(&self) -> u32 {
+        self.cloner.n_targets() as u32
+    }
+
+    /// The source model's info (see `Model.info()`).
+    #[wasm_bindgen(js_name = sourceInfo, unchecked_return_type = "ModelInfo")]
+    pub fn source_info(&self) -> Result<JsValue, JsError> {
+        model_info(self.cloner.source())
+    }
+
+    /// Target `index`'s model info.
+    #[wasm_bindgen(js_name = targetInfo, unchecked_return_type = "ModelInfo")]
+    pub fn target_info(&self, index: u32) -> Result<JsValue, JsError> {
+        let i = self.check_index(index)?;
+        match self.cloner.get_target(i) {
+            Some(m) => model_info(m),
+            None => Err(JsError::new("target index out of range")),
+        }
+    }
+
+    /// Sets the source parameters for the next `update()`. Throws (and keeps the old ones)
+    /// unless the lengths match the source model and every value is finite.
+    #[wasm_bindgen(js_name = setSourceParams)]
+    pub fn set_source_params(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
+    ) -> Result<(), JsError> {
+        let params = params_from_js(&params)?;
+        self.cloner.source().check_params(&params).map_err(js_err)?;
+        self.source_params = params;
+        Ok(())
+    }
+
+    /// The current source parameters.
+    #[wasm_bindgen(js_name = sourceParams, unchecked_return_type = "Params")]
+    pub fn source_params(&self) -> Result<JsValue, JsError> {
+        params_to_js(&self.source_params)
+    }
+
+    /// The source's landmarks for the current parameters (image coordinates, `2n` values).
+    #[wasm_bindgen(js_name = sourceLandmarks)]
+    pub fn source_landmarks(&self) -> Result<Vec<f32>, JsError> {
+        let model = self.cloner.source();
+        let mut out = vec![0.0; model.shape.base.len()];
+        model
+            .image_shape(&self.source_params, &mut out)
+            .map_err(js_err)?;
+        Ok(out)
+    }
+
+    /// The cloning method: `"substitute"` (Fig. 4 A), `"map"` (Eq. 3, the default) or
+    /// `"map-residual"` (Eq. 4).
+    #[wasm_bindgen(js_name = setMethod)]
+    pub fn set_method(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "Method")] method: &str,
+    ) -> Result<(), JsError> {
+        self.options.method = parse_method(method)?;
+        Ok(())
+    }
+
+    /// The current method.
+    #[wasm_bindgen(getter, unchecked_return_type = "Method")]
+    pub fn method(&self) -> String {
+        self.options.method.name().to_string()
+    }
+
+    /// Global gain on the source parameters (0 = the target's reference face, 1 = faithful,
+    /// >1 exaggerated). Must be finite.
+    #[wasm_bindgen(js_name = setGain)]
+    pub fn set_gain(&mut self, gain: f32) -> Result<(), JsError> {
+        let mut o = self.options.clone();
+        o.gain = gain;
+        self.set_options(o)
+    }
+
+    /// The global gain.
+    #[wasm_bindgen(getter)]
+    pub fn gain(&self) -> f32 {
+        self.options.gain
+    }
+
+    /// Per source shape mode gains, multiplied with the global gain (empty = all 1; a shorter
+    /// array leaves the remaining modes at 1).
+    #[wasm_bindgen(js_name = setShapeGains)]
+    pub fn set_shape_gains(&mut self, gains: &[f32]) -> Result<(), JsError> {
+        let mut o = self.options.clone();
+        o.shape_gains = gains.to_vec();
+        self.set_options(o)
+    }
+
+    /// Per source appearance mode gains (same rules as `setShapeGains`).
+    #[wasm_bindgen(js_name = setAppearanceGains)]
+    pub fn set_appearance_gains(&mut self, gains: &[f32]) -> Result<(), JsError> {
+        let mut o = self.options.clone();
+        o.appearance_gains = gains.to_vec();
+        self.set_options(o)
+    }
+
+    /// The constraint: mapped target parameters limited to `+-k` standard deviations of the
+    /// target's modes; `null` turns it off. Default 3.
+    #[wasm_bindgen(js_name = setClamp)]
+    pub fn set_clamp(&mut self, k: Option<f32>) -> Result<(), JsError> {
+        let mut o = self.options.clone();
+        o.clamp = k;
+        self.set_options(o)
+    }
+
+    /// The constraint's `k`, or `undefined` when off.
+    #[wasm_bindgen(getter)]
+    pub fn clamp(&self) -> Option<f32> {
+        self.options.clamp
+    }
+
+    /// `true`: targets follow the source's head motion relative to its mean pose; `false`
+    /// (default): each target stays at its own mean pose.
+    #[wasm_bindgen(js_name = setFollowPose)]
+    pub fn set_follow_pose(&mut self, on: bool) {
+        self.options.follow_pose = on;
+    }
+
+    /// Whether targets follow the source's pose.
+    #[wasm_bindgen(getter, js_name = followPose)]
+    pub fn follow_pose(&self) -> bool {
+        self.options.follow_pose
+    }
+
+    /// Maps the current source parameters onto every target and synthesises their shapes and
+    /// appearances (one call per frame). Resets the stage timings. Allocates nothing.
+    pub fn update(&mut self) -> Result<(), JsError> {
+        self.timings = Timings::default();
+        let t0 = now_ms();
+        self.cloner
+            .clone_frame(&self.source_params, &self.options)
+            .map_err(js_err)?;
+        self.timings.map = now_ms() - t0;
+        Ok(())
+    }
+
+    /// Target `index`'s parameters of the last `update()` (pose, `p*`, `lambda*`).
+    #[wasm_bindgen(js_name = targetParams, unchecked_return_type = "Params")]
+    pub fn target_params(&self, index: u32) -> Result<JsValue, JsError> {
+        let i = self.check_index(index)?;
+        params_to_js(self.cloner.target_params(i))
+    }
+
+    /// Target `index`'s landmarks of the last `update()` (image coordinates, `2n` values).
+    #[wasm_bindgen(js_name = targetLandmarks)]
+    pub fn target_landmarks(&self, index: u32) -> Result<Vec<f32>, JsError> {
+        let i = self.check_index(index)?;
+        Ok(self.cloner.target_shape(i).to_vec())
+    }
+
+    /// Renders the source face (current parameters) into a 2D canvas context at the canvas's
+    /// own pixel size, centred and scaled (a view fitted to the model's mean placement).
+    #[wasm_bindgen(js_name = renderSource)]
+    pub fn render_source(
+        &mut self,
+        #[wasm_bindgen(
+            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
+        )]
+        ctx: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+    ) -> Result<(), JsError> {
+        let ctx = Ctx::from_js(&ctx)?;
+        let options = RenderOptions::from_js(&options)?;
+        self.render_source_into(Sink::Canvas(&ctx), &options)
+    }
+
+    /// Renders target `index` as of the last `update()` into a 2D canvas context.
+    #[wasm_bindgen(js_name = renderTarget)]
+    pub fn render_target(
+        &mut self,
+        index: u32,
+        #[wasm_bindgen(
+            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
+        )]
+        ctx: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+    ) -> Result<(), JsError> {
+        let i = self.check_index(index)?;
+        let ctx = Ctx::from_js(&ctx)?;
+        let options = RenderOptions::from_js(&options)?;
+        self.render_target_into(i, Sink::Canvas(&ctx), &options)
+    }
+
+    /// Renders target `index` as of the last `update()` into a new `ImageData` of the given
+    /// size (for workers, compositing or saving).
+    #[wasm_bindgen(js_name = renderTargetImageData)]
+    pub fn render_target_image_data(
+        &mut self,
+        index: u32,
+        width: u32,
+        height: u32,
+        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+    ) -> Result<ImageData, JsError> {
+        let i = self.check_index(index)?;
+        let options = RenderOptions::from_js(&options)?;
+        let mut out = None;
+        self.render_target_into(
+            i,
+            Sink::Image {
+                width,
+                height,
+                out: &mut out,
+            },
+            &options,
+        )?;
+        out.ok_or_else(|| JsError::new("internal error: no image produced"))
+    }
+
+    /// Renders the source face into a new `ImageData` of the given size.
+    #[wasm_bindgen(js_name = renderSourceImageData)]
+    pub fn render_source_image_data(
+        &mut self,
+        width: u32,
+        height: u32,
+        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+    ) -> Result<ImageData, JsError> {
+        let options = RenderOptions::from_js(&options)?;
+        let mut out = None;
+        self.render_source_into(
+            Sink::Image {
+                width,
+                height,
+                out: &mut out,
+            },
+            &options,
+        )?;
+        out.ok_or_else(|| JsError::new("internal error: no image produced"))
+    }
+
+    /// The compare view (the paper's Fig. 4): target `index` cloned from the current source
+    /// parameters with `method` (and the other current options), rendered into a canvas,
+    /// without changing the cloner's method or its targets' state.
+    #[wasm_bindgen(js_name = renderTargetWithMethod)]
+    pub fn render_target_with_method(
+        &mut self,
+        index: u32,
+        #[wasm_bindgen(unchecked_param_type = "Method")] method: &str,
+        #[wasm_bindgen(
+            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
+        )]
+        ctx: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+    ) -> Result<(), JsError> {
+        let i = self.check_index(index)?;
+        let method = parse_method(method)?;
+        let ctx = Ctx::from_js(&ctx)?;
+        let render_options = RenderOptions::from_js(&options)?;
+        let fresh =
+            matches!(&self.compare, Some(c) if c.index == i && c.generation == self.generation);
+        if !fresh {
+            let (Some(target), source) = (self.cloner.get_target(i), self.cloner.source()) else {
+                return Err(JsError::new("target index out of range"));
+            };
+            let mut cloner = Cloner::new(source.clone()).map_err(js_err)?;
+            cloner.add_target(target.clone()).map_err(js_err)?;
+            self.compare = Some(Compare {
+                index: i,
+                generation: self.generation,
+                cloner,
+            });
+        }
+        let Some(compare) = self.compare.as_mut() else {
+            return Err(JsError::new("internal error: compare cloner"));
+        };
+        let t0 = now_ms();
+        // Only the method differs; the options were validated when set.
+        let saved = self.options.method;
+        self.options.method = method;
+        let r = compare
+            .cloner
+            .clone_frame(&self.source_params, &self.options);
+        self.options.method = saved;
+        r.map_err(js_err)?;
+        self.timings.map += now_ms() - t0;
+        let bbox = self
+            .target_boxes
+            .get(i)
+            .copied()
+            .unwrap_or_else(|| base_box(compare.cloner.target(0)));
+        Self::draw(
+            &mut self.renderer,
+            &mut self.overlay,
+            &mut self.timings,
+            compare.cloner.target(0),
+            compare.cloner.target_appearance(0),
+            compare.cloner.target_shape(0),
+            bbox,
+            Sink::Canvas(&ctx),
+            &render_options,
+        )
+    }
+
+    /// Milliseconds per stage since the last `update()`: `mapMs` (mapping and target synthesis
+    /// in `update()`, plus compare-view cloning), `synthMs` (source synthesis and texture
+    /// uploads), `rasterMs` (clearing and warping into the pixmaps), `blitMs` (into canvases).
+    #[wasm_bindgen(unchecked_return_type = "Timings")]
+    pub fn timings(&self) -> Result<JsValue, JsError> {
+        let o = js_sys::Object::new();
+        for (k, v) in [
+            ("mapMs", self.timings.map),
+            ("synthMs", self.timings.synth),
+            ("rasterMs", self.timings.raster),
+            ("blitMs", self.timings.blit),
+        ] {
+            js_sys::Reflect::set(&o, &JsValue::from_str(k), &JsValue::from_f64(v))
+                .map_err(|_| JsError::new("timings: cannot build the result"))?;
+        }
+        Ok(o.into())
+    }
+}

@@ -1,0 +1,332 @@
+//! `Model` for JavaScript: load, inspect, project, render, and the inspector's `renderMode`.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use serde::Serialize;
+use wasm_bindgen::prelude::*;
+
+use super::surface::{base_box, fit_view, paint, Ctx, MeshOverlay, RenderOptions, Sink};
+use super::{js_err, params_from_js, params_to_js};
+use crate::image::ImageRef;
+use crate::model::{Model, Params, Reference};
+use crate::render::Renderer;
+
+/// The plain object `Model.info()` returns (see the TypeScript `ModelInfo`).
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+pub(crate) struct ModelInfo {
+    name: String,
+    landmarks: usize,
+    triangles: usize,
+    frame_width: u32,
+    frame_height: u32,
+    pixels: usize,
+    channels: u32,
+    shape_modes: usize,
+    appearance_modes: usize,
+    shape_sigma: Vec<f32>,
+    appearance_sigma: Vec<f32>,
+    shape_variance_share: Vec<f32>,
+    appearance_variance_share: Vec<f32>,
+    fingerprint: String,
+    reference: String,
+    image_width: u32,
+    image_height: u32,
+}
+
+fn shares(variances: &[f32]) -> Vec<f32> {
+    let total: f64 = variances.iter().map(|&v| v as f64).sum();
+    variances
+        .iter()
+        .map(|&v| {
+            if total > 0.0 {
+                (v as f64 / total) as f32
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+pub(crate) fn model_info(m: &Model) -> Result<JsValue, JsError> {
+    let info = ModelInfo {
+        name: m.name.clone(),
+        landmarks: m.landmarks(),
+        triangles: m.frame.triangles().len(),
+        frame_width: m.frame.width(),
+        frame_height: m.frame.height(),
+        pixels: m.frame.n_pixels(),
+        channels: 3,
+        shape_modes: m.shape.n_modes(),
+        appearance_modes: m.appearance.n_modes(),
+        shape_sigma: m.shape.sigmas(),
+        appearance_sigma: m.appearance.sigmas(),
+        shape_variance_share: shares(&m.shape.variances),
+        appearance_variance_share: shares(&m.appearance.variances),
+        fingerprint: format!("{:016x}", m.frame.fingerprint()),
+        reference: match &m.reference {
+            Reference::Mean => "mean".into(),
+            Reference::Training(name) => name.clone(),
+        },
+        image_width: m.image_size[0],
+        image_height: m.image_size[1],
+    };
+    serde_wasm_bindgen::to_value(&info).map_err(|e| JsError::new(&format!("model info: {e}")))
+}
+
+/// Per-model rendering scratch (created on the first render, reused afterwards).
+pub(crate) struct ModelScratch {
+    renderer: Renderer,
+    appearance: Vec<f32>,
+    shape: Vec<f32>,
+    params: Params,
+    overlay: MeshOverlay,
+    bbox: [f32; 4],
+}
+
+impl ModelScratch {
+    fn new(model: &Model) -> Result<ModelScratch, JsError> {
+        Ok(ModelScratch {
+            renderer: Renderer::new(&model.frame).map_err(js_err)?,
+            appearance: vec![0.0; model.appearance.len()],
+            shape: vec![0.0; model.shape.base.len()],
+            params: model.base_params(),
+            overlay: MeshOverlay::default(),
+            bbox: base_box(model),
+        })
+    }
+
+    /// Renders `self.params` of `model` into `ctx`.
+    fn render(&mut self, model: &Model, ctx: &Ctx, options: &RenderOptions) -> Result<(), JsError> {
+        model.check_params(&self.params).map_err(js_err)?;
+        model
+            .appearance
+            .instance_unchecked(&self.params.appearance, &mut self.appearance);
+        self.renderer
+            .upload(&model.frame, &self.appearance)
+            .map_err(js_err)?;
+        model
+            .image_shape(&self.params, &mut self.shape)
+            .map_err(js_err)?;
+        let bbox = self.bbox;
+        let (renderer, shape, overlay) = (&mut self.renderer, &self.shape, &mut self.overlay);
+        paint(Sink::Canvas(ctx), options.background, |pixmap, w, h| {
+            let view = fit_view(bbox, w, h);
+            renderer
+                .warp(&model.frame, shape, &view, pixmap)
+                .map_err(js_err)?;
+            if options.mesh {
+                overlay.draw(&model.frame, shape, &view, pixmap);
+            }
+            Ok(())
+        })?;
+        Ok(())
+    }
+}
+
+/// A person-specific Active Appearance Model (shape model, appearance model, reference frame),
+/// loaded from a `.fmm` file.
+#[wasm_bindgen(js_name = Model)]
+pub struct JsModel {
+    pub(crate) model: Rc<Model>,
+    scratch: RefCell<Option<Box<ModelScratch>>>,
+}
+
+impl From<Model> for JsModel {
+    fn from(model: Model) -> Self {
+        JsModel {
+            model: Rc::new(model),
+            scratch: RefCell::new(None),
+        }
+    }
+}
+
+impl JsModel {
+    /// The Rust model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    fn with_scratch<T>(
+        &self,
+        f: impl FnOnce(&Model, &mut ModelScratch) -> Result<T, JsError>,
+    ) -> Result<T, JsError> {
+        let mut slot = self
+            .scratch
+            .try_borrow_mut()
+            .map_err(|_| JsError::new("model: render called re-entrantly"))?;
+        if slot.is_none() {
+            *slot = Some(Box::new(ModelScratch::new(&self.model)?));
+        }
+        match slot.as_deref_mut() {
+            Some(s) => f(&self.model, s),
+            None => Err(JsError::new("internal error: model scratch")),
+        }
+    }
+}
+
+#[wasm_bindgen(js_class = Model)]
+impl JsModel {
+    /// Parses and validates a `.fmm` model file. Throws an `Error` naming the problem
+    /// (corrupt, truncated, unsupported version, limits exceeded).
+    #[wasm_bindgen(js_name = fromBytes)]
+    pub fn from_bytes(bytes: &[u8]) -> Result<JsModel, JsError> {
+        let model = crate::format::read_model(bytes).map_err(|e| js_err(e.into()))?;
+        Ok(JsModel::from(model))
+    }
+
+    /// Serialises the model as a `.fmm` file.
+    #[wasm_bindgen(js_name = toBytes)]
+    pub fn to_bytes(&self) -> Vec<u8> {
+        crate::format::write_model(&self.model)
+    }
+
+    /// The model's name (e.g. `"spk07"`).
+    #[wasm_bindgen(getter)]
+    pub fn name(&self) -> String {
+        self.model.name.clone()
+    }
+
+    /// Sizes, variances and identity of the model.
+    #[wasm_bindgen(unchecked_return_type = "ModelInfo")]
+    pub fn info(&self) -> Result<JsValue, JsError> {
+        model_info(&self.model)
+    }
+
+    /// The reference face at its mean pose (all shape and appearance parameters zero).
+    #[wasm_bindgen(js_name = baseParams, unchecked_return_type = "Params")]
+    pub fn base_params(&self) -> Result<JsValue, JsError> {
+        params_to_js(&self.model.base_params())
+    }
+
+    /// Projects a face into the model: `landmarks` (`2n` values, image coordinates, pixel
+    /// centres on integers) give the pose and shape parameters, the RGBA image sampled at them
+    /// gives the appearance parameters.
+    #[wasm_bindgen(unchecked_return_type = "Params")]
+    pub fn project(
+        &self,
+        landmarks: &[f32],
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] rgba: &[u8],
+        width: u32,
+        height: u32,
+    ) -> Result<JsValue, JsError> {
+        let image = ImageRef::new(width, height, rgba).map_err(js_err)?;
+        let params = self.model.project(&image, landmarks).map_err(js_err)?;
+        params_to_js(&params)
+    }
+
+    /// The landmarks (image coordinates, `2n` values) of an instance.
+    #[wasm_bindgen(js_name = landmarks)]
+    pub fn landmarks_of(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
+    ) -> Result<Vec<f32>, JsError> {
+        let params = params_from_js(&params)?;
+        let mut out = vec![0.0; self.model.shape.base.len()];
+        self.model.image_shape(&params, &mut out).map_err(js_err)?;
+        Ok(out)
+    }
+
+    /// The view (a pose: image coordinates -> canvas pixels) used when this model is drawn
+    /// into a `width x height` canvas: the face's mean placement centred, its bounding box at
+    /// 85% of the smaller side. Use it to overlay landmarks (`x' = scale (cos r x - sin r y) + tx`).
+    #[wasm_bindgen(js_name = viewFor, unchecked_return_type = "Pose")]
+    pub fn view_for(&self, width: u32, height: u32) -> Result<JsValue, JsError> {
+        serde_wasm_bindgen::to_value(&super::canvas_view(&self.model, width, height))
+            .map_err(|e| JsError::new(&format!("view: {e}")))
+    }
+
+    /// A copy of the model.
+    #[wasm_bindgen(js_name = clone)]
+    pub fn clone_model(&self) -> JsModel {
+        JsModel {
+            model: self.model.clone(),
+            scratch: RefCell::new(None),
+        }
+    }
+
+    /// Renders an instance of this model into a 2D canvas context, centred and scaled to the
+    /// canvas (the view is fitted to the model's mean placement, so pose changes are visible).
+    pub fn render(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
+        #[wasm_bindgen(
+            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
+        )]
+        ctx: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+    ) -> Result<(), JsError> {
+        let params = params_from_js(&params)?;
+        self.model.check_params(&params).map_err(js_err)?;
+        let ctx = Ctx::from_js(&ctx)?;
+        let options = RenderOptions::from_js(&options)?;
+        self.with_scratch(|model, s| {
+            s.params = params;
+            s.render(model, &ctx, &options)
+        })
+    }
+}
+
+/// Which parameter block [`render_mode`] varies.
+fn mode_kind(kind: &str) -> Result<bool, JsError> {
+    match kind {
+        "shape" => Ok(true),
+        "appearance" => Ok(false),
+        other => Err(JsError::new(&format!(
+            "renderMode: kind must be \"shape\" or \"appearance\", got {other:?}"
+        ))),
+    }
+}
+
+/// Inspector (the paper's Fig. 1): renders the model's base face moved `sigmas` standard
+/// deviations along one shape or appearance mode (`sigmas = 0` shows the base), at the mean
+/// pose, into a 2D canvas context. Allocation-free after the first call for a model.
+#[wasm_bindgen(js_name = renderMode)]
+pub fn render_mode(
+    model: &JsModel,
+    #[wasm_bindgen(unchecked_param_type = "\"shape\" | \"appearance\"")] kind: &str,
+    mode: u32,
+    sigmas: f32,
+    #[wasm_bindgen(
+        unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
+    )]
+    ctx: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+) -> Result<(), JsError> {
+    let shape = mode_kind(kind)?;
+    if !sigmas.is_finite() {
+        return Err(JsError::new(&format!(
+            "renderMode: sigmas must be finite, got {sigmas}"
+        )));
+    }
+    let m = &model.model;
+    let (count, variances) = if shape {
+        (m.shape.n_modes(), &m.shape.variances)
+    } else {
+        (m.appearance.n_modes(), &m.appearance.variances)
+    };
+    let i = mode as usize;
+    let Some(var) = variances.get(i) else {
+        return Err(JsError::new(&format!(
+            "renderMode: {kind} mode {mode} out of range (the model has {count})"
+        )));
+    };
+    let value = sigmas * var.sqrt();
+    let ctx = Ctx::from_js(&ctx)?;
+    let options = RenderOptions::from_js(&options)?;
+    model.with_scratch(|model, s| {
+        s.params.pose = model.mean_pose;
+        s.params.shape.iter_mut().for_each(|v| *v = 0.0);
+        s.params.appearance.iter_mut().for_each(|v| *v = 0.0);
+        let block = if shape {
+            &mut s.params.shape
+        } else {
+            &mut s.params.appearance
+        };
+        if let Some(v) = block.get_mut(i) {
+            *v = value;
+        }
+        s.render(model, &ctx, &options)
+    })
+}

@@ -1,0 +1,472 @@
+//! Canvas plumbing shared by every render entry point: the 2D context (on-screen or offscreen),
+//! the reusable tiny-skia pixmaps (one per canvas size), the view that centres a face in a
+//! canvas, the background colour, the mesh overlay, the blit and the clock.
+
+use std::cell::RefCell;
+
+use tiny_skia::{Color, Paint, PathBuilder, Pixmap, PixmapMut, Stroke, Transform};
+use wasm_bindgen::prelude::*;
+use wasm_bindgen::{Clamped, JsCast};
+use web_sys::{CanvasRenderingContext2d, ImageData, OffscreenCanvasRenderingContext2d};
+
+use crate::frame::ReferenceFrame;
+use crate::image::MAX_IMAGE_SIDE;
+use crate::model::Model;
+use crate::similarity::Similarity;
+
+#[wasm_bindgen]
+extern "C" {
+    /// `performance.now()` (window, worker and Node alike).
+    #[wasm_bindgen(js_namespace = performance, js_name = now)]
+    fn performance_now() -> f64;
+}
+
+/// Milliseconds from a monotonic clock.
+pub(crate) fn now_ms() -> f64 {
+    performance_now()
+}
+
+/// Share of the smaller canvas side that the face's bounding box takes.
+pub(crate) const FACE_FILL: f32 = 0.85;
+
+/// A 2D context to draw into: `CanvasRenderingContext2D` or `OffscreenCanvasRenderingContext2D`.
+pub(crate) enum Ctx {
+    /// An on-screen canvas.
+    Html(CanvasRenderingContext2d),
+    /// An offscreen canvas (workers, tests).
+    Offscreen(OffscreenCanvasRenderingContext2d),
+}
+
+impl Ctx {
+    /// Accepts either kind of 2D context, with an error naming what was passed otherwise.
+    pub(crate) fn from_js(value: &JsValue) -> Result<Ctx, JsError> {
+        if let Some(c) = value.dyn_ref::<CanvasRenderingContext2d>() {
+            return Ok(Ctx::Html(c.clone()));
+        }
+        if let Some(c) = value.dyn_ref::<OffscreenCanvasRenderingContext2d>() {
+            return Ok(Ctx::Offscreen(c.clone()));
+        }
+        Err(JsError::new(&format!(
+            "expected a CanvasRenderingContext2D (canvas.getContext(\"2d\")), got {}",
+            describe(value)
+        )))
+    }
+
+    /// The canvas's size in its own pixels.
+    pub(crate) fn size(&self) -> Result<(u32, u32), JsError> {
+        let (w, h) = match self {
+            Ctx::Html(c) => match c.canvas() {
+                Some(canvas) => (canvas.width(), canvas.height()),
+                None => return Err(JsError::new("the 2D context has no canvas")),
+            },
+            Ctx::Offscreen(c) => {
+                let canvas = c.canvas();
+                (canvas.width(), canvas.height())
+            }
+        };
+        if w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
+            return Err(JsError::new(&format!(
+                "canvas {w}x{h} is larger than {MAX_IMAGE_SIDE} pixels on a side"
+            )));
+        }
+        Ok((w, h))
+    }
+
+    fn put(&self, image: &ImageData) -> Result<(), JsError> {
+        let r = match self {
+            Ctx::Html(c) => c.put_image_data(image, 0.0, 0.0),
+            Ctx::Offscreen(c) => c.put_image_data(image, 0.0, 0.0),
+        };
+        r.map_err(|e| JsError::new(&format!("putImageData failed: {}", describe(&e))))
+    }
+}
+
+/// A short description of a JS value for error messages.
+pub(crate) fn describe(value: &JsValue) -> String {
+    if value.is_undefined() {
+        return "undefined".into();
+    }
+    if value.is_null() {
+        return "null".into();
+    }
+    if let Some(s) = value.as_string() {
+        return format!("the string {s:?}");
+    }
+    if let Some(n) = value.as_f64() {
+        return format!("the number {n}");
+    }
+    if let Some(e) = value.dyn_ref::<js_sys::Error>() {
+        return String::from(e.message());
+    }
+    let ctor = js_sys::Reflect::get(value, &JsValue::from_str("constructor"))
+        .ok()
+        .and_then(|c| js_sys::Reflect::get(&c, &JsValue::from_str("name")).ok())
+        .and_then(|n| n.as_string());
+    match ctor {
+        Some(name) => format!("a {name}"),
+        None => "an object".into(),
+    }
+}
+
+/// Parsed [`RenderOptions`](crate::wasm) (`{ background?: string, mesh?: boolean }`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct RenderOptions {
+    /// Premultiplied background colour.
+    pub background: Color,
+    /// Overlay the triangle mesh.
+    pub mesh: bool,
+}
+
+/// The default background, `#202024`.
+pub(crate) const DEFAULT_BACKGROUND: [u8; 4] = [0x20, 0x20, 0x24, 0xff];
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        let [r, g, b, a] = DEFAULT_BACKGROUND;
+        RenderOptions {
+            background: Color::from_rgba8(r, g, b, a),
+            mesh: false,
+        }
+    }
+}
+
+thread_local! {
+    /// The last background string seen and its parse, so that passing the same options every
+    /// frame costs no allocation.
+    static LAST_BACKGROUND: RefCell<Option<(JsValue, Color)>> = const { RefCell::new(None) };
+}
+
+impl RenderOptions {
+    /// Reads `{ background?, mesh? }` from JS (`undefined`/`null` = defaults).
+    pub(crate) fn from_js(value: &Option<JsValue>) -> Result<RenderOptions, JsError> {
+        let mut o = RenderOptions::default();
+        let Some(value) = value else {
+            return Ok(o);
+        };
+        if value.is_undefined() || value.is_null() {
+            return Ok(o);
+        }
+        if !value.is_object() {
+            return Err(JsError::new(&format!(
+                "render options: expected an object like {{ background: \"#202024\", mesh: false }}, got {}",
+                describe(value)
+            )));
+        }
+        let get = |key: &str| {
+            js_sys::Reflect::get(value, &JsValue::from_str(key)).map_err(|e| {
+                JsError::new(&format!("render options: reading {key}: {}", describe(&e)))
+            })
+        };
+        let bg = get("background")?;
+        if !(bg.is_undefined() || bg.is_null()) {
+            let cached = LAST_BACKGROUND.with(|c| {
+                c.borrow()
+                    .as_ref()
+                    .and_then(|(s, col)| js_sys::Object::is(s, &bg).then_some(*col))
+            });
+            o.background = match cached {
+                Some(c) => c,
+                None => {
+                    let Some(text) = bg.as_string() else {
+                        return Err(JsError::new(&format!(
+                            "render options: background must be a string like \"#202024\", got {}",
+                            describe(&bg)
+                        )));
+                    };
+                    let c = parse_colour(&text).ok_or_else(|| {
+                        JsError::new(&format!(
+                            "render options: background {text:?} is not a CSS hex colour \
+                             (#rgb, #rgba, #rrggbb, #rrggbbaa) or \"transparent\""
+                        ))
+                    })?;
+                    LAST_BACKGROUND.with(|cell| *cell.borrow_mut() = Some((bg.clone(), c)));
+                    c
+                }
+            };
+        }
+        let mesh = get("mesh")?;
+        if !(mesh.is_undefined() || mesh.is_null()) {
+            o.mesh = mesh.as_bool().ok_or_else(|| {
+                JsError::new(&format!(
+                    "render options: mesh must be a boolean, got {}",
+                    describe(&mesh)
+                ))
+            })?;
+        }
+        Ok(o)
+    }
+}
+
+/// Parses `#rgb`, `#rgba`, `#rrggbb`, `#rrggbbaa` or `transparent`.
+pub(crate) fn parse_colour(text: &str) -> Option<Color> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("transparent") {
+        return Some(Color::TRANSPARENT);
+    }
+    let hex = t.strip_prefix('#')?;
+    if !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return None;
+    }
+    let nib = |i: usize| u8::from_str_radix(&hex[i..i + 1], 16).ok();
+    let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).ok();
+    let [r, g, b, a] = match hex.len() {
+        3 | 4 => {
+            let a = if hex.len() == 4 { nib(3)? * 17 } else { 255 };
+            [nib(0)? * 17, nib(1)? * 17, nib(2)? * 17, a]
+        }
+        6 | 8 => {
+            let a = if hex.len() == 8 { byte(6)? } else { 255 };
+            [byte(0)?, byte(2)?, byte(4)?, a]
+        }
+        _ => return None,
+    };
+    Some(Color::from_rgba8(r, g, b, a))
+}
+
+/// The bounding box `[min x, min y, max x, max y]` of a model's base shape placed at its mean
+/// pose, in image coordinates. Allocation-free.
+pub(crate) fn base_box(model: &Model) -> [f32; 4] {
+    let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
+    for p in model.shape.base.chunks_exact(2) {
+        let (x, y) = model.mean_pose.apply_point(p[0], p[1]);
+        b[0] = b[0].min(x);
+        b[1] = b[1].min(y);
+        b[2] = b[2].max(x);
+        b[3] = b[3].max(y);
+    }
+    b
+}
+
+/// The view (image coordinates -> canvas pixels) that centres the box in a `w x h` canvas with
+/// its larger side at [`FACE_FILL`] of the smaller canvas side. Stable for a model and size.
+pub(crate) fn fit_view(bbox: [f32; 4], w: u32, h: u32) -> Similarity {
+    let bw = (bbox[2] - bbox[0]).max(1e-3);
+    let bh = (bbox[3] - bbox[1]).max(1e-3);
+    let side = w.min(h) as f32;
+    let s = FACE_FILL * side / bw.max(bh);
+    let s = if s.is_finite() && s > 0.0 { s } else { 1.0 };
+    let (cx, cy) = (0.5 * (bbox[0] + bbox[2]), 0.5 * (bbox[1] + bbox[3]));
+    // Pixel centres are on integers, so the canvas centre is at (w - 1) / 2.
+    Similarity {
+        a: s,
+        b: 0.0,
+        tx: 0.5 * (w as f32 - 1.0) - s * cx,
+        ty: 0.5 * (h as f32 - 1.0) - s * cy,
+    }
+}
+
+/// A reusable pixmap of one canvas size and its straight-alpha copy (for non-opaque
+/// backgrounds).
+pub(crate) struct Surface {
+    pixmap: Pixmap,
+    straight: Vec<u8>,
+    last_use: u64,
+}
+
+/// Pixmaps by canvas size (a few at most), shared by all renders: drawing is synchronous and
+/// single-threaded, so one per size suffices. Re-created only when a new size appears.
+pub(crate) struct Surfaces {
+    list: Vec<Surface>,
+    clock: u64,
+}
+
+/// Most distinct canvas sizes kept at once.
+const MAX_SURFACES: usize = 6;
+
+thread_local! {
+    static SURFACES: RefCell<Surfaces> = const { RefCell::new(Surfaces { list: Vec::new(), clock: 0 }) };
+}
+
+/// Stage timings of one render (milliseconds).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Stages {
+    /// Rasterising (triangle warp and overlay).
+    pub raster: f64,
+    /// Copying into the canvas.
+    pub blit: f64,
+}
+
+/// Where a render goes: a canvas context, or a new `ImageData` of a given size.
+pub(crate) enum Sink<'a> {
+    /// Blit into this context's canvas (sized by the canvas).
+    Canvas(&'a Ctx),
+    /// Return a fresh `ImageData` of this size (the pixels are copied out of wasm memory).
+    Image {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// The result.
+        out: &'a mut Option<ImageData>,
+    },
+}
+
+impl Sink<'_> {
+    fn size(&self) -> Result<(u32, u32), JsError> {
+        match self {
+            Sink::Canvas(ctx) => ctx.size(),
+            Sink::Image { width, height, .. } => {
+                if *width == 0
+                    || *height == 0
+                    || *width > MAX_IMAGE_SIDE
+                    || *height > MAX_IMAGE_SIDE
+                {
+                    return Err(JsError::new(&format!(
+                        "image size {width}x{height} outside 1..={MAX_IMAGE_SIDE}"
+                    )));
+                }
+                Ok((*width, *height))
+            }
+        }
+    }
+}
+
+/// Runs `draw` on a pixmap the size of the sink filled with `background`, then blits the
+/// result into the canvas (or copies it into a new `ImageData`). Returns the raster and blit
+/// times. A zero-sized canvas is skipped.
+pub(crate) fn paint<F>(sink: Sink<'_>, background: Color, draw: F) -> Result<Stages, JsError>
+where
+    F: FnOnce(&mut PixmapMut<'_>, u32, u32) -> Result<(), JsError>,
+{
+    let (w, h) = sink.size()?;
+    if w == 0 || h == 0 {
+        return Ok(Stages::default());
+    }
+    SURFACES.with(|cell| {
+        let Ok(mut surfaces) = cell.try_borrow_mut() else {
+            return Err(JsError::new("render called re-entrantly"));
+        };
+        let surfaces = &mut *surfaces;
+        surfaces.clock += 1;
+        let clock = surfaces.clock;
+        let idx = match surfaces
+            .list
+            .iter()
+            .position(|s| s.pixmap.width() == w && s.pixmap.height() == h)
+        {
+            Some(i) => i,
+            None => {
+                let pixmap = Pixmap::new(w, h)
+                    .ok_or_else(|| JsError::new(&format!("cannot allocate a {w}x{h} pixmap")))?;
+                if surfaces.list.len() >= MAX_SURFACES {
+                    if let Some(oldest) = surfaces
+                        .list
+                        .iter()
+                        .enumerate()
+                        .min_by_key(|(_, s)| s.last_use)
+                        .map(|(i, _)| i)
+                    {
+                        surfaces.list.swap_remove(oldest);
+                    }
+                }
+                surfaces.list.push(Surface {
+                    pixmap,
+                    straight: Vec::new(),
+                    last_use: clock,
+                });
+                surfaces.list.len() - 1
+            }
+        };
+        let Some(surface) = surfaces.list.get_mut(idx) else {
+            return Err(JsError::new("internal error: surface cache"));
+        };
+        surface.last_use = clock;
+        let t0 = now_ms();
+        surface.pixmap.fill(background);
+        draw(&mut surface.pixmap.as_mut(), w, h)?;
+        let t1 = now_ms();
+        // An opaque background stays opaque under opaque fills and source-over strokes, so the
+        // premultiplied pixels are already straight: blit them as they are.
+        let bytes: &[u8] = if background.is_opaque() {
+            surface.pixmap.data()
+        } else {
+            crate::render::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
+            &surface.straight
+        };
+        match sink {
+            Sink::Canvas(ctx) => {
+                // A view on wasm memory, consumed at once by putImageData.
+                let image = ImageData::new_with_u8_clamped_array_and_sh(Clamped(bytes), w, h)
+                    .map_err(|e| JsError::new(&format!("ImageData: {}", describe(&e))))?;
+                ctx.put(&image)?;
+            }
+            Sink::Image { out, .. } => {
+                let array = js_sys::Uint8ClampedArray::new_with_length(bytes.len() as u32);
+                array.copy_from(bytes);
+                let image = ImageData::new_with_js_u8_clamped_array_and_sh(&array, w, h)
+                    .map_err(|e| JsError::new(&format!("ImageData: {}", describe(&e))))?;
+                *out = Some(image);
+            }
+        }
+        let t2 = now_ms();
+        Ok(Stages {
+            raster: t1 - t0,
+            blit: t2 - t1,
+        })
+    })
+}
+
+/// Unique undirected edges of a frame's triangles (for the mesh overlay).
+pub(crate) fn mesh_edges(frame: &ReferenceFrame) -> Vec<[u32; 2]> {
+    let mut e: Vec<[u32; 2]> = frame
+        .triangles()
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .map(|[a, b]| if a < b { [a, b] } else { [b, a] })
+        .collect();
+    e.sort_unstable();
+    e.dedup();
+    e
+}
+
+/// Reusable state for drawing the mesh overlay.
+#[derive(Default)]
+pub(crate) struct MeshOverlay {
+    edges: Vec<[u32; 2]>,
+    fingerprint: Option<u64>,
+    path: Option<PathBuilder>,
+}
+
+impl MeshOverlay {
+    /// Strokes the mesh edges of `frame` at `image_shape` (image coordinates) through `view`:
+    /// thin, semi-transparent white hairlines.
+    pub(crate) fn draw(
+        &mut self,
+        frame: &ReferenceFrame,
+        image_shape: &[f32],
+        view: &Similarity,
+        target: &mut PixmapMut<'_>,
+    ) {
+        if self.fingerprint != Some(frame.fingerprint()) {
+            self.edges = mesh_edges(frame);
+            self.fingerprint = Some(frame.fingerprint());
+        }
+        let mut pb = self.path.take().unwrap_or_default();
+        let pt = |i: u32| -> Option<(f32, f32)> {
+            let x = *image_shape.get(2 * i as usize)?;
+            let y = *image_shape.get(2 * i as usize + 1)?;
+            let (u, v) = view.apply_point(x, y);
+            (u.is_finite() && v.is_finite()).then_some((u + 0.5, v + 0.5))
+        };
+        for &[a, b] in &self.edges {
+            if let (Some(p), Some(q)) = (pt(a), pt(b)) {
+                pb.move_to(p.0, p.1);
+                pb.line_to(q.0, q.1);
+            }
+        }
+        let Some(path) = pb.finish() else {
+            self.path = Some(PathBuilder::new());
+            return;
+        };
+        let mut paint = Paint::default();
+        paint.set_color_rgba8(255, 255, 255, 110);
+        paint.anti_alias = true;
+        // Width 1 takes tiny-skia's hairline path: no stroked-path allocation.
+        let stroke = Stroke {
+            width: 1.0,
+            ..Stroke::default()
+        };
+        target.stroke_path(&path, &paint, &stroke, Transform::identity(), None);
+        self.path = Some(path.clear());
+    }
+}
