@@ -993,6 +993,7 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
 fn corrupt_truncated_and_hostile_files_are_rejected_with_the_expected_error() {
     let cases = bad_cases();
     assert!(cases.len() >= 25, "only {} cases", cases.len());
+    eprintln!("{} corrupt, truncated and hostile files", cases.len());
     let mut failures = Vec::new();
     for (name, bytes, expect) in &cases {
         let got = read_model(bytes);
