@@ -80,11 +80,33 @@ impl ShapeModel {
     pub fn project_image_shape(&self, image_shape: &[f32], out: &mut [f32]) -> Result<Similarity> {
         check_len("landmarks", image_shape, self.base.len())?;
         check_finite("landmarks", image_shape)?;
-        let pose = Similarity::align(&self.base, image_shape);
+        // Pose and parameters jointly by alternating least squares: the pose that places the
+        // current instance `s0 + S p` best onto the landmarks, then `p` from the landmarks
+        // mapped back through it, until the pose settles. (A pose fitted to `s0` alone is off
+        // at second order in scale, so even a training shape would leave the model's span.)
+        let mut pose = Similarity::align(&self.base, image_shape);
+        let mut normalised = image_shape.to_vec();
+        let mut instance = self.base.clone();
+        for _ in 0..50 {
+            let inv = pose.inverse().ok_or_else(|| {
+                crate::Error::Landmarks("landmarks are degenerate (all points coincide)".into())
+            })?;
+            normalised.copy_from_slice(image_shape);
+            inv.apply_in_place(&mut normalised);
+            self.project(&normalised, out);
+            self.instance_unchecked(out, &mut instance);
+            let next = Similarity::align(&instance, image_shape);
+            let change = (next.a - pose.a).abs() + (next.b - pose.b).abs();
+            let shift = (next.tx - pose.tx).abs() + (next.ty - pose.ty).abs();
+            pose = next;
+            if !(change > 1e-7 * pose.scale() || shift > 1e-5 * pose.scale()) {
+                break;
+            }
+        }
         let inv = pose.inverse().ok_or_else(|| {
             crate::Error::Landmarks("landmarks are degenerate (all points coincide)".into())
         })?;
-        let mut normalised = image_shape.to_vec();
+        normalised.copy_from_slice(image_shape);
         inv.apply_in_place(&mut normalised);
         self.project(&normalised, out);
         Ok(pose)

@@ -1,0 +1,168 @@
+//! Timings of the core operations, natively and in wasm under Node, with one harness (a
+//! wasm-bindgen test that also runs natively). It does nothing unless `FACEMIMIC_BENCH` was
+//! set when the test was BUILT (`option_env!`), so that CI does not pay for it:
+//!
+//! ```text
+//! FACEMIMIC_BENCH=1 cargo test --release --target wasm32-unknown-unknown --test wasm_bench -- --nocapture
+//! FACEMIMIC_BENCH=1 cargo test --release --test wasm_bench -- --nocapture
+//! ```
+//!
+//! The wasm build cannot decode JPEG (no `image` crate there), so the 20 training images are
+//! synthetic 360x288 RGBA images with the REAL spk07 train20 landmarks (compiled in); the cost
+//! of building, sampling and rendering does not depend on the pixel values. Figures:
+//! docs/core-figures.md.
+
+use facemimic::tiny_skia::{Color, Pixmap};
+use facemimic::{landmarks, BuildOptions, Builder, Image, Renderer, Similarity, TrainingImage};
+use wasm_bindgen_test::wasm_bindgen_test;
+
+macro_rules! pts {
+    ($($stem:literal),*) => { [$(($stem, include_str!(concat!("../data/grid/spk07_pwij3p/", $stem, ".pts")))),*] };
+}
+
+const TRAIN: [(&str, &str); 20] = pts!(
+    "000000", "000004", "000011", "000012", "000013", "000019", "000020", "000021", "000028",
+    "000033", "000034", "000035", "000037", "000038", "000042", "000044", "000045", "000049",
+    "000051", "000065"
+);
+const PROBE: &str = include_str!("../data/grid/spk07_pwij3p/000030.pts");
+
+/// Milliseconds from an arbitrary origin.
+fn now_ms() -> f64 {
+    #[cfg(target_arch = "wasm32")]
+    {
+        js_sys::Date::now()
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        use std::sync::OnceLock;
+        static T0: OnceLock<std::time::Instant> = OnceLock::new();
+        T0.get_or_init(std::time::Instant::now)
+            .elapsed()
+            .as_secs_f64()
+            * 1e3
+    }
+}
+
+fn say(s: &str) {
+    #[cfg(target_arch = "wasm32")]
+    wasm_bindgen_test::console_log!("{}", s);
+    #[cfg(not(target_arch = "wasm32"))]
+    println!("{s}");
+}
+
+/// Runs `f` for at least `min_ms` (and at least 3 times) after 2 warm-up calls; returns the
+/// mean time per call in ms.
+fn time(min_ms: f64, mut f: impl FnMut()) -> f64 {
+    f();
+    f();
+    let (t0, mut n) = (now_ms(), 0u32);
+    while n < 3 || now_ms() - t0 < min_ms {
+        f();
+        n += 1;
+    }
+    (now_ms() - t0) / n as f64
+}
+
+fn image(seed: u32) -> Image {
+    let (w, h) = (360u32, 288u32);
+    let mut data = Vec::with_capacity((w * h * 4) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let v = (x.wrapping_mul(31) ^ y.wrapping_mul(17) ^ seed.wrapping_mul(97)) as u8;
+            data.extend_from_slice(&[v, v.wrapping_add(60), v.wrapping_add(120), 255]);
+        }
+    }
+    Image {
+        width: w,
+        height: h,
+        data,
+    }
+}
+
+#[wasm_bindgen_test(unsupported = test)]
+fn core_timings() {
+    if option_env!("FACEMIMIC_BENCH").is_none() {
+        return;
+    }
+    let target = if cfg!(target_arch = "wasm32") {
+        "wasm32 (Node)"
+    } else {
+        "native"
+    };
+    let images: Vec<TrainingImage> = TRAIN
+        .iter()
+        .enumerate()
+        .map(|(i, (name, text))| TrainingImage {
+            name: name.to_string(),
+            image: image(i as u32),
+            landmarks: landmarks::parse_pts(text).unwrap(),
+        })
+        .collect();
+    let builder = Builder::new(BuildOptions {
+        name: "spk07".into(),
+        ..BuildOptions::default()
+    });
+    let model = builder.build(&images, None).unwrap();
+    let probe_image = image(99);
+    let probe = landmarks::parse_pts(PROBE).unwrap();
+    let view = probe_image.view().unwrap();
+    let params = model.project(&view, &probe).unwrap();
+    say(&format!(
+        "[{target}] model: {} shape modes, {} appearance modes, {} frame pixels",
+        model.shape.n_modes(),
+        model.appearance.n_modes(),
+        model.frame.n_pixels()
+    ));
+
+    let build = time(3000.0, || {
+        std::hint::black_box(builder.build(&images, None).unwrap());
+    });
+    let mut renderer = Renderer::new(&model.frame).unwrap();
+    let mut pixmap = Pixmap::new(360, 288).unwrap();
+    pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
+    let render = time(2000.0, || {
+        renderer
+            .render(&model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut())
+            .unwrap();
+    });
+    let mut appearance = vec![0f32; model.appearance.len()];
+    let synth = time(1000.0, || {
+        model
+            .appearance
+            .instance_unchecked(&params.appearance, &mut appearance)
+    });
+    let upload = time(1000.0, || {
+        renderer.upload(&model.frame, &appearance).unwrap()
+    });
+    let mut shape = vec![0f32; model.landmarks() * 2];
+    model.image_shape(&params, &mut shape).unwrap();
+    let warp = time(2000.0, || {
+        renderer
+            .warp(
+                &model.frame,
+                &shape,
+                &Similarity::IDENTITY,
+                &mut pixmap.as_mut(),
+            )
+            .unwrap();
+    });
+    let mut g = vec![0f32; model.appearance.len()];
+    let sample = time(2000.0, || {
+        facemimic::sample_rgb(&model.frame, &view, &probe, &mut g).unwrap()
+    });
+    let project = time(2000.0, || {
+        std::hint::black_box(model.project(&view, &probe).unwrap());
+    });
+    for (what, ms) in [
+        ("build spk07 (20 images)", build),
+        ("render 360x288 (synthesis + upload + warp)", render),
+        ("appearance synthesis (Eq. 2)", synth),
+        ("upload appearance to texture", upload),
+        ("warp texture onto 360x288 (tiny-skia)", warp),
+        ("sample_rgb image -> frame", sample),
+        ("project (pose, shape, appearance)", project),
+    ] {
+        say(&format!("[{target}] {what}: {ms:.3} ms"));
+    }
+}
