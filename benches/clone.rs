@@ -1,2 +1,94 @@
-//! Benchmarks (clone): being written.
-fn main() {}
+//! Per-frame cost of expression cloning (issue 3): `Cloner::clone_frame` (mapping +
+//! synthesising every target's shape and appearance) for 1 and 8 targets, next to the cost of
+//! rendering one target (Renderer upload + warp onto a 360x288 pixmap).
+//!
+//! Models: GRID spk07 (source, from `data/grid/spk07_pwij3p/train20.txt`) and spk02 / spk10
+//! (targets, built in spk07's frame); 8 targets = the two repeated. The source parameters are
+//! frame 17 of the unseen spk07 clip.
+//!
+//! `cargo bench --bench clone -- --warm-up-time 1 --measurement-time 3`
+
+use std::hint::black_box;
+use std::path::Path;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use facemimic::clone::{CloneOptions, Cloner, Method};
+use facemimic::{io, BuildOptions, Builder, Model, Params, Renderer, Similarity};
+
+fn build(folder: &str, frame_of: Option<&Model>) -> Model {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid").join(folder);
+    let list = io::read_list(&dir.join("train20.txt")).expect("GRID training list");
+    let images: Vec<_> = list.iter().map(|p| io::read_training_image(p).expect("GRID frame")).collect();
+    let name = folder.split('_').next().unwrap_or(folder).to_string();
+    Builder::new(BuildOptions { name, ..BuildOptions::default() })
+        .build(&images, frame_of)
+        .expect("GRID model")
+}
+
+fn setup() -> (Model, Vec<Model>, Params) {
+    let source = build("spk07_pwij3p", None);
+    let targets = vec![build("spk02_brbk7n", Some(&source)), build("spk10_swiz3n", Some(&source))];
+    let frame = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk07_id2_vcd_swwp2s/000017.jpg");
+    let t = io::read_training_image(&frame).expect("clip frame");
+    let params = source.project(&t.image.view().expect("image"), &t.landmarks).expect("projection");
+    (source, targets, params)
+}
+
+fn bench(c: &mut Criterion) {
+    let (source, targets, params) = setup();
+    eprintln!(
+        "source spk07: {} shape / {} appearance modes, {} frame pixels; targets {}",
+        source.shape.n_modes(),
+        source.appearance.n_modes(),
+        source.frame.n_pixels(),
+        targets
+            .iter()
+            .map(|t| format!("{} ({} / {} modes)", t.name, t.shape.n_modes(), t.appearance.n_modes()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let mut group = c.benchmark_group("clone_frame");
+    for n in [1usize, 8] {
+        let mut cloner = Cloner::new(source.clone()).unwrap();
+        for k in 0..n {
+            cloner.add_target(targets[k % targets.len()].clone()).unwrap();
+        }
+        for method in Method::ALL {
+            let o = CloneOptions { method, ..CloneOptions::default() };
+            group.bench_function(format!("{method}/{n}_targets"), |b| {
+                b.iter(|| cloner.clone_frame(black_box(&params), &o).unwrap())
+            });
+        }
+    }
+    group.finish();
+
+    let mut cloner = Cloner::new(source.clone()).unwrap();
+    cloner.add_target(targets[0].clone()).unwrap();
+    cloner.clone_frame(&params, &CloneOptions { method: Method::MapResidual, ..CloneOptions::default() }).unwrap();
+    let frame = cloner.target(0).frame.clone();
+    let mut renderer = Renderer::new(&frame).unwrap();
+    let mut pixmap = facemimic::tiny_skia::Pixmap::new(360, 288).unwrap();
+    let mut group = c.benchmark_group("render_one_target");
+    group.bench_function("upload", |b| {
+        b.iter(|| renderer.upload(&frame, black_box(cloner.target_appearance(0))).unwrap())
+    });
+    group.bench_function("warp_360x288", |b| {
+        b.iter(|| {
+            renderer
+                .warp(&frame, black_box(cloner.target_shape(0)), &Similarity::IDENTITY, &mut pixmap.as_mut())
+                .unwrap()
+        })
+    });
+    group.bench_function("upload+warp_360x288", |b| {
+        b.iter(|| {
+            renderer.upload(&frame, cloner.target_appearance(0)).unwrap();
+            renderer
+                .warp(&frame, black_box(cloner.target_shape(0)), &Similarity::IDENTITY, &mut pixmap.as_mut())
+                .unwrap()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
