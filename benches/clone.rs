@@ -16,21 +16,35 @@ use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::{io, BuildOptions, Builder, Model, Params, Renderer, Similarity};
 
 fn build(folder: &str, frame_of: Option<&Model>) -> Model {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid").join(folder);
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/grid")
+        .join(folder);
     let list = io::read_list(&dir.join("train20.txt")).expect("GRID training list");
-    let images: Vec<_> = list.iter().map(|p| io::read_training_image(p).expect("GRID frame")).collect();
+    let images: Vec<_> = list
+        .iter()
+        .map(|p| io::read_training_image(p).expect("GRID frame"))
+        .collect();
     let name = folder.split('_').next().unwrap_or(folder).to_string();
-    Builder::new(BuildOptions { name, ..BuildOptions::default() })
-        .build(&images, frame_of)
-        .expect("GRID model")
+    Builder::new(BuildOptions {
+        name,
+        ..BuildOptions::default()
+    })
+    .build(&images, frame_of)
+    .expect("GRID model")
 }
 
 fn setup() -> (Model, Vec<Model>, Params) {
     let source = build("spk07_pwij3p", None);
-    let targets = vec![build("spk02_brbk7n", Some(&source)), build("spk10_swiz3n", Some(&source))];
-    let frame = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk07_id2_vcd_swwp2s/000017.jpg");
+    let targets = vec![
+        build("spk02_brbk7n", Some(&source)),
+        build("spk10_swiz3n", Some(&source)),
+    ];
+    let frame =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk07_id2_vcd_swwp2s/000017.jpg");
     let t = io::read_training_image(&frame).expect("clip frame");
-    let params = source.project(&t.image.view().expect("image"), &t.landmarks).expect("projection");
+    let params = source
+        .project(&t.image.view().expect("image"), &t.landmarks)
+        .expect("projection");
     (source, targets, params)
 }
 
@@ -43,7 +57,12 @@ fn bench(c: &mut Criterion) {
         source.frame.n_pixels(),
         targets
             .iter()
-            .map(|t| format!("{} ({} / {} modes)", t.name, t.shape.n_modes(), t.appearance.n_modes()))
+            .map(|t| format!(
+                "{} ({} / {} modes)",
+                t.name,
+                t.shape.n_modes(),
+                t.appearance.n_modes()
+            ))
             .collect::<Vec<_>>()
             .join(", ")
     );
@@ -51,10 +70,15 @@ fn bench(c: &mut Criterion) {
     for n in [1usize, 8] {
         let mut cloner = Cloner::new(source.clone()).unwrap();
         for k in 0..n {
-            cloner.add_target(targets[k % targets.len()].clone()).unwrap();
+            cloner
+                .add_target(targets[k % targets.len()].clone())
+                .unwrap();
         }
         for method in Method::ALL {
-            let o = CloneOptions { method, ..CloneOptions::default() };
+            let o = CloneOptions {
+                method,
+                ..CloneOptions::default()
+            };
             group.bench_function(format!("{method}/{n}_targets"), |b| {
                 b.iter(|| cloner.clone_frame(black_box(&params), &o).unwrap())
             });
@@ -64,26 +88,50 @@ fn bench(c: &mut Criterion) {
 
     let mut cloner = Cloner::new(source.clone()).unwrap();
     cloner.add_target(targets[0].clone()).unwrap();
-    cloner.clone_frame(&params, &CloneOptions { method: Method::MapResidual, ..CloneOptions::default() }).unwrap();
+    cloner
+        .clone_frame(
+            &params,
+            &CloneOptions {
+                method: Method::MapResidual,
+                ..CloneOptions::default()
+            },
+        )
+        .unwrap();
     let frame = cloner.target(0).frame.clone();
     let mut renderer = Renderer::new(&frame).unwrap();
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(360, 288).unwrap();
     let mut group = c.benchmark_group("render_one_target");
     group.bench_function("upload", |b| {
-        b.iter(|| renderer.upload(&frame, black_box(cloner.target_appearance(0))).unwrap())
+        b.iter(|| {
+            renderer
+                .upload(&frame, black_box(cloner.target_appearance(0)))
+                .unwrap()
+        })
     });
     group.bench_function("warp_360x288", |b| {
         b.iter(|| {
             renderer
-                .warp(&frame, black_box(cloner.target_shape(0)), &Similarity::IDENTITY, &mut pixmap.as_mut())
+                .warp(
+                    &frame,
+                    black_box(cloner.target_shape(0)),
+                    &Similarity::IDENTITY,
+                    &mut pixmap.as_mut(),
+                )
                 .unwrap()
         })
     });
     group.bench_function("upload+warp_360x288", |b| {
         b.iter(|| {
-            renderer.upload(&frame, cloner.target_appearance(0)).unwrap();
             renderer
-                .warp(&frame, black_box(cloner.target_shape(0)), &Similarity::IDENTITY, &mut pixmap.as_mut())
+                .upload(&frame, cloner.target_appearance(0))
+                .unwrap();
+            renderer
+                .warp(
+                    &frame,
+                    black_box(cloner.target_shape(0)),
+                    &Similarity::IDENTITY,
+                    &mut pixmap.as_mut(),
+                )
                 .unwrap()
         })
     });

@@ -74,11 +74,14 @@ impl fmt::Display for Method {
 impl FromStr for Method {
     type Err = Error;
     fn from_str(s: &str) -> Result<Method> {
-        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
-            Error::Params(format!(
-                "unknown cloning method '{s}' (expected substitute, map or map-residual)"
-            ))
-        })
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                Error::Params(format!(
+                    "unknown cloning method '{s}' (expected substitute, map or map-residual)"
+                ))
+            })
     }
 }
 
@@ -127,7 +130,11 @@ impl CloneOptions {
         }
         for (what, g, m) in [
             ("shape gains", &self.shape_gains, source.shape.n_modes()),
-            ("appearance gains", &self.appearance_gains, source.appearance.n_modes()),
+            (
+                "appearance gains",
+                &self.appearance_gains,
+                source.appearance.n_modes(),
+            ),
         ] {
             if g.len() > m {
                 return Err(Error::Params(format!(
@@ -250,7 +257,9 @@ pub fn add_residual(delta: &[f32], p: &[f32], acc: &mut [f64]) {
     for (&pi, row) in p.iter().zip(delta.chunks_exact(d)) {
         if pi != 0.0 {
             let pi = pi as f64;
-            acc.iter_mut().zip(row).for_each(|(a, &v)| *a += pi * v as f64);
+            acc.iter_mut()
+                .zip(row)
+                .for_each(|(a, &v)| *a += pi * v as f64);
         }
     }
 }
@@ -317,7 +326,9 @@ fn linear_f64(base: &[f32], modes: &[f32], w: &[f32], acc: &mut [f64]) {
     for (&wi, row) in w.iter().zip(modes.chunks_exact(d)) {
         if wi != 0.0 {
             let wi = wi as f64;
-            acc.iter_mut().zip(row).for_each(|(a, &v)| *a += wi * v as f64);
+            acc.iter_mut()
+                .zip(row)
+                .for_each(|(a, &v)| *a += wi * v as f64);
         }
     }
 }
@@ -409,7 +420,10 @@ impl Pair {
 /// cloning can index without checks.
 fn check_model(m: &Model) -> Result<()> {
     let bad = |what: String| {
-        Err(Error::Incompatible(format!("model '{}' is inconsistent: {what}", m.name)))
+        Err(Error::Incompatible(format!(
+            "model '{}' is inconsistent: {what}",
+            m.name
+        )))
     };
     let d = m.shape.base.len();
     let da = m.appearance.base.len();
@@ -422,10 +436,17 @@ fn check_model(m: &Model) -> Result<()> {
         ));
     }
     if da != 3 * m.frame.n_pixels() {
-        return bad(format!("{da} appearance values for {} frame pixels", m.frame.n_pixels()));
+        return bad(format!(
+            "{da} appearance values for {} frame pixels",
+            m.frame.n_pixels()
+        ));
     }
     if m.shape.modes.len() != d * m.shape.n_modes() {
-        return bad(format!("{} shape mode values for {} modes", m.shape.modes.len(), m.shape.n_modes()));
+        return bad(format!(
+            "{} shape mode values for {} modes",
+            m.shape.modes.len(),
+            m.shape.n_modes()
+        ));
     }
     if m.appearance.modes.len() != da * m.appearance.n_modes() {
         return bad(format!(
@@ -434,7 +455,12 @@ fn check_model(m: &Model) -> Result<()> {
             m.appearance.n_modes()
         ));
     }
-    if m.shape.variances.iter().chain(&m.appearance.variances).any(|v| !(v.is_finite() && *v >= 0.0)) {
+    if m.shape
+        .variances
+        .iter()
+        .chain(&m.appearance.variances)
+        .any(|v| !(v.is_finite() && *v >= 0.0))
+    {
         return bad("a variance is negative or not finite".into());
     }
     if !m.mean_pose.is_valid() || m.mean_pose.inverse().is_none() {
@@ -463,7 +489,13 @@ impl Target {
         let mut shape = model.shape.base.clone();
         params.pose.apply_in_place(&mut shape);
         let appearance = model.appearance.base.clone();
-        Ok(Target { model, pair, params, shape, appearance })
+        Ok(Target {
+            model,
+            pair,
+            params,
+            shape,
+            appearance,
+        })
     }
 }
 
@@ -614,7 +646,12 @@ impl Cloner {
                 )));
             }
         }
-        apply_gains(&source.shape, options.gain, &options.shape_gains, &mut self.gained_shape);
+        apply_gains(
+            &source.shape,
+            options.gain,
+            &options.shape_gains,
+            &mut self.gained_shape,
+        );
         apply_gains(
             &source.appearance,
             options.gain,
@@ -624,14 +661,22 @@ impl Cloner {
         if options.method == Method::Substitute {
             if let Some(k) = options.clamp {
                 constrain(&mut self.gained_shape, &self.source_shape_sigmas, k);
-                constrain(&mut self.gained_appearance, &self.source_appearance_sigmas, k);
+                constrain(
+                    &mut self.gained_appearance,
+                    &self.source_appearance_sigmas,
+                    k,
+                );
             }
         }
         let (p, lambda) = (&self.gained_shape, &self.gained_appearance);
         for t in &mut self.targets {
             let m = &t.model;
-            t.params.pose =
-                target_pose(&self.source_mean_inverse, &source.pose, &m.mean_pose, options.follow_pose);
+            t.params.pose = target_pose(
+                &self.source_mean_inverse,
+                &source.pose,
+                &m.mean_pose,
+                options.follow_pose,
+            );
             map_params(&t.pair.shape_map, p, &mut t.params.shape);
             map_params(&t.pair.appearance_map, lambda, &mut t.params.appearance);
             match options.method {
@@ -647,9 +692,18 @@ impl Cloner {
                 Method::Map | Method::MapResidual => {
                     if let Some(k) = options.clamp {
                         constrain(&mut t.params.shape, &t.pair.target_shape_sigmas, k);
-                        constrain(&mut t.params.appearance, &t.pair.target_appearance_sigmas, k);
+                        constrain(
+                            &mut t.params.appearance,
+                            &t.pair.target_appearance_sigmas,
+                            k,
+                        );
                     }
-                    map_shape(&m.shape.base, &m.shape.modes, &t.params.shape, &mut self.acc);
+                    map_shape(
+                        &m.shape.base,
+                        &m.shape.modes,
+                        &t.params.shape,
+                        &mut self.acc,
+                    );
                     if options.method == Method::MapResidual {
                         add_residual(&t.pair.residual, p, &mut self.acc);
                     }

@@ -101,12 +101,29 @@ fn synthetic(name: &str, seed: u64, m: usize, l: usize, frame: Option<&Reference
 /// Random parameters for `model`, each about `spread` sigmas, at a pose near its mean pose.
 fn random_params(model: &Model, seed: u64, spread: f32) -> Params {
     let mut rng = Rng(seed | 1);
-    let shape = model.shape.sigmas().iter().map(|s| spread * s * rng.next()).collect();
-    let appearance = model.appearance.sigmas().iter().map(|s| spread * s * rng.next()).collect();
-    let pose = model
-        .mean_pose
-        .compose(&Similarity::from_parts(1.0 + 0.1 * rng.next(), 0.2 * rng.next(), 5.0 * rng.next(), 3.0 * rng.next()));
-    Params { pose, shape, appearance }
+    let shape = model
+        .shape
+        .sigmas()
+        .iter()
+        .map(|s| spread * s * rng.next())
+        .collect();
+    let appearance = model
+        .appearance
+        .sigmas()
+        .iter()
+        .map(|s| spread * s * rng.next())
+        .collect();
+    let pose = model.mean_pose.compose(&Similarity::from_parts(
+        1.0 + 0.1 * rng.next(),
+        0.2 * rng.next(),
+        5.0 * rng.next(),
+        3.0 * rng.next(),
+    ));
+    Params {
+        pose,
+        shape,
+        appearance,
+    }
 }
 
 /// The source's own instance: posed shape (image coordinates) and appearance.
@@ -114,17 +131,28 @@ fn instance(model: &Model, params: &Params) -> (Vec<f32>, Vec<f32>) {
     let mut s = vec![0.0; model.shape.base.len()];
     model.image_shape(params, &mut s).unwrap();
     let mut a = vec![0.0; model.appearance.len()];
-    model.appearance.instance(&params.appearance, &mut a).unwrap();
+    model
+        .appearance
+        .instance(&params.appearance, &mut a)
+        .unwrap();
     (s, a)
 }
 
 fn max_diff(a: &[f32], b: &[f32]) -> f32 {
     assert_eq!(a.len(), b.len());
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
 }
 
 fn opts(method: Method, clamp: Option<f32>, follow_pose: bool) -> CloneOptions {
-    CloneOptions { method, clamp, follow_pose, ..CloneOptions::default() }
+    CloneOptions {
+        method,
+        clamp,
+        follow_pose,
+        ..CloneOptions::default()
+    }
 }
 
 fn one_target(source: &Model, target: &Model) -> Cloner {
@@ -153,11 +181,20 @@ fn remixed(source: &Model, q_shape: &[f32], q_app: &[f32]) -> Model {
     };
     let mut t = source.clone();
     t.name = "remixed".into();
-    let (m, v) = mix(&source.shape.modes, source.shape.base.len(), q_shape, &source.shape.variances);
+    let (m, v) = mix(
+        &source.shape.modes,
+        source.shape.base.len(),
+        q_shape,
+        &source.shape.variances,
+    );
     t.shape.modes = m;
     t.shape.variances = v;
-    let (m, v) =
-        mix(&source.appearance.modes, source.appearance.len(), q_app, &source.appearance.variances);
+    let (m, v) = mix(
+        &source.appearance.modes,
+        source.appearance.len(),
+        q_app,
+        &source.appearance.variances,
+    );
     t.appearance.modes = m;
     t.appearance.variances = v;
     t
@@ -190,18 +227,31 @@ fn self_clone_map_is_identity() {
     for j in 0..6 {
         for i in 0..6 {
             let e = if i == j { 1.0 } else { 0.0 };
-            assert!((r[j * 6 + i] - e).abs() < 1e-6, "R[{j}][{i}] = {}", r[j * 6 + i]);
+            assert!(
+                (r[j * 6 + i] - e).abs() < 1e-6,
+                "R[{j}][{i}] = {}",
+                r[j * 6 + i]
+            );
         }
     }
-    assert!(c.pair(0).unwrap().residual_norms().iter().all(|&n| n < 1e-5));
+    assert!(c
+        .pair(0)
+        .unwrap()
+        .residual_norms()
+        .iter()
+        .all(|&n| n < 1e-5));
     for seed in 1..4 {
         // Within the constraint, so the clamp changes nothing.
         let params = random_params(&source, seed, 1.0);
         let (s, a) = instance(&source, &params);
         for method in [Method::Map, Method::MapResidual] {
-            c.clone_frame(&params, &opts(method, Some(3.0), true)).unwrap();
+            c.clone_frame(&params, &opts(method, Some(3.0), true))
+                .unwrap();
             assert!(max_diff(c.target_shape(0), &s) < 2e-4, "{method}: shape");
-            assert!(max_diff(c.target_appearance(0), &a) < 2e-5, "{method}: appearance");
+            assert!(
+                max_diff(c.target_appearance(0), &a) < 2e-5,
+                "{method}: appearance"
+            );
             assert!(max_diff(&c.target_params(0).shape, &params.shape) < 1e-5);
             assert!(max_diff(&c.target_params(0).appearance, &params.appearance) < 1e-5);
         }
@@ -215,12 +265,32 @@ fn same_span_any_signs_order_or_mixing() {
     let source = synthetic("src", 2, 5, 4, None);
     let mut rng = Rng(77);
     let negate = |k: usize| -> Vec<f32> {
-        (0..k * k).map(|x| if x % (k + 1) == 0 { if (x / k) % 2 == 0 { -1.0 } else { 1.0 } } else { 0.0 }).collect()
+        (0..k * k)
+            .map(|x| {
+                if x % (k + 1) == 0 {
+                    if (x / k) % 2 == 0 {
+                        -1.0
+                    } else {
+                        1.0
+                    }
+                } else {
+                    0.0
+                }
+            })
+            .collect()
     };
     let cases: Vec<(&str, Vec<f32>, Vec<f32>)> = vec![
         ("negated", negate(5), negate(4)),
-        ("permuted and negated", permutation_with_signs(5, 3), permutation_with_signs(4, 4)),
-        ("orthogonal mix", orthonormalise(&rng.vec(25), 5), orthonormalise(&rng.vec(16), 4)),
+        (
+            "permuted and negated",
+            permutation_with_signs(5, 3),
+            permutation_with_signs(4, 4),
+        ),
+        (
+            "orthogonal mix",
+            orthonormalise(&rng.vec(25), 5),
+            orthonormalise(&rng.vec(16), 4),
+        ),
     ];
     for (what, qs, qa) in cases {
         let target = remixed(&source, &qs, &qa);
@@ -231,13 +301,20 @@ fn same_span_any_signs_order_or_mixing() {
             c.clone_frame(&params, &opts(method, None, true)).unwrap();
             let ds = max_diff(c.target_shape(0), &s);
             let da = max_diff(c.target_appearance(0), &a);
-            assert!(ds < 2e-4 && da < 2e-5, "{what}, {method}: shape {ds}, appearance {da}");
+            assert!(
+                ds < 2e-4 && da < 2e-5,
+                "{what}, {method}: shape {ds}, appearance {da}"
+            );
         }
         // The mapped parameters are Q p: the target describes the same face in its own basis.
-        c.clone_frame(&params, &opts(Method::Map, None, false)).unwrap();
+        c.clone_frame(&params, &opts(Method::Map, None, false))
+            .unwrap();
         let mut qp = vec![0.0; 5];
         map_params(&qs, &params.shape, &mut qp);
-        assert!(max_diff(&c.target_params(0).shape, &qp) < 1e-5, "{what}: p* = Q p");
+        assert!(
+            max_diff(&c.target_params(0).shape, &qp) < 1e-5,
+            "{what}: p* = Q p"
+        );
     }
 }
 
@@ -248,28 +325,61 @@ fn residual_restores_the_source_displacement() {
     let source = synthetic("src", 3, 6, 4, None);
     let target = synthetic("tgt", 4, 5, 4, Some(&source.frame));
     let mut c = one_target(&source, &target);
-    assert!(c.pair(0).unwrap().residual_norms().iter().all(|&n| n > 0.1), "spans must differ");
-    let id = CloneOptions { follow_pose: false, clamp: None, ..CloneOptions::default() };
+    assert!(
+        c.pair(0).unwrap().residual_norms().iter().all(|&n| n > 0.1),
+        "spans must differ"
+    );
+    let id = CloneOptions {
+        follow_pose: false,
+        clamp: None,
+        ..CloneOptions::default()
+    };
     for seed in 1..4 {
         let params = random_params(&source, seed, 2.0);
         let mut src_disp = vec![0.0; source.shape.base.len()];
         source.shape.instance(&params.shape, &mut src_disp).unwrap();
-        src_disp.iter_mut().zip(&source.shape.base).for_each(|(d, b)| *d -= b);
+        src_disp
+            .iter_mut()
+            .zip(&source.shape.base)
+            .for_each(|(d, b)| *d -= b);
         let inv = target.mean_pose.inverse().unwrap();
         let disp = |c: &Cloner| -> Vec<f32> {
             let mut s = c.target_shape(0).to_vec();
             inv.apply_in_place(&mut s);
-            s.iter().zip(&target.shape.base).map(|(a, b)| a - b).collect()
+            s.iter()
+                .zip(&target.shape.base)
+                .map(|(a, b)| a - b)
+                .collect()
         };
-        c.clone_frame(&params, &CloneOptions { method: Method::MapResidual, ..id.clone() }).unwrap();
+        c.clone_frame(
+            &params,
+            &CloneOptions {
+                method: Method::MapResidual,
+                ..id.clone()
+            },
+        )
+        .unwrap();
         let scale = src_disp.iter().fold(1f32, |m, v| m.max(v.abs()));
         let err = max_diff(&disp(&c), &src_disp);
         // 1e-6 relative to the displacement, plus the f32 rounding of posing and unposing
         // coordinates of ~100 pixels.
-        assert!(err <= 1e-6 * scale + 3e-5, "map-residual displacement off by {err}");
-        c.clone_frame(&params, &CloneOptions { method: Method::Map, ..id.clone() }).unwrap();
+        assert!(
+            err <= 1e-6 * scale + 3e-5,
+            "map-residual displacement off by {err}"
+        );
+        c.clone_frame(
+            &params,
+            &CloneOptions {
+                method: Method::Map,
+                ..id.clone()
+            },
+        )
+        .unwrap();
         let err = max_diff(&disp(&c), &src_disp);
-        assert!(err > 0.1, "map alone should under-articulate (off by {err})");
+        assert!(
+            err > 0.1,
+            "map alone should under-articulate (off by {err})"
+        );
     }
     // The same identity at the level of the named functions, without any pose.
     let d = source.shape.base.len();
@@ -300,13 +410,19 @@ fn constraint_bounds_every_mapped_parameter() {
         let mut clipped = 0;
         for seed in 1..6 {
             let params = random_params(&source, seed, 40.0);
-            c.clone_frame(&params, &opts(Method::Map, None, false)).unwrap();
+            c.clone_frame(&params, &opts(Method::Map, None, false))
+                .unwrap();
             let free = c.target_params(0).clone();
             for method in [Method::Map, Method::MapResidual] {
-                c.clone_frame(&params, &opts(method, Some(k), false)).unwrap();
+                c.clone_frame(&params, &opts(method, Some(k), false))
+                    .unwrap();
                 let t = c.target_params(0);
                 for (j, (&p, &s)) in t.shape.iter().zip(&ss).enumerate() {
-                    assert!(p.abs() <= k * s * (1.0 + 1e-6), "{method} k={k}: p*[{j}] = {p}, limit {}", k * s);
+                    assert!(
+                        p.abs() <= k * s * (1.0 + 1e-6),
+                        "{method} k={k}: p*[{j}] = {p}, limit {}",
+                        k * s
+                    );
                     if free.shape[j].abs() > k * s {
                         clipped += 1;
                         assert_eq!(p, (k * s).copysign(free.shape[j]));
@@ -315,11 +431,17 @@ fn constraint_bounds_every_mapped_parameter() {
                     }
                 }
                 for (j, (&p, &s)) in t.appearance.iter().zip(&sa).enumerate() {
-                    assert!(p.abs() <= k * s * (1.0 + 1e-6), "{method} k={k}: lambda*[{j}] = {p}");
+                    assert!(
+                        p.abs() <= k * s * (1.0 + 1e-6),
+                        "{method} k={k}: lambda*[{j}] = {p}"
+                    );
                 }
             }
         }
-        assert!(clipped > 0, "k = {k}: the test never exercised the constraint");
+        assert!(
+            clipped > 0,
+            "k = {k}: the test never exercised the constraint"
+        );
     }
 }
 
@@ -331,7 +453,8 @@ fn substitute_onto_itself_is_the_source_instance() {
     for (seed, clamp) in [(1, None), (2, Some(3.0)), (3, None)] {
         let params = random_params(&source, seed, 1.0);
         let (s, a) = instance(&source, &params);
-        c.clone_frame(&params, &opts(Method::Substitute, clamp, true)).unwrap();
+        c.clone_frame(&params, &opts(Method::Substitute, clamp, true))
+            .unwrap();
         assert!(max_diff(c.target_shape(0), &s) < 2e-4);
         // Same function, same order of summation: bit-identical appearance.
         assert_eq!(c.target_appearance(0), &a[..]);
@@ -345,13 +468,24 @@ fn substitute_uses_target_bases_and_source_modes() {
     let target = synthetic("tgt", 9, 5, 6, Some(&source.frame));
     let mut c = one_target(&source, &target);
     let params = random_params(&source, 5, 1.0);
-    c.clone_frame(&params, &opts(Method::Substitute, None, false)).unwrap();
+    c.clone_frame(&params, &opts(Method::Substitute, None, false))
+        .unwrap();
     let mut s = vec![0.0; target.shape.base.len()];
-    synthesise(&target.shape.base, &source.shape.modes, &params.shape, &mut s);
+    synthesise(
+        &target.shape.base,
+        &source.shape.modes,
+        &params.shape,
+        &mut s,
+    );
     target.mean_pose.apply_in_place(&mut s);
     assert!(max_diff(c.target_shape(0), &s) < 1e-4);
     let mut a = vec![0.0; target.appearance.len()];
-    synthesise(&target.appearance.base, &source.appearance.modes, &params.appearance, &mut a);
+    synthesise(
+        &target.appearance.base,
+        &source.appearance.modes,
+        &params.appearance,
+        &mut a,
+    );
     assert_eq!(c.target_appearance(0), &a[..]);
     // target_params holds the projection onto the target model: R p, Ra lambda.
     let pair = c.pair(0).unwrap();
@@ -365,8 +499,17 @@ fn substitute_uses_target_bases_and_source_modes() {
 #[wasm_bindgen_test(unsupported = test)]
 fn many_targets_equal_single_pairs() {
     let source = synthetic("src", 10, 6, 5, None);
-    let targets: Vec<Model> =
-        (0..4).map(|k| synthetic(&format!("t{k}"), 20 + k, 3 + k as usize, 2 + k as usize, Some(&source.frame))).collect();
+    let targets: Vec<Model> = (0..4)
+        .map(|k| {
+            synthetic(
+                &format!("t{k}"),
+                20 + k,
+                3 + k as usize,
+                2 + k as usize,
+                Some(&source.frame),
+            )
+        })
+        .collect();
     let mut all = Cloner::new(source.clone()).unwrap();
     for t in &targets {
         all.add_target(t.clone()).unwrap();
@@ -375,12 +518,22 @@ fn many_targets_equal_single_pairs() {
     let mut singles: Vec<Cloner> = targets.iter().map(|t| one_target(&source, t)).collect();
     for method in Method::ALL {
         for seed in 1..3 {
-            let o = CloneOptions { method, gain: 1.3, shape_gains: vec![1.0, 0.5], follow_pose: seed == 2, ..CloneOptions::default() };
+            let o = CloneOptions {
+                method,
+                gain: 1.3,
+                shape_gains: vec![1.0, 0.5],
+                follow_pose: seed == 2,
+                ..CloneOptions::default()
+            };
             let params = random_params(&source, seed, 2.5);
             all.clone_frame(&params, &o).unwrap();
             for (i, s) in singles.iter_mut().enumerate() {
                 s.clone_frame(&params, &o).unwrap();
-                assert_eq!(all.target_shape(i), s.target_shape(0), "{method} target {i}");
+                assert_eq!(
+                    all.target_shape(i),
+                    s.target_shape(0),
+                    "{method} target {i}"
+                );
                 assert_eq!(all.target_appearance(i), s.target_appearance(0));
                 assert_eq!(all.target_params(i), s.target_params(0));
             }
@@ -403,7 +556,9 @@ fn incompatible_pairs_are_refused() {
     other.appearance = synthetic("x", 1, 1, 3, Some(&other.frame)).appearance;
     let mut c = Cloner::new(source.clone()).unwrap();
     match c.add_target(other.clone()) {
-        Err(Error::Incompatible(m)) => assert!(m.contains("12 landmarks") && m.contains("11"), "{m}"),
+        Err(Error::Incompatible(m)) => {
+            assert!(m.contains("12 landmarks") && m.contains("11"), "{m}")
+        }
         r => panic!("expected Incompatible, got {r:?}"),
     }
     // Same landmark count, another frame (its own).
@@ -413,7 +568,10 @@ fn incompatible_pairs_are_refused() {
     moved.frame = ReferenceFrame::from_base(&moved.shape.base).unwrap();
     moved.appearance = synthetic("y", 2, 1, 3, Some(&moved.frame)).appearance;
     match c.add_target(moved.clone()) {
-        Err(Error::Incompatible(m)) => assert!(m.contains("reference frames") && m.contains("fingerprints"), "{m}"),
+        Err(Error::Incompatible(m)) => assert!(
+            m.contains("reference frames") && m.contains("fingerprints"),
+            "{m}"
+        ),
         r => panic!("expected Incompatible, got {r:?}"),
     }
     assert_eq!(c.n_targets(), 0);
@@ -423,27 +581,42 @@ fn incompatible_pairs_are_refused() {
     let params = random_params(&source, 3, 1.0);
     c.clone_frame(&params, &CloneOptions::default()).unwrap();
     let before = (c.target_shape(0).to_vec(), c.target_params(0).clone());
-    assert!(matches!(c.set_source(moved.clone()), Err(Error::Incompatible(_))));
-    assert!(matches!(c.replace_target(0, other.clone()), Err(Error::Incompatible(_))));
+    assert!(matches!(
+        c.set_source(moved.clone()),
+        Err(Error::Incompatible(_))
+    ));
+    assert!(matches!(
+        c.replace_target(0, other.clone()),
+        Err(Error::Incompatible(_))
+    ));
     assert_eq!(c.source().name, "src");
     assert_eq!(c.target(0).name, "good");
-    assert_eq!((c.target_shape(0).to_vec(), c.target_params(0).clone()), before);
+    assert_eq!(
+        (c.target_shape(0).to_vec(), c.target_params(0).clone()),
+        before
+    );
     assert!(matches!(c.remove_target(3), Err(Error::Params(_))));
-    assert!(matches!(c.replace_target(1, good.clone()), Err(Error::Params(_))));
+    assert!(matches!(
+        c.replace_target(1, good.clone()),
+        Err(Error::Params(_))
+    ));
     assert!(c.get_target(1).is_none());
     // An internally inconsistent model is refused without a panic.
     let mut broken = good.clone();
     broken.appearance.modes.pop();
     assert!(matches!(c.add_target(broken), Err(Error::Incompatible(_))));
     // Compatible operations work.
-    c.replace_target(0, synthetic("good2", 16, 2, 2, Some(&source.frame))).unwrap();
+    c.replace_target(0, synthetic("good2", 16, 2, 2, Some(&source.frame)))
+        .unwrap();
     assert_eq!(c.target(0).name, "good2");
     assert_eq!(c.remove_target(0).unwrap().name, "good2");
     assert_eq!(c.n_targets(), 0);
     c.add_target(good).unwrap();
-    c.set_source(synthetic("src2", 17, 5, 5, Some(&source.frame))).unwrap();
+    c.set_source(synthetic("src2", 17, 5, 5, Some(&source.frame)))
+        .unwrap();
     assert_eq!(c.source().name, "src2");
-    c.clone_frame(&random_params(c.source(), 1, 1.0), &CloneOptions::default()).unwrap();
+    c.clone_frame(&random_params(c.source(), 1, 1.0), &CloneOptions::default())
+        .unwrap();
 }
 
 // ---------------------------------------------------------------------------------------
@@ -460,24 +633,64 @@ fn gains() {
     let mut base = target.shape.base.clone();
     target.mean_pose.apply_in_place(&mut base);
     for method in Method::ALL {
-        c.clone_frame(&params, &CloneOptions { method, gain: 0.0, ..CloneOptions::default() }).unwrap();
+        c.clone_frame(
+            &params,
+            &CloneOptions {
+                method,
+                gain: 0.0,
+                ..CloneOptions::default()
+            },
+        )
+        .unwrap();
         assert!(max_diff(c.target_shape(0), &base) < 1e-4, "{method}");
         assert_eq!(c.target_appearance(0), &target.appearance.base[..]);
-        let disp = |c: &Cloner| -> Vec<f32> { c.target_shape(0).iter().zip(&base).map(|(a, b)| a - b).collect() };
-        c.clone_frame(&params, &CloneOptions { method, clamp: None, ..CloneOptions::default() }).unwrap();
+        let disp = |c: &Cloner| -> Vec<f32> {
+            c.target_shape(0)
+                .iter()
+                .zip(&base)
+                .map(|(a, b)| a - b)
+                .collect()
+        };
+        c.clone_frame(
+            &params,
+            &CloneOptions {
+                method,
+                clamp: None,
+                ..CloneOptions::default()
+            },
+        )
+        .unwrap();
         let one = disp(&c);
-        c.clone_frame(&params, &CloneOptions { method, clamp: None, gain: 2.0, ..CloneOptions::default() }).unwrap();
+        c.clone_frame(
+            &params,
+            &CloneOptions {
+                method,
+                clamp: None,
+                gain: 2.0,
+                ..CloneOptions::default()
+            },
+        )
+        .unwrap();
         let two: Vec<f32> = disp(&c).iter().map(|v| v * 0.5).collect();
         assert!(max_diff(&one, &two) < 1e-4, "{method}: gain 2");
         // Per-mode gains: zeroing mode 0's gain equals zeroing p_0.
         let mut zeroed = params.clone();
         zeroed.shape[0] = 0.0;
         zeroed.appearance[1] = 0.0;
-        c.clone_frame(&zeroed, &opts(method, Some(3.0), false)).unwrap();
+        c.clone_frame(&zeroed, &opts(method, Some(3.0), false))
+            .unwrap();
         let expect = (c.target_shape(0).to_vec(), c.target_appearance(0).to_vec());
-        let o = CloneOptions { method, shape_gains: vec![0.0], appearance_gains: vec![1.0, 0.0], ..CloneOptions::default() };
+        let o = CloneOptions {
+            method,
+            shape_gains: vec![0.0],
+            appearance_gains: vec![1.0, 0.0],
+            ..CloneOptions::default()
+        };
         c.clone_frame(&params, &o).unwrap();
-        assert_eq!((c.target_shape(0).to_vec(), c.target_appearance(0).to_vec()), expect);
+        assert_eq!(
+            (c.target_shape(0).to_vec(), c.target_appearance(0).to_vec()),
+            expect
+        );
     }
     let mut out = [0.0; 3];
     apply_gains(&[1.0, 2.0, 3.0], 2.0, &[0.5], &mut out);
@@ -497,15 +710,22 @@ fn pose_follows_or_stays() {
     let rel = Similarity::from_parts(1.2, 0.3, 4.0, -2.0);
     let mut params = source.base_params();
     params.pose = source.mean_pose.compose(&rel);
-    c.clone_frame(&params, &opts(Method::Map, None, false)).unwrap();
+    c.clone_frame(&params, &opts(Method::Map, None, false))
+        .unwrap();
     let mut expect = target.shape.base.clone();
     target.mean_pose.apply_in_place(&mut expect);
     assert!(max_diff(c.target_shape(0), &expect) < 1e-4);
     assert_eq!(c.target_params(0).pose, target.mean_pose);
-    c.clone_frame(&params, &opts(Method::Map, None, true)).unwrap();
+    c.clone_frame(&params, &opts(Method::Map, None, true))
+        .unwrap();
     let want = target.mean_pose.compose(&rel);
     let got = c.target_params(0).pose;
-    for (a, b) in [(got.a, want.a), (got.b, want.b), (got.tx, want.tx), (got.ty, want.ty)] {
+    for (a, b) in [
+        (got.a, want.a),
+        (got.b, want.b),
+        (got.tx, want.tx),
+        (got.ty, want.ty),
+    ] {
         assert!((a - b).abs() < 1e-4, "{got:?} vs {want:?}");
     }
     let mut expect = target.shape.base.clone();
@@ -531,22 +751,54 @@ fn bad_input_is_refused() {
     let mut bad_pose = good.clone();
     bad_pose.pose.a = f32::NAN;
     let mut zero_pose = good.clone();
-    zero_pose.pose = Similarity { a: 0.0, b: 0.0, tx: 1.0, ty: 1.0 };
+    zero_pose.pose = Similarity {
+        a: 0.0,
+        b: 0.0,
+        tx: 1.0,
+        ty: 1.0,
+    };
     let mut huge_pose = good.clone();
     huge_pose.pose = Similarity::from_parts(3e38, 0.0, 0.0, 0.0);
     for p in [&nan, &inf, &short, &bad_pose, &zero_pose] {
-        assert!(matches!(c.clone_frame(p, &CloneOptions::default()), Err(Error::Params(_))), "{p:?}");
+        assert!(
+            matches!(
+                c.clone_frame(p, &CloneOptions::default()),
+                Err(Error::Params(_))
+            ),
+            "{p:?}"
+        );
     }
-    assert!(matches!(c.clone_frame(&huge_pose, &opts(Method::Map, None, true)), Err(Error::Params(_))));
+    assert!(matches!(
+        c.clone_frame(&huge_pose, &opts(Method::Map, None, true)),
+        Err(Error::Params(_))
+    ));
     let bad_opts = [
-        CloneOptions { gain: f32::NAN, ..CloneOptions::default() },
-        CloneOptions { shape_gains: vec![1.0; 4], ..CloneOptions::default() },
-        CloneOptions { appearance_gains: vec![f32::INFINITY], ..CloneOptions::default() },
-        CloneOptions { clamp: Some(-1.0), ..CloneOptions::default() },
-        CloneOptions { clamp: Some(f32::NAN), ..CloneOptions::default() },
+        CloneOptions {
+            gain: f32::NAN,
+            ..CloneOptions::default()
+        },
+        CloneOptions {
+            shape_gains: vec![1.0; 4],
+            ..CloneOptions::default()
+        },
+        CloneOptions {
+            appearance_gains: vec![f32::INFINITY],
+            ..CloneOptions::default()
+        },
+        CloneOptions {
+            clamp: Some(-1.0),
+            ..CloneOptions::default()
+        },
+        CloneOptions {
+            clamp: Some(f32::NAN),
+            ..CloneOptions::default()
+        },
     ];
     for o in &bad_opts {
-        assert!(matches!(c.clone_frame(&good, o), Err(Error::Params(_))), "{o:?}");
+        assert!(
+            matches!(c.clone_frame(&good, o), Err(Error::Params(_))),
+            "{o:?}"
+        );
     }
     assert_eq!(c.target_shape(0), &before[..]);
 }
@@ -556,11 +808,20 @@ fn method_names() {
     for m in Method::ALL {
         assert_eq!(m.to_string().parse::<Method>().unwrap(), m);
     }
-    assert_eq!("map-residual".parse::<Method>().unwrap(), Method::MapResidual);
+    assert_eq!(
+        "map-residual".parse::<Method>().unwrap(),
+        Method::MapResidual
+    );
     assert_eq!(Method::default(), Method::Map);
-    assert!(matches!("mapresidual".parse::<Method>(), Err(Error::Params(_))));
+    assert!(matches!(
+        "mapresidual".parse::<Method>(),
+        Err(Error::Params(_))
+    ));
     let d = CloneOptions::default();
-    assert_eq!((d.method, d.gain, d.clamp, d.follow_pose), (Method::Map, 1.0, Some(3.0), false));
+    assert_eq!(
+        (d.method, d.gain, d.clamp, d.follow_pose),
+        (Method::Map, 1.0, Some(3.0), false)
+    );
     assert!(d.shape_gains.is_empty() && d.appearance_gains.is_empty());
 }
 
@@ -592,20 +853,30 @@ fn training_set(seed: u64, k: usize) -> Vec<TrainingImage> {
             let phase = rng.next();
             for y in 0..h {
                 for x in 0..w {
-                    let v = ((x as f32 * 0.3 + phase * 3.0).sin() * (y as f32 * 0.2).cos() * 100.0 + 128.0) as u8;
+                    let v = ((x as f32 * 0.3 + phase * 3.0).sin() * (y as f32 * 0.2).cos() * 100.0
+                        + 128.0) as u8;
                     data.extend_from_slice(&[v, 255 - v, (x * 2) as u8, 255]);
                 }
             }
             let open = rng.next();
             let (s, r) = (0.8 + 0.1 * rng.next(), 0.1 * rng.next());
-            let pose = Similarity::from_parts(s, r, 48.0 + 3.0 * rng.next(), 48.0 + 3.0 * rng.next());
+            let pose =
+                Similarity::from_parts(s, r, 48.0 + 3.0 * rng.next(), 48.0 + 3.0 * rng.next());
             let mut lm = base_shape();
             for p in lm.chunks_exact_mut(2) {
                 p[1] *= 1.0 + 0.2 * open;
                 p[0] += 0.6 * rng.next();
             }
             pose.apply_in_place(&mut lm);
-            TrainingImage { name: format!("img{i}"), image: Image { width: w, height: h, data }, landmarks: lm }
+            TrainingImage {
+                name: format!("img{i}"),
+                image: Image {
+                    width: w,
+                    height: h,
+                    data,
+                },
+                landmarks: lm,
+            }
         })
         .collect()
 }
@@ -616,18 +887,29 @@ fn training_set(seed: u64, k: usize) -> Vec<TrainingImage> {
 #[wasm_bindgen_test(unsupported = test)]
 fn reference_named_training_image() {
     let images = training_set(3, 8);
-    let b = |reference| Builder::new(BuildOptions { name: "m".into(), reference, ..BuildOptions::default() });
+    let b = |reference| {
+        Builder::new(BuildOptions {
+            name: "m".into(),
+            reference,
+            ..BuildOptions::default()
+        })
+    };
     let mean = b(ReferenceChoice::Mean).build(&images, None).unwrap();
     assert_eq!(mean.reference, Reference::Mean);
     for frame_of in [None, Some(&mean)] {
-        let m = b(ReferenceChoice::Named("img5".into())).build(&images, frame_of).unwrap();
+        let m = b(ReferenceChoice::Named("img5".into()))
+            .build(&images, frame_of)
+            .unwrap();
         assert_eq!(m.reference, Reference::Training("img5".into()));
         // The base is a similarity transform of img5's landmarks.
         let t = &images[5];
         let pose = Similarity::align(&m.shape.base, &t.landmarks);
         let mut placed = m.shape.base.clone();
         pose.apply_in_place(&mut placed);
-        assert!(max_diff(&placed, &t.landmarks) < 1e-3, "base is not img5's shape");
+        assert!(
+            max_diff(&placed, &t.landmarks) < 1e-3,
+            "base is not img5's shape"
+        );
         // ... and differs from the mean's (the choice matters).
         let pm = Similarity::align(&mean.shape.base, &t.landmarks);
         let mut mp = mean.shape.base.clone();
@@ -636,39 +918,70 @@ fn reference_named_training_image() {
         // The modes are about it: img5 projects to zero parameters.
         let p = m.project(&t.image.view().unwrap(), &t.landmarks).unwrap();
         assert!(p.shape.iter().all(|v| v.abs() < 1e-3), "{:?}", p.shape);
-        assert!(p.appearance.iter().all(|v| v.abs() < 1e-3), "{:?}", p.appearance);
-        let q = m.project(&images[2].image.view().unwrap(), &images[2].landmarks).unwrap();
+        assert!(
+            p.appearance.iter().all(|v| v.abs() < 1e-3),
+            "{:?}",
+            p.appearance
+        );
+        let q = m
+            .project(&images[2].image.view().unwrap(), &images[2].landmarks)
+            .unwrap();
         assert!(q.shape.iter().any(|v| v.abs() > 0.05));
     }
-    assert!(matches!(b(ReferenceChoice::Named("nope".into())).build(&images, None), Err(Error::Training(_))));
-    assert!(matches!(b(ReferenceChoice::ClosestToFrame).build(&images, None), Err(Error::Training(_))));
+    assert!(matches!(
+        b(ReferenceChoice::Named("nope".into())).build(&images, None),
+        Err(Error::Training(_))
+    ));
+    assert!(matches!(
+        b(ReferenceChoice::ClosestToFrame).build(&images, None),
+        Err(Error::Training(_))
+    ));
 }
 
 /// `closest` picks the training image whose aligned shape is nearest the frame model's base.
 #[wasm_bindgen_test(unsupported = test)]
 fn reference_closest_to_frame() {
     let src_images = training_set(5, 8);
-    let source = Builder::new(BuildOptions { name: "s".into(), ..BuildOptions::default() }).build(&src_images, None).unwrap();
+    let source = Builder::new(BuildOptions {
+        name: "s".into(),
+        ..BuildOptions::default()
+    })
+    .build(&src_images, None)
+    .unwrap();
     let images = training_set(6, 9);
     // Independently: align each image's landmarks onto the frame base, take the nearest.
     let dist = |lm: &[f32]| -> f32 {
         let t = Similarity::align(lm, &source.shape.base);
         let mut a = lm.to_vec();
         t.apply_in_place(&mut a);
-        a.iter().zip(&source.shape.base).map(|(x, y)| (x - y) * (x - y)).sum()
+        a.iter()
+            .zip(&source.shape.base)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum()
     };
     let d: Vec<f32> = images.iter().map(|t| dist(&t.landmarks)).collect();
     let best = (0..d.len()).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap();
-    let m = Builder::new(BuildOptions { name: "t".into(), reference: ReferenceChoice::ClosestToFrame, ..BuildOptions::default() })
-        .build(&images, Some(&source))
-        .unwrap();
-    assert_eq!(m.reference, Reference::Training(images[best].name.clone()), "distances {d:?}");
+    let m = Builder::new(BuildOptions {
+        name: "t".into(),
+        reference: ReferenceChoice::ClosestToFrame,
+        ..BuildOptions::default()
+    })
+    .build(&images, Some(&source))
+    .unwrap();
+    assert_eq!(
+        m.reference,
+        Reference::Training(images[best].name.clone()),
+        "distances {d:?}"
+    );
     assert!(max_diff(&m.frame.vertices(), &source.frame.vertices()) == 0.0);
-    let p = m.project(&images[best].image.view().unwrap(), &images[best].landmarks).unwrap();
+    let p = m
+        .project(&images[best].image.view().unwrap(), &images[best].landmarks)
+        .unwrap();
     assert!(p.shape.iter().all(|v| v.abs() < 1e-3));
     // And the pair works.
     let mut c = one_target(&source, &m);
-    c.clone_frame(&source.base_params(), &CloneOptions::default()).unwrap();
+    c.clone_frame(&source.base_params(), &CloneOptions::default())
+        .unwrap();
 }
 
 #[wasm_bindgen_test(unsupported = test)]
@@ -696,7 +1009,12 @@ mod grid {
     use facemimic::{io, Renderer};
     use std::path::{Path, PathBuf};
 
-    pub const TARGETS: [&str; 4] = ["spk02_brbk7n", "spk03_lbax4n", "spk06_lwbsza", "spk10_swiz3n"];
+    pub const TARGETS: [&str; 4] = [
+        "spk02_brbk7n",
+        "spk03_lbax4n",
+        "spk06_lwbsza",
+        "spk10_swiz3n",
+    ];
 
     fn data() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid")
@@ -705,9 +1023,17 @@ mod grid {
     /// Builds a speaker's model from its `train20.txt`, in `frame_of`'s frame when given.
     pub fn build(folder: &str, frame_of: Option<&Model>) -> Model {
         let list = io::read_list(&data().join(folder).join("train20.txt")).unwrap();
-        let images: Vec<TrainingImage> = list.iter().map(|p| io::read_training_image(p).unwrap()).collect();
+        let images: Vec<TrainingImage> = list
+            .iter()
+            .map(|p| io::read_training_image(p).unwrap())
+            .collect();
         let name = folder.split('_').next().unwrap().to_string();
-        Builder::new(BuildOptions { name, ..BuildOptions::default() }).build(&images, frame_of).unwrap()
+        Builder::new(BuildOptions {
+            name,
+            ..BuildOptions::default()
+        })
+        .build(&images, frame_of)
+        .unwrap()
     }
 
     /// The unseen spk07 clip: every frame with its landmarks.
@@ -719,7 +1045,10 @@ mod grid {
             .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
             .collect();
         frames.sort();
-        frames.iter().map(|p| io::read_training_image(p).unwrap()).collect()
+        frames
+            .iter()
+            .map(|p| io::read_training_image(p).unwrap())
+            .collect()
     }
 
     fn point(s: &[f32], idx: &[usize]) -> (f32, f32) {
@@ -769,8 +1098,16 @@ mod grid {
 
     /// Renders a comparison figure: per target a row of (source frame | target reference |
     /// substitute | map | map-residual) at the clip's widest-open frame.
-    pub fn figure(cloner: &mut Cloner, source_frame: &TrainingImage, params: &Params, targets: &[usize], out: &Path) {
-        use facemimic::tiny_skia::{Color, FilterQuality, Paint, Pattern, Pixmap, Rect, SpreadMode, Transform};
+    pub fn figure(
+        cloner: &mut Cloner,
+        source_frame: &TrainingImage,
+        params: &Params,
+        targets: &[usize],
+        out: &Path,
+    ) {
+        use facemimic::tiny_skia::{
+            Color, FilterQuality, Paint, Pattern, Pixmap, Rect, SpreadMode, Transform,
+        };
         let cell = 140u32;
         let cols = 5;
         let mut canvas = Pixmap::new(cell * cols, cell * targets.len() as u32).unwrap();
@@ -789,7 +1126,11 @@ mod grid {
         };
         let src_img = Pixmap::from_vec(
             source_frame.image.data.clone(),
-            facemimic::tiny_skia::IntSize::from_wh(source_frame.image.width, source_frame.image.height).unwrap(),
+            facemimic::tiny_skia::IntSize::from_wh(
+                source_frame.image.width,
+                source_frame.image.height,
+            )
+            .unwrap(),
         )
         .unwrap();
         for (row, &ti) in targets.iter().enumerate() {
@@ -809,13 +1150,26 @@ mod grid {
             canvas.fill_rect(r, &paint, Transform::identity(), None);
             let frame = cloner.target(ti).frame.clone();
             let mut renderer = Renderer::new(&frame).unwrap();
-            let setups = [(Method::Map, 0.0), (Method::Substitute, 1.0), (Method::Map, 1.0), (Method::MapResidual, 1.0)];
+            let setups = [
+                (Method::Map, 0.0),
+                (Method::Substitute, 1.0),
+                (Method::Map, 1.0),
+                (Method::MapResidual, 1.0),
+            ];
             for (col, (method, gain)) in setups.into_iter().enumerate() {
-                let o = CloneOptions { method, gain, ..CloneOptions::default() };
+                let o = CloneOptions {
+                    method,
+                    gain,
+                    ..CloneOptions::default()
+                };
                 cloner.clone_frame(params, &o).unwrap();
                 let view = view_for(cloner.target(ti), col as u32 + 1, row);
-                renderer.upload(&frame, cloner.target_appearance(ti)).unwrap();
-                renderer.warp(&frame, cloner.target_shape(ti), &view, &mut canvas.as_mut()).unwrap();
+                renderer
+                    .upload(&frame, cloner.target_appearance(ti))
+                    .unwrap();
+                renderer
+                    .warp(&frame, cloner.target_shape(ti), &view, &mut canvas.as_mut())
+                    .unwrap();
             }
         }
         io::write_pixmap(out, &canvas).unwrap();
@@ -840,8 +1194,14 @@ fn grid_mouth_articulation_per_method() {
     }
     let clip = clip();
     assert_eq!(clip.len(), 75);
-    let params: Vec<Params> =
-        clip.iter().map(|f| source.project(&f.image.view().unwrap(), &f.landmarks).unwrap()).collect();
+    let params: Vec<Params> = clip
+        .iter()
+        .map(|f| {
+            source
+                .project(&f.image.view().unwrap(), &f.landmarks)
+                .unwrap()
+        })
+        .collect();
     let built = t0.elapsed();
     let mut s = vec![0.0; source.shape.base.len()];
     let src_open: Vec<f32> = params
@@ -873,7 +1233,11 @@ fn grid_mouth_articulation_per_method() {
     ];
     let mut ratios = vec![[[0f32; 2]; 5]; TARGETS.len()];
     for (mi, (method, clamp)) in setups.into_iter().enumerate() {
-        let o = CloneOptions { method, clamp, ..CloneOptions::default() };
+        let o = CloneOptions {
+            method,
+            clamp,
+            ..CloneOptions::default()
+        };
         let mut series = vec![Vec::new(); TARGETS.len()];
         for p in &params {
             cloner.clone_frame(p, &o).unwrap();
@@ -896,7 +1260,10 @@ fn grid_mouth_articulation_per_method() {
             cells.join(" | ")
         );
     }
-    println!("\n(built and projected in {built:.1?}, total {:.1?})", t0.elapsed());
+    println!(
+        "\n(built and projected in {built:.1?}, total {:.1?})",
+        t0.elapsed()
+    );
     for (ti, t) in TARGETS.iter().enumerate() {
         let [sub, map, res, _, res_free] = ratios[ti];
         for k in 0..2 {
@@ -905,16 +1272,46 @@ fn grid_mouth_articulation_per_method() {
             // ... map-residual compensates: clearly more than map, close to the source and to
             // substitute (which adds the source's displacement verbatim: the geometric ceiling
             // of this measure, below 1 only because the faces' inter-ocular distances differ).
-            assert!(res[k] > map[k] + 0.05, "{t}: map-residual {} vs map {}", res[k], map[k]);
-            assert!((0.9..1.1).contains(&res[k]), "{t}: map-residual ratio {}", res[k]);
-            assert!((res[k] - sub[k]).abs() < 0.05, "{t}: map-residual {} vs substitute {}", res[k], sub[k]);
+            assert!(
+                res[k] > map[k] + 0.05,
+                "{t}: map-residual {} vs map {}",
+                res[k],
+                map[k]
+            );
+            assert!(
+                (0.9..1.1).contains(&res[k]),
+                "{t}: map-residual ratio {}",
+                res[k]
+            );
+            assert!(
+                (res[k] - sub[k]).abs() < 0.05,
+                "{t}: map-residual {} vs substitute {}",
+                res[k],
+                sub[k]
+            );
             // The clamp (3 sigma*) is hardly active on this clip.
-            assert!((res_free[k] - res[k]).abs() < 0.02, "{t}: {} vs {}", res_free[k], res[k]);
+            assert!(
+                (res_free[k] - res[k]).abs() < 0.02,
+                "{t}: {} vs {}",
+                res_free[k],
+                res[k]
+            );
         }
     }
     if let Ok(path) = std::env::var("FACEMIMIC_CLONE_FIGURE") {
-        let widest = (0..src_open.len()).max_by(|&a, &b| src_open[a].total_cmp(&src_open[b])).unwrap();
-        println!("figure: frame {widest} (opening {:.3}) -> {path}", src_open[widest]);
-        figure(&mut cloner, &clip[widest], &params[widest], &[0, 3], std::path::Path::new(&path));
+        let widest = (0..src_open.len())
+            .max_by(|&a, &b| src_open[a].total_cmp(&src_open[b]))
+            .unwrap();
+        println!(
+            "figure: frame {widest} (opening {:.3}) -> {path}",
+            src_open[widest]
+        );
+        figure(
+            &mut cloner,
+            &clip[widest],
+            &params[widest],
+            &[0, 3],
+            std::path::Path::new(&path),
+        );
     }
 }

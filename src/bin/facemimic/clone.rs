@@ -26,10 +26,20 @@ pub struct Args {
     method: String,
     /// Gain on the source parameters: 0 = the target's reference face, 1 = faithful,
     /// >1 = exaggerated.
-    #[arg(long, default_value_t = 1.0, value_name = "G", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        value_name = "G",
+        allow_negative_numbers = true
+    )]
     gain: f32,
     /// Limit the mapped target parameters to +-K standard deviations of the target.
-    #[arg(long, default_value_t = 3.0, value_name = "K", conflicts_with = "no_clamp")]
+    #[arg(
+        long,
+        default_value_t = 3.0,
+        value_name = "K",
+        conflicts_with = "no_clamp"
+    )]
     clamp: f32,
     /// No limit on the mapped target parameters.
     #[arg(long)]
@@ -67,14 +77,22 @@ pub fn run(a: Args) -> Result<()> {
         (Some(p), _) => super::render::read_params(p)?,
         (None, Some(img)) => {
             let t = io::read_training_image(img)?;
-            source.project(&t.image.view()?, &t.landmarks).map_err(|e| e.with_context(&img.display().to_string()))?
+            source
+                .project(&t.image.view()?, &t.landmarks)
+                .map_err(|e| e.with_context(&img.display().to_string()))?
         }
         (None, None) => return Err(Error::Params("give --params or --image".into())),
     };
     let width = a.width.unwrap_or(target.image_size[0]);
     let height = a.height.unwrap_or(target.image_size[1]);
-    if width == 0 || height == 0 || width > facemimic::MAX_IMAGE_SIDE || height > facemimic::MAX_IMAGE_SIDE {
-        return Err(Error::Image(format!("canvas size {width}x{height} not supported")));
+    if width == 0
+        || height == 0
+        || width > facemimic::MAX_IMAGE_SIDE
+        || height > facemimic::MAX_IMAGE_SIDE
+    {
+        return Err(Error::Image(format!(
+            "canvas size {width}x{height} not supported"
+        )));
     }
     let options = CloneOptions {
         method,
@@ -94,13 +112,19 @@ pub fn run(a: Args) -> Result<()> {
         let frame = &cloner.target(0).frame;
         let mut renderer = Renderer::new(frame)?;
         renderer.upload(frame, cloner.target_appearance(0))?;
-        renderer.warp(frame, cloner.target_shape(0), &Similarity::IDENTITY, &mut pixmap.as_mut())?;
+        renderer.warp(
+            frame,
+            cloner.target_shape(0),
+            &Similarity::IDENTITY,
+            &mut pixmap.as_mut(),
+        )?;
         io::write_pixmap(out, &pixmap)?;
     }
     if let Some(p) = &a.out_pts {
         write(p, &facemimic::landmarks::write_pts(cloner.target_shape(0)))?;
     }
-    let json = serde_json::to_string(cloner.target_params(0)).map_err(|e| Error::Io(e.to_string()))?;
+    let json =
+        serde_json::to_string(cloner.target_params(0)).map_err(|e| Error::Io(e.to_string()))?;
     match &a.out_params {
         Some(p) => write(p, &format!("{json}\n"))?,
         None if a.out.is_none() && a.out_pts.is_none() => println!("{json}"),
