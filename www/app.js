@@ -22,7 +22,7 @@ import {
 
 const MODELS = 'models/';
 const METHODS = ['substitute', 'map', 'map-residual'];
-const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: true, mesh: false };
+const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false };
 const FACE_BG = '#1b1d22'; // = --face-bg in style.css: the canvas background meets the card without a seam
 
 const $ = (id) => document.getElementById(id);
