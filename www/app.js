@@ -16,6 +16,7 @@ import {
   createSource,
   cloneParams,
   validateTrack,
+  recentreTrack,
   TrackSource,
   SliderSource,
 } from './js/sources.js';
@@ -104,7 +105,8 @@ async function main() {
   if (manifest.track) {
     const t = typeof manifest.track === 'string' ? { file: manifest.track, fps: 25 } : manifest.track;
     try {
-      const frames = validateTrack(await fetchJson(MODELS + t.file), app.source.info);
+      const raw = validateTrack(await fetchJson(MODELS + t.file), app.source.info);
+      const frames = recentreTrack(raw, app.source.model.baseParams().pose);
       app.track = new TrackSource(frames, t.fps || 25, 'Recorded track');
       app.track.description = t.description || '';
     } catch (e) {

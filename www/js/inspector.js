@@ -115,7 +115,7 @@ export class Inspector {
       ['Landmarks', i.landmarks],
       ['Triangles', i.triangles],
       ['Frame', `${i.frameWidth}×${i.frameHeight} px, ${i.pixels.toLocaleString()} inside`],
-      ['Shape modes', `${i.shapeModes} (${pct(sum(i.shapeVarianceShare))} kept)`],
+      ['Shape modes', `${i.shapeModes}`],
       ['Appearance modes', `${i.appearanceModes}`],
       ['Reference', i.reference],
       ['Images', `${i.imageWidth}×${i.imageHeight}`],
@@ -160,10 +160,6 @@ export class Inspector {
       console.error('facemimic inspector:', e);
     }
   }
-}
-
-function sum(a) {
-  return a.reduce((x, y) => x + y, 0);
 }
 
 export function pct(x) {

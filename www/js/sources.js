@@ -68,6 +68,7 @@ export function validateTrack(frames, info) {
     for (const k of ['scale', 'rotation', 'tx', 'ty']) {
       if (!Number.isFinite(f.pose[k])) throw new Error(`${where}: pose.${k} is not a finite number`);
     }
+    if (!(f.pose.scale > 0)) throw new Error(`${where}: pose.scale must be positive`);
     if (!Array.isArray(f.shape) || f.shape.length !== info.shapeModes) {
       throw new Error(`${where}: ${f.shape?.length ?? 0} shape parameters, the source model has ${info.shapeModes}`);
     }
@@ -81,6 +82,49 @@ export function validateTrack(frames, info) {
     }
   });
   return frames;
+}
+
+/** Similarity helpers on the JSON pose form `{ scale, rotation (radians), tx, ty }`. */
+function compose(A, B) {
+  // (A o B)(x) = A(B(x)) = sA R(rA) (sB R(rB) x + tB) + tA
+  const c = Math.cos(A.rotation);
+  const s = Math.sin(A.rotation);
+  return {
+    scale: A.scale * B.scale,
+    rotation: A.rotation + B.rotation,
+    tx: A.scale * (c * B.tx - s * B.ty) + A.tx,
+    ty: A.scale * (s * B.tx + c * B.ty) + A.ty,
+  };
+}
+function invert(M) {
+  const c = Math.cos(-M.rotation);
+  const s = Math.sin(-M.rotation);
+  const k = 1 / M.scale;
+  return { scale: k, rotation: -M.rotation, tx: -k * (c * M.tx - s * M.ty), ty: -k * (s * M.tx + c * M.ty) };
+}
+
+/**
+ * Re-centre a track's head placement on the model's mean pose: every frame's pose becomes
+ * `meanPose o trackMean^-1 o pose`, where trackMean is the track's average pose. The head
+ * motion within the clip is kept exactly; only where the clip's camera happened to put the head
+ * changes, so the source face sits centred in its canvas (and follow-pose moves the targets
+ * about their own mean placement). Returns new frames; the input is not modified.
+ */
+export function recentreTrack(frames, meanPose) {
+  const n = frames.length;
+  let logScale = 0;
+  let rotation = 0;
+  let tx = 0;
+  let ty = 0;
+  for (const f of frames) {
+    logScale += Math.log(f.pose.scale);
+    rotation += f.pose.rotation;
+    tx += f.pose.tx;
+    ty += f.pose.ty;
+  }
+  const trackMean = { scale: Math.exp(logScale / n), rotation: rotation / n, tx: tx / n, ty: ty / n };
+  const fix = compose(meanPose, invert(trackMean));
+  return frames.map((f) => ({ ...cloneParams(f), pose: compose(fix, f.pose) }));
 }
 
 /**

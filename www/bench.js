@@ -1,0 +1,145 @@
+// facemimic in-browser benchmark: the whole frame (source + N targets at 360x288) split by stage.
+// Prints a JSON summary into <pre id="result"> (data-done="1" when finished) for headless runs
+// (tests/e2e/bench.mjs).
+import init, { Model, Cloner, version } from './pkg/facemimic.js';
+
+const MODELS = './models/';
+const W = 360;
+const H = 288;
+const q = new URLSearchParams(location.search);
+const int = (name, dflt, min, max) => {
+  const v = Number.parseInt(q.get(name) ?? '', 10);
+  return Number.isFinite(v) ? Math.min(max, Math.max(min, v)) : dflt;
+};
+const FRAMES = int('frames', 300, 1, 100000);
+const WARMUP = int('warmup', 30, 0, 10000);
+const TARGETS = int('targets', 4, 0, 16);
+const METHOD = q.get('method') || 'map';
+const MESH = q.get('mesh') === '1';
+
+const $ = (id) => document.getElementById(id);
+const status = (text) => { $('status').textContent = text; };
+
+async function fetchOk(url) {
+  const r = await fetch(url);
+  if (!r.ok) throw new Error(`${url}: HTTP ${r.status}`);
+  return r;
+}
+const bytes = async (file) => new Uint8Array(await (await fetchOk(MODELS + file)).arrayBuffer());
+
+function canvas(label) {
+  const fig = document.createElement('figure');
+  const c = document.createElement('canvas');
+  c.width = W;
+  c.height = H;
+  const cap = document.createElement('figcaption');
+  cap.textContent = label;
+  fig.append(c, cap);
+  $('faces').append(fig);
+  return c.getContext('2d');
+}
+
+function summary(values) {
+  const s = [...values].sort((a, b) => a - b);
+  const at = (p) => s[Math.min(s.length - 1, Math.floor(p * s.length))];
+  const mean = s.reduce((a, b) => a + b, 0) / s.length;
+  const median = s.length % 2 ? s[(s.length - 1) / 2] : 0.5 * (s[s.length / 2 - 1] + s[s.length / 2]);
+  const r = (x) => Math.round(x * 1000) / 1000;
+  return { mean: r(mean), median: r(median), p95: r(at(0.95)), min: r(s[0]), max: r(s[s.length - 1]) };
+}
+
+async function main() {
+  await init();
+  const manifest = await (await fetchOk(MODELS + 'manifest.json')).json();
+  const trackFile = typeof manifest.track === 'string' ? manifest.track : manifest.track.file;
+  const track = await (await fetchOk(MODELS + trackFile)).json();
+  if (!Array.isArray(track) || track.length === 0) throw new Error(`${trackFile}: empty track`);
+  const source = Model.fromBytes(await bytes(manifest.source));
+  const names = [...manifest.targets, ...manifest.library.filter((t) => !manifest.targets.includes(t))];
+  if (names.length < TARGETS) throw new Error(`only ${names.length} target models available`);
+  const cloner = new Cloner(source);
+  const targetNames = [];
+  for (const file of names.slice(0, TARGETS)) {
+    const m = Model.fromBytes(await bytes(file));
+    cloner.addTarget(m);
+    targetNames.push(m.name);
+    m.free();
+  }
+  cloner.setMethod(METHOD);
+  const sourceCtx = canvas(`source ${source.name}`);
+  const targetCtx = targetNames.map((n) => canvas(`target ${n}`));
+  const options = { background: '#202024', mesh: MESH };
+
+  const stages = { map: [], synth: [], raster: [], blit: [], total: [] };
+  const frame = (i) => {
+    const t0 = performance.now();
+    cloner.setSourceParams(track[i % track.length]);
+    cloner.update();
+    cloner.renderSource(sourceCtx, options);
+    for (let k = 0; k < targetCtx.length; k++) cloner.renderTarget(k, targetCtx[k], options);
+    const t1 = performance.now();
+    return [t1 - t0, cloner.timings()];
+  };
+
+  status(`warming up (${WARMUP} frames)...`);
+  await new Promise((r) => setTimeout(r, 0));
+  for (let i = 0; i < WARMUP; i++) frame(i);
+  status(`running ${FRAMES} frames...`);
+  await new Promise((r) => setTimeout(r, 0));
+  // In chunks, yielding between them so the page stays responsive; only frame() is timed.
+  for (let i = 0; i < FRAMES; ) {
+    const end = Math.min(FRAMES, i + 50);
+    for (; i < end; i++) {
+      const [total, t] = frame(WARMUP + i);
+      stages.map.push(t.mapMs);
+      stages.synth.push(t.synthMs);
+      stages.raster.push(t.rasterMs);
+      stages.blit.push(t.blitMs);
+      stages.total.push(total);
+    }
+    await new Promise((r) => setTimeout(r, 0));
+  }
+
+  const s = Object.fromEntries(Object.entries(stages).map(([k, v]) => [k, summary(v)]));
+  const result = {
+    facemimic: version(),
+    userAgent: navigator.userAgent,
+    hardwareConcurrency: navigator.hardwareConcurrency,
+    canvas: `${W}x${H}`,
+    faces: 1 + targetNames.length,
+    source: source.name,
+    targets: targetNames,
+    method: METHOD,
+    mesh: MESH,
+    frames: FRAMES,
+    warmup: WARMUP,
+    trackFrames: track.length,
+    ms: s,
+    fps: {
+      fromMean: Math.round(1000 / s.total.mean),
+      fromMedian: Math.round(1000 / s.total.median),
+    },
+  };
+  const tbody = $('table').querySelector('tbody');
+  for (const k of ['map', 'synth', 'raster', 'blit', 'total']) {
+    const tr = document.createElement('tr');
+    for (const v of [k, s[k].mean, s[k].median, s[k].p95]) {
+      const td = document.createElement('td');
+      td.textContent = typeof v === 'number' ? v.toFixed(3) : v;
+      tr.append(td);
+    }
+    tbody.append(tr);
+  }
+  $('table').hidden = false;
+  status(`${result.faces} faces at ${W}x${H}: ${s.total.mean.toFixed(2)} ms per frame (mean), ` +
+    `${result.fps.fromMean} fps; median ${s.total.median.toFixed(2)} ms, ${result.fps.fromMedian} fps`);
+  $('result').textContent = JSON.stringify(result, null, 2);
+  $('result').dataset.done = '1';
+}
+
+main().catch((e) => {
+  status(`error: ${e.message}`);
+  $('result').textContent = JSON.stringify({ error: e.message });
+  $('result').dataset.done = '1';
+  console.error(e);
+});
