@@ -205,3 +205,50 @@ export async function canvasPixels(page, selector, step = 3) {
     step,
   );
 }
+
+/**
+ * Where the face is in a canvas: the bounding box and centroid of the pixels that differ from
+ * the background colour `bg` ([r, g, b]) by more than `tol`, relative to the canvas size (0..1).
+ */
+export async function faceBox(page, selector, bg, tol = 24) {
+  return page.$eval(
+    selector,
+    (canvas, [bg, tol]) => {
+      const { width: w, height: h } = canvas;
+      const data = canvas.getContext('2d').getImageData(0, 0, w, h).data;
+      let x0 = w;
+      let y0 = h;
+      let x1 = -1;
+      let y1 = -1;
+      let sx = 0;
+      let sy = 0;
+      let n = 0;
+      for (let y = 0; y < h; y++) {
+        for (let x = 0; x < w; x++) {
+          const i = (y * w + x) * 4;
+          const d = Math.abs(data[i] - bg[0]) + Math.abs(data[i + 1] - bg[1]) + Math.abs(data[i + 2] - bg[2]);
+          if (d > tol) {
+            if (x < x0) x0 = x;
+            if (x > x1) x1 = x;
+            if (y < y0) y0 = y;
+            if (y > y1) y1 = y;
+            sx += x;
+            sy += y;
+            n++;
+          }
+        }
+      }
+      if (!n) return null;
+      return {
+        left: x0 / w,
+        top: y0 / h,
+        right: (x1 + 1) / w,
+        bottom: (y1 + 1) / h,
+        cx: (x0 + x1 + 1) / 2 / w,
+        cy: (y0 + y1 + 1) / 2 / h,
+        coverage: n / (w * h),
+      };
+    },
+    [bg, tol],
+  );
+}

@@ -20,6 +20,7 @@ import {
   canvasStats,
   canvasPixels,
   meanAbsDiff,
+  faceBox,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
@@ -94,6 +95,7 @@ async function openPage(t, { width = 1440, height = 900, dpr = 1, autoplay = tru
 }
 
 const TARGETS = '.face-card.target canvas.face';
+const FACE_BG = [0x1b, 0x1d, 0x22]; // the page's canvas background (FACE_BG in www/app.js)
 const SOURCE = '.face-card.source canvas.face';
 
 async function assertFace(page, selector, what) {
@@ -101,6 +103,14 @@ async function assertFace(page, selector, what) {
   assert.ok(s.width > 50 && s.height > 50, `${what}: canvas backing store is ${s.width}x${s.height}`);
   // A face (skin, eyes, mouth, hair, background) varies a lot; a blank or flat canvas does not.
   assert.ok(s.variance > 60 && s.distinct > 200, `${what}: centre looks blank (${JSON.stringify(s)})`);
+  // Centred and scaled: the face's box is in the middle, inside the canvas, and large.
+  const box = await faceBox(page, selector, FACE_BG);
+  const r = (v) => v.toFixed(2);
+  const desc = box && `box ${r(box.left)}..${r(box.right)} x ${r(box.top)}..${r(box.bottom)}`;
+  assert.ok(box, `${what}: nothing drawn over the background`);
+  assert.ok(Math.abs(box.cx - 0.5) < 0.08 && Math.abs(box.cy - 0.5) < 0.08, `${what}: face not centred (${desc})`);
+  assert.ok(box.left > 0.01 && box.top > 0.01 && box.right < 0.99 && box.bottom < 0.99, `${what}: face touches the edge (${desc})`);
+  assert.ok(box.right - box.left > 0.6, `${what}: face too small (${desc})`);
   return s;
 }
 
