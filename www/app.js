@@ -801,14 +801,40 @@ function option(value, label) {
 // ---------------------------------------------------------------------------------------------
 // Record
 
-function recordTiles() {
-  return [app.source, ...app.targets].map((e) => ({ canvas: e.canvas, label: e === app.source ? `${e.name} (source)` : e.name }));
+/** The faces to record: source then targets. `crisp`: render each afresh at the tile size. */
+function recordTiles(crisp = false) {
+  const opts = { background: FACE_BG };
+  return [app.source, ...app.targets].map((e) => {
+    const isSource = e === app.source;
+    const index = app.targets.indexOf(e);
+    return {
+      canvas: e.canvas,
+      label: isSource ? `${e.name} (source)` : e.name,
+      render: crisp
+        ? (w, h) =>
+            isSource ? app.cloner.renderSourceImageData(w, h, opts) : app.cloner.renderTargetImageData(index, w, h, opts)
+        : null,
+    };
+  });
 }
 
 const compositeCanvas = document.createElement('canvas');
 
+/** Video tiles at the page canvases' own height (no rescaling), even, within 240..720 px. */
+function videoTileHeight() {
+  const h = app.source.canvas.height;
+  return Math.max(240, Math.min(720, h - (h & 1)));
+}
+
 async function snapshot() {
-  composite(compositeCanvas, recordTiles());
+  try {
+    // 480 device px per face, rendered at that size (not scaled up from the page's canvases).
+    const crisp = typeof app.cloner.renderTargetImageData === 'function';
+    composite(compositeCanvas, recordTiles(crisp), 480);
+  } catch (e) {
+    notify('error', 'Snapshot failed', message(e));
+    return;
+  }
   const blob = await new Promise((resolve) => compositeCanvas.toBlob(resolve, 'image/png'));
   if (!blob) {
     notify('error', 'Snapshot failed', 'the browser could not encode a PNG');
@@ -837,7 +863,8 @@ async function toggleRecording() {
     return;
   }
   try {
-    composite(compositeCanvas, recordTiles());
+    app.recordTileH = videoTileHeight();
+    composite(compositeCanvas, recordTiles(), app.recordTileH);
     app.recorder = new WebmRecorder(compositeCanvas, 30);
     app.recorder.start();
   } catch (e) {
@@ -895,7 +922,7 @@ function render(t) {
   // The stage timings accumulate from update() over every render call of this frame.
   const tm = c.timings();
   const { mapMs: map, synthMs: synth, rasterMs: raster, blitMs: blit } = tm;
-  if (app.recorder) composite(compositeCanvas, recordTiles());
+  if (app.recorder) composite(compositeCanvas, recordTiles(), app.recordTileH);
 
   // Per-frame timings, smoothed.
   const s = app.stats;

@@ -2,11 +2,16 @@
 // names, onto one canvas; a PNG snapshot is that canvas once, a WebM video is a MediaRecorder
 // on its captureStream, fed one composite per rendered frame.
 
-const LABEL_H = 28;
-const GAP = 8;
 
-/** Draw `tiles` ([{ canvas, label }]) in one row onto `out` at height `tileH` (device px). */
+/**
+ * Draw `tiles` ([{ canvas, label, render? }]) in one row onto `out` at height `tileH` (device
+ * px). A tile with `render(w, h) -> ImageData` is rendered afresh at exactly the tile's size
+ * (crisp at any size); otherwise its canvas is scaled.
+ */
 export function composite(out, tiles, tileH = 360) {
+  // Labels and gaps scale with the tiles.
+  const LABEL_H = Math.round(tileH * 0.085);
+  const GAP = Math.max(4, Math.round(tileH / 48));
   const ws = tiles.map((t) => Math.round((t.canvas.width / t.canvas.height) * tileH) || tileH);
   const width = ws.reduce((a, b) => a + b, 0) + GAP * (tiles.length + 1);
   const height = tileH + LABEL_H + GAP * 2;
@@ -21,12 +26,13 @@ export function composite(out, tiles, tileH = 360) {
   ctx.fillStyle = '#121316';
   ctx.fillRect(0, 0, W, H);
   ctx.imageSmoothingQuality = 'high';
-  ctx.font = '500 15px system-ui, sans-serif';
+  ctx.font = `500 ${Math.round(LABEL_H * 0.55)}px system-ui, sans-serif`;
   ctx.textBaseline = 'middle';
   ctx.textAlign = 'center';
   let x = GAP;
   tiles.forEach((t, i) => {
-    ctx.drawImage(t.canvas, x, GAP, ws[i], tileH);
+    if (t.render) ctx.putImageData(t.render(ws[i], tileH), x, GAP);
+    else ctx.drawImage(t.canvas, x, GAP, ws[i], tileH);
     ctx.fillStyle = '#d8dae0';
     ctx.fillText(t.label, x + ws[i] / 2, GAP + tileH + LABEL_H / 2 + 2);
     x += ws[i] + GAP;
