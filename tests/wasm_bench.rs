@@ -51,17 +51,42 @@ fn say(s: &str) {
     println!("{s}");
 }
 
-/// Runs `f` for at least `min_ms` (and at least 3 times) after 2 warm-up calls; returns the
-/// mean time per call in ms.
-fn time(min_ms: f64, mut f: impl FnMut()) -> f64 {
+/// CPU time of this thread (native: `/proc/thread-self/schedstat`) or of the Node process
+/// (`process.cpuUsage()`), in ms; `None` where unavailable. On a shared, loaded machine it
+/// is a steadier measure than wall time (time spent waiting for a core is not counted).
+fn cpu_ms() -> Option<f64> {
+    #[cfg(target_arch = "wasm32")]
+    {
+        use wasm_bindgen::JsCast;
+        let process = js_sys::Reflect::get(&js_sys::global(), &"process".into()).ok()?;
+        let f = js_sys::Reflect::get(&process, &"cpuUsage".into())
+            .ok()?
+            .dyn_into::<js_sys::Function>()
+            .ok()?;
+        let u = f.call0(&process).ok()?;
+        let user = js_sys::Reflect::get(&u, &"user".into()).ok()?.as_f64()?;
+        let system = js_sys::Reflect::get(&u, &"system".into()).ok()?.as_f64()?;
+        Some((user + system) / 1e3)
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+        Some(s.split_whitespace().next()?.parse::<f64>().ok()? / 1e6)
+    }
+}
+
+/// Runs `f` for at least `min_ms` of wall time (and at least 3 times) after 2 warm-up calls;
+/// returns the mean wall time and CPU time per call in ms.
+fn time(min_ms: f64, mut f: impl FnMut()) -> (f64, Option<f64>) {
     f();
     f();
-    let (t0, mut n) = (now_ms(), 0u32);
+    let (t0, c0, mut n) = (now_ms(), cpu_ms(), 0u32);
     while n < 3 || now_ms() - t0 < min_ms {
         f();
         n += 1;
     }
-    (now_ms() - t0) / n as f64
+    let cpu = c0.zip(cpu_ms()).map(|(a, b)| (b - a) / n as f64);
+    ((now_ms() - t0) / n as f64, cpu)
 }
 
 fn image(seed: u32) -> Image {
@@ -163,6 +188,10 @@ fn core_timings() {
         ("sample_rgb image -> frame", sample),
         ("project (pose, shape, appearance)", project),
     ] {
-        say(&format!("[{target}] {what}: {ms:.3} ms"));
+        let cpu = ms.1.map_or("n/a".to_string(), |c| format!("{c:.3} ms"));
+        say(&format!(
+            "[{target}] {what}: wall {:.3} ms, cpu {cpu}",
+            ms.0
+        ));
     }
 }

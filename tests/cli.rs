@@ -1,0 +1,493 @@
+#![cfg(not(target_arch = "wasm32"))]
+//! The command-line tool, run as a process: `build`, `inspect`, `project`, `render` on GRID
+//! data, and bad input (missing files, wrong formats, corrupt models, bad parameters), which
+//! must end with one line on stderr, a non-zero exit and never a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+use serde_json::Value;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn grid(rel: &str) -> PathBuf {
+    root().join("data/grid").join(rel)
+}
+
+/// A fresh scratch folder for one test.
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("facemimic-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_facemimic"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(args: &[&dyn AsRef<std::ffi::OsStr>]) -> String {
+    let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+    let out = run(&args);
+    assert!(
+        out.status.success(),
+        "facemimic {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Runs a command that must fail cleanly; returns its one-line error message.
+fn fails(args: &[&dyn AsRef<std::ffi::OsStr>]) -> String {
+    let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+    let out = run(&args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        !out.status.success(),
+        "facemimic {args:?} succeeded; stderr: {err}"
+    );
+    assert_ne!(
+        out.status.code(),
+        None,
+        "facemimic {args:?} was killed by a signal"
+    );
+    assert!(
+        !err.contains("panicked") && !err.contains("internal error"),
+        "facemimic {args:?} panicked: {err}"
+    );
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "facemimic {args:?}: expected one line on stderr, got: {err}"
+    );
+    assert!(
+        lines[0].starts_with("facemimic: error: "),
+        "facemimic {args:?}: {err}"
+    );
+    assert!(
+        out.stdout.is_empty(),
+        "facemimic {args:?} printed to stdout on failure"
+    );
+    println!("{}", lines[0]);
+    lines[0].to_string()
+}
+
+/// The spk07 model built once by the CLI from train20 (shared by the tests of this file).
+fn spk07_model() -> &'static Path {
+    static MODEL: OnceLock<PathBuf> = OnceLock::new();
+    MODEL.get_or_init(|| {
+        let dir = scratch("model");
+        let model = dir.join("spk07.fmm");
+        let out = run(&[
+            "build".as_ref(),
+            "--out".as_ref(),
+            model.as_os_str(),
+            "--list".as_ref(),
+            grid("spk07_pwij3p/train20.txt").as_os_str(),
+        ]);
+        assert!(
+            out.status.success(),
+            "build failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            out.stdout.is_empty(),
+            "build prints its summary on stderr only"
+        );
+        model
+    })
+}
+
+fn json(text: &str) -> Value {
+    serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
+}
+
+#[test]
+fn build_inspect_project_render() {
+    let model = spk07_model();
+    let info = json(&ok(&[&"inspect", &model]));
+    assert_eq!(info["landmarks"], 68);
+    assert_eq!(info["channels"], 3);
+    let (shape_modes, appearance_modes) = (
+        info["shape_modes"].as_u64().unwrap(),
+        info["appearance_modes"].as_u64().unwrap(),
+    );
+    assert!(
+        (2..=19).contains(&shape_modes) && (2..=19).contains(&appearance_modes),
+        "{info}"
+    );
+    assert_eq!(
+        info["shape_sigma"].as_array().unwrap().len() as u64,
+        shape_modes
+    );
+    assert_eq!(
+        info["appearance_sigma"].as_array().unwrap().len() as u64,
+        appearance_modes
+    );
+    let sig: Vec<f64> = info["shape_sigma"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(
+        sig.windows(2).all(|w| w[0] >= w[1] && w[1] > 0.0),
+        "shape sigmas descending: {sig:?}"
+    );
+    let (fw, fh, px) = (
+        info["frame_width"].as_u64().unwrap(),
+        info["frame_height"].as_u64().unwrap(),
+        info["pixels"].as_u64().unwrap(),
+    );
+    assert!(
+        fw >= 140 && fh >= 140 && px > fw * fh / 3 && px < fw * fh,
+        "{info}"
+    );
+    assert!(info["triangles"].as_u64().unwrap() >= 90, "{info}");
+    assert_eq!(
+        info["frame_fingerprint"].as_str().unwrap().len(),
+        16,
+        "{info}"
+    );
+
+    // A frame of the clip that is not in train20.
+    let frame = grid("spk07_pwij3p/000030.jpg");
+    let params_text = ok(&[&"project", &"--model", &model, &frame]);
+    let params = json(&params_text);
+    assert_eq!(
+        params["shape"].as_array().unwrap().len() as u64,
+        shape_modes
+    );
+    assert_eq!(
+        params["appearance"].as_array().unwrap().len() as u64,
+        appearance_modes
+    );
+    for k in ["scale", "rotation", "tx", "ty"] {
+        assert!(params["pose"][k].is_f64(), "pose.{k}: {params}");
+    }
+    // The face is at the middle of the 360x288 frame, about 150 model units -> ~75 px.
+    let (tx, ty, scale) = (
+        params["pose"]["tx"].as_f64().unwrap(),
+        params["pose"]["ty"].as_f64().unwrap(),
+        params["pose"]["scale"].as_f64().unwrap(),
+    );
+    assert!(
+        (100.0..260.0).contains(&tx) && (80.0..220.0).contains(&ty) && (0.2..1.5).contains(&scale),
+        "{params}"
+    );
+
+    let dir = scratch("render");
+    let (p, png, pts) = (dir.join("p.json"), dir.join("out.png"), dir.join("out.pts"));
+    std::fs::write(&p, &params_text).unwrap();
+    ok(&[
+        &"render",
+        &"--model",
+        &model,
+        &"--params",
+        &p,
+        &"--out",
+        &png,
+        &"--out-pts",
+        &pts,
+    ]);
+    let img = facemimic::io::read_image(&png).unwrap();
+    assert_eq!(
+        (img.width, img.height),
+        (360, 288),
+        "default canvas = training image size"
+    );
+    // The rendered landmarks land where the frame's own landmarks are (0.98 of the shape
+    // variance kept: the residual is a small fraction of a pixel to a pixel or so).
+    let got = facemimic::io::read_landmarks(&pts, 360, 288).unwrap();
+    let want = facemimic::io::read_landmarks(&frame.with_extension("pts"), 360, 288).unwrap();
+    let mean_dist = got
+        .chunks_exact(2)
+        .zip(want.chunks_exact(2))
+        .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt())
+        .sum::<f32>()
+        / 68.0;
+    assert!(
+        mean_dist < 1.5,
+        "rendered landmarks {mean_dist} px from the frame's"
+    );
+    // The render looks like the frame over the face: compare the nose-and-mouth area.
+    let original = facemimic::io::read_image(&frame).unwrap();
+    let (x0, x1) = (want[2 * 31] as usize, want[2 * 35] as usize);
+    let (y0, y1) = (want[2 * 27 + 1] as usize, want[2 * 57 + 1] as usize);
+    let (mut sq, mut n) = (0f64, 0usize);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let k = (y * 360 + x) * 4;
+            for c in 0..3 {
+                sq += (img.data[k + c] as f64 - original.data[k + c] as f64).powi(2);
+                n += 1;
+            }
+        }
+    }
+    let rms = (sq / n as f64).sqrt();
+    assert!(
+        n > 300 && rms < 20.0,
+        "render differs from the frame by RMS {rms} over {n} values"
+    );
+
+    // The base face at another canvas size.
+    let png2 = dir.join("mean.png");
+    ok(&[
+        &"render",
+        &"--model",
+        &model,
+        &"--width",
+        &"200",
+        &"--height",
+        &"150",
+        &"--out",
+        &png2,
+    ]);
+    let img2 = facemimic::io::read_image(&png2).unwrap();
+    assert_eq!((img2.width, img2.height), (200, 150));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_input_fails_cleanly() {
+    let model = spk07_model();
+    let dir = scratch("bad");
+    let missing = dir.join("missing.fmm");
+    let frame = grid("spk07_pwij3p/000030.jpg");
+
+    // Missing files.
+    let e = fails(&[&"inspect", &missing]);
+    assert!(e.contains("missing.fmm"), "{e}");
+    fails(&[&"project", &"--model", &missing, &frame]);
+    fails(&[
+        &"render",
+        &"--model",
+        &missing,
+        &"--out",
+        &dir.join("x.png"),
+    ]);
+    let e = fails(&[&"project", &"--model", &model, &dir.join("nothing.jpg")]);
+    assert!(e.contains("nothing"), "{e}");
+    fails(&[
+        &"build",
+        &"--out",
+        &dir.join("m.fmm"),
+        &dir.join("nothing.jpg"),
+    ]);
+    fails(&[
+        &"build",
+        &"--out",
+        &dir.join("m.fmm"),
+        &"--list",
+        &dir.join("nothing.txt"),
+    ]);
+    fails(&[
+        &"render",
+        &"--model",
+        &model,
+        &"--params",
+        &dir.join("nothing.json"),
+        &"--out",
+        &dir.join("x.png"),
+    ]);
+
+    // Wrong formats: an image or a text file given as a model, a text file as an image.
+    let e = fails(&[&"inspect", &frame]);
+    assert!(e.contains("000030.jpg"), "{e}");
+    fails(&[&"inspect", &grid("spk07_pwij3p/train20.txt")]);
+    let text_image = dir.join("notes.jpg");
+    std::fs::write(&text_image, "this is not a JPEG").unwrap();
+    std::fs::copy(frame.with_extension("pts"), dir.join("notes.pts")).unwrap();
+    fails(&[&"project", &"--model", &model, &text_image]);
+    fails(&[
+        &"build",
+        &"--out",
+        &dir.join("m.fmm"),
+        &text_image,
+        &text_image,
+    ]);
+    // An image without landmarks.
+    std::fs::copy(&frame, dir.join("lonely.jpg")).unwrap();
+    let e = fails(&[&"project", &"--model", &model, &dir.join("lonely.jpg")]);
+    assert!(e.contains("landmark"), "{e}");
+    // A landmark file with the wrong number of points.
+    std::fs::copy(&frame, dir.join("few.jpg")).unwrap();
+    std::fs::write(
+        dir.join("few.pts"),
+        "version: 1\nn_points: 3\n{\n1 1\n5 9\n9 1\n}\n",
+    )
+    .unwrap();
+    fails(&[&"project", &"--model", &model, &dir.join("few.jpg")]);
+    // One training image is not enough.
+    fails(&[&"build", &"--out", &dir.join("m.fmm"), &frame]);
+
+    // Corrupt models: truncated, flipped bytes, random bytes, empty.
+    let bytes = std::fs::read(model).unwrap();
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("empty", Vec::new()),
+        ("header-only", bytes[..bytes.len().min(16)].to_vec()),
+        ("half", bytes[..bytes.len() / 2].to_vec()),
+        ("one-short", bytes[..bytes.len() - 1].to_vec()),
+        ("trailing", [bytes.as_slice(), b"junk"].concat()),
+        (
+            "random",
+            (0..4096u32)
+                .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+                .collect(),
+        ),
+        ("flipped", {
+            let mut b = bytes.clone();
+            let k = b.len() / 2;
+            b[k] ^= 0x40;
+            b
+        }),
+        ("magic", {
+            let mut b = bytes.clone();
+            b[0] ^= 0xff;
+            b
+        }),
+    ];
+    for (name, data) in cases {
+        let p = dir.join(format!("{name}.fmm"));
+        std::fs::write(&p, data).unwrap();
+        let e = fails(&[&"inspect", &p]);
+        assert!(e.contains(&format!("{name}.fmm")), "{name}: {e}");
+        fails(&[&"render", &"--model", &p, &"--out", &dir.join("x.png")]);
+        fails(&[
+            &"build",
+            &"--out",
+            &dir.join("m.fmm"),
+            &"--frame",
+            &p,
+            &"--list",
+            &grid("spk02_brbk7n/train20.txt"),
+        ]);
+    }
+
+    // Bad parameters: not JSON, NaN / infinite values, wrong lengths, zero scale.
+    let params = json(&ok(&[&"project", &"--model", &model, &frame]));
+    let shape_len = params["shape"].as_array().unwrap().len();
+    let with = |f: &dyn Fn(&mut Value)| {
+        let mut v = params.clone();
+        f(&mut v);
+        v.to_string()
+    };
+    let cases: Vec<(&str, String)> = vec![
+        ("garbage", "{not json".into()),
+        (
+            "nan-literal",
+            params
+                .to_string()
+                .replacen("\"shape\":[", "\"shape\":[NaN,", 1),
+        ),
+        ("nan-string", with(&|v| v["shape"][0] = Value::from("NaN"))),
+        (
+            "huge",
+            params
+                .to_string()
+                .replacen("\"shape\":[", "\"shape\":[1e999,", 1),
+        ),
+        (
+            "short",
+            with(&|v| {
+                v["shape"].as_array_mut().unwrap().pop();
+            }),
+        ),
+        (
+            "long-appearance",
+            with(&|v| {
+                v["appearance"]
+                    .as_array_mut()
+                    .unwrap()
+                    .push(Value::from(0.0))
+            }),
+        ),
+        (
+            "zero-scale",
+            with(&|v| v["pose"]["scale"] = Value::from(0.0)),
+        ),
+        (
+            "no-pose",
+            with(&|v| {
+                v.as_object_mut().unwrap().remove("pose");
+            }),
+        ),
+    ];
+    assert!(shape_len >= 2);
+    for (name, text) in cases {
+        let p = dir.join(format!("{name}.json"));
+        std::fs::write(&p, text).unwrap();
+        let e = fails(&[
+            &"render",
+            &"--model",
+            &model,
+            &"--params",
+            &p,
+            &"--out",
+            &dir.join("x.png"),
+        ]);
+        assert!(
+            e.contains("param") || e.contains(&format!("{name}.json")),
+            "{name}: {e}"
+        );
+        assert!(
+            !dir.join("x.png").exists(),
+            "{name}: an image was written despite the error"
+        );
+    }
+
+    // Bad canvas sizes and an unwritable output.
+    fails(&[
+        &"render",
+        &"--model",
+        &model,
+        &"--width",
+        &"0",
+        &"--height",
+        &"10",
+        &"--out",
+        &dir.join("x.png"),
+    ]);
+    fails(&[
+        &"render",
+        &"--model",
+        &model,
+        &"--width",
+        &"100000",
+        &"--height",
+        &"10",
+        &"--out",
+        &dir.join("x.png"),
+    ]);
+    fails(&[
+        &"render",
+        &"--model",
+        &model,
+        &"--out",
+        &dir.join("no/such/folder/x.png"),
+    ]);
+    fails(&[
+        &"build",
+        &"--out",
+        &dir.join("no/such/folder/m.fmm"),
+        &"--list",
+        &grid("spk07_pwij3p/train20.txt"),
+    ]);
+    // A variance fraction outside (0, 1].
+    fails(&[
+        &"build",
+        &"--out",
+        &dir.join("m.fmm"),
+        &"--shape-variance",
+        &"1.5",
+        &"--list",
+        &grid("spk07_pwij3p/train20.txt"),
+    ]);
+    std::fs::remove_dir_all(&dir).ok();
+}
