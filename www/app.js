@@ -45,7 +45,7 @@ const app = {
   inspector: null,
   recorder: null,
   compareIndex: 0,
-  stats: { fps: 0, map: 0, synth: 0, raster: 0, blit: 0, last: 0, shown: 0 },
+  stats: { fps: 0, map: 0, synth: 0, raster: 0, blit: 0, frameMs: 0, last: 0, shown: 0 },
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -906,6 +906,7 @@ function frame(now) {
 }
 
 function render(t) {
+  const t0 = performance.now();
   const p = app.active.paramsAt(t);
   app.params = p;
   const c = app.cloner;
@@ -932,6 +933,7 @@ function render(t) {
   s.raster += (raster - s.raster) * a;
   s.blit += (blit - s.blit) * a;
   const now = performance.now();
+  s.frameMs += (now - t0 - s.frameMs) * a;
   if (s.last) {
     const dt = now - s.last;
     if (dt > 0 && dt < 1000) s.fps += (1000 / dt - s.fps) * a;
@@ -950,6 +952,7 @@ function readouts(now) {
   s.shown = now;
   const idle = now - s.last > 500;
   $('ro-fps').textContent = idle ? 'idle' : s.fps.toFixed(0);
+  $('ro-fps').title = `the page's whole frame (clone, render, copy to every canvas): ${s.frameMs.toFixed(2)} ms`;
   $('ro-map').textContent = `${s.map.toFixed(2)} ms`;
   $('ro-synth').textContent = `${s.synth.toFixed(2)} ms`;
   $('ro-raster').textContent = `${s.raster.toFixed(2)} ms`;
