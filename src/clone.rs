@@ -731,8 +731,10 @@ impl Cloner {
     /// parameters `R p`, `Ra lambda` (for `map-residual` the shape additionally carries the
     /// residual, which no target parameter describes). For `substitute`: the least-squares
     /// projection of the substituted instance onto the target model, `S*^T (s - s0*) = R p`
-    /// and `A*^T (A - A0*) = Ra lambda` (unclamped; the instance itself uses the source's
-    /// modes and is in [`Cloner::target_shape`] / [`Cloner::target_appearance`]).
+    /// and `A*^T (A - A0*) = Ra lambda`, with `p`, `lambda` the gained source parameters
+    /// after the constraint (which for `substitute` limits them to `+-k sigma` of the
+    /// SOURCE; the projection itself is not clamped to the target's range). The instance uses
+    /// the source's modes and is in [`Cloner::target_shape`] / [`Cloner::target_appearance`].
     /// Panics when `index` is out of range.
     pub fn target_params(&self, index: usize) -> &Params {
         &self.targets[index].params
