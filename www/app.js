@@ -73,8 +73,8 @@ async function main() {
   // offers them only with a package that can track.
   registerSource('track', {
     label: 'Recorded track',
-    available: () => app.track !== null,
-    create: () => app.track,
+    available: () => usableTrack() !== null,
+    create: () => usableTrack(),
   });
   registerSource('sliders', {
     label: 'Sliders',
@@ -420,7 +420,7 @@ function setSourceFromBytes(bytes, file) {
   if (app.inspector.model === old) app.inspector.show(model, app.source.info, 'source');
   old.free();
   // The bundled track holds parameters of the bundled source model only.
-  const trackFits = app.track && key === app.trackKey;
+  const trackFits = usableTrack() !== null;
   app.params = null;
   app.sliders = null;
   buildSliders();
@@ -501,7 +501,7 @@ function buildControls() {
 
   $('play').addEventListener('click', () => play(!(app.active === app.track && app.track.playing)));
   $('scrub').addEventListener('input', () => {
-    if (!app.track) return;
+    if (!usableTrack()) return;
     if (app.active !== app.track) activate('track');
     app.track.pause();
     app.track.seek(Number($('scrub').value));
@@ -558,7 +558,7 @@ function buildControls() {
       if (tag === 'INPUT' && type !== 'range') return;
       if (t.isContentEditable) return;
     }
-    if (!app.track) return;
+    if (!usableTrack()) return;
     e.preventDefault();
     play(!(app.active === app.track && app.track.playing));
   });
@@ -623,10 +623,15 @@ function reset() {
   app.dirty = true;
 }
 
+/** The recorded track, when it belongs to the current source model (else null). */
+function usableTrack() {
+  return app.track && app.source?.bytesKey === app.trackKey ? app.track : null;
+}
+
 /** Make a source kind active. `fresh`: build a new instance even if one exists. */
 function activate(kind, { fresh = false } = {}) {
   let src;
-  if (kind === 'track') src = app.track;
+  if (kind === 'track') src = usableTrack();
   else if (kind === 'sliders') {
     if (!app.sliders || fresh || app.active !== app.sliders) app.sliders = createSource('sliders', app);
     src = app.sliders;
@@ -658,7 +663,7 @@ function syncSourceMenu() {
 }
 
 function play(on) {
-  if (!app.track) return;
+  if (!usableTrack()) return;
   if (on) {
     if (app.active !== app.track) activate('track');
     app.track.play();
@@ -668,7 +673,7 @@ function play(on) {
 }
 
 function syncTransport() {
-  const t = app.track;
+  const t = usableTrack();
   const btn = $('play');
   const playing = !!t && app.active === t && t.playing;
   btn.disabled = !t;

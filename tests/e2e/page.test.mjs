@@ -310,6 +310,37 @@ test('dropping valid models adds and replaces targets; removing one works', asyn
   assert.deepEqual(errors, []);
 });
 
+test('dropping a model on the source swaps the source; the track comes back with the bundled one', async (t) => {
+  const { page, errors, frames } = await openPage(t);
+  const other = (manifest.library || []).find((f) => !manifest.targets.includes(f));
+  assert.ok(other, 'no spare model in the library');
+  const before = await page.$$eval('#shape-sliders input', (els) => els.length);
+  await dropFiles(page, '.face-card.source', [{ name: other, bytes: modelBytes(other) }]);
+  const name = other.replace(/\.fmm$/, '');
+  await page.waitForFunction((n) => document.querySelector('.face-card.source .name').textContent === n, name);
+  // The recorded track belongs to the bundled source: the new source is driven by the sliders.
+  assert.equal(await page.$eval('#source-kind', (s) => s.value), 'sliders');
+  assert.equal(await page.$$eval('#source-kind option', (os) => os.map((o) => o.value).join()), 'sliders');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'paused');
+  assert.ok(await page.isDisabled('#play'), 'play is offered without a track');
+  const info = await page.$$eval('#shape-sliders input', (els) => els.length);
+  assert.ok(info > 0);
+  await frames(2);
+  await assertFace(page, SOURCE, `source ${name}`);
+  const a = await canvasPixels(page, `${TARGETS} >> nth=0`);
+  await setSlider(page, 'p-shape-0', 2.5);
+  await frames(2);
+  assert.ok(meanAbsDiff(a, await canvasPixels(page, `${TARGETS} >> nth=0`)) > 0.5, 'the new source does not drive the targets');
+
+  // The bundled source back: the track is offered again and plays.
+  await dropFiles(page, '.face-card.source', [{ name: manifest.source, bytes: modelBytes(manifest.source) }]);
+  await page.waitForFunction(() => document.querySelector('#source-kind').value === 'track');
+  assert.equal(await page.$$eval('#shape-sliders input', (els) => els.length), before);
+  await page.click('#play');
+  assert.equal(await page.getAttribute('#play', 'data-state'), 'playing');
+  assert.deepEqual(errors, []);
+});
+
 test('bad files show an error naming the file and the reason; the page keeps rendering', async (t) => {
   const { page, frames } = await openPage(t);
   const n0 = await page.locator(TARGETS).count();
