@@ -67,6 +67,7 @@ async function main() {
     app.dirty = true;
     app.inspector?.invalidate();
   });
+  app.inspectorVisible = () => app.hidpi.visible($('inspect-mode')) || app.hidpi.visible($('inspect-mean'));
 
   // The built-in sources. The tracking work adds 'video' and 'webcam' the same way, from its
   // own module, with `available: (wasm) => typeof wasm.Tracker === 'function'`, so the menu
@@ -906,7 +907,7 @@ function frame(now) {
     }
     app.dirty = false;
   }
-  app.inspector?.tick(t);
+  if (app.inspector && app.inspectorVisible()) app.inspector.tick(t);
   readouts(now);
 }
 
@@ -918,12 +919,21 @@ function render(t) {
   c.setSourceParams(p);
   c.update();
   const opts = { background: FACE_BG, mesh: app.settings.mesh };
-  c.renderSource(ctx2d(app.source.canvas), opts);
-  for (let i = 0; i < app.targets.length; i++) c.renderTarget(i, ctx2d(app.targets[i].canvas), opts);
+  // Faces scrolled out of view are skipped (redrawn when they come back), except while
+  // recording, which copies every face canvas into the video.
+  const all = !!app.recorder;
+  const seen = (canvas) => all || app.hidpi.visible(canvas);
+  if (seen(app.source.canvas)) c.renderSource(ctx2d(app.source.canvas), opts);
+  for (let i = 0; i < app.targets.length; i++) {
+    if (seen(app.targets[i].canvas)) c.renderTarget(i, ctx2d(app.targets[i].canvas), opts);
+  }
   if (!$('compare').hidden && app.targets.length) {
     const i = Math.min(app.compareIndex, app.targets.length - 1);
     if ($('compare-name').textContent !== app.targets[i].name) $('compare-name').textContent = app.targets[i].name;
-    for (const m of METHODS) c.renderTargetWithMethod(i, m, ctx2d($(`cmp-${m}`)), opts);
+    for (const m of METHODS) {
+      const canvas = $(`cmp-${m}`);
+      if (app.hidpi.visible(canvas)) c.renderTargetWithMethod(i, m, ctx2d(canvas), opts);
+    }
   }
   // The stage timings accumulate from update() over every render call of this frame.
   const tm = c.timings();

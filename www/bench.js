@@ -16,6 +16,7 @@ const WARMUP = int('warmup', 30, 0, 10000);
 const TARGETS = int('targets', 4, 0, 16);
 const METHOD = q.get('method') || 'map';
 const MESH = q.get('mesh') === '1';
+const RASTER = q.get('raster') || 'scanline';
 
 const $ = (id) => document.getElementById(id);
 const status = (text) => { $('status').textContent = text; };
@@ -68,7 +69,7 @@ async function main() {
   cloner.setMethod(METHOD);
   const sourceCtx = canvas(`source ${source.name}`);
   const targetCtx = targetNames.map((n) => canvas(`target ${n}`));
-  const options = { background: '#202024', mesh: MESH };
+  const options = { background: '#202024', mesh: MESH, raster: RASTER };
 
   const stages = { map: [], synth: [], raster: [], blit: [], total: [] };
   const frame = (i) => {
@@ -101,6 +102,27 @@ async function main() {
   }
 
   const s = Object.fromEntries(Object.entries(stages).map(([k, v]) => [k, summary(v)]));
+
+  // The two rasterisers on the same face, interleaved call by call so that both see the same
+  // machine load: raster ms per face (clear + triangle warp) for target 0.
+  const rasterCompare = {};
+  if (targetCtx.length > 0) {
+    status('comparing rasterisers...');
+    await new Promise((r) => setTimeout(r, 0));
+    const modes = ['scanline', 'tiny-skia'];
+    const samples = { scanline: [], 'tiny-skia': [] };
+    const opts = Object.fromEntries(modes.map((m) => [m, { background: '#202024', raster: m }]));
+    for (let i = 0; i < Math.max(60, Math.min(FRAMES, 400)); i++) {
+      cloner.setSourceParams(track[i % track.length]);
+      cloner.update();
+      for (const m of i % 2 ? modes : [...modes].reverse()) {
+        const before = cloner.timings().rasterMs;
+        cloner.renderTarget(0, targetCtx[0], opts[m]);
+        samples[m].push(cloner.timings().rasterMs - before);
+      }
+    }
+    for (const m of modes) rasterCompare[m] = summary(samples[m]);
+  }
   const result = {
     facemimic: version(),
     userAgent: navigator.userAgent,
@@ -111,10 +133,12 @@ async function main() {
     targets: targetNames,
     method: METHOD,
     mesh: MESH,
+    raster: RASTER,
     frames: FRAMES,
     warmup: WARMUP,
     trackFrames: track.length,
     ms: s,
+    rasterPerFaceMs: rasterCompare,
     fps: {
       fromMean: Math.round(1000 / s.total.mean),
       fromMedian: Math.round(1000 / s.total.median),

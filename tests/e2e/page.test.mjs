@@ -201,6 +201,13 @@ test('backing stores are the CSS size times devicePixelRatio, and the phone layo
   await assertFace(page, SOURCE, 'source (phone)');
   await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 (phone)');
   await screenshot(page, 'page-phone', { fullPage: false });
+  // Faces off screen are not drawn; scrolled into view, they are.
+  await page.locator('#cmp-map-residual').scrollIntoViewIfNeeded();
+  await frames(3);
+  await assertFace(page, '#cmp-map-residual', 'compare view after scrolling (phone)');
+  await page.locator('#inspect-mode').scrollIntoViewIfNeeded();
+  await frames(3);
+  await assertFace(page, '#inspect-mean', 'inspector after scrolling (phone)');
   await screenshot(page, 'page-phone-full');
   assert.deepEqual(errors, []);
 });
@@ -435,7 +442,10 @@ test('the compare view shows the three methods on one target as three different 
 });
 
 test('the inspector animates a mode and lists the variance shares', async (t) => {
-  const { page, errors } = await openPage(t);
+  const { page, errors, frames } = await openPage(t);
+  // The page draws only what is on screen: bring the inspector into view.
+  await page.locator('#inspect-mode').scrollIntoViewIfNeeded();
+  await frames(3);
   await assertFace(page, '#inspect-mean', 'inspector mean');
   const a = await canvasPixels(page, '#inspect-mode');
   await page.waitForTimeout(400);
@@ -451,7 +461,6 @@ test('the inspector animates a mode and lists the variance shares', async (t) =>
   await page.selectOption('#inspect-model', '0');
   const targetName = await page.textContent('.face-card.target >> nth=0 >> .name');
   await page.waitForFunction((n) => document.querySelector('#inspect-info dd')?.textContent === n, targetName);
-  await page.locator('.inspector').scrollIntoViewIfNeeded();
   await screenshot(page, 'page-inspector', { fullPage: false });
   assert.deepEqual(errors, []);
 });

@@ -42,11 +42,24 @@ export function fitCanvas(canvas, entry) {
 
 /**
  * Keep canvases sized to their device pixels. `watch(canvas)` starts, `unwatch(canvas)` stops;
- * `onResize(canvas)` runs after a canvas's backing store changed.
+ * `onResize(canvas)` runs after a canvas's backing store changed, or when it scrolled into
+ * view (so it can be drawn again). `visible(canvas)` says whether any of it is on screen:
+ * the page skips drawing faces nobody can see.
  */
 export class HiDpi {
   constructor(onResize) {
     this.onResize = onResize;
+    this.shown = new WeakMap();
+    this.io = new IntersectionObserver(
+      (entries) => {
+        for (const e of entries) {
+          const was = this.shown.get(e.target);
+          this.shown.set(e.target, e.isIntersecting);
+          if (e.isIntersecting && !was) this.onResize(e.target);
+        }
+      },
+      { rootMargin: '64px' },
+    );
     this.observer = new ResizeObserver((entries) => {
       for (const e of entries) {
         if (e.target.isConnected && fitCanvas(e.target, e)) this.onResize(e.target);
@@ -58,11 +71,17 @@ export class HiDpi {
   watch(canvas) {
     this.canvases.add(canvas);
     this.observer.observe(canvas);
+    this.io.observe(canvas);
     fitCanvas(canvas);
   }
   unwatch(canvas) {
     this.canvases.delete(canvas);
     this.observer.unobserve(canvas);
+    this.io.unobserve(canvas);
+  }
+  /** Whether the canvas is (nearly) on screen; true until the first report. */
+  visible(canvas) {
+    return this.shown.get(canvas) ?? true;
   }
   watchDpr() {
     const mq = matchMedia(`(resolution: ${window.devicePixelRatio || 1}dppx)`);
