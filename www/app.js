@@ -444,6 +444,8 @@ function removeTarget(entry) {
     return;
   }
   app.targets.splice(index, 1);
+  // Keep comparing the same face when an earlier one goes.
+  if (index < app.compareIndex) app.compareIndex--;
   app.hidpi.unwatch(entry.canvas);
   entry.card.remove();
   if (app.inspector.model === entry.model) app.inspector.show(app.source.model, app.source.info, 'source');
