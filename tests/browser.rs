@@ -122,7 +122,12 @@ fn offscreen_ctx(w: u32, h: u32) -> (OffscreenCanvas, OffscreenCanvasRenderingCo
 }
 
 fn options(background: &str, mesh: bool) -> Option<JsValue> {
+    options_with(background, mesh, "scanline")
+}
+
+fn options_with(background: &str, mesh: bool, raster: &str) -> Option<JsValue> {
     let o = js_sys::Object::new();
+    js_sys::Reflect::set(&o, &"raster".into(), &raster.into()).unwrap();
     js_sys::Reflect::set(&o, &"background".into(), &background.into()).unwrap();
     js_sys::Reflect::set(&o, &"mesh".into(), &mesh.into()).unwrap();
     Some(o.into())
@@ -536,4 +541,56 @@ fn bad_input_throws_and_the_module_keeps_working() {
         H,
         "after errors",
     );
+}
+
+#[wasm_bindgen_test]
+fn scanline_and_tiny_skia_rasterisers_agree() {
+    let (source, target) = models();
+    let mut cloner = JsCloner::new(&JsModel::from(source.clone())).unwrap();
+    cloner.add_target(&JsModel::from(target.clone())).unwrap();
+    let mut p = source.base_params();
+    p.shape[0] = 1.5 * source.shape.variances[0].sqrt();
+    p.pose = Similarity::from_parts(p.pose.scale() * 1.1, 0.2, p.pose.tx + 7.0, p.pose.ty - 5.0);
+    cloner.set_source_params(params_js(&p)).unwrap();
+    cloner.set_follow_pose(true);
+    cloner.update().unwrap();
+    let (_a, a) = offscreen_ctx(W, H);
+    let (_b, b) = offscreen_ctx(W, H);
+    let (a, b): (JsValue, JsValue) = (a.into(), b.into());
+    cloner
+        .render_target(0, a.clone(), options_with("#ff00ff", false, "scanline"))
+        .unwrap();
+    cloner
+        .render_target(0, b.clone(), options_with("#ff00ff", false, "tiny-skia"))
+        .unwrap();
+    let (pa, pb) = (read_pixels(&a), read_pixels(&b));
+    let shape = cloner.cloner().target_shape(0).to_vec();
+    assert_face(&pa, &target, &shape, W, H, "scanline");
+    assert_face(&pb, &target, &shape, W, H, "tiny-skia");
+    let (mut both, mut either, mut diff) = (0usize, 0usize, 0f64);
+    for (x, y) in pa.chunks_exact(4).zip(pb.chunks_exact(4)) {
+        let (fa, fb) = (x[..3] != MAGENTA, y[..3] != MAGENTA);
+        if fa || fb {
+            either += 1;
+        }
+        if fa && fb {
+            both += 1;
+            diff += (0..3)
+                .map(|c| (x[c] as f64 - y[c] as f64).abs())
+                .sum::<f64>()
+                / 3.0;
+        }
+    }
+    let coverage_mismatch = (either - both) as f64 / either as f64;
+    assert!(
+        coverage_mismatch < 0.01,
+        "coverage differs on {:.3}% of the face",
+        100.0 * coverage_mismatch
+    );
+    let mean = diff / both as f64;
+    assert!(mean < 1.5, "colours differ by {mean:.2} levels on average");
+    let e = cloner
+        .render_target(0, a.clone(), options_with("#000", false, "gpu"))
+        .unwrap_err();
+    assert!(message(e).contains("raster"));
 }

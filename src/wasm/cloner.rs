@@ -6,6 +6,7 @@ use wasm_bindgen::prelude::*;
 use web_sys::ImageData;
 
 use super::model::{model_info, JsModel};
+use super::raster::{upload_with, warp_with, Scanline};
 use super::surface::{
     base_box, fit_view, now_ms, paint, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
 };
@@ -48,6 +49,7 @@ pub struct JsCloner {
     source_box: [f32; 4],
     target_boxes: Vec<[f32; 4]>,
     overlay: MeshOverlay,
+    scanline: Scanline,
     timings: Timings,
     compare: Option<Compare>,
     /// Bumped whenever the source or the targets change.
@@ -92,6 +94,7 @@ impl JsCloner {
     #[allow(clippy::too_many_arguments)]
     fn draw(
         renderer: &mut Renderer,
+        scanline: &mut Scanline,
         overlay: &mut MeshOverlay,
         timings: &mut Timings,
         model: &Model,
@@ -102,13 +105,21 @@ impl JsCloner {
         options: &RenderOptions,
     ) -> Result<(), JsError> {
         let t0 = now_ms();
-        renderer.upload(&model.frame, appearance).map_err(js_err)?;
+        upload_with(options.raster, renderer, scanline, &model.frame, appearance)
+            .map_err(js_err)?;
         timings.synth += now_ms() - t0;
         let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
             let view: Similarity = fit_view(bbox, w, h);
-            renderer
-                .warp(&model.frame, shape, &view, pixmap)
-                .map_err(js_err)?;
+            warp_with(
+                options.raster,
+                renderer,
+                scanline,
+                &model.frame,
+                shape,
+                &view,
+                pixmap,
+            )
+            .map_err(js_err)?;
             if options.mesh {
                 overlay.draw(&model.frame, shape, &view, pixmap);
             }
@@ -135,6 +146,7 @@ impl JsCloner {
         self.timings.synth += now_ms() - t0;
         Self::draw(
             &mut self.renderer,
+            &mut self.scanline,
             &mut self.overlay,
             &mut self.timings,
             model,
@@ -162,6 +174,7 @@ impl JsCloner {
             .unwrap_or_else(|| base_box(model));
         Self::draw(
             &mut self.renderer,
+            &mut self.scanline,
             &mut self.overlay,
             &mut self.timings,
             model,
@@ -201,6 +214,7 @@ impl JsCloner {
             source_box,
             target_boxes: Vec::new(),
             overlay: MeshOverlay::default(),
+            scanline: Scanline::default(),
             timings: Timings::default(),
             compare: None,
             generation: 0,
@@ -554,6 +568,7 @@ impl JsCloner {
             .unwrap_or_else(|| base_box(compare.cloner.target(0)));
         Self::draw(
             &mut self.renderer,
+            &mut self.scanline,
             &mut self.overlay,
             &mut self.timings,
             compare.cloner.target(0),

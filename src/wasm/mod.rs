@@ -16,6 +16,7 @@ use crate::model::Params;
 
 mod cloner;
 mod model;
+mod raster;
 mod surface;
 
 pub use cloner::JsCloner;
@@ -103,6 +104,9 @@ export interface RenderOptions {
   background?: string;
   /** Overlay the triangle mesh (thin, semi-transparent). Default false. */
   mesh?: boolean;
+  /** Triangle rasteriser: "scanline" (default; fixed-point bilinear spans written into the
+   *  tiny-skia pixmap) or "tiny-skia" (one tiny-skia pattern fill per triangle; slower). */
+  raster?: "scanline" | "tiny-skia";
 }
 /** Milliseconds spent per stage since the last `update()` (mapping, synthesis, rasterising, blitting). */
 export interface Timings { mapMs: number; synthMs: number; rasterMs: number; blitMs: number }

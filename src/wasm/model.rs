@@ -6,6 +6,7 @@ use std::rc::Rc;
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
+use super::raster::{upload_with, warp_with, Scanline};
 use super::surface::{base_box, fit_view, paint, Ctx, MeshOverlay, RenderOptions, Sink};
 use super::{js_err, params_from_js, params_to_js};
 use crate::image::ImageRef;
@@ -82,6 +83,7 @@ pub(crate) struct ModelScratch {
     shape: Vec<f32>,
     params: Params,
     overlay: MeshOverlay,
+    scanline: Scanline,
     bbox: [f32; 4],
 }
 
@@ -93,6 +95,7 @@ impl ModelScratch {
             shape: vec![0.0; model.shape.base.len()],
             params: model.base_params(),
             overlay: MeshOverlay::default(),
+            scanline: Scanline::default(),
             bbox: base_box(model),
         })
     }
@@ -103,19 +106,36 @@ impl ModelScratch {
         model
             .appearance
             .instance_unchecked(&self.params.appearance, &mut self.appearance);
-        self.renderer
-            .upload(&model.frame, &self.appearance)
-            .map_err(js_err)?;
+        upload_with(
+            options.raster,
+            &mut self.renderer,
+            &mut self.scanline,
+            &model.frame,
+            &self.appearance,
+        )
+        .map_err(js_err)?;
         model
             .image_shape(&self.params, &mut self.shape)
             .map_err(js_err)?;
         let bbox = self.bbox;
-        let (renderer, shape, overlay) = (&mut self.renderer, &self.shape, &mut self.overlay);
+        let (renderer, shape, overlay, scanline) = (
+            &mut self.renderer,
+            &self.shape,
+            &mut self.overlay,
+            &mut self.scanline,
+        );
         paint(Sink::Canvas(ctx), options.background, |pixmap, w, h| {
             let view = fit_view(bbox, w, h);
-            renderer
-                .warp(&model.frame, shape, &view, pixmap)
-                .map_err(js_err)?;
+            warp_with(
+                options.raster,
+                renderer,
+                scanline,
+                &model.frame,
+                shape,
+                &view,
+                pixmap,
+            )
+            .map_err(js_err)?;
             if options.mesh {
                 overlay.draw(&model.frame, shape, &view, pixmap);
             }

@@ -108,13 +108,24 @@ pub(crate) fn describe(value: &JsValue) -> String {
     }
 }
 
-/// Parsed [`RenderOptions`](crate::wasm) (`{ background?: string, mesh?: boolean }`).
+/// Which rasteriser warps the triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Raster {
+    /// [`super::raster::warp`]: scanline spans, 8-bit fixed-point bilinear (the default).
+    Scanline,
+    /// [`crate::Renderer::warp`]: one tiny-skia pattern fill per triangle.
+    TinySkia,
+}
+
+/// Parsed [`RenderOptions`](crate::wasm) (`{ background?: string, mesh?: boolean, raster?: string }`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct RenderOptions {
     /// Premultiplied background colour.
     pub background: Color,
     /// Overlay the triangle mesh.
     pub mesh: bool,
+    /// The triangle rasteriser.
+    pub raster: Raster,
 }
 
 /// The default background, `#202024`.
@@ -126,6 +137,7 @@ impl Default for RenderOptions {
         RenderOptions {
             background: Color::from_rgba8(r, g, b, a),
             mesh: false,
+            raster: Raster::Scanline,
         }
     }
 }
@@ -192,6 +204,19 @@ impl RenderOptions {
                     describe(&mesh)
                 ))
             })?;
+        }
+        let raster = get("raster")?;
+        if !(raster.is_undefined() || raster.is_null()) {
+            o.raster = if js_sys::Object::is(&raster, &JsValue::from_str("scanline")) {
+                Raster::Scanline
+            } else if js_sys::Object::is(&raster, &JsValue::from_str("tiny-skia")) {
+                Raster::TinySkia
+            } else {
+                return Err(JsError::new(&format!(
+                    "render options: raster must be \"scanline\" or \"tiny-skia\", got {}",
+                    describe(&raster)
+                )));
+            };
         }
         Ok(o)
     }

@@ -1,0 +1,34 @@
+// Runs www/bench.html in headless Chromium and prints its JSON summary (a script, not a test).
+//   node tests/e2e/bench.mjs [--frames N] [--method map] [--mesh] [--raster scanline|tiny-skia]
+// Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
+import { serveStatic, launchBrowser, screenshot } from './lib.mjs';
+
+const args = process.argv.slice(2);
+const opt = (name, dflt) => {
+  const i = args.indexOf(`--${name}`);
+  return i >= 0 && args[i + 1] ? args[i + 1] : dflt;
+};
+const query = new URLSearchParams({
+  frames: opt('frames', '300'),
+  warmup: opt('warmup', '30'),
+  targets: opt('targets', '4'),
+  method: opt('method', 'map'),
+  mesh: args.includes('--mesh') ? '1' : '0',
+  raster: opt('raster', 'scanline'),
+});
+
+const server = await serveStatic('www');
+const browser = await launchBrowser();
+try {
+  const page = await browser.newPage({ viewport: { width: 1200, height: 1000 } });
+  page.on('pageerror', (e) => console.error(`page error: ${e.message}`));
+  await page.goto(`${server.url}bench.html?${query}`);
+  await page.waitForSelector('#result[data-done="1"]', { timeout: 300000 });
+  const text = await page.textContent('#result');
+  await screenshot(page, 'bench');
+  console.log(text);
+  if (JSON.parse(text).error) process.exitCode = 1;
+} finally {
+  await browser.close();
+  await server.close();
+}
