@@ -1,0 +1,354 @@
+//! Everything the fitter computes once per model: the combined similarity + shape basis, the
+//! grey-level appearance model on each level's pixels, template gradients, warp Jacobians,
+//! project-out steepest-descent images and their Hessians.
+
+use crate::error::{Error, Result};
+use crate::model::Model;
+
+use super::linalg::{cholesky, gram_schmidt};
+
+/// Luminance weights (Rec. 601) used to turn the RGB appearance into grey levels.
+pub(crate) const LUMA: [f32; 3] = [0.299, 0.587, 0.114];
+
+/// The combined basis of mesh displacements in model coordinates (Matthews & Baker 2004,
+/// section 4.3): the four similarity vectors `s*_1..s*_4` (scale/rotation about the base shape,
+/// x and y translation), orthonormalised, followed by the model's shape modes
+/// Gram-Schmidt-orthogonalised against them and each other.
+pub(crate) struct ShapeBasis {
+    /// Number of parameters `k` (4 + kept shape modes).
+    pub k: usize,
+    /// Basis vectors, row-major `k x 2n`.
+    pub vectors: Vec<f32>,
+    /// For parameter `j`, the model's shape mode it comes from (`None` for the similarity).
+    pub mode_of: Vec<Option<usize>>,
+}
+
+impl ShapeBasis {
+    pub(crate) fn new(model: &Model) -> Result<ShapeBasis> {
+        let s0 = &model.shape.base;
+        let d = s0.len();
+        let mut cands: Vec<Vec<f64>> = Vec::new();
+        cands.push(s0.iter().map(|&v| v as f64).collect());
+        cands.push(
+            s0.chunks_exact(2)
+                .flat_map(|p| [-(p[1] as f64), p[0] as f64])
+                .collect(),
+        );
+        cands.push((0..d).map(|i| if i % 2 == 0 { 1.0 } else { 0.0 }).collect());
+        cands.push((0..d).map(|i| if i % 2 == 1 { 1.0 } else { 0.0 }).collect());
+        for i in 0..model.shape.n_modes() {
+            cands.push(model.shape.mode(i).iter().map(|&v| v as f64).collect());
+        }
+        let mut comps: Vec<Vec<Vec<f64>>> = vec![Vec::new(); cands.len()];
+        let kept = gram_schmidt(&mut cands, &mut comps, 1e-4);
+        if kept.len() < 4 || kept[..4] != [0, 1, 2, 3] {
+            return Err(Error::Params(
+                "the model's base shape is degenerate: no similarity basis can be built".into(),
+            ));
+        }
+        let mode_of = kept
+            .iter()
+            .map(|&i| if i < 4 { None } else { Some(i - 4) })
+            .collect();
+        Ok(ShapeBasis {
+            k: cands.len(),
+            vectors: cands.iter().flatten().map(|&v| v as f32).collect(),
+            mode_of,
+        })
+    }
+}
+
+/// One resolution level: a subset of the frame pixels (every `step`-th column and row) with
+/// everything the inverse compositional iterations need there.
+pub(crate) struct Level {
+    /// Gaussian smoothing of the template (and of the image, scaled by the pose), frame px.
+    pub sigma: f32,
+    /// Number of pixels `N` on this level.
+    pub n: usize,
+    /// Mesh vertices of each pixel's triangle.
+    pub verts: Vec<[u32; 3]>,
+    /// Barycentric coordinates of each pixel.
+    pub bary: Vec<[f32; 3]>,
+    /// Grey base appearance `A0` on the level pixels.
+    pub a0: Vec<f32>,
+    /// Number of grey appearance basis images (including gain and bias when enabled).
+    pub la: usize,
+    /// Orthonormal grey appearance basis, row-major `la x N`.
+    pub app: Vec<f32>,
+    /// Gradient of `A0` (x, y), per pixel.
+    pub a0_gx: Vec<f32>,
+    /// Gradient of `A0` along y.
+    pub a0_gy: Vec<f32>,
+    /// Gradients of the appearance basis images, row-major `la x N`.
+    pub app_gx: Vec<f32>,
+    /// Gradients along y.
+    pub app_gy: Vec<f32>,
+    /// Warp Jacobian `dW/dc_j` (x part), row-major `k x N`.
+    pub jx: Vec<f32>,
+    /// Warp Jacobian (y part).
+    pub jy: Vec<f32>,
+    /// Project-out steepest-descent images, row-major `k x N`.
+    pub sd_po: Vec<f32>,
+    /// Project-out Gauss-Newton Hessian `SD^T SD` (`k x k`, f64), without the prior.
+    pub h_po: Vec<f64>,
+    /// Prior weights per parameter (0 for the similarity).
+    pub prior: Vec<f64>,
+}
+
+/// Fills a full-resolution frame grid with per-pixel values (plus the frame's padding ring),
+/// NaN elsewhere.
+fn fill_grid(model: &Model, values: &[f64], grid: &mut [f64]) {
+    let f = &model.frame;
+    let w = f.width() as usize;
+    grid.iter_mut().for_each(|g| *g = f64::NAN);
+    for (px, v) in f.pixels().iter().zip(values) {
+        grid[px.y as usize * w + px.x as usize] = *v;
+    }
+    for &(k, src) in f.padding() {
+        grid[k as usize] = values[src as usize];
+    }
+}
+
+/// Gaussian blur of a grid in place, ignoring (and keeping) NaN cells: normalised
+/// convolution, so values near the mesh border are averages of defined neighbours only.
+fn blur_grid(grid: &mut [f64], w: usize, h: usize, sigma: f64) {
+    let r = (3.0 * sigma).ceil() as isize;
+    let kernel: Vec<f64> = (-r..=r)
+        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let mut tmp = vec![f64::NAN; w * h];
+    for pass in 0..2 {
+        let (src, dst): (&[f64], &mut [f64]) = if pass == 0 {
+            (&*grid, &mut tmp)
+        } else {
+            (&tmp, &mut *grid)
+        };
+        let mut out = vec![f64::NAN; w * h];
+        for y in 0..h as isize {
+            for x in 0..w as isize {
+                if !src[y as usize * w + x as usize].is_finite() {
+                    continue;
+                }
+                let (mut acc, mut wsum) = (0.0, 0.0);
+                for (ki, kv) in kernel.iter().enumerate() {
+                    let o = ki as isize - r;
+                    let (xx, yy) = if pass == 0 { (x + o, y) } else { (x, y + o) };
+                    if xx < 0 || yy < 0 || xx >= w as isize || yy >= h as isize {
+                        continue;
+                    }
+                    let v = src[yy as usize * w + xx as usize];
+                    if v.is_finite() {
+                        acc += kv * v;
+                        wsum += kv;
+                    }
+                }
+                out[y as usize * w + x as usize] = acc / wsum;
+            }
+        }
+        dst.copy_from_slice(&out);
+    }
+}
+
+/// Central-difference gradient of a grid at `(x, y)`, one-sided where a neighbour is missing.
+fn grid_gradient(grid: &[f64], w: usize, h: usize, x: usize, y: usize) -> (f64, f64) {
+    let at = |xx: isize, yy: isize| -> f64 {
+        if xx < 0 || yy < 0 || xx >= w as isize || yy >= h as isize {
+            f64::NAN
+        } else {
+            grid[yy as usize * w + xx as usize]
+        }
+    };
+    let (xi, yi) = (x as isize, y as isize);
+    let c = at(xi, yi);
+    let diff = |m: f64, p: f64| -> f64 {
+        match (m.is_finite(), p.is_finite()) {
+            (true, true) => 0.5 * (p - m),
+            (true, false) => c - m,
+            (false, true) => p - c,
+            _ => 0.0,
+        }
+    };
+    (
+        diff(at(xi - 1, yi), at(xi + 1, yi)),
+        diff(at(xi, yi - 1), at(xi, yi + 1)),
+    )
+}
+
+impl Level {
+    /// Precomputes a level. `smooth` is the number of 3x3 box-blur passes applied to the
+    /// template images before taking gradients (coarse levels see a smoother template).
+    pub(crate) fn new(
+        model: &Model,
+        basis: &ShapeBasis,
+        step: u32,
+        sigma: f32,
+        gain_bias: bool,
+        shape_prior: f32,
+    ) -> Result<Level> {
+        let f = &model.frame;
+        let (w, h) = (f.width() as usize, f.height() as usize);
+        let npx = f.n_pixels();
+        let step = step.max(1);
+        let tris = f.triangles();
+        let sel: Vec<usize> = f
+            .pixels()
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.x as u32 % step == 0 && p.y as u32 % step == 0)
+            .map(|(i, _)| i)
+            .collect();
+        let n = sel.len();
+        if n < basis.k * 4 {
+            return Err(Error::Params(format!(
+                "fitting level with step {step} has only {n} pixels for {} parameters",
+                basis.k
+            )));
+        }
+        let verts: Vec<[u32; 3]> = sel
+            .iter()
+            .map(|&i| tris[f.pixels()[i].triangle as usize])
+            .collect();
+        let bary: Vec<[f32; 3]> = sel.iter().map(|&i| f.pixels()[i].bary).collect();
+
+        // Grey images on the full frame: A0 and each RGB mode's luminance.
+        let app = &model.appearance;
+        let grey = |v: &[f32]| -> Vec<f64> {
+            v.chunks_exact(3)
+                .map(|c| (LUMA[0] * c[0] + LUMA[1] * c[1] + LUMA[2] * c[2]) as f64)
+                .collect()
+        };
+        let a0_full = grey(&app.base);
+        let mut raw: Vec<Vec<f64>> = Vec::new();
+        if gain_bias {
+            raw.push(vec![1.0; npx]);
+            raw.push(a0_full.clone());
+        }
+        for i in 0..app.n_modes() {
+            raw.push(grey(app.mode(i)));
+        }
+        // Values and gradients at the level pixels.
+        let mut grid = vec![0f64; w * h];
+        let mut sample = |full: &[f64]| -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+            fill_grid(model, full, &mut grid);
+            if sigma > 0.0 {
+                blur_grid(&mut grid, w, h, sigma as f64);
+            }
+            let mut v = Vec::with_capacity(n);
+            let mut gx = Vec::with_capacity(n);
+            let mut gy = Vec::with_capacity(n);
+            for &i in &sel {
+                let p = f.pixels()[i];
+                v.push(grid[p.y as usize * w + p.x as usize]);
+                let (a, b) = grid_gradient(&grid, w, h, p.x as usize, p.y as usize);
+                gx.push(a);
+                gy.push(b);
+            }
+            (v, gx, gy)
+        };
+        let (a0, a0_gx, a0_gy) = sample(&a0_full);
+        let mut vecs = Vec::new();
+        let mut comps = Vec::new();
+        for r in &raw {
+            let (v, gx, gy) = sample(r);
+            vecs.push(v);
+            comps.push(vec![gx, gy]);
+        }
+        gram_schmidt(&mut vecs, &mut comps, 1e-3);
+        let la = vecs.len();
+        let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+        let app_v: Vec<f32> = vecs.iter().flat_map(|v| to32(v)).collect();
+        let app_gx: Vec<f32> = comps.iter().flat_map(|c| to32(&c[0])).collect();
+        let app_gy: Vec<f32> = comps.iter().flat_map(|c| to32(&c[1])).collect();
+
+        // Warp Jacobians dW/dc_j at each level pixel.
+        let k = basis.k;
+        let d = model.shape.base.len();
+        let mut jx = vec![0f32; k * n];
+        let mut jy = vec![0f32; k * n];
+        for j in 0..k {
+            let b = &basis.vectors[j * d..(j + 1) * d];
+            for i in 0..n {
+                let (t, w3) = (verts[i], bary[i]);
+                let (mut x, mut y) = (0f32, 0f32);
+                for c in 0..3 {
+                    x += w3[c] * b[2 * t[c] as usize];
+                    y += w3[c] * b[2 * t[c] as usize + 1];
+                }
+                jx[j * n + i] = x;
+                jy[j * n + i] = y;
+            }
+        }
+
+        // Project-out steepest-descent images (f64 for the projection), Hessian.
+        let mut sd: Vec<Vec<f64>> = (0..k)
+            .map(|j| {
+                (0..n)
+                    .map(|i| a0_gx[i] * jx[j * n + i] as f64 + a0_gy[i] * jy[j * n + i] as f64)
+                    .collect()
+            })
+            .collect();
+        for s in &mut sd {
+            for _ in 0..2 {
+                for u in &vecs {
+                    let dd: f64 = s.iter().zip(u).map(|(a, b)| a * b).sum();
+                    s.iter_mut().zip(u).for_each(|(a, b)| *a -= dd * b);
+                }
+            }
+        }
+        let mut h_po = vec![0f64; k * k];
+        for a in 0..k {
+            for b in 0..=a {
+                let v: f64 = sd[a].iter().zip(&sd[b]).map(|(x, y)| x * y).sum();
+                h_po[a * k + b] = v;
+                h_po[b * k + a] = v;
+            }
+        }
+        // Shape prior: w_j = rho * (N_level / N_frame) / sigma_j^2 on the shape parameters.
+        let frac = n as f64 / npx as f64;
+        let prior: Vec<f64> = basis
+            .mode_of
+            .iter()
+            .map(|m| match m {
+                Some(i) => {
+                    let var = model.shape.variances[*i].max(1e-12) as f64;
+                    shape_prior.max(0.0) as f64 * frac * npx as f64 / var
+                }
+                None => 0.0,
+            })
+            .collect();
+        let mut h_po_chol = h_po.clone();
+        regularise(&mut h_po_chol, &prior, k);
+        if !cholesky(&mut h_po_chol, k) {
+            return Err(Error::Params(format!(
+                "the fitting Hessian of level {step} is singular (is the appearance flat?)"
+            )));
+        }
+        Ok(Level {
+            sigma,
+            n,
+            verts,
+            bary,
+            a0: to32(&a0),
+            la,
+            app: app_v,
+            a0_gx: to32(&a0_gx),
+            a0_gy: to32(&a0_gy),
+            app_gx,
+            app_gy,
+            jx,
+            jy,
+            sd_po: sd.iter().flat_map(|s| to32(s)).collect(),
+            h_po,
+            prior,
+        })
+    }
+}
+
+/// Adds the prior diagonal plus a tiny ridge (relative to the trace) to a `k x k` matrix.
+pub(crate) fn regularise(h: &mut [f64], prior: &[f64], k: usize) {
+    let trace: f64 = (0..k).map(|i| h[i * k + i]).sum::<f64>().abs();
+    let ridge = 1e-9 * trace / k as f64 + 1e-12;
+    for i in 0..k {
+        h[i * k + i] += prior[i] + ridge;
+    }
+}

@@ -1,0 +1,229 @@
+//! Tracking a face through a sequence: each frame starts from the previous result; a lost
+//! face is detected and the tracker re-initialises from the last good result.
+
+use crate::error::{check_finite, check_len, Error, Result};
+use crate::image::ImageRef;
+use crate::model::Model;
+use crate::similarity::Similarity;
+
+use super::{FitOptions, FitResult, Fitter};
+
+/// Follows one face through video frames with a [`Fitter`].
+///
+/// Start a sequence with [`Tracker::start_from_landmarks`] or [`Tracker::start_from_box`], then
+/// call [`Tracker::track`] once per frame. A fit is judged lost when its error exceeds
+/// [`FitOptions::max_error`], the shape parameters' RMS in standard deviations
+/// (`sqrt(mean (p_i / sigma_i)^2)`) exceeds [`FitOptions::max_sigmas`], the scale jumps by more than [`FitOptions::max_scale_jump`] or the rotation by
+/// more than 0.5 rad from the last good fit, or the fit failed numerically. The tracker then
+/// retries once from the last good result with more appearance-aware iterations; if that
+/// fails too, the frame's result is the last good one with `lost = true`, and the next frame
+/// starts from it again.
+pub struct Tracker {
+    fitter: Fitter,
+    /// Where the next fit starts (landmarks, image coordinates).
+    start: Vec<f32>,
+    /// True once a sequence has been started.
+    started: bool,
+    /// True when the next fit starts from a rough guess (a box) and should work harder.
+    cold: bool,
+    last_good: Option<FitResult>,
+    last: Option<FitResult>,
+    lost_count: u32,
+    resets: u32,
+    frames: u32,
+}
+
+impl Tracker {
+    /// A tracker for `model` (does the fitter's precomputation).
+    pub fn new(model: &Model, options: FitOptions) -> Result<Tracker> {
+        let fitter = Fitter::new(model, options)?;
+        let n2 = fitter.landmarks() * 2;
+        Ok(Tracker {
+            fitter,
+            start: vec![0.0; n2],
+            started: false,
+            cold: false,
+            last_good: None,
+            last: None,
+            lost_count: 0,
+            resets: 0,
+            frames: 0,
+        })
+    }
+
+    /// The fitter (for its sizes and options).
+    pub fn fitter(&self) -> &Fitter {
+        &self.fitter
+    }
+
+    /// Starts a new sequence from landmarks on the next frame (image coordinates, `2n`).
+    pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
+        check_len("landmarks", landmarks, self.start.len())?;
+        check_finite("landmarks", landmarks)?;
+        let pose = Similarity::align(&self.fitter.geom.s0, landmarks);
+        if !(pose.is_valid() && pose.scale() > 1e-4) {
+            return Err(Error::Params(
+                "landmarks are degenerate (all points coincide)".into(),
+            ));
+        }
+        self.start.copy_from_slice(landmarks);
+        self.begin(false);
+        Ok(())
+    }
+
+    /// Starts a new sequence from a face box (image coordinates: left, top, width, height):
+    /// the base shape is scaled to the box's width and centred in it.
+    pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
+        check_finite("box", &[x, y, w, h])?;
+        if !(w >= 4.0 && h >= 4.0) {
+            return Err(Error::Params(format!(
+                "box {w}x{h} is too small (at least 4x4)"
+            )));
+        }
+        let s0 = &self.fitter.geom.s0;
+        let (mut minx, mut miny, mut maxx, mut maxy) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+        for p in s0.chunks_exact(2) {
+            minx = minx.min(p[0]);
+            maxx = maxx.max(p[0]);
+            miny = miny.min(p[1]);
+            maxy = maxy.max(p[1]);
+        }
+        let scale = (w / (maxx - minx).max(1e-6)).min(h / (maxy - miny).max(1e-6));
+        let (cx, cy) = (0.5 * (minx + maxx), 0.5 * (miny + maxy));
+        let pose = Similarity {
+            a: scale,
+            b: 0.0,
+            tx: x + 0.5 * w - scale * cx,
+            ty: y + 0.5 * h - scale * cy,
+        };
+        pose.apply(s0, &mut self.start);
+        self.begin(true);
+        Ok(())
+    }
+
+    fn begin(&mut self, cold: bool) {
+        self.started = true;
+        self.cold = cold;
+        self.last_good = None;
+        self.last = None;
+    }
+
+    /// Fits the next frame, starting from the previous result (or the sequence's start).
+    ///
+    /// Fails with [`Error::Params`] if no sequence was started. The result's `lost` flag says
+    /// whether the face was lost on this frame (then the result is the last good fit).
+    pub fn track(&mut self, frame: &ImageRef<'_>) -> Result<&FitResult> {
+        if !self.started {
+            return Err(Error::Params(
+                "the tracker has no start: call start_from_landmarks or start_from_box".into(),
+            ));
+        }
+        self.frames += 1;
+        let opts = self.fitter.options().clone();
+        let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
+        let first = if self.cold { Some(cold_iters) } else { None };
+        let start = std::mem::take(&mut self.start);
+        let r = self.fitter.fit_with(frame, &start, first).map(|_| ());
+        self.start = start;
+        r?;
+        let mut ok = self.plausible(self.fitter.result());
+        if !ok && self.last_good.is_some() {
+            self.resets += 1;
+            // Retry from the last good fit, working harder (more appearance-aware steps).
+            let from = self
+                .last_good
+                .as_ref()
+                .map(|g| g.landmarks.clone())
+                .unwrap_or_default();
+            self.fitter.fit_with(frame, &from, Some(cold_iters))?;
+            ok = self.plausible(self.fitter.result());
+        }
+        let result = if ok {
+            self.cold = false;
+            let r = self.fitter.result().clone();
+            self.last_good = Some(r.clone());
+            self.start.copy_from_slice(&r.landmarks);
+            r
+        } else {
+            self.lost_count += 1;
+            match &self.last_good {
+                Some(g) => {
+                    self.start.copy_from_slice(&g.landmarks);
+                    let mut r = g.clone();
+                    r.lost = true;
+                    r.converged = false;
+                    r
+                }
+                None => {
+                    // Nothing good yet (e.g. a bad box): keep the start, report the attempt.
+                    let mut r = self.fitter.result().clone();
+                    r.lost = true;
+                    r
+                }
+            }
+        };
+        self.last = Some(result);
+        Ok(self.last.as_ref().expect("just set"))
+    }
+
+    /// Whether a fit is plausible (see the type's documentation).
+    fn plausible(&self, r: &FitResult) -> bool {
+        let o = self.fitter.options();
+        if !r.error.is_finite() || r.error > o.max_error {
+            return false;
+        }
+        if !r.landmarks.iter().all(|v| v.is_finite()) || !r.params.pose.is_valid() {
+            return false;
+        }
+        let sig = self.fitter.shape_sigmas();
+        let m = sig.len().max(1) as f32;
+        let z2: f32 = r
+            .params
+            .shape
+            .iter()
+            .zip(sig)
+            .map(|(p, s)| (p / s.max(1e-12)).powi(2))
+            .sum();
+        if !((z2 / m).sqrt() <= o.max_sigmas) {
+            return false;
+        }
+        if let Some(g) = &self.last_good {
+            let (s0, s1) = (g.params.pose.scale(), r.params.pose.scale());
+            if !((s1 - s0).abs() <= o.max_scale_jump * s0) {
+                return false;
+            }
+            let dr = (r.params.pose.rotation() - g.params.pose.rotation()).abs();
+            let dr = dr.min(2.0 * std::f32::consts::PI - dr);
+            if dr > 0.5 {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The last frame's result.
+    pub fn last(&self) -> Option<&FitResult> {
+        self.last.as_ref()
+    }
+
+    /// The last fit judged good.
+    pub fn last_good(&self) -> Option<&FitResult> {
+        self.last_good.as_ref()
+    }
+
+    /// Frames reported lost (`lost = true`: even the retry from the last good fit failed).
+    pub fn lost_count(&self) -> u32 {
+        self.lost_count
+    }
+
+    /// Re-initialisations: frames whose fit was judged implausible, so that the tracker
+    /// re-initialised from the last good result and fitted again.
+    pub fn resets(&self) -> u32 {
+        self.resets
+    }
+
+    /// Frames tracked since the tracker was made.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+}
