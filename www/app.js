@@ -663,6 +663,7 @@ function syncSourceMenu() {
     );
   }
   sel.value = app.active?.kind ?? '';
+  sel.title = app.active === app.track && app.track.description ? app.track.description : '';
 }
 
 function play(on) {
