@@ -626,6 +626,17 @@ function reset() {
   app.dirty = true;
 }
 
+/** What the page offers every source (see js/sources.js). */
+const sourceCtx = {
+  wasm: fm,
+  sourceModel: () => app.source.model,
+  sourceInfo: () => app.source.info,
+  currentParams: () => app.params ?? app.source.model.baseParams(),
+  invalidate: () => {
+    app.dirty = true;
+  },
+};
+
 /** The recorded track, when it belongs to the current source model (else null). */
 function usableTrack() {
   return app.track && app.source?.bytesKey === app.trackKey ? app.track : null;
@@ -636,9 +647,9 @@ function activate(kind, { fresh = false } = {}) {
   let src;
   if (kind === 'track') src = usableTrack();
   else if (kind === 'sliders') {
-    if (!app.sliders || fresh || app.active !== app.sliders) app.sliders = createSource('sliders', app);
+    if (!app.sliders || fresh || app.active !== app.sliders) app.sliders = createSource('sliders', sourceCtx);
     src = app.sliders;
-  } else src = createSource(kind, app);
+  } else src = createSource(kind, sourceCtx);
   if (!src) return;
   if (app.active && app.active !== src) app.active.stop();
   app.active = src;

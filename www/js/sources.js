@@ -15,7 +15,9 @@ const registry = new Map();
 
 /**
  * Register a kind of source. `create(ctx)` returns a source object (see above); `ctx` is what the
- * page offers every source: `{ wasm, sourceModel(), sourceInfo(), currentParams() }`.
+ * page offers every source: `{ wasm, sourceModel(), sourceInfo(), currentParams(), invalidate() }`
+ * (`invalidate()` asks for a redraw, e.g. when a new video frame was tracked while the page is
+ * otherwise idle).
  * `available(wasm)` (optional) decides whether the entry is offered at all.
  */
 export function registerSource(kind, { label, create, available = () => true }) {
