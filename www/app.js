@@ -20,6 +20,7 @@ import {
   TrackSource,
   SliderSource,
 } from './js/sources.js';
+import './js/tracking.js'; // registers the video and webcam sources (when the package can track)
 
 const MODELS = 'models/';
 const METHODS = ['substitute', 'map', 'map-residual'];
