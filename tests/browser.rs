@@ -494,6 +494,26 @@ fn bad_input_throws_and_the_module_keeps_working() {
             .unwrap_err()
     )
     .contains("parameters"));
+    // Typed arrays are accepted; a missing pose field is named.
+    let mut p = source.base_params();
+    p.shape[1] = 0.5 * source.shape.variances[1].sqrt();
+    let v = params_js(&p);
+    let typed = js_sys::Float32Array::from(&p.shape[..]);
+    js_sys::Reflect::set(&v, &"shape".into(), &typed).unwrap();
+    cloner
+        .set_source_params(v.clone())
+        .expect("typed array parameters");
+    let back: Params = serde_wasm_bindgen::from_value(cloner.source_params().unwrap()).unwrap();
+    assert_eq!(back.shape, p.shape);
+    let pose = js_sys::Reflect::get(&v, &"pose".into()).unwrap();
+    js_sys::Reflect::delete_property(&pose.into(), &"tx".into()).unwrap();
+    let e = cloner.set_source_params(v).unwrap_err();
+    assert!(message(e).contains("pose.tx"));
+    let back: Params = serde_wasm_bindgen::from_value(cloner.source_params().unwrap()).unwrap();
+    assert_eq!(
+        back.shape, p.shape,
+        "a failed call must keep the old parameters"
+    );
     assert!(cloner.set_gain(f32::INFINITY).is_err());
     assert!(cloner.set_clamp(Some(-1.0)).is_err());
     assert!(message(cloner.set_method("blend").unwrap_err()).contains("unknown cloning method"));

@@ -8,9 +8,9 @@ use web_sys::ImageData;
 use super::model::{model_info, JsModel};
 use super::raster::{upload_with, warp_with, Scanline};
 use super::surface::{
-    base_box, fit_view, now_ms, paint, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
+    base_box, fit_view, now_ms, paint, params_into, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
 };
-use super::{js_err, params_from_js, params_to_js};
+use super::{js_err, params_to_js};
 use crate::clone::{CloneOptions, Cloner, Method};
 use crate::model::{Model, Params};
 use crate::render::Renderer;
@@ -41,6 +41,8 @@ pub struct JsCloner {
     cloner: Cloner,
     options: CloneOptions,
     source_params: Params,
+    /// Scratch for `setSourceParams` (same lengths as `source_params`).
+    pending: Params,
     renderer: Renderer,
     /// Scratch: source appearance (3N) and source landmarks (2n).
     appearance: Vec<f32>,
@@ -140,9 +142,13 @@ impl JsCloner {
         model
             .image_shape(&self.source_params, &mut self.shape)
             .map_err(js_err)?;
-        model
-            .appearance
-            .instance_unchecked(&self.source_params.appearance, &mut self.appearance);
+        // Eq. 2 for the source, cache-blocked (bit-identical to `instance_unchecked`).
+        crate::clone::synthesise_blocked(
+            &model.appearance.base,
+            &model.appearance.modes,
+            &self.source_params.appearance,
+            &mut self.appearance,
+        );
         self.timings.synth += now_ms() - t0;
         Self::draw(
             &mut self.renderer,
@@ -207,6 +213,7 @@ impl JsCloner {
         Ok(JsCloner {
             cloner,
             options: CloneOptions::default(),
+            pending: source_params.clone(),
             source_params,
             renderer,
             appearance,
@@ -234,6 +241,7 @@ impl JsCloner {
         let (n2, d) = (model.shape.base.len(), model.appearance.len());
         self.cloner.set_source(model).map_err(js_err)?;
         self.renderer = renderer;
+        self.pending = params.clone();
         self.source_params = params;
         self.source_box = source_box;
         self.appearance = vec![0.0; d];
@@ -311,9 +319,14 @@ impl JsCloner {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
     ) -> Result<(), JsError> {
-        let params = params_from_js(&params)?;
-        self.cloner.source().check_params(&params).map_err(js_err)?;
-        self.source_params = params;
+        // Read into the scratch copy (sized like the source's parameters), validate, swap:
+        // no allocation, and the old parameters stay on error.
+        params_into(&params, &mut self.pending)?;
+        self.cloner
+            .source()
+            .check_params(&self.pending)
+            .map_err(js_err)?;
+        std::mem::swap(&mut self.pending, &mut self.source_params);
         Ok(())
     }
 
@@ -325,13 +338,12 @@ impl JsCloner {
 
     /// The source's landmarks for the current parameters (image coordinates, `2n` values).
     #[wasm_bindgen(js_name = sourceLandmarks)]
-    pub fn source_landmarks(&self) -> Result<Vec<f32>, JsError> {
+    pub fn source_landmarks(&mut self) -> Result<js_sys::Float32Array, JsError> {
         let model = self.cloner.source();
-        let mut out = vec![0.0; model.shape.base.len()];
         model
-            .image_shape(&self.source_params, &mut out)
+            .image_shape(&self.source_params, &mut self.shape)
             .map_err(js_err)?;
-        Ok(out)
+        Ok(js_sys::Float32Array::from(&self.shape[..]))
     }
 
     /// The cloning method: `"substitute"` (Fig. 4 A), `"map"` (Eq. 3, the default) or
@@ -432,9 +444,9 @@ impl JsCloner {
 
     /// Target `index`'s landmarks of the last `update()` (image coordinates, `2n` values).
     #[wasm_bindgen(js_name = targetLandmarks)]
-    pub fn target_landmarks(&self, index: u32) -> Result<Vec<f32>, JsError> {
+    pub fn target_landmarks(&self, index: u32) -> Result<js_sys::Float32Array, JsError> {
         let i = self.check_index(index)?;
-        Ok(self.cloner.target_shape(i).to_vec())
+        Ok(js_sys::Float32Array::from(self.cloner.target_shape(i)))
     }
 
     /// Renders the source face (current parameters) into a 2D canvas context at the canvas's

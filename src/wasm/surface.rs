@@ -495,3 +495,95 @@ impl MeshOverlay {
         self.path = Some(path.clear());
     }
 }
+
+/// Reads a JS property, naming it in the error.
+fn prop(value: &JsValue, key: &str, what: &str) -> Result<JsValue, JsError> {
+    js_sys::Reflect::get(value, &JsValue::from_str(key))
+        .map_err(|e| JsError::new(&format!("parameters: reading {what}: {}", describe(&e))))
+}
+
+/// Copies a JS number array (an `Array`, a typed array or any array-like) of exactly
+/// `out.len()` numbers into `out`, without allocating.
+fn numbers_into(value: &JsValue, out: &mut [f32], what: &str) -> Result<(), JsError> {
+    if let Some(a) = value.dyn_ref::<js_sys::Float32Array>() {
+        if a.length() as usize != out.len() {
+            return Err(JsError::new(&format!(
+                "parameters: {what} has {} values, the model expects {}",
+                a.length(),
+                out.len()
+            )));
+        }
+        a.copy_to(out);
+        return Ok(());
+    }
+    if !value.is_object() {
+        return Err(JsError::new(&format!(
+            "parameters: {what} must be an array of numbers, got {}",
+            describe(value)
+        )));
+    }
+    let len = prop(value, "length", what)?.as_f64().unwrap_or(-1.0);
+    if len != out.len() as f64 {
+        return Err(JsError::new(&format!(
+            "parameters: {what} has {} values, the model expects {}",
+            if len < 0.0 {
+                "no length: not an array, and no".to_string()
+            } else {
+                len.to_string()
+            },
+            out.len()
+        )));
+    }
+    for (i, o) in out.iter_mut().enumerate() {
+        let v = js_sys::Reflect::get_u32(value, i as u32).map_err(|e| {
+            JsError::new(&format!(
+                "parameters: reading {what}[{i}]: {}",
+                describe(&e)
+            ))
+        })?;
+        *o = v.as_f64().ok_or_else(|| {
+            JsError::new(&format!(
+                "parameters: {what}[{i}] is not a number ({})",
+                describe(&v)
+            ))
+        })? as f32;
+    }
+    Ok(())
+}
+
+/// Reads `{ pose: { scale, rotation, tx, ty }, shape, appearance }` into `out`, whose vectors
+/// already have the model's lengths (the lengths are checked, nothing is allocated). On error
+/// `out` may be partly written: read into a scratch copy and swap on success.
+pub(crate) fn params_into(value: &JsValue, out: &mut crate::model::Params) -> Result<(), JsError> {
+    if !value.is_object() {
+        return Err(JsError::new(&format!(
+            "parameters: expected {{ pose: {{ scale, rotation, tx, ty }}, shape: [...], appearance: [...] }}, got {}",
+            describe(value)
+        )));
+    }
+    let pose = prop(value, "pose", "pose")?;
+    if !pose.is_object() {
+        return Err(JsError::new(&format!(
+            "parameters: pose must be {{ scale, rotation, tx, ty }}, got {}",
+            describe(&pose)
+        )));
+    }
+    let mut p = [0f32; 4];
+    for (o, key) in p.iter_mut().zip(["scale", "rotation", "tx", "ty"]) {
+        let v = prop(&pose, key, key)?;
+        *o = v.as_f64().ok_or_else(|| {
+            JsError::new(&format!(
+                "parameters: pose.{key} must be a number, got {}",
+                describe(&v)
+            ))
+        })? as f32;
+    }
+    out.pose = Similarity::from_parts(p[0], p[1], p[2], p[3]);
+    numbers_into(&prop(value, "shape", "shape")?, &mut out.shape, "shape")?;
+    numbers_into(
+        &prop(value, "appearance", "appearance")?,
+        &mut out.appearance,
+        "appearance",
+    )?;
+    Ok(())
+}
