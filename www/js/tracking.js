@@ -300,6 +300,7 @@ class VideoSource {
     if (this.objectUrl) URL.revokeObjectURL(this.objectUrl);
     this.objectUrl = null;
     this.resizeObserver?.disconnect();
+    document.removeEventListener('visibilitychange', this.onVisibility);
     this.panel?.remove();
     if (window.facemimicTracking === this) window.facemimicTracking = null;
   }
@@ -419,6 +420,18 @@ class VideoSource {
     if (anchor) anchor.after(this.panel);
     else (document.querySelector('main') || document.body).append(this.panel);
 
+    // A hidden tab presents no frames: pause a clip or file (the fit would have to jump).
+    this.onVisibility = () => {
+      if (this.mode === 'webcam' || !this.running) return;
+      if (document.hidden && this.phase === 'tracking') {
+        this.hiddenPause = true;
+        this.togglePlay();
+      } else if (!document.hidden && this.hiddenPause && this.phase === 'paused') {
+        this.hiddenPause = false;
+        this.togglePlay();
+      }
+    };
+    document.addEventListener('visibilitychange', this.onVisibility);
     this.resizeObserver = new ResizeObserver(() => this.draw());
     this.resizeObserver.observe(this.canvas);
     this.setPhase('loading');
@@ -778,7 +791,7 @@ class VideoSource {
     this.last = r;
     this.lostRun = r.lost ? this.lostRun + 1 : 0;
     if (!r.lost || !this.params) {
-      this.params = { pose: this.mapPose(r.pose, t1), shape: r.shape, appearance: r.appearance };
+      this.params = { pose: this.mapPose(r.pose, t1), shape: r.shape, appearance: this.clampAppearance(r.appearance) };
       this.invalidate();
     }
     const frame = this.fps ? Math.round(mediaTime * this.fps) : this.frameNo;
@@ -827,6 +840,20 @@ class VideoSource {
     const a = this.anchor;
     const fix = compose(this.meanPose, invert({ scale: Math.exp(a.ls), rotation: a.rotation, tx: a.tx, ty: a.ty }));
     return compose(fix, pose);
+  }
+
+  /**
+   * Appearance parameters limited to +-3 sigma: another person's face (a webcam, a dropped video)
+   * projects far outside the source model's appearance space, and an unclamped projection
+   * paints noise on the source face. Faces the model was built for are well inside the limit.
+   */
+  clampAppearance(lambda) {
+    const sig = this.info.appearanceSigma;
+    for (let i = 0; i < lambda.length; i++) {
+      const lim = 3 * (sig[i] || 0);
+      if (lim > 0) lambda[i] = Math.max(-lim, Math.min(lim, lambda[i]));
+    }
+    return lambda;
   }
 
   showStats(now = performance.now()) {
