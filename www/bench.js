@@ -71,7 +71,7 @@ async function main() {
   const targetCtx = targetNames.map((n) => canvas(`target ${n}`));
   const options = { background: '#202024', mesh: MESH, raster: RASTER };
 
-  const stages = { map: [], synth: [], raster: [], blit: [], total: [] };
+  const stages = { map: [], synth: [], raster: [], blit: [], other: [], total: [] };
   const frame = (i) => {
     const t0 = performance.now();
     cloner.setSourceParams(track[i % track.length]);
@@ -97,6 +97,8 @@ async function main() {
       stages.raster.push(t.rasterMs);
       stages.blit.push(t.blitMs);
       stages.total.push(total);
+      // Everything outside the four stages: parameter passing, API calls, JS.
+      stages.other.push(Math.max(0, total - t.mapMs - t.synthMs - t.rasterMs - t.blitMs));
     }
     await new Promise((r) => setTimeout(r, 0));
   }
@@ -145,7 +147,7 @@ async function main() {
     },
   };
   const tbody = $('table').querySelector('tbody');
-  for (const k of ['map', 'synth', 'raster', 'blit', 'total']) {
+  for (const k of ['map', 'synth', 'raster', 'blit', 'other', 'total']) {
     const tr = document.createElement('tr');
     for (const v of [k, s[k].mean, s[k].median, s[k].p95]) {
       const td = document.createElement('td');
