@@ -10,6 +10,7 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
+import os from 'node:os';
 import path from 'node:path';
 import {
   ROOT,
@@ -116,8 +117,8 @@ function normError(a, b) {
 }
 
 /** Pixels of the panel canvas that differ from the raw frame drawn at the same place. */
-function overlayDiff(page) {
-  return page.evaluate(() => {
+function overlayDiff(page, mirrored = false) {
+  return page.evaluate((mirrored) => {
     const src = window.facemimicTracking;
     const c = src.canvas;
     const raw = document.createElement('canvas');
@@ -130,6 +131,10 @@ function overlayDiff(page) {
     const H = src.work.height;
     const s = Math.min(c.width / W, c.height / H);
     g.imageSmoothingQuality = 'high';
+    if (mirrored) {
+      g.translate(c.width, 0);
+      g.scale(-1, 1);
+    }
     g.drawImage(src.work, (c.width - W * s) / 2, (c.height - H * s) / 2, W * s, H * s);
     const a = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
     const b = g.getImageData(0, 0, c.width, c.height).data;
@@ -143,7 +148,7 @@ function overlayDiff(page) {
       }
     }
     return { differ, greenish, pixels: a.length / 4 };
-  });
+  }, mirrored);
 }
 
 test('the bundled clip plays and is tracked live, driving the source and the targets', async (t) => {
@@ -373,6 +378,93 @@ test('the webcam starts with a face guide (fake camera: no face) and reports its
   await page.selectOption('#source-kind', 'sliders');
   const live = await page.evaluate(() => window.facemimicTracking);
   assert.equal(live, null);
+  assert.deepEqual(errors, []);
+});
+
+/**
+ * A fake camera with a face: spk07's clip frames (the JPEGs in data/grid), scaled and placed so
+ * the face sits in the webcam guide of a 640x480 picture, as an MJPEG file for Chromium's
+ * `--use-file-for-fake-video-capture`. Made by the browser itself (canvas -> JPEG); null when the
+ * frames are absent.
+ */
+async function faceCamera(t) {
+  if (!fs.existsSync(CLIP_FRAMES)) return null;
+  const frames = await serveStatic(CLIP_FRAMES);
+  t.after(() => frames.close());
+  const context = await browser.newContext();
+  t.after(() => context.close());
+  const page = await context.newPage();
+  await page.goto(`${frames.url}000000.jpg`);
+  const xs = CLIP.initLandmarks.filter((_, i) => i % 2 === 0);
+  const ys = CLIP.initLandmarks.filter((_, i) => i % 2 === 1);
+  const face = {
+    cx: (Math.min(...xs) + Math.max(...xs)) / 2,
+    cy: (Math.min(...ys) + Math.max(...ys)) / 2,
+    h: Math.max(...ys) - Math.min(...ys),
+  };
+  // The guide (www/js/tracking.js placeBox): height 0.5 H, centred, 0.04 H below the middle.
+  const W = 640;
+  const H = 480;
+  const scale = (0.5 * H * 0.95) / face.h;
+  const dx = W / 2 - face.cx * scale;
+  const dy = H / 2 + 0.04 * H - face.cy * scale;
+  const jpegs = await page.evaluate(
+    async ({ n, W, H, scale, dx, dy }) => {
+      const c = document.createElement('canvas');
+      c.width = W;
+      c.height = H;
+      const g = c.getContext('2d');
+      const out = [];
+      for (let i = 0; i < n; i++) {
+        const img = new Image();
+        img.src = `${String(i).padStart(6, '0')}.jpg`;
+        await img.decode();
+        g.fillStyle = '#203040';
+        g.fillRect(0, 0, W, H);
+        g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
+        const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.92));
+        const bytes = new Uint8Array(await blob.arrayBuffer());
+        let bin = '';
+        for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
+        out.push(btoa(bin));
+      }
+      return out;
+    },
+    { n: CLIP.frames, W, H, scale, dx, dy },
+  );
+  const file = path.join(os.tmpdir(), `facemimic-face-camera-${process.pid}.mjpeg`);
+  fs.writeFileSync(file, Buffer.concat(jpegs.map((b) => Buffer.from(b, 'base64'))));
+  t.after(() => fs.rmSync(file, { force: true }));
+  return file;
+}
+
+test('the webcam auto-starts on a face in the guide and tracks it live', async (t) => {
+  const file = await faceCamera(t);
+  if (!file) {
+    t.skip(`${CLIP_FRAMES} is absent`);
+    return;
+  }
+  const b = await launchBrowser([AUTOPLAY, ...FAKE_CAMERA, `--use-file-for-fake-video-capture=${file}`]);
+  t.after(() => b.close());
+  const { page, errors } = await openPage(t, b);
+  await chooseSource(page, 'webcam');
+  // Nobody presses Start: the face in the guide is found and tracking starts by itself.
+  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout: 20_000 });
+  await page.waitForFunction(() => window.facemimicTracking.log.length >= 40, null, { timeout: 30_000 });
+  const log = await getLog(page);
+  const lost = log.filter((l) => l.lost).length;
+  const meanErr = log.reduce((s, l) => s + l.error, 0) / log.length;
+  console.log(`# face camera: auto-started, ${log.length} fits, ${lost} lost, fit error mean ${meanErr.toFixed(4)}`);
+  assert.equal(lost, 0, 'frames lost tracking the face camera');
+  assert.ok(meanErr < 0.06, `fit error mean ${meanErr}`);
+  assert.equal(await page.$eval('.trk-state', (e) => e.dataset.state), 'tracking');
+  // The source face follows: its parameters change, it stays centred (pose re-centred).
+  const p1 = await tracking(page, () => JSON.stringify(window.facemimicTracking.paramsAt(0)));
+  await page.waitForTimeout(500);
+  assert.notEqual(await tracking(page, () => JSON.stringify(window.facemimicTracking.paramsAt(0))), p1);
+  const on = await overlayDiff(page, true);
+  assert.ok(on.differ > 300 && on.greenish > 200, `no mesh over the webcam picture: ${JSON.stringify(on)}`);
+  await screenshot(page, 'tracking-webcam-face', { fullPage: false });
   assert.deepEqual(errors, []);
 });
 

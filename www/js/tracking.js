@@ -19,14 +19,29 @@ import { registerSource } from './sources.js';
 import { notify, fileError } from './toasts.js';
 
 const CLIP_JSON = 'media/spk07-clip.json';
-/** Frames larger than this (longer side, px) are scaled down before fitting. */
+/** The frame shown and placed on is at most this big (longer side, px). */
 const MAX_TRACK_SIDE = 640;
+/**
+ * Fitting happens on the frame rescaled so the face is about the model's own size (the fit's
+ * cost grows with the face's size in pixels: a face twice the model's size costs ~3x more),
+ * within these limits (longer side, px; upscale factor). Faces within -25%..+33% of the model's
+ * size are fitted at the video's own resolution.
+ */
+const MAX_FIT_SIDE = 1280;
+const MIN_FIT_SIDE = 160;
+const MAX_UPSCALE = 2;
 /** Fit log kept for inspection (entries). */
 const LOG_MAX = 3000;
 /** Webcam: consecutive lost frames after which the guide comes back. */
 const LOST_TO_GUIDE = 40;
-/** Webcam auto-start: a probe fit from the guide counts when its error is below this... */
-const AUTO_MAX_ERROR = 0.07;
+/**
+ * Webcam auto-start: a probe fit from the guide counts when its error is below this (measured
+ * with the spk07 model: 0.03 on spk07's unseen clip, 0.05-0.11 on the nine other GRID speakers,
+ * 0.16 on Chromium's fake camera picture)...
+ */
+const AUTO_MAX_ERROR = 0.1;
+/** ...the image under it has a face's contrast (grey standard deviation, 0..1; a wall has ~0.01)... */
+const AUTO_MIN_CONTRAST = 0.05;
 /** ...and this many probes in a row succeed. */
 const AUTO_HITS = 3;
 /** Live sources: time constant (s) with which the head placement re-centres in the source card. */
@@ -69,6 +84,13 @@ function invert(M) {
 }
 function wrapAngle(a) {
   return Math.atan2(Math.sin(a), Math.cos(a));
+}
+
+/** `pts` times `f`, as a Float32Array. */
+function scaled(pts, f) {
+  const out = new Float32Array(pts.length);
+  for (let i = 0; i < pts.length; i++) out[i] = pts[i] * f;
+  return out;
 }
 
 function bounds(pts) {
@@ -246,7 +268,10 @@ class VideoSource {
     this.objectUrl = null;
     this.stream = null;
     this.fileName = '';
-    this.k = 1; // frame scale (tracking px per video px)
+    this.k = 1; // work (shown) frame px per video px
+    this.kFit = 1; // fitted frame px per video px
+    this.fitCanvas = document.createElement('canvas');
+    this.fitCtx = this.fitCanvas.getContext('2d', { willReadFrequently: true });
     this.work = document.createElement('canvas');
     this.workCtx = this.work.getContext('2d', { willReadFrequently: true });
     this.haveFrame = false;
@@ -537,8 +562,9 @@ class VideoSource {
     await this.seek(0);
     if (!this.running) return;
     const k = this.grab();
-    const init = Float32Array.from(this.clip.initLandmarks, (v) => v * k);
-    this.tracker.startFromLandmarks(init);
+    const init = this.clip.initLandmarks.map((v) => v * k);
+    this.kFit = this.fitScaleFor(bounds(init).h);
+    this.tracker.startFromLandmarks(scaled(init, this.kFit / k));
     this.beginSequence();
     this.setPhase('tracking', `Tracking spk07's unseen clip (${this.clip.frames ?? '?'} frames at ${this.fps} fps) from its first frame's landmarks.`);
     this.fitCurrent(0);
@@ -756,6 +782,46 @@ class VideoSource {
     return k;
   }
 
+  /**
+   * The fit scale (fitted px per video px) for a face `faceH` shown (work) px tall: the face at
+   * about the model's size; the video's own resolution when that is close.
+   */
+  fitScaleFor(faceH) {
+    const v = this.video;
+    const side = Math.max(v.videoWidth, v.videoHeight) || 1;
+    const kf = this.meanBox.h / Math.max(1, faceH / this.k);
+    if (kf > 0.75 && kf < 1.33 && side <= MAX_FIT_SIDE) return 1;
+    return Math.min(MAX_UPSCALE, MAX_FIT_SIDE / side, Math.max(MIN_FIT_SIDE / side, kf));
+  }
+
+  /** The current frame's RGBA at the fit scale: { data, width, height }. */
+  fitImage() {
+    if (Math.abs(this.kFit - this.k) < 1e-9) {
+      const { width: w, height: h } = this.work;
+      return this.workCtx.getImageData(0, 0, w, h);
+    }
+    const v = this.video;
+    const w = Math.max(1, Math.round(v.videoWidth * this.kFit));
+    const h = Math.max(1, Math.round(v.videoHeight * this.kFit));
+    if (this.fitCanvas.width !== w || this.fitCanvas.height !== h) {
+      this.fitCanvas.width = w;
+      this.fitCanvas.height = h;
+    }
+    this.fitCtx.imageSmoothingQuality = 'medium';
+    this.fitCtx.drawImage(v, 0, 0, w, h);
+    return this.fitCtx.getImageData(0, 0, w, h);
+  }
+
+  /** A fit result in work (shown) coordinates. */
+  toWork(r) {
+    const f = this.k / this.kFit;
+    return {
+      ...r,
+      landmarks: scaled(r.landmarks, f),
+      pose: { scale: r.pose.scale * f, rotation: r.pose.rotation, tx: r.pose.tx * f, ty: r.pose.ty * f },
+    };
+  }
+
   beginSequence() {
     this.last = null;
     this.state = 'tracking';
@@ -768,17 +834,17 @@ class VideoSource {
 
   /** Fit the frame in the work canvas; update the params, state and stats. */
   fitCurrent(mediaTime) {
-    const { width: w, height: h } = this.work;
-    const image = this.workCtx.getImageData(0, 0, w, h);
+    const image = this.fitImage();
     const t0 = performance.now();
-    let r;
+    let fit;
     try {
-      r = this.tracker.track(image.data, w, h);
+      fit = this.tracker.track(image.data, image.width, image.height);
     } catch (e) {
       this.fail('Tracking failed', e);
       return;
     }
     const t1 = performance.now();
+    const r = this.toWork(fit);
     const ms = t1 - t0;
     this.fits++;
     this.msPerFit = this.fits === 1 ? ms : this.msPerFit + (ms - this.msPerFit) * 0.1;
@@ -805,9 +871,22 @@ class VideoSource {
       converged: r.converged,
       lost: r.lost,
       ms,
-      landmarks: r.landmarks.map((v) => v / this.k),
+      landmarks: Array.from(scaled(fit.landmarks, 1 / this.kFit)), // video pixels
     });
     if (this.log.length > LOG_MAX) this.log.splice(0, this.log.length - LOG_MAX);
+
+    // The face grew or shrank a lot (moving to or from the camera): carry on at a new fit scale.
+    if (!r.lost) {
+      const want = this.fitScaleFor(bounds(r.landmarks).h);
+      if (Math.abs(want / this.kFit - 1) > 0.3) {
+        try {
+          this.tracker.startFromLandmarks(scaled(fit.landmarks, want / this.kFit));
+          this.kFit = want;
+        } catch {
+          // keep the current scale
+        }
+      }
+    }
 
     if (this.mode === 'webcam' && this.lostRun >= LOST_TO_GUIDE) {
       this.placeBox();
@@ -896,12 +975,14 @@ class VideoSource {
     if (!this.autoStart || !this.box) return;
     this.frameNo++;
     if (this.frameNo % 3 !== 0) return;
-    const { width: w, height: h } = this.work;
     const b = this.box;
     let r;
     try {
-      this.tracker.startFromBox(b.x, b.y, b.w, b.h);
-      r = this.tracker.track(this.workCtx.getImageData(0, 0, w, h).data, w, h);
+      this.kFit = this.fitScaleFor(b.h);
+      const f = this.kFit / this.k;
+      this.tracker.startFromBox(b.x * f, b.y * f, b.w * f, b.h * f);
+      const image = this.fitImage();
+      r = this.toWork(this.tracker.track(image.data, image.width, image.height));
     } catch (e) {
       this.fail('Tracking failed', e);
       return;
@@ -913,9 +994,12 @@ class VideoSource {
       Math.abs(fb.y + fb.h / 2 - (b.y + b.h / 2)) < b.h * 0.2 &&
       fb.h > b.h * 0.65 &&
       fb.h < b.h * 1.45;
+    // Other people's faces project up to ~9 sigma into the source model's appearance modes;
+    // far beyond that is not a face.
     const sig = this.info.appearanceSigma;
-    const plausible = r.appearance.every((v, i) => !(Math.abs(v) > 3 * (sig[i] || Infinity)));
-    const good = !r.lost && r.converged && r.error < AUTO_MAX_ERROR && inGuide && plausible;
+    const plausible = r.appearance.every((v, i) => !(Math.abs(v) > 12 * (sig[i] || Infinity)));
+    const good =
+      !r.lost && r.error < AUTO_MAX_ERROR && inGuide && plausible && greyContrast(this.workCtx, fb) > AUTO_MIN_CONTRAST;
     this.probeHits = good ? this.probeHits + 1 : 0;
     this.readout.error.textContent = r.error.toFixed(3);
     this.readout.iterations.textContent = String(r.iterations);
@@ -931,8 +1015,11 @@ class VideoSource {
   async startTracking(landmarks = null) {
     if (!this.haveFrame || !this.box) return;
     try {
-      if (landmarks) this.tracker.startFromLandmarks(Float32Array.from(landmarks));
-      else this.tracker.startFromBox(this.box.x, this.box.y, this.box.w, this.box.h);
+      this.kFit = this.fitScaleFor(landmarks ? bounds(landmarks).h : this.box.h);
+      const f = this.kFit / this.k;
+      const b = this.box;
+      if (landmarks) this.tracker.startFromLandmarks(scaled(landmarks, f));
+      else this.tracker.startFromBox(b.x * f, b.y * f, b.w * f, b.h * f);
     } catch (e) {
       this.say(`Cannot start: ${message(e)}`);
       return;
@@ -1207,6 +1294,33 @@ class VideoSource {
     g.restore();
     drawLandmarks(g, this.meanShape, shapeMap, 'rgba(124, 196, 255, 0.8)', lw);
   }
+}
+
+/** Standard deviation of the grey level (0..1) inside a box of a canvas, on a sparse grid. */
+function greyContrast(ctx, b) {
+  const { width: W, height: H } = ctx.canvas;
+  const x0 = Math.max(0, Math.floor(b.x));
+  const y0 = Math.max(0, Math.floor(b.y));
+  const x1 = Math.min(W, Math.ceil(b.x + b.w));
+  const y1 = Math.min(H, Math.ceil(b.y + b.h));
+  if (x1 - x0 < 4 || y1 - y0 < 4) return 0;
+  const data = ctx.getImageData(x0, y0, x1 - x0, y1 - y0).data;
+  const w = x1 - x0;
+  const step = Math.max(1, Math.floor(Math.min(w, y1 - y0) / 48));
+  let s = 0;
+  let s2 = 0;
+  let n = 0;
+  for (let y = 0; y < y1 - y0; y += step) {
+    for (let x = 0; x < w; x += step) {
+      const i = (y * w + x) * 4;
+      const g = (0.299 * data[i] + 0.587 * data[i + 1] + 0.114 * data[i + 2]) / 255;
+      s += g;
+      s2 += g * g;
+      n++;
+    }
+  }
+  const m = s / n;
+  return Math.sqrt(Math.max(0, s2 / n - m * m));
 }
 
 function mediaErrorText(err) {
