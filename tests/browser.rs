@@ -11,7 +11,7 @@
 //! a wrong context, an unknown method) throws a JS `Error` and leaves the module working.
 
 use facemimic::landmarks::parse_pts;
-use facemimic::wasm::{canvas_view, render_mode, JsCloner, JsModel};
+use facemimic::wasm::{canvas_view, render_mode, JsCloner, JsModel, RenderOptionsArg};
 use facemimic::{BuildOptions, Builder, Image, Model, Params, Similarity, TrainingImage};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
@@ -121,16 +121,16 @@ fn offscreen_ctx(w: u32, h: u32) -> (OffscreenCanvas, OffscreenCanvasRenderingCo
     (canvas, ctx)
 }
 
-fn options(background: &str, mesh: bool) -> Option<JsValue> {
+fn options(background: &str, mesh: bool) -> Option<RenderOptionsArg> {
     options_with(background, mesh, "scanline")
 }
 
-fn options_with(background: &str, mesh: bool, raster: &str) -> Option<JsValue> {
+fn options_with(background: &str, mesh: bool, raster: &str) -> Option<RenderOptionsArg> {
     let o = js_sys::Object::new();
     js_sys::Reflect::set(&o, &"raster".into(), &raster.into()).unwrap();
     js_sys::Reflect::set(&o, &"background".into(), &background.into()).unwrap();
     js_sys::Reflect::set(&o, &"mesh".into(), &mesh.into()).unwrap();
-    Some(o.into())
+    Some(JsValue::from(o).unchecked_into())
 }
 
 fn message(e: JsError) -> String {

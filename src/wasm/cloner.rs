@@ -10,7 +10,7 @@ use super::raster::{upload_with, warp_with, Scanline};
 use super::surface::{
     base_box, fit_view, now_ms, paint, params_into, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
 };
-use super::{js_err, params_to_js};
+use super::{install_panic_hook, js_err, params_to_js, RenderOptionsArg};
 use crate::clone::{CloneOptions, Cloner, Method};
 use crate::model::{Model, Params};
 use crate::render::Renderer;
@@ -203,6 +203,7 @@ impl JsCloner {
     /// A cloner driven by `source` (copied), with no targets yet.
     #[wasm_bindgen(constructor)]
     pub fn new(source: &JsModel) -> Result<JsCloner, JsError> {
+        install_panic_hook();
         let model: Model = source.model().clone();
         let renderer = Renderer::new(&model.frame).map_err(js_err)?;
         let source_params = model.base_params();
@@ -458,10 +459,10 @@ impl JsCloner {
             unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
         )]
         ctx: JsValue,
-        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+        options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let ctx = Ctx::from_js(&ctx)?;
-        let options = RenderOptions::from_js(&options)?;
+        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
         self.render_source_into(Sink::Canvas(&ctx), &options)
     }
 
@@ -474,11 +475,11 @@ impl JsCloner {
             unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
         )]
         ctx: JsValue,
-        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+        options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let i = self.check_index(index)?;
         let ctx = Ctx::from_js(&ctx)?;
-        let options = RenderOptions::from_js(&options)?;
+        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
         self.render_target_into(i, Sink::Canvas(&ctx), &options)
     }
 
@@ -490,10 +491,10 @@ impl JsCloner {
         index: u32,
         width: u32,
         height: u32,
-        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+        options: Option<RenderOptionsArg>,
     ) -> Result<ImageData, JsError> {
         let i = self.check_index(index)?;
-        let options = RenderOptions::from_js(&options)?;
+        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
         let mut out = None;
         self.render_target_into(
             i,
@@ -513,9 +514,9 @@ impl JsCloner {
         &mut self,
         width: u32,
         height: u32,
-        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+        options: Option<RenderOptionsArg>,
     ) -> Result<ImageData, JsError> {
-        let options = RenderOptions::from_js(&options)?;
+        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
         let mut out = None;
         self.render_source_into(
             Sink::Image {
@@ -540,12 +541,12 @@ impl JsCloner {
             unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
         )]
         ctx: JsValue,
-        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+        options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let i = self.check_index(index)?;
         let method = parse_method(method)?;
         let ctx = Ctx::from_js(&ctx)?;
-        let render_options = RenderOptions::from_js(&options)?;
+        let render_options = RenderOptions::from_js(&options.map(JsValue::from))?;
         let fresh =
             matches!(&self.compare, Some(c) if c.index == i && c.generation == self.generation);
         if !fresh {

@@ -55,6 +55,7 @@ pub fn canvas_view(model: &crate::Model, width: u32, height: u32) -> crate::Simi
 /// The package version (the crate's).
 #[wasm_bindgen]
 pub fn version() -> String {
+    install_panic_hook();
     env!("CARGO_PKG_VERSION").to_string()
 }
 
@@ -64,15 +65,24 @@ extern "C" {
     fn console_error(message: &str);
 }
 
-/// Installs a panic hook that reports any panic (a bug: the API validates its input) on the
-/// console before the module traps. Runs once when the module is instantiated.
-#[wasm_bindgen(start)]
-fn start() {
-    std::panic::set_hook(Box::new(|info| {
-        console_error(&format!(
-            "facemimic: internal error (please report): {info}"
-        ));
-    }));
+/// Installs (once) a panic hook that reports any panic (a bug: the API validates its input)
+/// on the console before the module traps. Called by the constructors.
+pub(crate) fn install_panic_hook() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        std::panic::set_hook(Box::new(|info| {
+            console_error(&format!(
+                "facemimic: internal error (please report): {info}"
+            ));
+        }));
+    });
+}
+
+#[wasm_bindgen]
+extern "C" {
+    /// `RenderOptions` in TypeScript (an optional plain object).
+    #[wasm_bindgen(typescript_type = "RenderOptions")]
+    pub type RenderOptionsArg;
 }
 
 #[wasm_bindgen(typescript_custom_section)]

@@ -8,7 +8,7 @@ use wasm_bindgen::prelude::*;
 
 use super::raster::{upload_with, warp_with, Scanline};
 use super::surface::{base_box, fit_view, paint, Ctx, MeshOverlay, RenderOptions, Sink};
-use super::{js_err, params_from_js, params_to_js};
+use super::{install_panic_hook, js_err, params_from_js, params_to_js, RenderOptionsArg};
 use crate::image::ImageRef;
 use crate::model::{Model, Params, Reference};
 use crate::render::Renderer;
@@ -155,6 +155,7 @@ pub struct JsModel {
 
 impl From<Model> for JsModel {
     fn from(model: Model) -> Self {
+        install_panic_hook();
         JsModel {
             model: Rc::new(model),
             scratch: RefCell::new(None),
@@ -192,6 +193,7 @@ impl JsModel {
     /// (corrupt, truncated, unsupported version, limits exceeded).
     #[wasm_bindgen(js_name = fromBytes)]
     pub fn from_bytes(bytes: &[u8]) -> Result<JsModel, JsError> {
+        install_panic_hook();
         let model = crate::format::read_model(bytes).map_err(|e| js_err(e.into()))?;
         Ok(JsModel::from(model))
     }
@@ -275,12 +277,12 @@ impl JsModel {
             unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
         )]
         ctx: JsValue,
-        #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+        options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let params = params_from_js(&params)?;
         self.model.check_params(&params).map_err(js_err)?;
         let ctx = Ctx::from_js(&ctx)?;
-        let options = RenderOptions::from_js(&options)?;
+        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
         self.with_scratch(|model, s| {
             s.params = params;
             s.render(model, &ctx, &options)
@@ -312,7 +314,7 @@ pub fn render_mode(
         unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
     )]
     ctx: JsValue,
-    #[wasm_bindgen(unchecked_param_type = "RenderOptions")] options: Option<JsValue>,
+    options: Option<RenderOptionsArg>,
 ) -> Result<(), JsError> {
     let shape = mode_kind(kind)?;
     if !sigmas.is_finite() {
@@ -334,7 +336,7 @@ pub fn render_mode(
     };
     let value = sigmas * var.sqrt();
     let ctx = Ctx::from_js(&ctx)?;
-    let options = RenderOptions::from_js(&options)?;
+    let options = RenderOptions::from_js(&options.map(JsValue::from))?;
     model.with_scratch(|model, s| {
         s.params.pose = model.mean_pose;
         s.params.shape.iter_mut().for_each(|v| *v = 0.0);

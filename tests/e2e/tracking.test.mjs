@@ -218,6 +218,13 @@ test('the bundled clip plays and is tracked live, driving the source and the tar
 
   // The mesh is drawn over the video: the panel differs from the raw frame along the mesh
   // lines, and only there (switching the mesh off leaves the raw frame).
+  // Space pauses and plays the video (not the page's recorded track); then pause with the button.
+  await page.evaluate(() => document.activeElement?.blur());
+  await page.keyboard.press('Space');
+  assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'paused', 'Space did not pause the video');
+  assert.equal(await page.$eval('#source-kind', (s) => s.value), 'video-clip', 'Space switched the source');
+  await page.keyboard.press('Space');
+  assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'tracking', 'Space did not resume the video');
   await page.click('.trk-panel button:has-text("Pause")');
   assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'paused');
   const on = await overlayDiff(page);
@@ -347,6 +354,11 @@ test('a video file is placed with a box, then tracked; a non-video file is refus
   assert.ok(meanErr < 0.06, `fit error mean ${meanErr}`);
   if (acc !== null) assert.ok(acc < 0.08, `landmark error from the box: ${acc}`);
   await screenshot(page, 'tracking-file', { fullPage: false });
+  // At its end the file loops back to where tracking began and keeps tracking.
+  await page.waitForFunction(() => window.facemimicTracking.log.filter((l) => l.loop === 1).length >= 5, null, { timeout: 20_000 });
+  const again = (await getLog(page)).filter((l) => l.loop === 1);
+  assert.equal(again[0].frame, 0, 'the file did not loop back to the frame tracking began on');
+  assert.equal(again.filter((l) => l.lost).length, 0, 'frames lost after the file looped');
   assert.deepEqual(errors.filter((e) => !/broken\.webm|notes\.txt/.test(e)), []);
 });
 

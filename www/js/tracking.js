@@ -326,6 +326,7 @@ class VideoSource {
     this.objectUrl = null;
     this.resizeObserver?.disconnect();
     document.removeEventListener('visibilitychange', this.onVisibility);
+    window.removeEventListener('keydown', this.onSpace, true);
     this.panel?.remove();
     if (window.facemimicTracking === this) window.facemimicTracking = null;
   }
@@ -356,7 +357,7 @@ class VideoSource {
     const [sLost, dLost] = stat('lost', 'lost · reinit', 'Frames reported lost · re-initialisations, this sequence');
     this.readout = { error: dErr, iterations: dIt, fps: dFps, ms: dMs, lost: dLost };
 
-    this.playBtn = button('Pause', () => this.togglePlay(), { class: 'btn primary', 'aria-keyshortcuts': 'K' });
+    this.playBtn = button('Pause', () => this.togglePlay(), { class: 'btn primary', 'aria-keyshortcuts': 'Space', title: 'Pause / play (space)' });
     this.restartBtn = button('Re-start', () => this.restart(), { title: 'Place the face again and start a new sequence' });
     this.startBtn = button('Start tracking', () => this.startTracking(), { class: 'btn primary' });
     this.chooseBtn = button('Choose a video…', () => this.fileInput.click());
@@ -457,6 +458,20 @@ class VideoSource {
       }
     };
     document.addEventListener('visibilitychange', this.onVisibility);
+    // Space pauses / plays this source (the page's Space would switch to the recorded track).
+    this.onSpace = (e) => {
+      if ((e.key !== ' ' && e.code !== 'Space') || e.altKey || e.ctrlKey || e.metaKey || e.defaultPrevented) return;
+      if (this.phase !== 'tracking' && this.phase !== 'paused') return;
+      const t = e.target;
+      if (t instanceof HTMLElement) {
+        const tag = t.tagName;
+        if (['BUTTON', 'SELECT', 'TEXTAREA', 'SUMMARY', 'A'].includes(tag) || t.isContentEditable) return;
+        if (tag === 'INPUT' && t.getAttribute('type') !== 'range') return;
+      }
+      e.preventDefault();
+      this.togglePlay();
+    };
+    window.addEventListener('keydown', this.onSpace, true);
     this.resizeObserver = new ResizeObserver(() => this.draw());
     this.resizeObserver.observe(this.canvas);
     this.setPhase('loading');
@@ -602,7 +617,11 @@ class VideoSource {
     try {
       await this.loadVideo(this.objectUrl, name);
       if (!this.running) return;
-      this.video.loop = true;
+      this.video.loop = false;
+      if (!this.endedHooked) {
+        this.endedHooked = true;
+        this.video.addEventListener('ended', () => this.onFileEnded());
+      }
       this.fps = 30;
       await this.seek(0);
       if (!this.running) return;
@@ -1028,9 +1047,36 @@ class VideoSource {
     this.setPhase('tracking', this.mode === 'webcam' ? 'Tracking your face.' : `Tracking ${this.fileName}.`);
     if (this.mode === 'file') {
       this.fitCurrent(this.video.currentTime);
+      // Where the sequence began, to loop back to with a known fit.
+      this.seqStart = this.last && !this.last.lost ? { time: this.video.currentTime, landmarks: this.last.landmarks } : null;
       this.draw();
       await this.play();
     } else this.requestFrames();
+  }
+
+  /** A file played to its end: loop back to where tracking began, from the fit found there. */
+  async onFileEnded() {
+    if (!this.running || this.mode !== 'file' || this.phase !== 'tracking') return;
+    this.loops++;
+    const start = this.seqStart;
+    try {
+      this.cancelFrames();
+      await this.seek(start ? start.time : 0);
+      if (!this.running || this.phase !== 'tracking') return;
+      this.grab();
+      if (start) {
+        this.kFit = this.fitScaleFor(bounds(start.landmarks).h);
+        this.tracker.startFromLandmarks(scaled(start.landmarks, this.kFit / this.k));
+        this.beginSequence();
+        this.fitCurrent(this.video.currentTime);
+        this.draw();
+        await this.play();
+      } else {
+        this.restart();
+      }
+    } catch (e) {
+      if (this.running) this.fail('The video could not loop', e);
+    }
   }
 
   async restart() {
