@@ -361,6 +361,7 @@ class VideoSource {
     this.restartBtn = button('Re-start', () => this.restart(), { title: 'Place the face again and start a new sequence' });
     this.startBtn = button('Start tracking', () => this.startTracking(), { class: 'btn primary' });
     this.chooseBtn = button('Choose a video…', () => this.fileInput.click());
+    this.otherBtn = button('Other video…', () => this.fileInput.click(), { title: 'Track another video file (or drop one on this panel)' });
     this.fileInput = el('input', { type: 'file', accept: 'video/*,.webm,.mp4,.mov,.m4v,.ogv,.mkv', hidden: true });
     this.fileInput.addEventListener('change', () => {
       const f = this.fileInput.files?.[0];
@@ -388,7 +389,12 @@ class VideoSource {
       el('small', { text: 'Any format the browser plays (WebM, MP4…). It stays on this computer.' }),
     );
     this.dropHint.hidden = true;
-    this.view = el('div', { class: 'trk-view' }, this.canvas, this.dropHint, this.video);
+    // Shown instead of the picture while there is none: waiting for the camera, or an error.
+    this.retryBtn = button('Try again', () => this.retry());
+    this.placeholderText = el('p');
+    this.placeholder = el('div', { class: 'trk-placeholder' }, this.placeholderText, this.retryBtn);
+    this.placeholder.hidden = true;
+    this.view = el('div', { class: 'trk-view' }, this.canvas, this.dropHint, this.placeholder, this.video);
 
     const title = el('h2', { id: `${id}-title` }, `Tracking · ${this.label}`);
     this.panel = el(
@@ -403,7 +409,7 @@ class VideoSource {
           'div',
           { class: 'trk-side' },
           el('dl', { class: 'trk-stats' }, sErr, sIt, sFps, sMs, sLost),
-          el('div', { class: 'trk-buttons' }, this.startBtn, this.playBtn, this.restartBtn),
+          el('div', { class: 'trk-buttons' }, this.startBtn, this.playBtn, this.restartBtn, this.otherBtn),
           el('div', { class: 'trk-options' }, meshLabel, ...extra),
           this.msgEl,
           this.fileInput,
@@ -490,7 +496,12 @@ class VideoSource {
     if (m === 'webcam') this.playBtn.hidden = !tracking;
     this.playBtn.textContent = phase === 'paused' ? 'Play' : 'Pause';
     this.dropHint.hidden = !(m === 'file' && (phase === 'empty' || phase === 'error'));
-    this.canvas.hidden = m === 'file' && phase === 'empty';
+    this.otherBtn.hidden = !(m === 'file' && ['placing', 'tracking', 'paused'].includes(phase));
+    const blank = !this.haveFrame && (phase === 'loading' || phase === 'error') && !(m === 'file');
+    this.canvas.hidden = (m === 'file' && phase === 'empty') || blank;
+    this.placeholder.hidden = !blank;
+    this.retryBtn.hidden = phase !== 'error';
+    if (blank) this.placeholderText.textContent = phase === 'error' ? msg || 'Something went wrong.' : msg || 'Loading…';
     this.canvas.tabIndex = phase === 'placing' ? 0 : -1;
     if (phase === 'placing') {
       this.canvas.setAttribute(
@@ -507,6 +518,18 @@ class VideoSource {
     else if (phase === 'paused') this.say('Paused.');
     this.showState();
     this.draw();
+  }
+
+  /** After an error: open the clip or the camera again. */
+  retry() {
+    if (!this.running) return;
+    this.cancelFrames();
+    if (this.mode === 'clip') this.openClip();
+    else if (this.mode === 'webcam') {
+      if (this.stream) for (const t of this.stream.getTracks()) t.stop();
+      this.stream = null;
+      this.openWebcam();
+    }
   }
 
   say(text) {
@@ -562,7 +585,10 @@ class VideoSource {
         );
       }
       this.video.loop = false;
-      this.video.addEventListener('ended', () => this.onClipEnded());
+      if (!this.endedHooked) {
+        this.endedHooked = true;
+        this.video.addEventListener('ended', () => this.onClipEnded());
+      }
       await this.startClipSequence();
     } catch (e) {
       if (!this.running) return;
@@ -660,7 +686,7 @@ class VideoSource {
       const name = e?.name || '';
       let text;
       if (name === 'NotAllowedError' || name === 'SecurityError') {
-        text = 'Camera permission was denied. Allow the camera for this page (the icon in the address bar), then choose Webcam again.';
+        text = 'Camera permission was denied. Allow the camera for this page (the icon in the address bar), then press Try again.';
       } else if (name === 'NotFoundError' || name === 'OverconstrainedError' || name === 'DevicesNotFoundError') {
         text = 'No camera was found. Connect one, or use the bundled clip or a video file.';
       } else if (name === 'NotReadableError' || name === 'TrackStartError') {
