@@ -532,6 +532,11 @@ fn bad_input_throws_and_the_module_keeps_working() {
         message(cloner.render_target(0, ctx.clone(), None).unwrap_err()).contains("out of range")
     );
     assert!(cloner.remove_target(3).is_err());
+    let e = cloner
+        .render_source_image_data(8000, 8000, None)
+        .unwrap_err();
+    assert!(message(e).contains("pixels"));
+    assert!(cloner.render_source_image_data(0, 10, None).is_err());
 
     // An incompatible target (its own frame) names the problem.
     let alien = Builder::new(BuildOptions {

@@ -69,6 +69,7 @@ impl Ctx {
                 "canvas {w}x{h} is larger than {MAX_IMAGE_SIDE} pixels on a side"
             )));
         }
+        check_area(w, h)?;
         Ok((w, h))
     }
 
@@ -79,6 +80,19 @@ impl Ctx {
         };
         r.map_err(|e| JsError::new(&format!("putImageData failed: {}", describe(&e))))
     }
+}
+
+/// Most pixels one render target may have (64 MB of RGBA): a larger pixmap could exhaust wasm
+/// memory, which aborts instead of failing.
+pub(crate) const MAX_RENDER_PIXELS: u64 = 1 << 24;
+
+fn check_area(w: u32, h: u32) -> Result<(), JsError> {
+    if w as u64 * h as u64 > MAX_RENDER_PIXELS {
+        return Err(JsError::new(&format!(
+            "{w}x{h} is more than {MAX_RENDER_PIXELS} pixels: render into a smaller canvas"
+        )));
+    }
+    Ok(())
 }
 
 /// A short description of a JS value for error messages.
@@ -340,6 +354,7 @@ impl Sink<'_> {
                         "image size {width}x{height} outside 1..={MAX_IMAGE_SIDE}"
                     )));
                 }
+                check_area(*width, *height)?;
                 Ok((*width, *height))
             }
         }
