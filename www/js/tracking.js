@@ -1412,6 +1412,13 @@ function mediaErrorText(err) {
 
 const canTrack = (wasm) => typeof wasm?.Tracker === 'function';
 
+// This module is imported before the page registers its built-in sources; reserving their kinds
+// first keeps the menu in the page's order (recorded track, sliders, then video). The page's own
+// registrations replace these entries (same kind, same place); until then they are not offered.
+for (const kind of ['track', 'sliders']) {
+  registerSource(kind, { label: kind, available: () => false, create: () => null });
+}
+
 registerSource('video-clip', {
   label: 'Video (bundled clip)',
   available: canTrack,
