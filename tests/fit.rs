@@ -244,6 +244,7 @@ fn recovers_synthetic_instance() {
         &model,
         FitOptions {
             max_iters: 30,
+            shape_prior: 0.0, // checks the geometry: no prior pulling p to 0
             ..FitOptions::default()
         },
     )

@@ -31,7 +31,7 @@ use geometry::Geometry;
 use linalg::{axpy, cholesky, cholesky_solve, dot};
 use precompute::{regularise, Level, ShapeBasis, LUMA};
 
-pub use tracker::Tracker;
+pub use tracker::{Tracker, MIN_CONTRAST};
 
 /// Options of the [`Fitter`] and [`Tracker`]. `Default` is tuned for real-time tracking.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -349,6 +349,7 @@ pub struct Fitter {
     grey: Grey,
     work: Work,
     result: FitResult,
+    contrast: f32,
 }
 
 /// What one iteration did.
@@ -432,6 +433,7 @@ impl Fitter {
             model_sigmas: model.shape.sigmas(),
             appearance: model.appearance.clone(),
             frame: model.frame.clone(),
+            contrast: 0.0,
             grey: Grey {
                 width: 0,
                 height: 0,
@@ -480,6 +482,13 @@ impl Fitter {
     /// `sigma_i` of the model's shape modes.
     pub fn shape_sigmas(&self) -> &[f32] {
         &self.model_sigmas
+    }
+
+    /// Contrast of the last fit: the standard deviation of the grey image samples under the
+    /// fitted mesh divided by that of the template `A0`. Near 1 on a face; near 0 on a flat
+    /// region (which the gain and bias images would otherwise explain perfectly).
+    pub fn contrast(&self) -> f32 {
+        self.contrast
     }
 
     /// The last result.
@@ -573,6 +582,7 @@ impl Fitter {
         let level = &self.levels[nl - 1];
         let w = &mut self.work;
         let err = residual(level, self.grey.full(), w);
+        self.contrast = contrast(&w.w[..level.n]) / level.a0_std.max(1e-6);
         // Result.
         let r = &mut self.result;
         r.landmarks.copy_from_slice(&w.cur);
@@ -590,6 +600,13 @@ impl Fitter {
         r.lost = false;
         Ok(&self.result)
     }
+}
+
+/// Standard deviation of some values.
+fn contrast(v: &[f32]) -> f32 {
+    let n = v.len().max(1) as f32;
+    let mean = v.iter().sum::<f32>() / n;
+    (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f32>() / n).sqrt()
 }
 
 /// Samples the grey image at the level pixels through the current mesh.

@@ -71,6 +71,8 @@ pub(crate) struct Level {
     pub bary: Vec<[f32; 3]>,
     /// Grey base appearance `A0` on the level pixels.
     pub a0: Vec<f32>,
+    /// Standard deviation of `a0`.
+    pub a0_std: f32,
     /// Number of grey appearance basis images (including gain and bias when enabled).
     pub la: usize,
     /// Orthonormal grey appearance basis, row-major `la x N`.
@@ -323,7 +325,12 @@ impl Level {
                 "the fitting Hessian of level {step} is singular (is the appearance flat?)"
             )));
         }
+        let a0_std = {
+            let m = a0.iter().sum::<f64>() / n as f64;
+            (a0.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt() as f32
+        };
         Ok(Level {
+            a0_std,
             sigma,
             n,
             verts,

@@ -8,13 +8,18 @@ use crate::similarity::Similarity;
 
 use super::{FitOptions, FitResult, Fitter};
 
+/// A fit whose image contrast under the mesh is below this fraction of the template's (or
+/// above its inverse) is a lost face: see [`Fitter::contrast`].
+pub const MIN_CONTRAST: f32 = 0.2;
+
 /// Follows one face through video frames with a [`Fitter`].
 ///
 /// Start a sequence with [`Tracker::start_from_landmarks`] or [`Tracker::start_from_box`], then
 /// call [`Tracker::track`] once per frame. A fit is judged lost when its error exceeds
 /// [`FitOptions::max_error`], the shape parameters' RMS in standard deviations
 /// (`sqrt(mean (p_i / sigma_i)^2)`) exceeds [`FitOptions::max_sigmas`], the scale jumps by more than [`FitOptions::max_scale_jump`] or the rotation by
-/// more than 0.5 rad from the last good fit, or the fit failed numerically. The tracker then
+/// more than 0.5 rad from the last good fit, the image contrast under the mesh is implausible
+/// ([`MIN_CONTRAST`]), or the fit failed numerically. The tracker then
 /// retries once from the last good result with more appearance-aware iterations; if that
 /// fails too, the frame's result is the last good one with `lost = true`, and the next frame
 /// starts from it again.
@@ -173,6 +178,10 @@ impl Tracker {
             return false;
         }
         if !r.landmarks.iter().all(|v| v.is_finite()) || !r.params.pose.is_valid() {
+            return false;
+        }
+        let c = self.fitter.contrast();
+        if !(MIN_CONTRAST..=1.0 / MIN_CONTRAST).contains(&c) {
             return false;
         }
         let sig = self.fitter.shape_sigmas();
