@@ -94,13 +94,21 @@ impl Builder {
                 images.len()
             )));
         }
-        for (what, f) in [("shape", o.shape_variance), ("appearance", o.appearance_variance)] {
+        for (what, f) in [
+            ("shape", o.shape_variance),
+            ("appearance", o.appearance_variance),
+        ] {
             if !(f > 0.0 && f <= 1.0) {
-                return Err(Error::Training(format!("{what} variance fraction {f} not in (0, 1]")));
+                return Err(Error::Training(format!(
+                    "{what} variance fraction {f} not in (0, 1]"
+                )));
             }
         }
         if !(o.face_width >= 8.0 && o.face_width <= 1024.0) {
-            return Err(Error::Training(format!("face width {} not in 8..=1024", o.face_width)));
+            return Err(Error::Training(format!(
+                "face width {} not in 8..=1024",
+                o.face_width
+            )));
         }
         let n = images[0].landmarks.len();
         for t in images {
@@ -114,7 +122,10 @@ impl Builder {
                 )));
             }
             if t.landmarks.iter().any(|v| !v.is_finite()) {
-                return Err(Error::Training(format!("'{}' has non-finite landmarks", t.name)));
+                return Err(Error::Training(format!(
+                    "'{}' has non-finite landmarks",
+                    t.name
+                )));
             }
             t.image.view()?;
         }
@@ -130,8 +141,10 @@ impl Builder {
         }
 
         // Shape: Procrustes alignment into model coordinates.
-        let raw: Vec<Vec<f64>> =
-            images.iter().map(|t| t.landmarks.iter().map(|&v| v as f64).collect()).collect();
+        let raw: Vec<Vec<f64>> = images
+            .iter()
+            .map(|t| t.landmarks.iter().map(|&v| v as f64).collect())
+            .collect();
         let aligned: Vec<Vec<f64>> = match frame_of {
             Some(f) => {
                 let r: Vec<f64> = f.shape.base.iter().map(|&v| v as f64).collect();
@@ -143,20 +156,23 @@ impl Builder {
                 let width = xs.clone().copied().fold(f64::MIN, f64::max)
                     - xs.copied().fold(f64::MAX, f64::min);
                 let k = o.face_width as f64 / width.max(1e-12);
-                aligned.into_iter().map(|s| s.into_iter().map(|v| v * k).collect()).collect()
+                aligned
+                    .into_iter()
+                    .map(|s| s.into_iter().map(|v| v * k).collect())
+                    .collect()
             }
         };
 
         // The reference face.
         let ref_index: Option<usize> = match &o.reference {
             ReferenceChoice::Mean => None,
-            ReferenceChoice::Named(name) => Some(
-                images.iter().position(|t| &t.name == name).ok_or_else(|| {
+            ReferenceChoice::Named(name) => {
+                Some(images.iter().position(|t| &t.name == name).ok_or_else(|| {
                     Error::Training(format!(
                         "reference image '{name}' is not among the training images"
                     ))
-                })?,
-            ),
+                })?)
+            }
             ReferenceChoice::ClosestToFrame => {
                 let f = frame_of.ok_or_else(|| {
                     Error::Training(
@@ -164,7 +180,10 @@ impl Builder {
                     )
                 })?;
                 let d = |s: &Vec<f64>| -> f64 {
-                    s.iter().zip(&f.shape.base).map(|(a, &b)| (a - b as f64).powi(2)).sum()
+                    s.iter()
+                        .zip(&f.shape.base)
+                        .map(|(a, &b)| (a - b as f64).powi(2))
+                        .sum()
                 };
                 (0..aligned.len()).min_by(|&a, &b| d(&aligned[a]).total_cmp(&d(&aligned[b])))
             }
@@ -198,7 +217,12 @@ impl Builder {
             Some(i) => samples[i].clone(),
             None => mean(&samples),
         };
-        let ap = pca(&samples, &app_centre, o.appearance_variance, o.max_appearance_modes);
+        let ap = pca(
+            &samples,
+            &app_centre,
+            o.appearance_variance,
+            o.max_appearance_modes,
+        );
         let appearance = AppearanceModel {
             base: app_centre.iter().map(|&v| v as f32).collect(),
             modes: ap.modes,
@@ -215,7 +239,12 @@ impl Builder {
             ty += p.ty;
         }
         let k = images.len() as f32;
-        let mean_pose = Similarity { a: a / k, b: b / k, tx: tx / k, ty: ty / k };
+        let mean_pose = Similarity {
+            a: a / k,
+            b: b / k,
+            tx: tx / k,
+            ty: ty / k,
+        };
 
         Ok(Model {
             name: o.name.clone(),

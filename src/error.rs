@@ -49,7 +49,10 @@ impl Error {
     /// Prefixes the message with where it happened (a file name), keeping the variant for
     /// [`Error::Format`] by turning it into a context-carrying [`Error::File`].
     pub fn with_context(self, context: &str) -> Error {
-        Error::File { file: context.to_string(), source: Box::new(self) }
+        Error::File {
+            file: context.to_string(),
+            source: Box::new(self),
+        }
     }
 }
 
@@ -60,7 +63,10 @@ pub type Result<T> = std::result::Result<T, Error>;
 pub(crate) fn check_finite(what: &str, values: &[f32]) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
-        Some(i) => Err(Error::Params(format!("{what}[{i}] is not finite ({})", values[i]))),
+        Some(i) => Err(Error::Params(format!(
+            "{what}[{i}] is not finite ({})",
+            values[i]
+        ))),
     }
 }
 

@@ -62,11 +62,16 @@ pub const MAX_FRAME_SIDE: u32 = 2048;
 pub fn triangulate(base: &[f32]) -> Result<Vec<[u32; 3]>> {
     let pts: Vec<delaunator::Point> = base
         .chunks_exact(2)
-        .map(|p| delaunator::Point { x: p[0] as f64, y: p[1] as f64 })
+        .map(|p| delaunator::Point {
+            x: p[0] as f64,
+            y: p[1] as f64,
+        })
         .collect();
     let t = delaunator::triangulate(&pts);
     if t.triangles.is_empty() {
-        return Err(Error::Training("the base shape cannot be triangulated (collinear points?)".into()));
+        return Err(Error::Training(
+            "the base shape cannot be triangulated (collinear points?)".into(),
+        ));
     }
     let tris: Vec<[u32; 3]> = t
         .triangles
@@ -75,7 +80,10 @@ pub fn triangulate(base: &[f32]) -> Result<Vec<[u32; 3]>> {
         .collect();
     let area = |t: &[u32; 3]| tri_area(base, t).abs();
     let mean_area = tris.iter().map(area).sum::<f32>() / tris.len() as f32;
-    Ok(tris.into_iter().filter(|t| area(t) > 0.005 * mean_area).collect())
+    Ok(tris
+        .into_iter()
+        .filter(|t| area(t) > 0.005 * mean_area)
+        .collect())
 }
 
 fn tri_area(v: &[f32], t: &[u32; 3]) -> f32 {
@@ -115,9 +123,12 @@ impl ReferenceFrame {
     ) -> Result<ReferenceFrame> {
         let bad = |m: String| Err(Error::Training(m));
         if width == 0 || height == 0 || width > MAX_FRAME_SIDE || height > MAX_FRAME_SIDE {
-            return bad(format!("frame size {width}x{height} outside 1..={MAX_FRAME_SIDE}"));
+            return bad(format!(
+                "frame size {width}x{height} outside 1..={MAX_FRAME_SIDE}"
+            ));
         }
-        if vertices.len() < 6 || vertices.len() % 2 != 0 || vertices.iter().any(|v| !v.is_finite()) {
+        if vertices.len() < 6 || vertices.len() % 2 != 0 || vertices.iter().any(|v| !v.is_finite())
+        {
             return bad("frame vertices must be at least 3 finite points".into());
         }
         if !origin[0].is_finite() || !origin[1].is_finite() {
@@ -131,7 +142,10 @@ impl ReferenceFrame {
         let mut bary = vec![[0f32; 3]; (width * height) as usize];
         for (ti, t) in triangles.iter().enumerate() {
             let p = |i: u32| {
-                (vertices[2 * i as usize] + origin[0], vertices[2 * i as usize + 1] + origin[1])
+                (
+                    vertices[2 * i as usize] + origin[0],
+                    vertices[2 * i as usize + 1] + origin[1],
+                )
             };
             let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
             let det = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
@@ -164,7 +178,12 @@ impl ReferenceFrame {
                 let k = (y * width + x) as usize;
                 if owner[k] != u32::MAX {
                     index[k] = pixels.len() as u32;
-                    pixels.push(FramePixel { x: x as u16, y: y as u16, triangle: owner[k], bary: bary[k] });
+                    pixels.push(FramePixel {
+                        x: x as u16,
+                        y: y as u16,
+                        triangle: owner[k],
+                        bary: bary[k],
+                    });
                 }
             }
         }
@@ -202,7 +221,16 @@ impl ReferenceFrame {
             padding.extend(ring);
         }
         let fingerprint = fingerprint(width, height, origin, &vertices, &triangles);
-        Ok(ReferenceFrame { width, height, origin, vertices, triangles, pixels, padding, fingerprint })
+        Ok(ReferenceFrame {
+            width,
+            height,
+            origin,
+            vertices,
+            triangles,
+            pixels,
+            padding,
+            fingerprint,
+        })
     }
 
     /// Grid width in pixels.

@@ -17,7 +17,9 @@ impl<'a> ImageRef<'a> {
     /// Wraps `data` (`width * height * 4` bytes, RGBA, row-major).
     pub fn new(width: u32, height: u32, data: &'a [u8]) -> Result<Self> {
         if width == 0 || height == 0 || width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
-            return Err(Error::Image(format!("size {width}x{height} outside 1..={MAX_IMAGE_SIDE}")));
+            return Err(Error::Image(format!(
+                "size {width}x{height} outside 1..={MAX_IMAGE_SIDE}"
+            )));
         }
         if data.len() != width as usize * height as usize * 4 {
             return Err(Error::Image(format!(
@@ -26,7 +28,11 @@ impl<'a> ImageRef<'a> {
                 width as usize * height as usize * 4
             )));
         }
-        Ok(ImageRef { width, height, data })
+        Ok(ImageRef {
+            width,
+            height,
+            data,
+        })
     }
     /// Width in pixels.
     pub fn width(&self) -> u32 {
@@ -47,8 +53,16 @@ impl<'a> ImageRef<'a> {
     pub fn sample_rgb(&self, x: f32, y: f32) -> [f32; 3] {
         let maxx = (self.width - 1) as f32;
         let maxy = (self.height - 1) as f32;
-        let x = if x.is_finite() { x.clamp(0.0, maxx) } else { 0.0 };
-        let y = if y.is_finite() { y.clamp(0.0, maxy) } else { 0.0 };
+        let x = if x.is_finite() {
+            x.clamp(0.0, maxx)
+        } else {
+            0.0
+        };
+        let y = if y.is_finite() {
+            y.clamp(0.0, maxy)
+        } else {
+            0.0
+        };
         let x0 = x as u32;
         let y0 = y as u32;
         let x1 = (x0 + 1).min(self.width - 1);

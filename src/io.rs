@@ -17,7 +17,10 @@ pub fn read_image(path: &Path) -> Result<Image> {
         .into_dimensions()
         .map_err(|e| Error::Image(format!("{}: {e}", path.display())))?;
     if w == 0 || h == 0 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
-        return Err(Error::Image(format!("{}: size {w}x{h} not supported", path.display())));
+        return Err(Error::Image(format!(
+            "{}: size {w}x{h} not supported",
+            path.display()
+        )));
     }
     let img = ::image::ImageReader::open(path)
         .and_then(|r| r.with_guessed_format())
@@ -25,7 +28,11 @@ pub fn read_image(path: &Path) -> Result<Image> {
         .decode()
         .map_err(|e| Error::Image(format!("{}: {e}", path.display())))?
         .to_rgba8();
-    Ok(Image { width: img.width(), height: img.height(), data: img.into_raw() })
+    Ok(Image {
+        width: img.width(),
+        height: img.height(),
+        data: img.into_raw(),
+    })
 }
 
 /// Writes RGBA8 pixels as a PNG file.
@@ -51,13 +58,23 @@ pub fn landmark_path(image: &Path) -> Result<PathBuf> {
 
 /// Reads the landmarks of an image of the given size from a `.pts` or `.asf` file.
 pub fn read_landmarks(path: &Path, width: u32, height: u32) -> Result<Vec<f32>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
-    let r = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("asf")) {
+    let text =
+        std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    let r = if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("asf"))
+    {
         parse_asf(&text, width, height)
     } else {
         parse_pts(&text)
     };
-    r.map_err(|e| Error::Landmarks(format!("{}: {}", path.display(), e.to_string().trim_start_matches("landmarks: "))))
+    r.map_err(|e| {
+        Error::Landmarks(format!(
+            "{}: {}",
+            path.display(),
+            e.to_string().trim_start_matches("landmarks: ")
+        ))
+    })
 }
 
 /// Loads an image and its sibling landmark file.
@@ -65,29 +82,50 @@ pub fn read_training_image(path: &Path) -> Result<TrainingImage> {
     let lm = landmark_path(path)?;
     let image = read_image(path)?;
     let landmarks = read_landmarks(&lm, image.width, image.height)?;
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    Ok(TrainingImage { name, image, landmarks })
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Ok(TrainingImage {
+        name,
+        image,
+        landmarks,
+    })
 }
 
 /// Reads a list file (one image stem a line, relative to the list's folder; `#` comments) and
 /// resolves each stem to an existing `.jpg`, `.jpeg` or `.png` file.
 pub fn read_list(list: &Path) -> Result<Vec<PathBuf>> {
-    let text = std::fs::read_to_string(list).map_err(|e| Error::Io(format!("{}: {e}", list.display())))?;
+    let text =
+        std::fs::read_to_string(list).map_err(|e| Error::Io(format!("{}: {e}", list.display())))?;
     let dir = list.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
-    for line in text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')) {
+    for line in text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+    {
         let base = dir.join(line);
         let found = if base.extension().is_some() && base.is_file() {
             Some(base.clone())
         } else {
-            ["jpg", "jpeg", "png"].iter().map(|e| base.with_extension(e)).find(|p| p.is_file())
+            ["jpg", "jpeg", "png"]
+                .iter()
+                .map(|e| base.with_extension(e))
+                .find(|p| p.is_file())
         };
         out.push(found.ok_or_else(|| {
-            Error::Io(format!("{}: no image for '{line}' (looked for .jpg, .jpeg, .png)", list.display()))
+            Error::Io(format!(
+                "{}: no image for '{line}' (looked for .jpg, .jpeg, .png)",
+                list.display()
+            ))
         })?);
     }
     if out.is_empty() {
-        return Err(Error::Io(format!("{}: the list names no image", list.display())));
+        return Err(Error::Io(format!(
+            "{}: the list names no image",
+            list.display()
+        )));
     }
     Ok(out)
 }

@@ -26,9 +26,10 @@ pub fn parse_pts(text: &str) -> Result<Vec<f32>> {
             break;
         }
         if let Some(rest) = line.strip_prefix("n_points:") {
-            let n: usize = rest.trim().parse().map_err(|_| {
-                Error::Landmarks(format!("bad n_points value '{}'", rest.trim()))
-            })?;
+            let n: usize = rest
+                .trim()
+                .parse()
+                .map_err(|_| Error::Landmarks(format!("bad n_points value '{}'", rest.trim())))?;
             if n == 0 || n > MAX_LANDMARKS {
                 return Err(Error::Landmarks(format!(
                     "n_points {n} out of range 1..={MAX_LANDMARKS}"
@@ -101,7 +102,9 @@ pub fn parse_asf(text: &str, width: u32, height: u32) -> Result<Vec<f32>> {
         .parse()
         .map_err(|_| Error::Landmarks(format!("bad point count '{first}' in .asf")))?;
     if n == 0 || n > MAX_LANDMARKS {
-        return Err(Error::Landmarks(format!("point count {n} out of range 1..={MAX_LANDMARKS}")));
+        return Err(Error::Landmarks(format!(
+            "point count {n} out of range 1..={MAX_LANDMARKS}"
+        )));
     }
     let mut out = Vec::with_capacity(2 * n);
     for _ in 0..n {
@@ -112,12 +115,16 @@ pub fn parse_asf(text: &str, width: u32, height: u32) -> Result<Vec<f32>> {
         if f.len() < 4 {
             return Err(Error::Landmarks(format!("bad .asf point line '{line}'")));
         }
-        let rx: f32 = f[2].parse().ok().filter(|v: &f32| v.is_finite()).ok_or_else(|| {
-            Error::Landmarks(format!("bad relative x '{}' in .asf", f[2]))
-        })?;
-        let ry: f32 = f[3].parse().ok().filter(|v: &f32| v.is_finite()).ok_or_else(|| {
-            Error::Landmarks(format!("bad relative y '{}' in .asf", f[3]))
-        })?;
+        let rx: f32 = f[2]
+            .parse()
+            .ok()
+            .filter(|v: &f32| v.is_finite())
+            .ok_or_else(|| Error::Landmarks(format!("bad relative x '{}' in .asf", f[2])))?;
+        let ry: f32 = f[3]
+            .parse()
+            .ok()
+            .filter(|v: &f32| v.is_finite())
+            .ok_or_else(|| Error::Landmarks(format!("bad relative y '{}' in .asf", f[3])))?;
         out.push(rx * width as f32);
         out.push(ry * height as f32);
     }

@@ -104,7 +104,11 @@ impl Model {
     /// Checks that `params` fits this model: lengths, finite values, a usable pose.
     pub fn check_params(&self, params: &Params) -> Result<()> {
         check_len("shape parameters", &params.shape, self.shape.n_modes())?;
-        check_len("appearance parameters", &params.appearance, self.appearance.n_modes())?;
+        check_len(
+            "appearance parameters",
+            &params.appearance,
+            self.appearance.n_modes(),
+        )?;
         check_finite("shape parameters", &params.shape)?;
         check_finite("appearance parameters", &params.appearance)?;
         if !params.pose.is_valid() {
@@ -125,13 +129,25 @@ impl Model {
     /// Projects a face: its landmarks (image coordinates) give the pose and `p`; the image
     /// sampled at the landmarks into the frame gives `lambda`.
     pub fn project(&self, image: &ImageRef<'_>, landmarks: &[f32]) -> Result<Params> {
+        if landmarks.len() != self.shape.base.len() {
+            return Err(Error::Landmarks(format!(
+                "{} points given, the model '{}' has {} landmarks",
+                landmarks.len() / 2,
+                self.name,
+                self.landmarks()
+            )));
+        }
         let mut shape = vec![0.0; self.shape.n_modes()];
         let pose = self.shape.project_image_shape(landmarks, &mut shape)?;
         let mut g = vec![0.0; self.appearance.len()];
         crate::warp::sample_rgb(&self.frame, image, landmarks, &mut g)?;
         let mut appearance = vec![0.0; self.appearance.n_modes()];
         self.appearance.project(&g, &mut appearance);
-        Ok(Params { pose, shape, appearance })
+        Ok(Params {
+            pose,
+            shape,
+            appearance,
+        })
     }
 
     /// Fails with [`Error::Incompatible`] unless `other` uses the same landmark scheme and the

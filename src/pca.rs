@@ -52,7 +52,10 @@ pub fn pca(samples: &[Vec<f64>], centre: &[f64], fraction: f64, max_modes: usize
         let mut order: Vec<usize> = (0..dim).collect();
         order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
         let vals = order.iter().map(|&k| eig.eigenvalues[k].max(0.0)).collect();
-        let dirs = order.iter().map(|&k| eig.eigenvectors.column(k).iter().copied().collect()).collect();
+        let dirs = order
+            .iter()
+            .map(|&k| eig.eigenvectors.column(k).iter().copied().collect())
+            .collect();
         (vals, dirs)
     };
     let total: f64 = eigvals.iter().sum();
@@ -76,7 +79,10 @@ pub fn pca(samples: &[Vec<f64>], centre: &[f64], fraction: f64, max_modes: usize
             break;
         }
         d.iter_mut().for_each(|v| *v /= norm);
-        let big = d.iter().copied().fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
+        let big = d
+            .iter()
+            .copied()
+            .fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
         if big < 0.0 {
             d.iter_mut().for_each(|v| *v = -*v);
         }
@@ -85,7 +91,10 @@ pub fn pca(samples: &[Vec<f64>], centre: &[f64], fraction: f64, max_modes: usize
         variances.push(lam as f32);
     }
     Pca {
-        modes: modes.iter().flat_map(|m| m.iter().map(|&v| v as f32)).collect(),
+        modes: modes
+            .iter()
+            .flat_map(|m| m.iter().map(|&v| v as f32))
+            .collect(),
         variances,
         total_variance: total,
     }

@@ -2,7 +2,9 @@
 //! shape, rasterised with tiny-skia.
 
 use glam::{Affine2, Mat2, Vec2};
-use tiny_skia::{FillRule, FilterQuality, Paint, PathBuilder, Pattern, Pixmap, PixmapMut, SpreadMode, Transform};
+use tiny_skia::{
+    FillRule, FilterQuality, Paint, PathBuilder, Pattern, Pixmap, PixmapMut, SpreadMode, Transform,
+};
 
 use crate::error::{check_len, Error, Result};
 use crate::frame::ReferenceFrame;
@@ -95,7 +97,9 @@ impl Renderer {
 
     fn check_frame(&self, frame: &ReferenceFrame) -> Result<()> {
         if frame.fingerprint() != self.frame_fingerprint {
-            return Err(Error::Incompatible("renderer was made for another reference frame".into()));
+            return Err(Error::Incompatible(
+                "renderer was made for another reference frame".into(),
+            ));
         }
         Ok(())
     }
@@ -116,7 +120,11 @@ impl Renderer {
         let [ox, oy] = frame.origin();
         let v = frame.vertices();
         // Destination points in tiny-skia space (pixel centres at +0.5).
-        for (d, s) in self.shape.chunks_exact_mut(2).zip(image_shape.chunks_exact(2)) {
+        for (d, s) in self
+            .shape
+            .chunks_exact_mut(2)
+            .zip(image_shape.chunks_exact(2))
+        {
             let (x, y) = view.apply_point(s[0], s[1]);
             d[0] = x + 0.5;
             d[1] = y + 0.5;
@@ -124,10 +132,16 @@ impl Renderer {
         let texture = self.texture.as_ref();
         for t in frame.triangles() {
             let src = t.map(|i| {
-                Vec2::new(v[2 * i as usize] + ox + 0.5, v[2 * i as usize + 1] + oy + 0.5)
+                Vec2::new(
+                    v[2 * i as usize] + ox + 0.5,
+                    v[2 * i as usize + 1] + oy + 0.5,
+                )
             });
-            let dst = t.map(|i| Vec2::new(self.shape[2 * i as usize], self.shape[2 * i as usize + 1]));
-            let Some(m) = triangle_affine(src, dst) else { continue };
+            let dst =
+                t.map(|i| Vec2::new(self.shape[2 * i as usize], self.shape[2 * i as usize + 1]));
+            let Some(m) = triangle_affine(src, dst) else {
+                continue;
+            };
             let tr = Transform::from_row(
                 m.matrix2.x_axis.x,
                 m.matrix2.x_axis.y,
@@ -150,7 +164,13 @@ impl Renderer {
                 anti_alias: false,
                 ..Paint::default()
             };
-            target.fill_path(&path, &paint, FillRule::Winding, Transform::identity(), None);
+            target.fill_path(
+                &path,
+                &paint,
+                FillRule::Winding,
+                Transform::identity(),
+                None,
+            );
             self.path = Some(path.clear());
         }
         Ok(())
@@ -168,7 +188,9 @@ impl Renderer {
         model.check_params(params)?;
         self.check_frame(&model.frame)?;
         let mut appearance = std::mem::take(&mut self.appearance);
-        model.appearance.instance_unchecked(&params.appearance, &mut appearance);
+        model
+            .appearance
+            .instance_unchecked(&params.appearance, &mut appearance);
         let r = self.upload(&model.frame, &appearance);
         self.appearance = appearance;
         r?;

@@ -151,7 +151,11 @@ fn align_to(src: &mut [f64], dst: &[f64]) {
         nb += x * v - y * u;
         den += x * x + y * y;
     }
-    let (a, b) = if den > 0.0 { (na / den, nb / den) } else { (1.0, 0.0) };
+    let (a, b) = if den > 0.0 {
+        (na / den, nb / den)
+    } else {
+        (1.0, 0.0)
+    };
     for p in src.chunks_exact_mut(2) {
         let (x, y) = (p[0] - sx, p[1] - sy);
         p[0] = a * x - b * y + dx;
@@ -225,7 +229,11 @@ pub fn generalised_procrustes(
         let mut new_mean = crate::pca::mean(&aligned);
         normalise(&mut new_mean);
         canonical_orientation(&mut new_mean);
-        let change: f64 = new_mean.iter().zip(&mean).map(|(a, b)| (a - b).powi(2)).sum();
+        let change: f64 = new_mean
+            .iter()
+            .zip(&mean)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum();
         mean = new_mean;
         if change < 1e-20 {
             break;

@@ -29,11 +29,21 @@ impl Default for Similarity {
 
 impl Similarity {
     /// The identity transform.
-    pub const IDENTITY: Similarity = Similarity { a: 1.0, b: 0.0, tx: 0.0, ty: 0.0 };
+    pub const IDENTITY: Similarity = Similarity {
+        a: 1.0,
+        b: 0.0,
+        tx: 0.0,
+        ty: 0.0,
+    };
 
     /// Builds a transform from scale, rotation (radians) and translation.
     pub fn from_parts(scale: f32, rotation: f32, tx: f32, ty: f32) -> Self {
-        Similarity { a: scale * rotation.cos(), b: scale * rotation.sin(), tx, ty }
+        Similarity {
+            a: scale * rotation.cos(),
+            b: scale * rotation.sin(),
+            tx,
+            ty,
+        }
     }
 
     /// Uniform scale factor.
@@ -49,7 +59,10 @@ impl Similarity {
     /// Maps one point.
     #[inline]
     pub fn apply_point(&self, x: f32, y: f32) -> (f32, f32) {
-        (self.a * x - self.b * y + self.tx, self.b * x + self.a * y + self.ty)
+        (
+            self.a * x - self.b * y + self.tx,
+            self.b * x + self.a * y + self.ty,
+        )
     }
 
     /// Maps an interleaved shape `(x1, y1, ..., xn, yn)` into `out` (same length).
@@ -97,7 +110,10 @@ impl Similarity {
 
     /// True when all four numbers are finite and the scale is non-zero.
     pub fn is_valid(&self) -> bool {
-        [self.a, self.b, self.tx, self.ty].iter().all(|v| v.is_finite()) && self.scale() > 0.0
+        [self.a, self.b, self.tx, self.ty]
+            .iter()
+            .all(|v| v.is_finite())
+            && self.scale() > 0.0
     }
 
     /// The least-squares similarity that maps `src` onto `dst` (both interleaved, same length):
@@ -121,7 +137,12 @@ impl Similarity {
             den += x * x + y * y;
         }
         if den <= 0.0 {
-            return Similarity { a: 1.0, b: 0.0, tx: (dx - sx) as f32, ty: (dy - sy) as f32 };
+            return Similarity {
+                a: 1.0,
+                b: 0.0,
+                tx: (dx - sx) as f32,
+                ty: (dy - sy) as f32,
+            };
         }
         let a = num_a / den;
         let b = num_b / den;
@@ -150,7 +171,12 @@ pub struct PoseJson {
 
 impl From<Similarity> for PoseJson {
     fn from(s: Similarity) -> Self {
-        PoseJson { scale: s.scale(), rotation: s.rotation(), tx: s.tx, ty: s.ty }
+        PoseJson {
+            scale: s.scale(),
+            rotation: s.rotation(),
+            tx: s.tx,
+            ty: s.ty,
+        }
     }
 }
 

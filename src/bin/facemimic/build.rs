@@ -42,9 +42,14 @@ pub fn run(a: Args) -> Result<()> {
         paths.extend(io::read_list(list)?);
     }
     if paths.is_empty() {
-        return Err(facemimic::Error::Training("no training images given (IMAGE... or --list)".into()));
+        return Err(facemimic::Error::Training(
+            "no training images given (IMAGE... or --list)".into(),
+        ));
     }
-    let images = paths.iter().map(|p| io::read_training_image(p)).collect::<Result<Vec<_>>>()?;
+    let images = paths
+        .iter()
+        .map(|p| io::read_training_image(p))
+        .collect::<Result<Vec<_>>>()?;
     let frame_model = a.frame.as_deref().map(io::read_model_file).transpose()?;
     let reference = match a.reference.as_str() {
         "mean" => ReferenceChoice::Mean,
@@ -52,7 +57,10 @@ pub fn run(a: Args) -> Result<()> {
         name => ReferenceChoice::Named(name.to_string()),
     };
     let name = a.name.clone().unwrap_or_else(|| {
-        a.out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
+        a.out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".into())
     });
     let builder = Builder::new(BuildOptions {
         name,

@@ -17,7 +17,12 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let model = io::read_model_file(&a.model)?;
     let t = io::read_training_image(&a.image)?;
-    let params = model.project(&t.image.view()?, &t.landmarks)?;
-    println!("{}", serde_json::to_string(&params).map_err(|e| facemimic::Error::Io(e.to_string()))?);
+    let params = model
+        .project(&t.image.view()?, &t.landmarks)
+        .map_err(|e| e.with_context(&a.image.display().to_string()))?;
+    println!(
+        "{}",
+        serde_json::to_string(&params).map_err(|e| facemimic::Error::Io(e.to_string()))?
+    );
     Ok(())
 }

@@ -28,7 +28,8 @@ pub struct Args {
 
 /// Reads a parameters JSON file.
 pub fn read_params(path: &Path) -> Result<Params> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
     serde_json::from_str(&text).map_err(|e| Error::Params(format!("{}: {e}", path.display())))
 }
 
@@ -42,8 +43,14 @@ pub fn render_to_files(
     out: &Path,
     out_pts: Option<&Path>,
 ) -> Result<()> {
-    if width == 0 || height == 0 || width > facemimic::MAX_IMAGE_SIDE || height > facemimic::MAX_IMAGE_SIDE {
-        return Err(Error::Image(format!("canvas size {width}x{height} not supported")));
+    if width == 0
+        || height == 0
+        || width > facemimic::MAX_IMAGE_SIDE
+        || height > facemimic::MAX_IMAGE_SIDE
+    {
+        return Err(Error::Image(format!(
+            "canvas size {width}x{height} not supported"
+        )));
     }
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(width, height)
         .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
