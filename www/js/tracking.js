@@ -820,6 +820,7 @@ class VideoSource {
       this.work.width = w;
       this.work.height = h;
       this.canvas.style.aspectRatio = `${w} / ${h}`;
+      this.canvas.style.setProperty('--ar', String(w / h));
     }
     this.k = k;
     this.workCtx.drawImage(v, 0, 0, w, h);
