@@ -386,6 +386,10 @@ test('the webcam starts with a face guide (fake camera: no face) and reports its
   const state = await page.$eval('.trk-state', (e) => e.dataset.state);
   assert.ok(['tracking', 'lost', 'reinit', 'placing'].includes(state), `state ${state}`);
   await screenshot(page, 'tracking-webcam-started', { fullPage: false });
+  // Re-start brings the guide back (as does a long loss: 40 lost frames, which a slow machine
+  // may already have reached).
+  if ((await page.getAttribute(PANEL, 'data-phase')) === 'tracking') await page.click('.trk-panel button:has-text("Re-start")');
+  assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'placing');
   // Switching away stops the camera.
   await page.selectOption('#source-kind', 'sliders');
   const live = await page.evaluate(() => window.facemimicTracking);
