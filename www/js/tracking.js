@@ -441,6 +441,8 @@ class VideoSource {
         document.body.classList.remove('dragging');
         const f = e.dataTransfer?.files?.[0];
         if (!f) return;
+        // Model files dropped here go to the page (which adds them as targets).
+        if ([...e.dataTransfer.files].every((x) => /\.fmm$/i.test(x.name))) return;
         e.preventDefault();
         e.stopPropagation();
         if (e.dataTransfer.files.length > 1) notify('info', `Used ${f.name}`, 'one video at a time; the other files were ignored');
@@ -1420,20 +1422,18 @@ for (const kind of ['track', 'sliders']) {
   registerSource(kind, { label: kind, available: () => false, create: () => null });
 }
 
-registerSource('video-clip', {
-  label: 'Video (bundled clip)',
-  available: canTrack,
-  create: (ctx) => new VideoSource('clip', ctx),
-});
-registerSource('video-file', {
-  label: 'Video file…',
-  available: canTrack,
-  create: (ctx) => new VideoSource('file', ctx),
-});
-registerSource('webcam', {
-  label: 'Webcam',
-  available: canTrack,
-  create: (ctx) => new VideoSource('webcam', ctx),
-});
+/** A video source, or null (with the reason shown) when the source model cannot be used. */
+function create(mode, ctx) {
+  try {
+    return new VideoSource(mode, ctx);
+  } catch (e) {
+    notify('error', `${TITLES[mode]}: cannot track with this source model`, message(e));
+    return null;
+  }
+}
+
+registerSource('video-clip', { label: 'Video (bundled clip)', available: canTrack, create: (ctx) => create('clip', ctx) });
+registerSource('video-file', { label: 'Video file…', available: canTrack, create: (ctx) => create('file', ctx) });
+registerSource('webcam', { label: 'Webcam', available: canTrack, create: (ctx) => create('webcam', ctx) });
 
 export { VideoSource, CONTOURS_68 };
