@@ -390,6 +390,12 @@ test('the webcam starts with a face guide (fake camera: no face) and reports its
   // may already have reached).
   if ((await page.getAttribute(PANEL, 'data-phase')) === 'tracking') await page.click('.trk-panel button:has-text("Re-start")');
   assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'placing');
+  // The camera going away (unplugged, access withdrawn) is explained; Try again reopens it.
+  await page.evaluate(() => window.facemimicTracking.stream.getVideoTracks()[0].dispatchEvent(new Event('ended')));
+  assert.equal(await page.getAttribute(PANEL, 'data-state'), 'error');
+  assert.match(await page.$eval('.trk-placeholder', (e) => e.textContent), /camera stopped/);
+  await page.click('.trk-placeholder button:has-text("Try again")');
+  await page.waitForSelector('.trk-panel[data-phase="placing"]', { timeout: 20_000 });
   // Switching away stops the camera.
   await page.selectOption('#source-kind', 'sliders');
   const live = await page.evaluate(() => window.facemimicTracking);

@@ -493,9 +493,8 @@ class VideoSource {
     const tracking = phase === 'tracking' || phase === 'paused';
     this.startBtn.hidden = !(phase === 'placing');
     this.startBtn.textContent = m === 'webcam' ? 'Start' : 'Start tracking';
-    this.playBtn.hidden = !tracking || m === 'webcam';
-    this.restartBtn.hidden = !tracking && !(m === 'webcam' && phase === 'paused');
-    if (m === 'webcam') this.playBtn.hidden = !tracking;
+    this.playBtn.hidden = !tracking;
+    this.restartBtn.hidden = !(tracking || (phase === 'error' && this.haveFrame && !this.streamEnded));
     this.playBtn.textContent = phase === 'paused' ? 'Play' : 'Pause';
     this.dropHint.hidden = !(m === 'file' && (phase === 'empty' || phase === 'error'));
     this.otherBtn.hidden = !(m === 'file' && ['placing', 'tracking', 'paused'].includes(phase));
@@ -703,7 +702,14 @@ class VideoSource {
       return;
     }
     this.stream = stream;
+    this.streamEnded = false;
     this.fileName = stream.getVideoTracks()[0]?.label || 'camera';
+    stream.getVideoTracks()[0]?.addEventListener('ended', () => {
+      if (!this.running || this.stream !== stream) return;
+      this.streamEnded = true;
+      this.haveFrame = false;
+      this.fail('The camera stopped sending pictures (unplugged, or access was withdrawn)');
+    });
     try {
       this.video.srcObject = stream;
       await this.waitFor(this.video, 'loadeddata', 'the camera sent no picture');
