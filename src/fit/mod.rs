@@ -73,6 +73,10 @@ impl Default for FitOptions {
             levels: vec![
                 LevelSpec {
                     step: 4,
+                    sigma: 4.0,
+                },
+                LevelSpec {
+                    step: 4,
                     sigma: 2.0,
                 },
                 LevelSpec {
