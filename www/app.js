@@ -970,7 +970,7 @@ function render(t) {
   }
   s.last = now;
   s.frames = (s.frames || 0) + 1;
-  if (app.active === app.track || app.active === app.sliders) syncSliders(p);
+  if (app.active) syncSliders(p); // the sliders show the params of whatever drives the source
   if (app.active === app.track) syncTransport();
   document.body.dataset.ready = '1';
   document.body.dataset.frames = String(s.frames);
