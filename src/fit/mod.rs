@@ -29,7 +29,7 @@ use crate::similarity::Similarity;
 
 use geometry::Geometry;
 use linalg::{axpy, cholesky, cholesky_solve, dot};
-use precompute::{regularise, Level, ShapeBasis, LUMA};
+use precompute::{channel_weights, regularise, Level, ShapeBasis};
 
 pub use tracker::{Tracker, MIN_CONTRAST};
 
@@ -52,6 +52,9 @@ pub struct FitOptions {
     /// Add gain and bias images to the grey appearance basis, making the fit invariant to
     /// global brightness and contrast changes.
     pub gain_bias: bool,
+    /// Fitting channels: 1 = luminance only, 2 = luminance and red chroma (lips against
+    /// skin).
+    pub channels: u32,
     /// Compute the RGB appearance parameters `lambda` of the result (projection of the image
     /// sampled at the final landmarks; costs one full-frame sample).
     pub appearance: bool,
@@ -87,6 +90,7 @@ impl Default for FitOptions {
             tolerance: 0.05,
             shape_prior: 3e-5,
             gain_bias: true,
+            channels: 1,
             appearance: true,
             max_error: 0.12,
             max_sigmas: 3.5,
@@ -109,6 +113,9 @@ impl FitOptions {
                     "level {l:?}: step must be in 1..=8, sigma in 0..=8"
                 ));
             }
+        }
+        if !(1..=2).contains(&self.channels) {
+            return bad(format!("channels = {} must be 1 or 2", self.channels));
         }
         if self.max_iters > 1000 || self.refine_iters > 1000 {
             return bad("more than 1000 iterations".into());
@@ -163,6 +170,8 @@ pub struct FitResult {
 struct Grey {
     width: usize,
     height: usize,
+    /// Channel planes, each `width * height`.
+    channels: usize,
     data: Vec<f32>,
     blur: Vec<f32>,
     tmp: Vec<f32>,
@@ -173,6 +182,7 @@ struct Grey {
 struct GreyView<'a> {
     data: &'a [f32],
     stride: usize,
+    plane: usize,
     x0: f32,
     y0: f32,
     x1: f32,
@@ -184,14 +194,17 @@ impl Grey {
         self.width = image.width() as usize;
         self.height = image.height() as usize;
         let len = self.width * self.height;
-        if self.data.len() != len {
-            self.data.resize(len, 0.0);
-            self.blur.resize(len, 0.0);
+        if self.data.len() != len * self.channels {
+            self.data.resize(len * self.channels, 0.0);
+            self.blur.resize(len * self.channels, 0.0);
             self.tmp.resize(len, 0.0);
         }
-        let k = [LUMA[0] / 255.0, LUMA[1] / 255.0, LUMA[2] / 255.0];
-        for (o, px) in self.data.iter_mut().zip(image.data().chunks_exact(4)) {
-            *o = k[0] * px[0] as f32 + k[1] * px[1] as f32 + k[2] * px[2] as f32;
+        for (c, wc) in channel_weights(self.channels).iter().enumerate() {
+            let k = [wc[0] / 255.0, wc[1] / 255.0, wc[2] / 255.0];
+            let plane = &mut self.data[c * len..(c + 1) * len];
+            for (o, px) in plane.iter_mut().zip(image.data().chunks_exact(4)) {
+                *o = k[0] * px[0] as f32 + k[1] * px[1] as f32 + k[2] * px[2] as f32;
+            }
         }
     }
 
@@ -199,6 +212,7 @@ impl Grey {
         GreyView {
             data: &self.data,
             stride: self.width,
+            plane: self.width * self.height,
             x0: 0.0,
             y0: 0.0,
             x1: (self.width - 1) as f32,
@@ -246,32 +260,38 @@ impl Grey {
         }
         kernel.iter_mut().for_each(|k| *k /= ksum);
         let w = self.width;
-        // Horizontal pass (clamped at the region's edges).
-        for y in y0..=y1 {
-            let row = &self.data[y * w..(y + 1) * w];
-            for x in x0..=x1 {
-                let mut acc = 0.0;
-                for (i, kv) in kernel[..=2 * r].iter().enumerate() {
-                    let xx = (x + i).saturating_sub(r).clamp(x0, x1);
-                    acc += kv * row[xx];
+        let len = w * self.height;
+        for c in 0..self.channels {
+            let data = &self.data[c * len..(c + 1) * len];
+            let blur = &mut self.blur[c * len..(c + 1) * len];
+            // Horizontal pass (clamped at the region's edges).
+            for y in y0..=y1 {
+                let row = &data[y * w..(y + 1) * w];
+                for x in x0..=x1 {
+                    let mut acc = 0.0;
+                    for (i, kv) in kernel[..=2 * r].iter().enumerate() {
+                        let xx = (x + i).saturating_sub(r).clamp(x0, x1);
+                        acc += kv * row[xx];
+                    }
+                    self.tmp[y * w + x] = acc;
                 }
-                self.tmp[y * w + x] = acc;
             }
-        }
-        // Vertical pass.
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let mut acc = 0.0;
-                for (i, kv) in kernel[..=2 * r].iter().enumerate() {
-                    let yy = (y + i).saturating_sub(r).clamp(y0, y1);
-                    acc += kv * self.tmp[yy * w + x];
+            // Vertical pass.
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let mut acc = 0.0;
+                    for (i, kv) in kernel[..=2 * r].iter().enumerate() {
+                        let yy = (y + i).saturating_sub(r).clamp(y0, y1);
+                        acc += kv * self.tmp[yy * w + x];
+                    }
+                    blur[y * w + x] = acc;
                 }
-                self.blur[y * w + x] = acc;
             }
         }
         GreyView {
             data: &self.blur,
             stride: w,
+            plane: len,
             x0: x0 as f32,
             y0: y0 as f32,
             x1: x1 as f32,
@@ -283,7 +303,7 @@ impl Grey {
 impl GreyView<'_> {
     /// Bilinear sample, clamped to the view's region.
     #[inline]
-    fn sample(&self, x: f32, y: f32) -> f32 {
+    fn sample(&self, x: f32, y: f32, channel: usize) -> f32 {
         let x = if x.is_finite() {
             x.clamp(self.x0, self.x1)
         } else {
@@ -304,7 +324,7 @@ impl GreyView<'_> {
         } else {
             0
         };
-        let i = yi * self.stride + xi;
+        let i = channel * self.plane + yi * self.stride + xi;
         let d = self.data;
         let top = d[i] + fx * (d[i + dx] - d[i]);
         let bot = d[i + dy] + fx * (d[i + dy + dx] - d[i + dy]);
@@ -393,6 +413,7 @@ impl Fitter {
                     l.sigma,
                     options.gain_bias,
                     options.shape_prior,
+                    options.channels as usize,
                 )
             })
             .collect::<Result<Vec<_>>>()?;
@@ -439,6 +460,7 @@ impl Fitter {
             frame: model.frame.clone(),
             contrast: 0.0,
             grey: Grey {
+                channels: options.channels as usize,
                 width: 0,
                 height: 0,
                 data: Vec::new(),
@@ -615,11 +637,14 @@ fn contrast(v: &[f32]) -> f32 {
 
 /// Samples the grey image at the level pixels through the current mesh.
 fn sample(level: &Level, img: GreyView<'_>, shape: &[f32], out: &mut [f32]) {
-    for ((t, b), o) in level.verts.iter().zip(&level.bary).zip(out.iter_mut()) {
-        let (a0, a1, a2) = (t[0] as usize, t[1] as usize, t[2] as usize);
-        let x = b[0] * shape[2 * a0] + b[1] * shape[2 * a1] + b[2] * shape[2 * a2];
-        let y = b[0] * shape[2 * a0 + 1] + b[1] * shape[2 * a1 + 1] + b[2] * shape[2 * a2 + 1];
-        *o = img.sample(x, y);
+    let np = level.np.max(1);
+    for (c, block) in out[..level.n].chunks_exact_mut(np).enumerate() {
+        for ((t, b), o) in level.verts.iter().zip(&level.bary).zip(block.iter_mut()) {
+            let (a0, a1, a2) = (t[0] as usize, t[1] as usize, t[2] as usize);
+            let x = b[0] * shape[2 * a0] + b[1] * shape[2 * a1] + b[2] * shape[2 * a2];
+            let y = b[0] * shape[2 * a0 + 1] + b[1] * shape[2 * a1 + 1] + b[2] * shape[2 * a2 + 1];
+            *o = img.sample(x, y, c);
+        }
     }
 }
 

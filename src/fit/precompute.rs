@@ -10,6 +10,17 @@ use super::linalg::{cholesky, gram_schmidt};
 /// Luminance weights (Rec. 601) used to turn the RGB appearance into grey levels.
 pub(crate) const LUMA: [f32; 3] = [0.299, 0.587, 0.114];
 
+/// Red-difference chroma weights (Rec. 601 `Cr`): separates lips and skin, which luminance
+/// barely does.
+pub(crate) const CHROMA: [f32; 3] = [0.5, -0.4187, -0.0813];
+
+/// The channel weights used for `channels` fitting channels (1: luminance; 2: luminance and
+/// red chroma).
+pub(crate) fn channel_weights(channels: usize) -> &'static [[f32; 3]] {
+    const BOTH: [[f32; 3]; 2] = [LUMA, CHROMA];
+    &BOTH[..channels.clamp(1, 2)]
+}
+
 /// The combined basis of mesh displacements in model coordinates (Matthews & Baker 2004,
 /// section 4.3): the four similarity vectors `s*_1..s*_4` (scale/rotation about the base shape,
 /// x and y translation), orthonormalised, followed by the model's shape modes
@@ -63,8 +74,10 @@ impl ShapeBasis {
 pub(crate) struct Level {
     /// Gaussian smoothing of the template (and of the image, scaled by the pose), frame px.
     pub sigma: f32,
-    /// Number of pixels `N` on this level.
+    /// Number of values `N` on this level: `channels x pixels`, channel-major.
     pub n: usize,
+    /// Number of pixels per channel.
+    pub np: usize,
     /// Mesh vertices of each pixel's triangle.
     pub verts: Vec<[u32; 3]>,
     /// Barycentric coordinates of each pixel.
@@ -186,7 +199,10 @@ impl Level {
         sigma: f32,
         gain_bias: bool,
         shape_prior: f32,
+        channels: usize,
     ) -> Result<Level> {
+        let weights = channel_weights(channels);
+        let nc = weights.len();
         let f = &model.frame;
         let (w, h) = (f.width() as usize, f.height() as usize);
         let npx = f.n_pixels();
@@ -199,8 +215,9 @@ impl Level {
             .filter(|(_, p)| p.x as u32 % step == 0 && p.y as u32 % step == 0)
             .map(|(i, _)| i)
             .collect();
-        let n = sel.len();
-        if n < basis.k * 4 {
+        let np = sel.len();
+        let n = np * nc;
+        if np < basis.k * 4 {
             return Err(Error::Params(format!(
                 "fitting level with step {step} has only {n} pixels for {} parameters",
                 basis.k
@@ -212,17 +229,26 @@ impl Level {
             .collect();
         let bary: Vec<[f32; 3]> = sel.iter().map(|&i| f.pixels()[i].bary).collect();
 
-        // Grey images on the full frame: A0 and each RGB mode's luminance.
+        // Channel images on the full frame (channel-major): A0 and each RGB mode.
         let app = &model.appearance;
         let grey = |v: &[f32]| -> Vec<f64> {
-            v.chunks_exact(3)
-                .map(|c| (LUMA[0] * c[0] + LUMA[1] * c[1] + LUMA[2] * c[2]) as f64)
-                .collect()
+            let mut out = Vec::with_capacity(npx * nc);
+            for wc in weights {
+                out.extend(
+                    v.chunks_exact(3)
+                        .map(|c| (wc[0] * c[0] + wc[1] * c[1] + wc[2] * c[2]) as f64),
+                );
+            }
+            out
         };
         let a0_full = grey(&app.base);
         let mut raw: Vec<Vec<f64>> = Vec::new();
         if gain_bias {
-            raw.push(vec![1.0; npx]);
+            for c in 0..nc {
+                let mut b = vec![0.0; npx * nc];
+                b[c * npx..(c + 1) * npx].iter_mut().for_each(|v| *v = 1.0);
+                raw.push(b);
+            }
             raw.push(a0_full.clone());
         }
         for i in 0..app.n_modes() {
@@ -231,19 +257,21 @@ impl Level {
         // Values and gradients at the level pixels.
         let mut grid = vec![0f64; w * h];
         let mut sample = |full: &[f64]| -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-            fill_grid(model, full, &mut grid);
-            if sigma > 0.0 {
-                blur_grid(&mut grid, w, h, sigma as f64);
-            }
             let mut v = Vec::with_capacity(n);
             let mut gx = Vec::with_capacity(n);
             let mut gy = Vec::with_capacity(n);
-            for &i in &sel {
-                let p = f.pixels()[i];
-                v.push(grid[p.y as usize * w + p.x as usize]);
-                let (a, b) = grid_gradient(&grid, w, h, p.x as usize, p.y as usize);
-                gx.push(a);
-                gy.push(b);
+            for c in 0..nc {
+                fill_grid(model, &full[c * npx..(c + 1) * npx], &mut grid);
+                if sigma > 0.0 {
+                    blur_grid(&mut grid, w, h, sigma as f64);
+                }
+                for &i in &sel {
+                    let p = f.pixels()[i];
+                    v.push(grid[p.y as usize * w + p.x as usize]);
+                    let (a, b) = grid_gradient(&grid, w, h, p.x as usize, p.y as usize);
+                    gx.push(a);
+                    gy.push(b);
+                }
             }
             (v, gx, gy)
         };
@@ -270,7 +298,7 @@ impl Level {
         for j in 0..k {
             let b = &basis.vectors[j * d..(j + 1) * d];
             for i in 0..n {
-                let (t, w3) = (verts[i], bary[i]);
+                let (t, w3) = (verts[i % np], bary[i % np]);
                 let (mut x, mut y) = (0f32, 0f32);
                 for c in 0..3 {
                     x += w3[c] * b[2 * t[c] as usize];
@@ -330,6 +358,7 @@ impl Level {
             (a0.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt() as f32
         };
         Ok(Level {
+            np,
             a0_std,
             sigma,
             n,
