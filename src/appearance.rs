@@ -67,20 +67,34 @@ impl AppearanceModel {
     }
 }
 
-/// `out = base + sum_i w_i modes_i` (modes row-major, each `base.len()` long). The inner loop
-/// runs over contiguous rows so the compiler vectorises it.
+/// `out = base + sum_i w_i modes_i` (modes row-major, `base.len()` each): the linear
+/// combination behind Eq. 2 (and the mapped appearance of Eq. 3).
+///
+/// Processed in cache-sized blocks of the output, so each block stays in L1 while every mode
+/// streams through once; zero weights are skipped. Per element the sum runs in mode order (the
+/// result equals the plain loop bit for bit). Allocates nothing; extra weights beyond the
+/// number of modes are ignored.
 pub fn synthesise(base: &[f32], modes: &[f32], w: &[f32], out: &mut [f32]) {
-    out.copy_from_slice(base);
+    const BLOCK: usize = 2048;
     let d = base.len();
-    if d == 0 {
+    if d == 0 || out.len() != d {
         return;
     }
-    for (wi, mode) in w.iter().zip(modes.chunks_exact(d)) {
-        if *wi != 0.0 {
-            for (o, m) in out.iter_mut().zip(mode) {
-                *o += wi * m;
+    let n = w.len().min(modes.len() / d);
+    let mut start = 0;
+    while start < d {
+        let end = (start + BLOCK).min(d);
+        let o = &mut out[start..end];
+        o.copy_from_slice(&base[start..end]);
+        for (i, &wi) in w[..n].iter().enumerate() {
+            if wi != 0.0 {
+                let m = &modes[i * d + start..i * d + end];
+                for (a, &b) in o.iter_mut().zip(m) {
+                    *a += wi * b;
+                }
             }
         }
+        start = end;
     }
 }
 

@@ -233,14 +233,14 @@ pub fn constrain(params: &mut [f32], sigmas: &[f32], k: f32) {
 
 /// Substitute (Fig. 4 A, the baseline of section 4): `s = s0* + S p`, the target's base shape
 /// with the SOURCE's shape modes; in f64 into `acc` (`2n`). The appearance is
-/// `A = A0* + A lambda` ([`synthesise_blocked`] with the target's base and the source's
+/// `A = A0* + A lambda` ([`crate::synthesise`] with the target's base and the source's
 /// modes).
 pub fn substitute_shape(target_base: &[f32], source_modes: &[f32], p: &[f32], acc: &mut [f64]) {
     linear_f64(target_base, source_modes, p, acc);
 }
 
 /// Eq. 3, shape: `s = s0* + S* p*` with `p* = R p` already mapped (and constrained), in f64
-/// into `acc` (`2n`). The appearance is `A = A0* + A* lambda*` ([`synthesise_blocked`]).
+/// into `acc` (`2n`). The appearance is `A = A0* + A* lambda*` ([`crate::synthesise`]).
 pub fn map_shape(target_base: &[f32], target_modes: &[f32], mapped: &[f32], acc: &mut [f64]) {
     linear_f64(target_base, target_modes, mapped, acc);
 }
@@ -280,34 +280,6 @@ pub fn target_pose(
         target_mean.compose(&source_mean_inverse.compose(source_pose))
     } else {
         *target_mean
-    }
-}
-
-/// `out = base + sum_i w_i modes_i` (modes row-major, `base.len()` each), processed in
-/// cache-sized blocks of the output so each block stays in L1 while every mode streams
-/// through once; zero weights are skipped. Per element the sum runs in mode order, so the
-/// result is bit-identical to [`crate::synthesise`]. Allocates nothing.
-pub fn synthesise_blocked(base: &[f32], modes: &[f32], w: &[f32], out: &mut [f32]) {
-    const BLOCK: usize = 2048;
-    let d = base.len();
-    if d == 0 || out.len() != d {
-        return;
-    }
-    let n = w.len().min(modes.len() / d);
-    let mut start = 0;
-    while start < d {
-        let end = (start + BLOCK).min(d);
-        let o = &mut out[start..end];
-        o.copy_from_slice(&base[start..end]);
-        for (i, &wi) in w[..n].iter().enumerate() {
-            if wi != 0.0 {
-                let m = &modes[i * d + start..i * d + end];
-                for (a, &b) in o.iter_mut().zip(m) {
-                    *a += wi * b;
-                }
-            }
-        }
-        start = end;
     }
 }
 
@@ -682,7 +654,7 @@ impl Cloner {
             match options.method {
                 Method::Substitute => {
                     substitute_shape(&m.shape.base, &self.source.shape.modes, p, &mut self.acc);
-                    synthesise_blocked(
+                    crate::synthesise(
                         &m.appearance.base,
                         &self.source.appearance.modes,
                         lambda,
@@ -707,7 +679,7 @@ impl Cloner {
                     if options.method == Method::MapResidual {
                         add_residual(&t.pair.residual, p, &mut self.acc);
                     }
-                    synthesise_blocked(
+                    crate::synthesise(
                         &m.appearance.base,
                         &m.appearance.modes,
                         &t.params.appearance,
