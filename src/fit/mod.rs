@@ -231,8 +231,8 @@ impl Grey {
             maxy = maxy.max(p[1]);
         }
         let (mw, mh) = (
-            0.5 * (maxx - minx) + 3.0 * sigma + 2.0,
-            0.5 * (maxy - miny) + 3.0 * sigma + 2.0,
+            0.2 * (maxx - minx) + 3.0 * sigma + 2.0,
+            0.2 * (maxy - miny) + 3.0 * sigma + 2.0,
         );
         let clampx = |v: f32| {
             if v.is_finite() {
@@ -251,7 +251,7 @@ impl Grey {
         let (x0, x1) = (clampx((minx - mw).floor()), clampx((maxx + mw).ceil()));
         let (y0, y1) = (clampy((miny - mh).floor()), clampy((maxy + mh).ceil()));
         let mut kernel = [0f32; 49];
-        let r = ((3.0 * sigma).ceil() as usize).clamp(1, 24);
+        let r = ((2.5 * sigma).ceil() as usize).clamp(1, 24);
         let mut ksum = 0.0;
         for i in 0..=2 * r {
             let d = i as f32 - r as f32;
@@ -264,27 +264,30 @@ impl Grey {
         for c in 0..self.channels {
             let data = &self.data[c * len..(c + 1) * len];
             let blur = &mut self.blur[c * len..(c + 1) * len];
-            // Horizontal pass (clamped at the region's edges).
+            let k = &kernel[..=2 * r];
+            // Horizontal pass (clamped at the region's edges): a window dot product inside.
             for y in y0..=y1 {
                 let row = &data[y * w..(y + 1) * w];
+                let out = &mut self.tmp[y * w..(y + 1) * w];
                 for x in x0..=x1 {
-                    let mut acc = 0.0;
-                    for (i, kv) in kernel[..=2 * r].iter().enumerate() {
-                        let xx = (x + i).saturating_sub(r).clamp(x0, x1);
-                        acc += kv * row[xx];
-                    }
-                    self.tmp[y * w + x] = acc;
+                    out[x] = if x >= x0 + r && x + r <= x1 {
+                        dot(k, &row[x - r..=x + r])
+                    } else {
+                        let mut acc = 0.0;
+                        for (i, kv) in k.iter().enumerate() {
+                            acc += kv * row[(x + i).saturating_sub(r).clamp(x0, x1)];
+                        }
+                        acc
+                    };
                 }
             }
-            // Vertical pass.
+            // Vertical pass: each output row is a weighted sum of (clamped) input rows.
             for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let mut acc = 0.0;
-                    for (i, kv) in kernel[..=2 * r].iter().enumerate() {
-                        let yy = (y + i).saturating_sub(r).clamp(y0, y1);
-                        acc += kv * self.tmp[yy * w + x];
-                    }
-                    blur[y * w + x] = acc;
+                let out = &mut blur[y * w + x0..=y * w + x1];
+                out.iter_mut().for_each(|v| *v = 0.0);
+                for (i, kv) in k.iter().enumerate() {
+                    let yy = (y + i).saturating_sub(r).clamp(y0, y1);
+                    axpy(*kv, &self.tmp[yy * w + x0..=yy * w + x1], out);
                 }
             }
         }
