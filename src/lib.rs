@@ -10,7 +10,8 @@
 //!   PCA shape model (Eq. 1), a shape-normalised PCA appearance model (Eq. 2) and a triangulated
 //!   [`ReferenceFrame`].
 //! - [`format`] reads and writes the versioned binary model file (`.fmm`).
-//! - [`Renderer`] warps an instance onto any shape with tiny-skia.
+//! - [`Renderer`] warps an instance onto any shape with tiny-skia; [`Rasterizer::Scanline`] is
+//!   an opt-in faster fixed-point rasteriser writing into the same tiny-skia pixmap.
 #![warn(missing_docs)]
 
 mod appearance;
@@ -25,6 +26,7 @@ mod image;
 pub mod landmarks;
 mod model;
 mod pca;
+mod raster;
 mod render;
 mod shape;
 mod similarity;
@@ -40,6 +42,7 @@ pub use frame::{triangulate, FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
 pub use model::{LandmarkScheme, Model, Params, Reference};
 pub use pca::{pca, Pca};
+pub use raster::{Rasterizer, Scanline};
 pub use render::{demultiply, demultiply_into, triangle_affine, Renderer};
 pub use shape::{generalised_procrustes, ShapeModel};
 pub use similarity::{PoseJson, Similarity};

@@ -121,13 +121,17 @@ fn offscreen_ctx(w: u32, h: u32) -> (OffscreenCanvas, OffscreenCanvasRenderingCo
     (canvas, ctx)
 }
 
+/// Options with the default rasteriser (no `raster` key).
 fn options(background: &str, mesh: bool) -> Option<RenderOptionsArg> {
-    options_with(background, mesh, "scanline")
+    options_with(background, mesh, "")
 }
 
+/// Options with `raster` set (unless empty).
 fn options_with(background: &str, mesh: bool, raster: &str) -> Option<RenderOptionsArg> {
     let o = js_sys::Object::new();
-    js_sys::Reflect::set(&o, &"raster".into(), &raster.into()).unwrap();
+    if !raster.is_empty() {
+        js_sys::Reflect::set(&o, &"raster".into(), &raster.into()).unwrap();
+    }
     js_sys::Reflect::set(&o, &"background".into(), &background.into()).unwrap();
     js_sys::Reflect::set(&o, &"mesh".into(), &mesh.into()).unwrap();
     Some(JsValue::from(o).unchecked_into())
@@ -589,6 +593,11 @@ fn scanline_and_tiny_skia_rasterisers_agree() {
         .render_target(0, b.clone(), options_with("#ff00ff", false, "tiny-skia"))
         .unwrap();
     let (pa, pb) = (read_pixels(&a), read_pixels(&b));
+    // The default is tiny-skia.
+    cloner
+        .render_target(0, a.clone(), options("#ff00ff", false))
+        .unwrap();
+    assert!(read_pixels(&a) == pb, "the default rasteriser is not tiny-skia");
     let shape = cloner.cloner().target_shape(0).to_vec();
     assert_face(&pa, &target, &shape, W, H, "scanline");
     assert_face(&pb, &target, &shape, W, H, "tiny-skia");

@@ -1,4 +1,5 @@
-// facemimic in-browser benchmark: the whole frame (source + N targets at 360x288) split by stage.
+// facemimic in-browser benchmark: the whole frame (source + N targets at 360x288) split by stage,
+// with the chosen rasteriser (?raster=, default tiny-skia: the headline) and then the other one.
 // Prints a JSON summary into <pre id="result"> (data-done="1" when finished) for headless runs
 // (tests/e2e/bench.mjs).
 import init, { Model, Cloner, version } from './pkg/facemimic.js';
@@ -16,7 +17,9 @@ const WARMUP = int('warmup', 30, 0, 10000);
 const TARGETS = int('targets', 4, 0, 16);
 const METHOD = q.get('method') || 'map';
 const MESH = q.get('mesh') === '1';
-const RASTER = q.get('raster') || 'scanline';
+const RASTERS = ['tiny-skia', 'scanline'];
+const RASTER = q.get('raster') || 'tiny-skia';
+const OTHER = RASTERS.find((r) => r !== RASTER);
 
 const $ = (id) => document.getElementById(id);
 const status = (text) => { $('status').textContent = text; };
@@ -69,9 +72,8 @@ async function main() {
   cloner.setMethod(METHOD);
   const sourceCtx = canvas(`source ${source.name}`);
   const targetCtx = targetNames.map((n) => canvas(`target ${n}`));
-  const options = { background: '#202024', mesh: MESH, raster: RASTER };
-
-  const stages = { map: [], synth: [], raster: [], blit: [], other: [], total: [] };
+  if (!RASTERS.includes(RASTER)) throw new Error(`raster must be tiny-skia or scanline, got ${RASTER}`);
+  let options;
   const frame = (i) => {
     const t0 = performance.now();
     cloner.setSourceParams(track[i % track.length]);
@@ -82,28 +84,35 @@ async function main() {
     return [t1 - t0, cloner.timings()];
   };
 
-  status(`warming up (${WARMUP} frames)...`);
-  await new Promise((r) => setTimeout(r, 0));
-  for (let i = 0; i < WARMUP; i++) frame(i);
-  status(`running ${FRAMES} frames...`);
-  await new Promise((r) => setTimeout(r, 0));
-  // In chunks, yielding between them so the page stays responsive; only frame() is timed.
-  for (let i = 0; i < FRAMES; ) {
-    const end = Math.min(FRAMES, i + 50);
-    for (; i < end; i++) {
-      const [total, t] = frame(WARMUP + i);
-      stages.map.push(t.mapMs);
-      stages.synth.push(t.synthMs);
-      stages.raster.push(t.rasterMs);
-      stages.blit.push(t.blitMs);
-      stages.total.push(total);
-      // Everything outside the four stages: parameter passing, API calls, JS.
-      stages.other.push(Math.max(0, total - t.mapMs - t.synthMs - t.rasterMs - t.blitMs));
-    }
+  // The whole-frame run with one rasteriser: per-stage summaries.
+  const measure = async (raster) => {
+    options = { background: '#202024', mesh: MESH, raster };
+    const stages = { map: [], synth: [], raster: [], blit: [], other: [], total: [] };
+    status(`${raster}: warming up (${WARMUP} frames)...`);
     await new Promise((r) => setTimeout(r, 0));
-  }
+    for (let i = 0; i < WARMUP; i++) frame(i);
+    status(`${raster}: running ${FRAMES} frames...`);
+    await new Promise((r) => setTimeout(r, 0));
+    // In chunks, yielding between them so the page stays responsive; only frame() is timed.
+    for (let i = 0; i < FRAMES; ) {
+      const end = Math.min(FRAMES, i + 50);
+      for (; i < end; i++) {
+        const [total, t] = frame(WARMUP + i);
+        stages.map.push(t.mapMs);
+        stages.synth.push(t.synthMs);
+        stages.raster.push(t.rasterMs);
+        stages.blit.push(t.blitMs);
+        stages.total.push(total);
+        // Everything outside the four stages: parameter passing, API calls, JS.
+        stages.other.push(Math.max(0, total - t.mapMs - t.synthMs - t.rasterMs - t.blitMs));
+      }
+      await new Promise((r) => setTimeout(r, 0));
+    }
 
-  const s = Object.fromEntries(Object.entries(stages).map(([k, v]) => [k, summary(v)]));
+    return Object.fromEntries(Object.entries(stages).map(([k, v]) => [k, summary(v)]));
+  };
+  const s = await measure(RASTER);
+  const o = await measure(OTHER);
 
   // The two rasterisers on the same face, interleaved call by call so that both see the same
   // machine load: raster ms per face (clear + triangle warp) for target 0.
@@ -111,8 +120,8 @@ async function main() {
   if (targetCtx.length > 0) {
     status('comparing rasterisers...');
     await new Promise((r) => setTimeout(r, 0));
-    const modes = ['scanline', 'tiny-skia'];
-    const samples = { scanline: [], 'tiny-skia': [] };
+    const modes = RASTERS;
+    const samples = { 'tiny-skia': [], scanline: [] };
     const opts = Object.fromEntries(modes.map((m) => [m, { background: '#202024', raster: m }]));
     for (let i = 0; i < Math.max(60, Math.min(FRAMES, 400)); i++) {
       cloner.setSourceParams(track[i % track.length]);
@@ -145,6 +154,12 @@ async function main() {
       fromMean: Math.round(1000 / s.total.mean),
       fromMedian: Math.round(1000 / s.total.median),
     },
+    // The same whole-frame run with the other rasteriser.
+    other: {
+      raster: OTHER,
+      ms: o,
+      fps: { fromMean: Math.round(1000 / o.total.mean), fromMedian: Math.round(1000 / o.total.median) },
+    },
   };
   const tbody = $('table').querySelector('tbody');
   for (const k of ['map', 'synth', 'raster', 'blit', 'other', 'total']) {
@@ -157,8 +172,9 @@ async function main() {
     tbody.append(tr);
   }
   $('table').hidden = false;
-  status(`${result.faces} faces at ${W}x${H}: ${s.total.mean.toFixed(2)} ms per frame (mean), ` +
-    `${result.fps.fromMean} fps; median ${s.total.median.toFixed(2)} ms, ${result.fps.fromMedian} fps`);
+  status(`${result.faces} faces at ${W}x${H}, ${RASTER}: ${s.total.mean.toFixed(2)} ms per frame (mean), ` +
+    `${result.fps.fromMean} fps; median ${s.total.median.toFixed(2)} ms, ${result.fps.fromMedian} fps ` +
+    `(${OTHER}: median ${o.total.median.toFixed(2)} ms, ${result.other.fps.fromMedian} fps)`);
   $('result').textContent = JSON.stringify(result, null, 2);
   $('result').dataset.done = '1';
 }

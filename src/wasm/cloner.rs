@@ -6,13 +6,13 @@ use wasm_bindgen::prelude::*;
 use web_sys::ImageData;
 
 use super::model::{model_info, JsModel};
-use super::raster::{upload_with, warp_with, Scanline};
 use super::surface::{
     base_box, fit_view, now_ms, paint, params_into, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
 };
 use super::{install_panic_hook, js_err, params_to_js, RenderOptionsArg};
 use crate::clone::{CloneOptions, Cloner, Method};
 use crate::model::{Model, Params};
+use crate::raster::Scanline;
 use crate::render::Renderer;
 use crate::similarity::Similarity;
 
@@ -107,21 +107,17 @@ impl JsCloner {
         options: &RenderOptions,
     ) -> Result<(), JsError> {
         let t0 = now_ms();
-        upload_with(options.raster, renderer, scanline, &model.frame, appearance)
+        options
+            .raster
+            .upload(renderer, scanline, &model.frame, appearance)
             .map_err(js_err)?;
         timings.synth += now_ms() - t0;
         let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
             let view: Similarity = fit_view(bbox, w, h);
-            warp_with(
-                options.raster,
-                renderer,
-                scanline,
-                &model.frame,
-                shape,
-                &view,
-                pixmap,
-            )
-            .map_err(js_err)?;
+            options
+                .raster
+                .warp(renderer, scanline, &model.frame, shape, &view, pixmap)
+                .map_err(js_err)?;
             if options.mesh {
                 overlay.draw(&model.frame, shape, &view, pixmap);
             }
@@ -143,7 +139,7 @@ impl JsCloner {
             .image_shape(&self.source_params, &mut self.shape)
             .map_err(js_err)?;
         // Eq. 2 for the source, cache-blocked (bit-identical to `instance_unchecked`).
-        crate::clone::synthesise_blocked(
+        crate::synthesise(
             &model.appearance.base,
             &model.appearance.modes,
             &self.source_params.appearance,

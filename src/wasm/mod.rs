@@ -16,7 +16,6 @@ use crate::model::Params;
 
 mod cloner;
 mod model;
-mod raster;
 mod surface;
 
 pub use cloner::JsCloner;
@@ -114,9 +113,10 @@ export interface RenderOptions {
   background?: string;
   /** Overlay the triangle mesh (thin, semi-transparent). Default false. */
   mesh?: boolean;
-  /** Triangle rasteriser: "scanline" (default; fixed-point bilinear spans written into the
-   *  tiny-skia pixmap) or "tiny-skia" (one tiny-skia pattern fill per triangle; slower). */
-  raster?: "scanline" | "tiny-skia";
+  /** Triangle rasteriser: "tiny-skia" (default; one tiny-skia pattern fill per triangle) or
+   *  "scanline" (opt-in fast path: a faster fixed-point rasteriser that writes into the same
+   *  tiny-skia pixmap; results agree within ~1.5 levels). */
+  raster?: "tiny-skia" | "scanline";
 }
 /** Milliseconds spent per stage since the last `update()` (mapping, synthesis, rasterising, blitting). */
 export interface Timings { mapMs: number; synthMs: number; rasterMs: number; blitMs: number }

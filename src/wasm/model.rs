@@ -6,11 +6,11 @@ use std::rc::Rc;
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
-use super::raster::{upload_with, warp_with, Scanline};
 use super::surface::{base_box, fit_view, paint, Ctx, MeshOverlay, RenderOptions, Sink};
 use super::{install_panic_hook, js_err, params_from_js, params_to_js, RenderOptionsArg};
 use crate::image::ImageRef;
 use crate::model::{Model, Params, Reference};
+use crate::raster::Scanline;
 use crate::render::Renderer;
 
 /// The plain object `Model.info()` returns (see the TypeScript `ModelInfo`).
@@ -106,14 +106,15 @@ impl ModelScratch {
         model
             .appearance
             .instance_unchecked(&self.params.appearance, &mut self.appearance);
-        upload_with(
-            options.raster,
-            &mut self.renderer,
-            &mut self.scanline,
-            &model.frame,
-            &self.appearance,
-        )
-        .map_err(js_err)?;
+        options
+            .raster
+            .upload(
+                &mut self.renderer,
+                &mut self.scanline,
+                &model.frame,
+                &self.appearance,
+            )
+            .map_err(js_err)?;
         model
             .image_shape(&self.params, &mut self.shape)
             .map_err(js_err)?;
@@ -126,16 +127,10 @@ impl ModelScratch {
         );
         paint(Sink::Canvas(ctx), options.background, |pixmap, w, h| {
             let view = fit_view(bbox, w, h);
-            warp_with(
-                options.raster,
-                renderer,
-                scanline,
-                &model.frame,
-                shape,
-                &view,
-                pixmap,
-            )
-            .map_err(js_err)?;
+            options
+                .raster
+                .warp(renderer, scanline, &model.frame, shape, &view, pixmap)
+                .map_err(js_err)?;
             if options.mesh {
                 overlay.draw(&model.frame, shape, &view, pixmap);
             }

@@ -12,6 +12,7 @@ use web_sys::{CanvasRenderingContext2d, ImageData, OffscreenCanvasRenderingConte
 use crate::frame::ReferenceFrame;
 use crate::image::MAX_IMAGE_SIDE;
 use crate::model::Model;
+use crate::raster::Rasterizer;
 use crate::similarity::Similarity;
 
 #[wasm_bindgen]
@@ -122,15 +123,6 @@ pub(crate) fn describe(value: &JsValue) -> String {
     }
 }
 
-/// Which rasteriser warps the triangles.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Raster {
-    /// [`super::raster::warp`]: scanline spans, 8-bit fixed-point bilinear (the default).
-    Scanline,
-    /// [`crate::Renderer::warp`]: one tiny-skia pattern fill per triangle.
-    TinySkia,
-}
-
 /// Parsed [`RenderOptions`](crate::wasm) (`{ background?: string, mesh?: boolean, raster?: string }`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct RenderOptions {
@@ -138,8 +130,8 @@ pub(crate) struct RenderOptions {
     pub background: Color,
     /// Overlay the triangle mesh.
     pub mesh: bool,
-    /// The triangle rasteriser.
-    pub raster: Raster,
+    /// The triangle rasteriser (default tiny-skia).
+    pub raster: Rasterizer,
 }
 
 /// The default background, `#202024`.
@@ -151,7 +143,7 @@ impl Default for RenderOptions {
         RenderOptions {
             background: Color::from_rgba8(r, g, b, a),
             mesh: false,
-            raster: Raster::Scanline,
+            raster: Rasterizer::TinySkia,
         }
     }
 }
@@ -222,9 +214,9 @@ impl RenderOptions {
         let raster = get("raster")?;
         if !(raster.is_undefined() || raster.is_null()) {
             o.raster = if js_sys::Object::is(&raster, &JsValue::from_str("scanline")) {
-                Raster::Scanline
+                Rasterizer::Scanline
             } else if js_sys::Object::is(&raster, &JsValue::from_str("tiny-skia")) {
-                Raster::TinySkia
+                Rasterizer::TinySkia
             } else {
                 return Err(JsError::new(&format!(
                     "render options: raster must be \"scanline\" or \"tiny-skia\", got {}",

@@ -1,5 +1,6 @@
 // Runs www/bench.html in headless Chromium and prints its JSON summary (a script, not a test).
-//   node tests/e2e/bench.mjs [--frames N] [--method map] [--mesh] [--raster scanline|tiny-skia]
+//   node tests/e2e/bench.mjs [--frames N] [--method map] [--mesh] [--raster tiny-skia|scanline]
+// Both rasterisers are measured; --raster picks the headline (default tiny-skia).
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import { serveStatic, launchBrowser, screenshot } from './lib.mjs';
 
@@ -14,7 +15,7 @@ const query = new URLSearchParams({
   targets: opt('targets', '4'),
   method: opt('method', 'map'),
   mesh: args.includes('--mesh') ? '1' : '0',
-  raster: opt('raster', 'scanline'),
+  raster: opt('raster', 'tiny-skia'),
 });
 
 const server = await serveStatic('www');
