@@ -17,9 +17,11 @@ use crate::model::Params;
 mod cloner;
 mod model;
 mod surface;
+mod tracker;
 
 pub use cloner::JsCloner;
 pub use model::{render_mode, JsModel};
+pub use tracker::WasmTracker;
 
 /// Converts a library error into a JS `Error` (its message names the problem).
 pub(crate) fn js_err(e: crate::Error) -> JsError {
