@@ -15,14 +15,15 @@
 #![warn(missing_docs)]
 
 mod appearance;
-pub mod clone;
-pub mod fit;
-#[cfg(target_arch = "wasm32")]
-pub mod wasm;
 mod builder;
+pub mod clone;
 mod error;
+pub mod fit;
+pub mod format;
 mod frame;
 mod image;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod io;
 pub mod landmarks;
 mod model;
 mod pca;
@@ -31,9 +32,8 @@ mod render;
 mod shape;
 mod similarity;
 mod warp;
-pub mod format;
-#[cfg(not(target_arch = "wasm32"))]
-pub mod io;
+#[cfg(target_arch = "wasm32")]
+pub mod wasm;
 
 pub use appearance::{synthesise, AppearanceModel};
 pub use builder::{BuildOptions, Builder, ReferenceChoice, TrainingImage};

@@ -597,7 +597,10 @@ fn scanline_and_tiny_skia_rasterisers_agree() {
     cloner
         .render_target(0, a.clone(), options("#ff00ff", false))
         .unwrap();
-    assert!(read_pixels(&a) == pb, "the default rasteriser is not tiny-skia");
+    assert!(
+        read_pixels(&a) == pb,
+        "the default rasteriser is not tiny-skia"
+    );
     let shape = cloner.cloner().target_shape(0).to_vec();
     assert_face(&pa, &target, &shape, W, H, "scanline");
     assert_face(&pb, &target, &shape, W, H, "tiny-skia");
