@@ -13,6 +13,10 @@
 //! - [`Renderer`] warps an instance onto any shape with tiny-skia; [`Rasterizer::Scanline`] is
 //!   an opt-in faster fixed-point rasteriser writing into the same tiny-skia pixmap.
 #![warn(missing_docs)]
+// `!(x > y)` is used on purpose: it is true for NaN, which is how bad input is rejected.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops over several parallel arrays read better than zipped iterators in the numerics.
+#![allow(clippy::needless_range_loop)]
 
 mod appearance;
 mod builder;
