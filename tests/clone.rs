@@ -981,7 +981,7 @@ fn reference_closest_to_frame() {
         Reference::Training(images[best].name.clone()),
         "distances {d:?}"
     );
-    assert!(max_diff(&m.frame.vertices(), &source.frame.vertices()) == 0.0);
+    assert!(max_diff(m.frame.vertices(), source.frame.vertices()) == 0.0);
     let p = m
         .project(&images[best].image.view().unwrap(), &images[best].landmarks)
         .unwrap();

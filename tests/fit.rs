@@ -287,7 +287,7 @@ fn bad_input_is_an_error_not_a_panic() {
     };
     let view = img.view().unwrap();
     let n2 = model.shape.base.len();
-    assert!(fitter.fit(&view, &vec![0.0; 3]).is_err());
+    assert!(fitter.fit(&view, &[0.0; 3]).is_err());
     assert!(fitter.fit(&view, &vec![f32::NAN; n2]).is_err());
     assert!(
         fitter.fit(&view, &vec![1.0; n2]).is_err(),

@@ -40,7 +40,7 @@ fn render() -> Vec<u8> {
     let mut params = model.base_params();
     let (ss, sa) = (model.shape.sigmas(), model.appearance.sigmas());
     params.shape[0] = 1.5 * ss[0];
-    params.shape[1] = -1.0 * ss[1];
+    params.shape[1] = -ss[1];
     params.appearance[0] = sa[0];
     // View: the face centre (the pose's translation) to the canvas centre, magnified 1.5x.
     let k = 1.5;
