@@ -24,7 +24,7 @@ import './js/tracking.js'; // registers the video and webcam sources (when the p
 
 const MODELS = 'models/';
 const METHODS = ['substitute', 'map', 'map-residual'];
-const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false };
+const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: false };
 const FACE_BG = '#1b1d22'; // = --face-bg in style.css: the canvas background meets the card without a seam
 
 const $ = (id) => document.getElementById(id);
@@ -493,6 +493,10 @@ function buildControls() {
     app.settings.mesh = $('mesh').checked;
     app.dirty = true;
   });
+  $('fast-raster').addEventListener('change', () => {
+    app.settings.fast = $('fast-raster').checked;
+    app.dirty = true;
+  });
   $('compare-on').addEventListener('change', () => {
     $('compare').hidden = !$('compare-on').checked;
     app.dirty = true;
@@ -613,6 +617,7 @@ function syncControls() {
   $('clamp-out').value = `±${s.k.toFixed(1)}σ`;
   $('follow-pose').checked = s.followPose;
   $('mesh').checked = s.mesh;
+  $('fast-raster').checked = s.fast;
 }
 
 function reset() {
@@ -933,7 +938,9 @@ function render(t) {
   const c = app.cloner;
   c.setSourceParams(p);
   c.update();
-  const opts = { background: FACE_BG, mesh: app.settings.mesh };
+  // tiny-skia renders by default; "Fast raster" switches to the package's fixed-point scanline
+  // warp (same pixmap, ~3x faster, within ~1.5 levels of tiny-skia).
+  const opts = { background: FACE_BG, mesh: app.settings.mesh, raster: app.settings.fast ? 'scanline' : 'tiny-skia' };
   // Faces scrolled out of view are skipped (redrawn when they come back), except while
   // recording, which copies every face canvas into the video.
   const all = !!app.recorder;
