@@ -66,6 +66,32 @@ pub struct FitOptions {
     /// Tracker: a fit whose scale changes by more than this fraction from the previous frame
     /// (or whose rotation by more than 0.5 rad) is a lost face.
     pub max_scale_jump: f32,
+    /// Starts of the coarsest level in a cold fit ([`Fitter::fit`], [`Fitter::fit_params`],
+    /// the tracker's first frame and re-initialisations), 1 to 7: the given start, then the
+    /// start moved by `+-start_offset` of the face width along x, along y, then rotated by
+    /// `+-start_offset` radians. The coarse result with the lowest cost (projected-out
+    /// residual plus prior) is refined on the finer levels. Widens the convergence basin.
+    #[serde(default = "default_coarse_starts")]
+    pub coarse_starts: u32,
+    /// Starts of the coarsest level for a tracked frame (started from the previous frame's
+    /// result), 1 to 7.
+    #[serde(default = "default_tracking_starts")]
+    pub tracking_starts: u32,
+    /// Offset of the extra coarse starts: a fraction of the face width (and radians).
+    #[serde(default = "default_start_offset")]
+    pub start_offset: f32,
+}
+
+fn default_coarse_starts() -> u32 {
+    3
+}
+
+fn default_tracking_starts() -> u32 {
+    1
+}
+
+fn default_start_offset() -> f32 {
+    0.06
 }
 
 impl Default for FitOptions {
@@ -95,6 +121,9 @@ impl Default for FitOptions {
             max_error: 0.12,
             max_sigmas: 3.5,
             max_scale_jump: 0.25,
+            coarse_starts: 3,
+            tracking_starts: 1,
+            start_offset: 0.06,
         }
     }
 }
@@ -106,9 +135,8 @@ impl FitOptions {
             return bad(format!("{} levels (1 to 4 expected)", self.levels.len()));
         }
         for l in &self.levels {
-            if !(1..=8).contains(&l.step)
-                || !(l.sigma.is_finite() && (0.0..=8.0).contains(&l.sigma))
-            {
+            // `contains` is false for NaN, so a NaN sigma is rejected too.
+            if !(1..=8).contains(&l.step) || !(0.0..=8.0).contains(&l.sigma) {
                 return bad(format!(
                     "level {l:?}: step must be in 1..=8, sigma in 0..=8"
                 ));
@@ -116,6 +144,20 @@ impl FitOptions {
         }
         if !(1..=2).contains(&self.channels) {
             return bad(format!("channels = {} must be 1 or 2", self.channels));
+        }
+        for (what, v) in [
+            ("coarse_starts", self.coarse_starts),
+            ("tracking_starts", self.tracking_starts),
+        ] {
+            if !(1..=7).contains(&v) {
+                return bad(format!("{what} = {v} must be in 1..=7"));
+            }
+        }
+        if !(self.start_offset.is_finite() && (0.0..=0.5).contains(&self.start_offset)) {
+            return bad(format!(
+                "start_offset = {} must be in 0..=0.5",
+                self.start_offset
+            ));
         }
         if self.max_iters > 1000 || self.refine_iters > 1000 {
             return bad("more than 1000 iterations".into());
@@ -360,6 +402,10 @@ struct Work {
     saved_pose: Similarity,
     saved_g: Vec<f64>,
     saved_h: Vec<f64>,
+    start_cur: Vec<f32>,
+    best_cur: Vec<f32>,
+    best_p: Vec<f32>,
+    best_pose: Similarity,
     rgb: Vec<f32>,
 }
 
@@ -448,6 +494,10 @@ impl Fitter {
             saved_pose: Similarity::IDENTITY,
             saved_g: vec![0.0; k],
             saved_h: vec![0.0; k * k],
+            start_cur: vec![0.0; n2],
+            best_cur: vec![0.0; n2],
+            best_p: vec![0.0; m],
+            best_pose: Similarity::IDENTITY,
             rgb: if options.appearance {
                 vec![0.0; model.appearance.len()]
             } else {
@@ -532,7 +582,7 @@ impl Fitter {
     /// degenerate. A fit that diverges does not fail: it stops at the last finite state and
     /// reports `converged = false` (and a large error).
     pub fn fit(&mut self, image: &ImageRef<'_>, init: &[f32]) -> Result<&FitResult> {
-        self.fit_with(image, init, None)
+        self.fit_with(image, init, None, self.options.coarse_starts)
     }
 
     /// [`Fitter::fit`] starting from parameters (pose and shape; appearance is ignored).
@@ -546,19 +596,22 @@ impl Fitter {
         }
         let mut shape = std::mem::take(&mut self.work.init);
         self.geom.instance(&init.pose, &init.shape, &mut shape);
-        let r = self.fit_with(image, &shape, None).map(|_| ());
+        let r = self
+            .fit_with(image, &shape, None, self.options.coarse_starts)
+            .map(|_| ());
         self.work.init = shape;
         r?;
         Ok(&self.result)
     }
 
-    /// Fits with an optional override of the refinement iterations (used by the tracker to
-    /// retry harder).
+    /// Fits with an optional override of the iterations (used by the tracker to retry
+    /// harder) and `starts` starts of the coarsest level (see [`FitOptions::coarse_starts`]).
     pub(crate) fn fit_with(
         &mut self,
         image: &ImageRef<'_>,
         init: &[f32],
         refine_override: Option<(u32, u32)>,
+        starts: u32,
     ) -> Result<&FitResult> {
         check_len("initial landmarks", init, self.work.cur.len())?;
         check_finite("initial landmarks", init)?;
@@ -588,14 +641,65 @@ impl Fitter {
                 basis: &self.basis,
                 img: view,
             };
-            converged = run_stage(
-                &ctx,
-                &mut self.work,
-                Kind::ProjectOut,
-                max_iters,
-                self.options.tolerance,
-                &mut iterations,
-            );
+            let starts = if li == 0 { starts } else { 1 };
+            if starts <= 1 {
+                converged = run_stage(
+                    &ctx,
+                    &mut self.work,
+                    Kind::ProjectOut,
+                    max_iters,
+                    self.options.tolerance,
+                    &mut iterations,
+                );
+            } else {
+                let w = &mut self.work;
+                w.start_cur.copy_from_slice(&w.cur);
+                let mut best = f64::INFINITY;
+                let width = 150.0 * w.pose.scale();
+                let dt = self.options.start_offset * width;
+                let dr = self.options.start_offset;
+                for s in 0..starts {
+                    let (dx, dy, da) = start_offset(s, dt, dr);
+                    if s > 0 {
+                        offset_shape(&w.start_cur, dx, dy, da, &mut w.next);
+                        let Some(pose) =
+                            ctx.geom
+                                .project(&w.next, &mut w.p, &mut w.scratch, &mut w.cur)
+                        else {
+                            continue;
+                        };
+                        w.pose = pose;
+                    }
+                    let conv = run_stage(
+                        &ctx,
+                        w,
+                        Kind::ProjectOut,
+                        max_iters,
+                        self.options.tolerance,
+                        &mut iterations,
+                    );
+                    let rms = residual(ctx.level, ctx.img, w) as f64;
+                    let mut cost = rms * rms * ctx.level.n as f64;
+                    for (j, m) in ctx.basis.mode_of.iter().enumerate() {
+                        if let Some(m) = m {
+                            let p = w.p[*m] as f64;
+                            cost += ctx.level.prior[j] * p * p;
+                        }
+                    }
+                    if cost.is_finite() && cost < best {
+                        best = cost;
+                        converged = conv;
+                        w.best_cur.copy_from_slice(&w.cur);
+                        w.best_p.copy_from_slice(&w.p);
+                        w.best_pose = w.pose;
+                    }
+                }
+                if best.is_finite() {
+                    w.cur.copy_from_slice(&w.best_cur);
+                    w.p.copy_from_slice(&w.best_p);
+                    w.pose = w.best_pose;
+                }
+            }
             if li + 1 == nl && refine > 0 {
                 converged = run_stage(
                     &ctx,
@@ -628,6 +732,33 @@ impl Fitter {
         r.converged = converged && err.is_finite();
         r.lost = false;
         Ok(&self.result)
+    }
+}
+
+/// Offset `(dx, dy, angle)` of the `s`-th coarse start: the given start, then +-x, +-y, +-angle.
+fn start_offset(s: u32, dt: f32, dr: f32) -> (f32, f32, f32) {
+    match s {
+        0 => (0.0, 0.0, 0.0),
+        1 => (dt, 0.0, 0.0),
+        2 => (-dt, 0.0, 0.0),
+        3 => (0.0, dt, 0.0),
+        4 => (0.0, -dt, 0.0),
+        5 => (0.0, 0.0, dr),
+        6 => (0.0, 0.0, -dr),
+        _ => (0.0, 0.0, 0.0),
+    }
+}
+
+/// `shape` rotated by `angle` about its centroid and moved by `(dx, dy)`.
+fn offset_shape(shape: &[f32], dx: f32, dy: f32, angle: f32, out: &mut [f32]) {
+    let n = (shape.len() / 2).max(1) as f32;
+    let cx = shape.iter().step_by(2).sum::<f32>() / n;
+    let cy = shape.iter().skip(1).step_by(2).sum::<f32>() / n;
+    let (sn, cs) = angle.sin_cos();
+    for (o, p) in out.chunks_exact_mut(2).zip(shape.chunks_exact(2)) {
+        let (x, y) = (p[0] - cx, p[1] - cy);
+        o[0] = cx + cs * x - sn * y + dx;
+        o[1] = cy + sn * x + cs * y + dy;
     }
 }
 

@@ -128,7 +128,15 @@ impl Tracker {
         let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
         let first = if self.cold { Some(cold_iters) } else { None };
         let start = std::mem::take(&mut self.start);
-        let r = self.fitter.fit_with(frame, &start, first).map(|_| ());
+        let starts = if first.is_some() {
+            opts.coarse_starts
+        } else {
+            opts.tracking_starts
+        };
+        let r = self
+            .fitter
+            .fit_with(frame, &start, first, starts)
+            .map(|_| ());
         self.start = start;
         r?;
         let mut ok = self.plausible(self.fitter.result());
@@ -140,7 +148,8 @@ impl Tracker {
                 .as_ref()
                 .map(|g| g.landmarks.clone())
                 .unwrap_or_default();
-            self.fitter.fit_with(frame, &from, Some(cold_iters))?;
+            self.fitter
+                .fit_with(frame, &from, Some(cold_iters), opts.coarse_starts)?;
             ok = self.plausible(self.fitter.result());
         }
         let result = if ok {
