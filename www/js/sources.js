@@ -87,7 +87,7 @@ export function validateTrack(frames, info) {
 }
 
 /** Similarity helpers on the JSON pose form `{ scale, rotation (radians), tx, ty }`. */
-function compose(A, B) {
+export function compose(A, B) {
   // (A o B)(x) = A(B(x)) = sA R(rA) (sB R(rB) x + tB) + tA
   const c = Math.cos(A.rotation);
   const s = Math.sin(A.rotation);
@@ -98,7 +98,7 @@ function compose(A, B) {
     ty: A.scale * (s * B.tx + c * B.ty) + A.ty,
   };
 }
-function invert(M) {
+export function invert(M) {
   const c = Math.cos(-M.rotation);
   const s = Math.sin(-M.rotation);
   const k = 1 / M.scale;

@@ -15,7 +15,7 @@
 // these sources only with a package that can track. The active source is also reachable as
 // `window.facemimicTracking` (for the console and the end-to-end tests).
 
-import { registerSource } from './sources.js';
+import { compose, invert, registerSource } from './sources.js';
 import { notify, fileError } from './toasts.js';
 
 const CLIP_JSON = 'media/spk07-clip.json';
@@ -65,23 +65,7 @@ const GUIDE = 'rgba(124, 196, 255, 0.95)';
 // ---------------------------------------------------------------------------------------------
 // Geometry
 
-/** (A o B) on the JSON pose form { scale, rotation, tx, ty }. */
-function compose(A, B) {
-  const c = Math.cos(A.rotation);
-  const s = Math.sin(A.rotation);
-  return {
-    scale: A.scale * B.scale,
-    rotation: A.rotation + B.rotation,
-    tx: A.scale * (c * B.tx - s * B.ty) + A.tx,
-    ty: A.scale * (s * B.tx + c * B.ty) + A.ty,
-  };
-}
-function invert(M) {
-  const c = Math.cos(-M.rotation);
-  const s = Math.sin(-M.rotation);
-  const k = 1 / M.scale;
-  return { scale: k, rotation: -M.rotation, tx: -k * (c * M.tx - s * M.ty), ty: -k * (s * M.tx + c * M.ty) };
-}
+// compose / invert of poses come from sources.js.
 function wrapAngle(a) {
   return Math.atan2(Math.sin(a), Math.cos(a));
 }
