@@ -84,13 +84,13 @@ impl ShapeModel {
         // current instance `s0 + S p` best onto the landmarks, then `p` from the landmarks
         // mapped back through it, until the pose settles. (A pose fitted to `s0` alone is off
         // at second order in scale, so even a training shape would leave the model's span.)
+        let degenerate =
+            || crate::Error::Landmarks("landmarks are degenerate (all points coincide)".into());
         let mut pose = Similarity::align(&self.base, image_shape);
         let mut normalised = image_shape.to_vec();
         let mut instance = self.base.clone();
         for _ in 0..50 {
-            let inv = pose.inverse().ok_or_else(|| {
-                crate::Error::Landmarks("landmarks are degenerate (all points coincide)".into())
-            })?;
+            let inv = pose.inverse().ok_or_else(degenerate)?;
             normalised.copy_from_slice(image_shape);
             inv.apply_in_place(&mut normalised);
             self.project(&normalised, out);
@@ -103,9 +103,7 @@ impl ShapeModel {
                 break;
             }
         }
-        let inv = pose.inverse().ok_or_else(|| {
-            crate::Error::Landmarks("landmarks are degenerate (all points coincide)".into())
-        })?;
+        let inv = pose.inverse().ok_or_else(degenerate)?;
         normalised.copy_from_slice(image_shape);
         inv.apply_in_place(&mut normalised);
         self.project(&normalised, out);
