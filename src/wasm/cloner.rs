@@ -7,14 +7,13 @@ use web_sys::ImageData;
 
 use super::model::{model_info, JsModel};
 use super::surface::{
-    base_box, fit_view, now_ms, paint, params_into, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
+    base_box, draw_face, now_ms, paint, params_into, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
 };
 use super::{install_panic_hook, js_err, params_to_js, RenderOptionsArg};
 use crate::clone::{CloneOptions, Cloner, Method};
 use crate::model::{Model, Params};
 use crate::raster::Scanline;
 use crate::render::Renderer;
-use crate::similarity::Similarity;
 
 /// Stage timings accumulated since the last `update()`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -113,15 +112,16 @@ impl JsCloner {
             .map_err(js_err)?;
         timings.synth += now_ms() - t0;
         let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
-            let view: Similarity = fit_view(bbox, w, h);
-            options
-                .raster
-                .warp(renderer, scanline, &model.frame, shape, &view, pixmap)
-                .map_err(js_err)?;
-            if options.mesh {
-                overlay.draw(&model.frame, shape, &view, pixmap);
-            }
-            Ok(())
+            draw_face(
+                options,
+                renderer,
+                scanline,
+                overlay,
+                &model.frame,
+                shape,
+                bbox,
+                (pixmap, w, h),
+            )
         })?;
         timings.raster += stages.raster;
         timings.blit += stages.blit;

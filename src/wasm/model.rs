@@ -6,7 +6,7 @@ use std::rc::Rc;
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
-use super::surface::{base_box, fit_view, paint, Ctx, MeshOverlay, RenderOptions, Sink};
+use super::surface::{base_box, draw_face, paint, Ctx, MeshOverlay, RenderOptions, Sink};
 use super::{install_panic_hook, js_err, params_from_js, params_to_js, RenderOptionsArg};
 use crate::image::ImageRef;
 use crate::model::{Model, Params, Reference};
@@ -126,15 +126,16 @@ impl ModelScratch {
             &mut self.scanline,
         );
         paint(Sink::Canvas(ctx), options.background, |pixmap, w, h| {
-            let view = fit_view(bbox, w, h);
-            options
-                .raster
-                .warp(renderer, scanline, &model.frame, shape, &view, pixmap)
-                .map_err(js_err)?;
-            if options.mesh {
-                overlay.draw(&model.frame, shape, &view, pixmap);
-            }
-            Ok(())
+            draw_face(
+                options,
+                renderer,
+                scanline,
+                overlay,
+                &model.frame,
+                shape,
+                bbox,
+                (pixmap, w, h),
+            )
         })?;
         Ok(())
     }

@@ -438,6 +438,31 @@ where
     })
 }
 
+/// Draws one face into `pixmap` (`w x h`): warps the uploaded texture onto `shape` (image
+/// coordinates) through the view fitted to `bbox`, with the rasteriser `options` choose, then
+/// the mesh overlay when asked. The drawing step every face of the glue shares.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn draw_face(
+    options: &RenderOptions,
+    renderer: &mut crate::Renderer,
+    scanline: &mut crate::Scanline,
+    overlay: &mut MeshOverlay,
+    frame: &ReferenceFrame,
+    shape: &[f32],
+    bbox: [f32; 4],
+    (pixmap, w, h): (&mut PixmapMut<'_>, u32, u32),
+) -> Result<(), JsError> {
+    let view = fit_view(bbox, w, h);
+    options
+        .raster
+        .warp(renderer, scanline, frame, shape, &view, pixmap)
+        .map_err(super::js_err)?;
+    if options.mesh {
+        overlay.draw(frame, shape, &view, pixmap);
+    }
+    Ok(())
+}
+
 /// Unique undirected edges of a frame's triangles (for the mesh overlay).
 pub(crate) fn mesh_edges(frame: &ReferenceFrame) -> Vec<[u32; 2]> {
     let mut e: Vec<[u32; 2]> = frame
