@@ -9,25 +9,25 @@ use crate::landmarks::{parse_asf, parse_pts};
 
 /// Decodes a PNG or JPEG file into RGBA8.
 pub fn read_image(path: &Path) -> Result<Image> {
-    let reader = ::image::ImageReader::open(path)
+    let mut reader = ::image::ImageReader::open(path)
         .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?
         .with_guessed_format()
         .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
-    let (w, h) = reader
-        .into_dimensions()
-        .map_err(|e| Error::Image(format!("{}: {e}", path.display())))?;
-    if w == 0 || h == 0 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
-        return Err(Error::Image(format!(
-            "{}: size {w}x{h} not supported",
-            path.display()
-        )));
-    }
-    let img = ::image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?
+    // The decoder checks the size against these limits before it allocates the pixels.
+    let mut limits = ::image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    reader.limits(limits);
+    let img = reader
         .decode()
         .map_err(|e| Error::Image(format!("{}: {e}", path.display())))?
         .to_rgba8();
+    if img.width() == 0 || img.height() == 0 {
+        return Err(Error::Image(format!(
+            "{}: the image is empty",
+            path.display()
+        )));
+    }
     Ok(Image {
         width: img.width(),
         height: img.height(),
