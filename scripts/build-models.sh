@@ -2,7 +2,8 @@
 # Builds the default models and the bundled source track into www/models/ from the GRID frames
 # in data/grid (CC BY 4.0). Idempotent: does nothing when the outputs are newer than the inputs.
 #   www/models/spk07.fmm             the source (spk07, 20 training frames of spk07_pwij3p)
-#   www/models/spkNN.fmm             every other speaker, built in spk07's reference frame
+#   www/models/spkNN.fmm             every other speaker
+# Every model is built in the canonical reference frame (src/canonical_frame.txt).
 #   www/models/spk07-track.json      spk07's unseen clip (75 frames) projected into the source
 #   www/models/manifest.json         what the page loads by default
 set -euo pipefail
@@ -14,7 +15,7 @@ mkdir -p "$out"
 cargo build --release --bin facemimic -q
 
 stamp="$out/.stamp"
-if [ -f "$stamp" ] && [ -z "$(find data/grid "$bin" -newer "$stamp" -print -quit)" ]; then
+if [ -f "$stamp" ] && [ -z "$(find data/grid src/canonical_frame.txt "$bin" -newer "$stamp" -print -quit)" ]; then
   echo "build-models: up to date" >&2
   exit 0
 fi
@@ -26,7 +27,7 @@ for dir in data/grid/spk*_*; do
   clip=$(basename "$dir")
   spk=${clip%%_*}
   [ "$spk" = spk07 ] && continue
-  "$bin" build --name "$spk" --frame "$out/spk07.fmm" --out "$out/$spk.fmm" --list "$dir/train20.txt"
+  "$bin" build --name "$spk" --out "$out/$spk.fmm" --list "$dir/train20.txt"
   targets+=("$spk")
 done
 

@@ -1,6 +1,7 @@
 //! Building a person-specific AAM from landmarked images.
 
 use crate::appearance::AppearanceModel;
+use crate::canonical::{canonical_frame, CANONICAL_LANDMARKS};
 use crate::error::{Error, Result};
 use crate::frame::ReferenceFrame;
 use crate::image::Image;
@@ -33,6 +34,19 @@ pub enum ReferenceChoice {
     ClosestToFrame,
 }
 
+/// Which reference frame a model is built in when no frame model is given to
+/// [`Builder::build`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FrameChoice {
+    /// The canonical frame shipped with the crate ([`crate::canonical_frame`]) for 68-point
+    /// (iBUG) landmarks, so that models built separately can be cloned between; other landmark
+    /// counts have no canonical frame and get their own.
+    #[default]
+    Canonical,
+    /// A frame of the model's own, made from its base shape (`face_width` wide).
+    Own,
+}
+
 /// Options of [`Builder`].
 #[derive(Clone, Debug)]
 pub struct BuildOptions {
@@ -50,6 +64,8 @@ pub struct BuildOptions {
     pub max_appearance_modes: usize,
     /// The reference face.
     pub reference: ReferenceChoice,
+    /// The frame used when [`Builder::build`] is given no frame model.
+    pub frame: FrameChoice,
 }
 
 impl Default for BuildOptions {
@@ -62,6 +78,7 @@ impl Default for BuildOptions {
             max_shape_modes: 64,
             max_appearance_modes: 64,
             reference: ReferenceChoice::Mean,
+            frame: FrameChoice::Canonical,
         }
     }
 }
@@ -79,9 +96,12 @@ impl Builder {
         Builder { options }
     }
 
-    /// Builds a model from landmarked images, in its own reference frame (`frame_of = None`)
-    /// or in the reference frame of another model (`Some(source)`), so that both models'
-    /// shapes share one coordinate system and their appearance vectors the same pixels.
+    /// Builds a model from landmarked images, in the reference frame of another model
+    /// (`frame_of = Some(source)`: its training shapes are aligned to the source's base shape
+    /// and its images sampled on the source's frame pixels, so both models share one coordinate
+    /// system and one pixel grid), or with `None` in the frame chosen by
+    /// [`BuildOptions::frame`]: by default the canonical frame (68 points; aligned to its base
+    /// mesh), else a frame of its own.
     ///
     /// Requires: at least 2 images, all with the same landmark count (and the frame model's,
     /// when given), finite landmarks, variance fractions in `(0, 1]`.
@@ -129,6 +149,15 @@ impl Builder {
             }
             t.image.view()?;
         }
+        // The frame to build in and the shape the training shapes are aligned to.
+        let target: Option<(&ReferenceFrame, &[f32])> = match frame_of {
+            Some(f) => Some((&f.frame, &f.shape.base)),
+            None if o.frame == FrameChoice::Canonical && n == 2 * CANONICAL_LANDMARKS => {
+                let c = canonical_frame();
+                Some((c, c.vertices()))
+            }
+            None => None,
+        };
         if let Some(f) = frame_of {
             if f.shape.base.len() != n {
                 return Err(Error::Incompatible(format!(
@@ -145,10 +174,12 @@ impl Builder {
             .iter()
             .map(|t| t.landmarks.iter().map(|&v| v as f64).collect())
             .collect();
-        let aligned: Vec<Vec<f64>> = match frame_of {
-            Some(f) => {
-                let r: Vec<f64> = f.shape.base.iter().map(|&v| v as f64).collect();
-                generalised_procrustes(&raw, Some(&r)).0
+        let aligned: Vec<Vec<f64>> = match target {
+            Some((_, base)) => {
+                let r: Vec<f64> = base.iter().map(|&v| v as f64).collect();
+                let (mut aligned, mean) = generalised_procrustes(&raw, Some(&r));
+                scale_to_size_of(&mut aligned, &mean, &r);
+                aligned
             }
             None => {
                 let (aligned, unit_mean) = generalised_procrustes(&raw, None);
@@ -174,14 +205,16 @@ impl Builder {
                 })?)
             }
             ReferenceChoice::ClosestToFrame => {
-                let f = frame_of.ok_or_else(|| {
+                let (_, base) = target.ok_or_else(|| {
                     Error::Training(
-                        "the closest-to-reference choice needs a frame model (--frame)".into(),
+                        "the closest-to-reference choice needs a frame to be close to (the \
+                         canonical frame or --frame)"
+                            .into(),
                     )
                 })?;
                 let d = |s: &Vec<f64>| -> f64 {
                     s.iter()
-                        .zip(&f.shape.base)
+                        .zip(base)
                         .map(|(a, &b)| (a - b as f64).powi(2))
                         .sum()
                 };
@@ -200,8 +233,8 @@ impl Builder {
         };
 
         // Reference frame.
-        let frame = match frame_of {
-            Some(f) => f.frame.clone(),
+        let frame = match target {
+            Some((f, _)) => f.clone(),
             None => ReferenceFrame::from_base(&shape.base)?,
         };
 
@@ -259,5 +292,40 @@ impl Builder {
             mean_pose,
             image_size: [images[0].image.width, images[0].image.height],
         })
+    }
+}
+
+/// Scales shapes aligned onto `r` about `r`'s centroid so that their mean has `r`'s size
+/// (centroid size). Least-squares alignment shrinks shapes a little towards the reference
+/// (their mean is smaller than `r` by the spread of the set); undoing that keeps a model built in
+/// a frame the size of that frame's mesh, so that the person the frame was made from gets back
+/// exactly the frame's mesh as the base shape (and any person a base of the mesh's size).
+fn scale_to_size_of(aligned: &mut [Vec<f64>], mean: &[f64], r: &[f64]) {
+    let n = (r.len() / 2).max(1) as f64;
+    let centroid = |s: &[f64]| -> (f64, f64) {
+        let (mut x, mut y) = (0.0, 0.0);
+        for p in s.chunks_exact(2) {
+            x += p[0];
+            y += p[1];
+        }
+        (x / n, y / n)
+    };
+    let size = |s: &[f64], c: (f64, f64)| -> f64 {
+        s.chunks_exact(2)
+            .map(|p| (p[0] - c.0).powi(2) + (p[1] - c.1).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let c = centroid(r);
+    let have = size(mean, centroid(mean));
+    if !(have > 1e-12) {
+        return;
+    }
+    let k = size(r, c) / have;
+    for s in aligned.iter_mut() {
+        for p in s.chunks_exact_mut(2) {
+            p[0] = c.0 + k * (p[0] - c.0);
+            p[1] = c.1 + k * (p[1] - c.1);
+        }
     }
 }

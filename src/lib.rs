@@ -20,6 +20,7 @@
 
 mod appearance;
 mod builder;
+mod canonical;
 pub mod clone;
 mod error;
 pub mod fit;
@@ -40,7 +41,11 @@ mod warp;
 pub mod wasm;
 
 pub use appearance::{synthesise, AppearanceModel};
-pub use builder::{BuildOptions, Builder, ReferenceChoice, TrainingImage};
+pub use builder::{BuildOptions, Builder, FrameChoice, ReferenceChoice, TrainingImage};
+pub use canonical::{
+    canonical_frame, parse_frame, write_frame, CANONICAL_FINGERPRINT, CANONICAL_FRAME_TEXT,
+    CANONICAL_LANDMARKS,
+};
 pub use error::{Error, Result};
 pub use frame::{triangulate, FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};

@@ -126,6 +126,8 @@ fn build(images: &[TrainingImage], shape_variance: f64, appearance_variance: f64
         shape_variance,
         appearance_variance,
         face_width: 60.0,
+        // These tests check the builder's own Procrustes gauge and scale.
+        frame: facemimic::FrameChoice::Own,
         ..BuildOptions::default()
     })
     .build(images, None)

@@ -11,7 +11,9 @@ use std::sync::OnceLock;
 use facemimic::format::{
     crc32, offsets, read_model, write_model, FormatError, FORMAT_VERSION, HEADER_LEN, LIMITS, MAGIC,
 };
-use facemimic::{BuildOptions, Builder, Image, Model, Reference, ReferenceChoice, TrainingImage};
+use facemimic::{
+    BuildOptions, Builder, FrameChoice, Image, Model, Reference, ReferenceChoice, TrainingImage,
+};
 
 // ------------------------------------------------------------------------------------------
 // Synthetic models.
@@ -107,6 +109,7 @@ fn models() -> &'static Models {
         let opts = |name: &str| BuildOptions {
             name: name.into(),
             face_width: 40.0,
+            frame: FrameChoice::Own,
             ..BuildOptions::default()
         };
         let a = Builder::new(opts("synth-a"))

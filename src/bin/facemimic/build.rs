@@ -2,23 +2,27 @@
 
 use std::path::PathBuf;
 
-use facemimic::{io, BuildOptions, Builder, ReferenceChoice, Result};
+use facemimic::{io, BuildOptions, Builder, FrameChoice, ReferenceChoice, Result};
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Where to write the model (.fmm).
     #[arg(long, value_name = "MODEL.fmm")]
     out: PathBuf,
-    /// Build in the reference frame of this model (needed to clone from it onto this one).
-    #[arg(long, value_name = "REF.fmm")]
+    /// Build in the reference frame of this model instead of the canonical frame.
+    #[arg(long, value_name = "REF.fmm", conflicts_with = "own_frame")]
     frame: Option<PathBuf>,
+    /// Build in a reference frame of the model's own instead of the canonical frame (such a
+    /// model clones only with models built in its frame).
+    #[arg(long)]
+    own_frame: bool,
     /// Fraction of shape variance to keep.
     #[arg(long, default_value_t = 0.98, value_name = "F")]
     shape_variance: f64,
     /// Fraction of appearance variance to keep.
     #[arg(long, default_value_t = 0.98, value_name = "F")]
     appearance_variance: f64,
-    /// Face width in reference-frame pixels (own frame only).
+    /// Face width in reference-frame pixels (--own-frame, or landmarks other than 68, only).
     #[arg(long, default_value_t = 150.0, value_name = "PX")]
     face_width: f32,
     /// The reference face: `mean` (default), `closest` (the training image closest to the
@@ -68,6 +72,11 @@ pub fn run(a: Args) -> Result<()> {
         appearance_variance: a.appearance_variance,
         face_width: a.face_width,
         reference,
+        frame: if a.own_frame {
+            FrameChoice::Own
+        } else {
+            FrameChoice::Canonical
+        },
         ..BuildOptions::default()
     });
     let model = builder.build(&images, frame_model.as_ref())?;

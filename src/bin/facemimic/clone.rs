@@ -11,7 +11,7 @@ pub struct Args {
     /// The source model (the face whose expression is cloned).
     #[arg(long, value_name = "S.fmm")]
     source: PathBuf,
-    /// The target model, built in the source's reference frame (`build --frame S.fmm`).
+    /// The target model, in the source's reference frame (the canonical frame by default).
     #[arg(long, value_name = "T.fmm")]
     target: PathBuf,
     /// Source parameters as printed by `facemimic project --model S.fmm`.
