@@ -83,6 +83,15 @@ impl Default for BuildOptions {
     }
 }
 
+/// Progress of [`Builder::build_with_progress`]: `done` of `total` steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BuildProgress {
+    /// Steps done.
+    pub done: usize,
+    /// Steps in all (training images + 2).
+    pub total: usize,
+}
+
 /// Builds models (menpofit's "builder": it knows training, not fitting or rendering).
 #[derive(Clone, Debug, Default)]
 pub struct Builder {
@@ -107,7 +116,28 @@ impl Builder {
     /// when given), finite landmarks, variance fractions in `(0, 1]`.
     /// Ensures: a valid [`Model`] whose shape modes are orthonormal with descending variances.
     pub fn build(&self, images: &[TrainingImage], frame_of: Option<&Model>) -> Result<Model> {
+        self.build_with_progress(images, frame_of, &mut |_| true)
+    }
+
+    /// [`Builder::build`], reporting progress after each step: `progress` gets how many of the
+    /// steps are done (one per training image sampled, one for the shape model, one for the
+    /// appearance model) and returns `false` to cancel, which ends the build with
+    /// [`Error::Cancelled`] and no model.
+    pub fn build_with_progress(
+        &self,
+        images: &[TrainingImage],
+        frame_of: Option<&Model>,
+        progress: &mut dyn FnMut(BuildProgress) -> bool,
+    ) -> Result<Model> {
         let o = &self.options;
+        let total = images.len() + 2;
+        let mut step = |done: usize| -> Result<()> {
+            if progress(BuildProgress { done, total }) {
+                Ok(())
+            } else {
+                Err(Error::Cancelled)
+            }
+        };
         if images.len() < 2 {
             return Err(Error::Training(format!(
                 "{} training image(s); at least 2 are needed (15-20 recommended)",
@@ -226,6 +256,7 @@ impl Builder {
             None => mean(&aligned),
         };
         let sp = pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes);
+        step(1)?;
         let shape = ShapeModel {
             base: shape_centre.iter().map(|&v| v as f32).collect(),
             modes: sp.modes,
@@ -242,9 +273,10 @@ impl Builder {
         let npx = frame.n_pixels() * 3;
         let mut buf = vec![0f32; npx];
         let mut samples: Vec<Vec<f64>> = Vec::with_capacity(images.len());
-        for t in images {
+        for (i, t) in images.iter().enumerate() {
             crate::warp::sample_rgb(&frame, &t.image.view()?, &t.landmarks, &mut buf)?;
             samples.push(buf.iter().map(|&v| v as f64).collect());
+            step(2 + i)?;
         }
         let app_centre = match ref_index {
             Some(i) => samples[i].clone(),
@@ -256,6 +288,7 @@ impl Builder {
             o.appearance_variance,
             o.max_appearance_modes,
         );
+        step(total)?;
         let appearance = AppearanceModel {
             base: app_centre.iter().map(|&v| v as f32).collect(),
             modes: ap.modes,

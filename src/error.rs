@@ -37,6 +37,9 @@ pub enum Error {
     /// Reading or writing a file failed.
     #[error("{0}")]
     Io(String),
+    /// The caller cancelled a long operation (a build) before it finished; nothing was made.
+    #[error("cancelled")]
+    Cancelled,
 }
 
 impl From<std::io::Error> for Error {

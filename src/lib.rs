@@ -34,6 +34,7 @@ mod model;
 mod pca;
 mod raster;
 mod render;
+mod select;
 mod shape;
 mod similarity;
 mod warp;
@@ -41,7 +42,9 @@ mod warp;
 pub mod wasm;
 
 pub use appearance::{synthesise, AppearanceModel};
-pub use builder::{BuildOptions, Builder, FrameChoice, ReferenceChoice, TrainingImage};
+pub use builder::{
+    BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
+};
 pub use canonical::{
     canonical_frame, parse_frame, write_frame, CANONICAL_FINGERPRINT, CANONICAL_FRAME_TEXT,
     CANONICAL_LANDMARKS,
@@ -53,6 +56,7 @@ pub use model::{LandmarkScheme, Model, Params, Reference};
 pub use pca::{pca, Pca};
 pub use raster::{Rasterizer, Scanline};
 pub use render::{demultiply, demultiply_into, triangle_affine, Renderer};
+pub use select::{coverage, select_varied};
 pub use shape::{generalised_procrustes, ShapeModel};
 pub use similarity::{PoseJson, Similarity};
 pub use tiny_skia;

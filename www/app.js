@@ -20,6 +20,8 @@ import {
   TrackSource,
   SliderSource,
 } from './js/sources.js';
+import { ModelShelf } from './js/store.js';
+import { Enrolment } from './js/enrol.js';
 import './js/tracking.js'; // registers the video and webcam sources (when the package can track)
 
 const MODELS = 'models/';
@@ -118,6 +120,20 @@ async function main() {
 
   buildStage();
   buildControls();
+  // Models kept in this browser (www/js/store.js).
+  app.shelf = new ModelShelf($('shelf'), {
+    fm,
+    notify,
+    useAsSource: (bytes, name) => setSourceFromBytes(bytes, name),
+    addAsTarget: (bytes, name) => addTargetFromBytes(bytes, name),
+  });
+  // "Create a face" (www/js/enrol.js).
+  app.enrol = new Enrolment({
+    ...app.shelf.page,
+    shelf: app.shelf,
+    inspect: (model, info, name) => app.inspector.show(model, info, name),
+  });
+  $('create-face').addEventListener('click', () => app.enrol.open());
 
   // Default targets, in parallel; a bad one is reported and skipped.
   const loaded = await Promise.all(
@@ -353,6 +369,7 @@ async function loadFiles(files, slot) {
     if (slot.kind === 'add') addTargetFromBytes(bytes, file.name);
     else if (slot.kind === 'replace') replaceTargetFromBytes(slot.entry, bytes, file.name);
     else if (slot.kind === 'source') setSourceFromBytes(bytes, file.name);
+    app.shelf?.keep(bytes, file.name.replace(/\.fmm$/i, ''), 'dropped', { quiet: true });
   }
 }
 

@@ -14,11 +14,13 @@ use wasm_bindgen::prelude::*;
 
 use crate::model::Params;
 
+mod build;
 mod cloner;
 mod model;
 mod surface;
 mod tracker;
 
+pub use build::build_model;
 pub use cloner::JsCloner;
 pub use model::{render_mode, JsModel};
 pub use tracker::WasmTracker;

@@ -412,8 +412,8 @@ test('a model built in another reference frame is refused as a target', async (t
   t.after(() => fs.rmSync(dir, { recursive: true, force: true }));
   const clip = path.join(ROOT, 'data', 'grid', 'spk02_brbk7n');
   const out = path.join(dir, 'own-frame.fmm');
-  // Built without --frame: spk02 in its own reference frame, incompatible with spk07's.
-  execFileSync(bin, ['build', '--name', 'own-frame', '--out', out, '--list', path.join(clip, 'train20.txt')], {
+  // Built with --own-frame: spk02 in its own reference frame, incompatible with the canonical one.
+  execFileSync(bin, ['build', '--own-frame', '--name', 'own-frame', '--out', out, '--list', path.join(clip, 'train20.txt')], {
     stdio: 'pipe',
   });
   const { page } = await openPage(t);

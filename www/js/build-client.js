@@ -1,0 +1,55 @@
+// The page's side of www/js/build-worker.js: build a model in a worker, with progress and
+// cancelling. One worker per build; it is terminated when the build ends or is cancelled.
+
+let nextId = 1;
+
+/**
+ * Builds a model off the main thread. `options` as for the package's buildModel (frames with
+ * rgba buffers: they are transferred to the worker and unusable here afterwards). Resolves to
+ * { bytes, info, ms }; rejects with an Error (its message names the problem; "cancelled" when
+ * `signal` aborted it).
+ */
+export function buildInWorker(options, { onProgress, signal } = {}) {
+  return new Promise((resolve, reject) => {
+    if (signal?.aborted) {
+      reject(new Error('cancelled'));
+      return;
+    }
+    let worker;
+    try {
+      worker = new Worker(new URL('./build-worker.js', import.meta.url), { type: 'module' });
+    } catch (e) {
+      reject(new Error(`cannot start a build worker: ${e.message || e}`));
+      return;
+    }
+    const id = nextId++;
+    const finish = () => {
+      worker.terminate();
+      signal?.removeEventListener('abort', abort);
+    };
+    const abort = () => {
+      finish();
+      reject(new Error('cancelled'));
+    };
+    signal?.addEventListener('abort', abort);
+    worker.onmessage = (e) => {
+      const m = e.data;
+      if (m.id !== id) return;
+      if (m.type === 'progress') onProgress?.(m.done, m.total);
+      else if (m.type === 'done') {
+        finish();
+        resolve({ bytes: new Uint8Array(m.bytes), info: m.info, ms: m.ms });
+      } else if (m.type === 'error') {
+        finish();
+        reject(new Error(m.message));
+      }
+    };
+    worker.onerror = (e) => {
+      finish();
+      reject(new Error(`the build worker failed: ${e.message || 'script error'}`));
+    };
+    const transfer = [];
+    for (const f of options.frames || []) if (f?.rgba?.buffer instanceof ArrayBuffer) transfer.push(f.rgba.buffer);
+    worker.postMessage({ id, options }, [...new Set(transfer)]);
+  });
+}

@@ -1,0 +1,350 @@
+// "Create a face": enrolment of a person's model in the page, from photos, a video file or the
+// webcam. Frames are read as RGBA; each frame's 68 landmarks come from a `.pts` file dropped with
+// a photo, else from the package's face finder (`FaceFinder`, when the package has one); frames
+// whose face was not found confidently are skipped. Out of the frames kept, about 20 varied ones
+// are chosen (farthest-point sampling of the aligned shapes, `selectVaried`; the coverage of the
+// expression space is shown while sampling), the model is built in a Web Worker
+// (build-client.js) with a progress bar and a Cancel button, kept in this browser (store.js) and
+// shown in the inspector; then "Use as source", "Add as target" and "Download .fmm".
+// Nothing is stored until the build has finished: a cancelled or failed build leaves nothing.
+
+import { buildInWorker } from './build-client.js';
+import { download, safeName } from './store.js';
+
+const WANT = 20; // frames a model is built from
+const MIN_FRAMES = 8; // fewer usable frames than this is an error
+const MAX_CANDIDATES = 60; // sampled frames kept in memory (pruned to the most varied)
+const MAX_SIDE = 640; // frames are scaled down to this longer side
+const MIN_SCORE = 0.5; // finder confidence to keep a face
+const SAMPLE_MS = 150; // live sampling interval
+const GUIDE = 'Talk, smile, open your mouth wide, raise your eyebrows, look a little left and right.';
+
+/** Reads a .pts (iBUG, 1-based) into 0-based points. */
+function parsePts(text) {
+  const open = text.indexOf('{');
+  const close = text.indexOf('}', open);
+  if (open < 0 || close < 0) throw new Error('not an iBUG .pts file');
+  const v = text.slice(open + 1, close).trim().split(/\s+/).map(Number);
+  if (v.length !== 136 || v.some((x) => !Number.isFinite(x))) throw new Error(`${v.length / 2} points, 68 are needed`);
+  return Float32Array.from(v, (x) => x - 1);
+}
+
+/** Draws a bitmap or video frame scaled to at most MAX_SIDE; returns { rgba, width, height, scale }. */
+function grab(source, w, h) {
+  const scale = Math.min(1, MAX_SIDE / Math.max(w, h));
+  const width = Math.max(1, Math.round(w * scale));
+  const height = Math.max(1, Math.round(h * scale));
+  const c = new OffscreenCanvas(width, height);
+  const g = c.getContext('2d', { willReadFrequently: true });
+  g.drawImage(source, 0, 0, width, height);
+  const d = g.getImageData(0, 0, width, height);
+  return { rgba: new Uint8Array(d.data.buffer), width, height, scale };
+}
+
+export class Enrolment {
+  /** `page`: { fm, notify, shelf, useAsSource(bytes, name), addAsTarget(bytes, name), inspect(model, info) }. */
+  constructor(page) {
+    this.page = page;
+    this.candidates = []; // { rgba, width, height, landmarks }
+    this.seen = 0;
+    this.finder = null;
+    this.stream = null;
+    this.timer = null;
+    this.abort = null;
+    this.result = null;
+    this.dialog = this.buildDialog();
+    window.facemimicEnrol = this; // for the console and the end-to-end tests
+  }
+
+  el(tag, props = {}, ...children) {
+    const e = document.createElement(tag);
+    Object.assign(e, props);
+    e.append(...children);
+    return e;
+  }
+
+  buildDialog() {
+    const d = this.el('dialog', { id: 'enrol', className: 'enrol' });
+    d.setAttribute('aria-labelledby', 'enrol-title');
+    const $ = (tag, props, ...c) => this.el(tag, props, ...c);
+    this.els = {
+      webcam: $('button', { type: 'button', className: 'btn', textContent: 'Webcam' }),
+      photos: $('button', { type: 'button', className: 'btn', textContent: 'Photos or video…' }),
+      file: $('input', { type: 'file', multiple: true, accept: 'image/*,video/*,.pts', hidden: true }),
+      guide: $('p', { className: 'hint enrol-guide' }),
+      video: $('video', { muted: true, playsInline: true, className: 'enrol-video', hidden: true }),
+      status: $('p', { className: 'enrol-status', role: 'status' }),
+      coverage: $('meter', { min: 0, max: 1, value: 0, className: 'enrol-coverage' }),
+      name: $('input', { type: 'text', value: 'My face', maxLength: 80, className: 'enrol-name' }),
+      build: $('button', { type: 'button', className: 'btn primary', textContent: 'Build', disabled: true }),
+      cancel: $('button', { type: 'button', className: 'btn', textContent: 'Cancel' }),
+      progress: $('progress', { max: 1, value: 0, hidden: true, className: 'enrol-progress' }),
+      done: $('div', { className: 'enrol-done', hidden: true }),
+    };
+    const e = this.els;
+    e.coverage.setAttribute('aria-label', 'Expression coverage');
+    e.name.setAttribute('aria-label', 'Name of the new face');
+    e.webcam.addEventListener('click', () => this.startWebcam());
+    e.photos.addEventListener('click', () => {
+      e.file.value = '';
+      e.file.click();
+    });
+    e.file.addEventListener('change', () => this.addFiles([...e.file.files]));
+    e.build.addEventListener('click', () => this.build());
+    e.cancel.addEventListener('click', () => this.cancel());
+    d.addEventListener('close', () => this.stopCapture());
+    d.addEventListener('dragover', (ev) => {
+      ev.preventDefault();
+      ev.stopPropagation();
+    });
+    d.addEventListener('drop', (ev) => {
+      ev.preventDefault();
+      ev.stopPropagation();
+      if (ev.dataTransfer?.files?.length) this.addFiles([...ev.dataTransfer.files]);
+    });
+    const use = (label, fn) => {
+      const b = $('button', { type: 'button', className: 'btn', textContent: label });
+      b.addEventListener('click', () => this.result && fn(this.result));
+      return b;
+    };
+    e.done.append(
+      use('Use as source', (r) => { this.page.useAsSource(r.bytes, r.name); d.close(); }),
+      use('Add as target', (r) => { this.page.addAsTarget(r.bytes, r.name); d.close(); }),
+      use('Download .fmm', (r) => download(r.bytes, `${safeName(r.name)}.fmm`)),
+    );
+    d.append(
+      $('h2', { id: 'enrol-title', textContent: 'Create a face' }),
+      $('p', { className: 'hint', textContent: 'Use the webcam, a video, or about 20 photos of one person (drop them here; a .pts landmark file beside a photo is used when given). Everything stays in this browser.' }),
+      $('div', { className: 'row buttons' }, e.webcam, e.photos, e.file),
+      e.guide,
+      e.video,
+      $('div', { className: 'row' }, $('span', { textContent: 'Coverage' }), e.coverage),
+      e.status,
+      $('div', { className: 'row' }, $('label', { textContent: 'Name' }), e.name),
+      e.progress,
+      $('div', { className: 'row buttons' }, e.build, e.cancel),
+      e.done,
+    );
+    document.body.append(d);
+    this.update();
+    return d;
+  }
+
+  open() {
+    this.reset();
+    this.dialog.showModal();
+  }
+
+  reset() {
+    this.stopCapture();
+    this.candidates = [];
+    this.seen = 0;
+    this.result = null;
+    this.els.done.hidden = true;
+    this.els.progress.hidden = true;
+    this.els.guide.textContent = '';
+    this.update('Choose the webcam, or drop photos or a video.');
+  }
+
+  /** The package's face finder, created on first use; null when the package has none. */
+  getFinder() {
+    if (this.finder === null && typeof this.page.fm.FaceFinder === 'function') {
+      this.finder = new this.page.fm.FaceFinder();
+    }
+    return this.finder;
+  }
+
+  /** Landmarks of the most confident face in a frame, or null (no finder, no confident face). */
+  findFace(frame) {
+    const finder = this.getFinder();
+    if (!finder) return null;
+    const faces = finder.find(frame.rgba, frame.width, frame.height);
+    const best = faces[0];
+    if (!best || !(best.score >= MIN_SCORE)) return null;
+    return Float32Array.from(best.landmarks);
+  }
+
+  /** Adds a frame with its landmarks, pruning to the most varied when there are too many. */
+  addCandidate(frame) {
+    this.candidates.push(frame);
+    if (this.candidates.length > MAX_CANDIDATES) {
+      const keep = this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.round(MAX_CANDIDATES * 0.75));
+      this.candidates = [...keep].sort((a, b) => a - b).map((i) => this.candidates[i]);
+    }
+  }
+
+  /** Updates the status line, the coverage meter and the Build button. */
+  update(text) {
+    const n = this.candidates.length;
+    let cover = 0;
+    if (n >= 2) {
+      const shapes = this.candidates.map((c) => c.landmarks);
+      const pick = this.page.fm.selectVaried(shapes, Math.min(WANT, n));
+      cover = this.page.fm.shapeCoverage(shapes, pick);
+    }
+    this.els.coverage.value = cover;
+    this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(WANT, n)} frames that would be used`;
+    this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < MIN_FRAMES ? ` (at least ${MIN_FRAMES} are needed)` : ''}.`;
+    this.els.build.disabled = n < MIN_FRAMES || this.abort !== null;
+  }
+
+  async addFiles(files) {
+    const pts = new Map();
+    for (const f of files) if (/\.pts$/i.test(f.name)) pts.set(f.name.replace(/\.pts$/i, ''), f);
+    const images = files.filter((f) => f.type.startsWith('image/'));
+    const videos = files.filter((f) => f.type.startsWith('video/'));
+    const problems = [];
+    for (const f of images) {
+      this.seen++;
+      try {
+        const bmp = await createImageBitmap(f);
+        const frame = grab(bmp, bmp.width, bmp.height);
+        bmp.close();
+        const p = pts.get(f.name.replace(/\.[^.]+$/, ''));
+        if (p) {
+          frame.landmarks = parsePts(await p.text()).map((v) => v * frame.scale);
+        } else {
+          frame.landmarks = this.findFace(frame);
+          if (!frame.landmarks) {
+            problems.push(`${f.name}: ${this.getFinder() ? 'no face found' : 'no .pts file beside it (this build of the package has no face finder)'}`);
+            continue;
+          }
+        }
+        this.addCandidate(frame);
+      } catch (e) {
+        problems.push(`${f.name}: ${e.message || e}`);
+      }
+      this.update();
+    }
+    for (const v of videos) await this.sampleVideoFile(v);
+    if (problems.length) this.page.notify('error', `${problems.length} file(s) not used`, problems.slice(0, 4).join('; '));
+    if (!images.length && !videos.length) this.page.notify('error', 'Nothing to use', 'drop photos (with or without .pts files) or a video');
+    this.update();
+  }
+
+  async sampleVideoFile(file) {
+    if (!this.getFinder()) {
+      this.page.notify('error', `${file.name}: not used`, 'finding faces in a video needs the face finder, which this build of the package lacks');
+      return;
+    }
+    const url = URL.createObjectURL(file);
+    const v = this.els.video;
+    v.hidden = false;
+    v.src = url;
+    try {
+      await v.play();
+      await new Promise((resolve) => {
+        const step = () => {
+          if (v.ended || !this.dialog.open) return resolve();
+          this.sampleFrom(v);
+          setTimeout(step, SAMPLE_MS);
+        };
+        step();
+      });
+    } catch (e) {
+      this.page.notify('error', `${file.name}: cannot be played`, e.message || String(e));
+    } finally {
+      v.pause();
+      v.hidden = true;
+      URL.revokeObjectURL(url);
+    }
+  }
+
+  sampleFrom(video) {
+    if (!video.videoWidth) return;
+    this.seen++;
+    const frame = grab(video, video.videoWidth, video.videoHeight);
+    frame.landmarks = this.findFace(frame);
+    if (frame.landmarks) this.addCandidate(frame);
+    this.update();
+  }
+
+  async startWebcam() {
+    if (!this.getFinder()) {
+      this.update('The webcam needs the face finder to place the landmarks, which this build of the package lacks; use photos with .pts files.');
+      return;
+    }
+    const md = navigator.mediaDevices;
+    if (!md?.getUserMedia) {
+      this.update('This browser gives the page no camera (a secure page, http://127.0.0.1 or https, is needed).');
+      return;
+    }
+    try {
+      this.stream = await md.getUserMedia({ video: { width: { ideal: 640 }, height: { ideal: 480 }, facingMode: 'user' }, audio: false });
+    } catch (e) {
+      const denied = e?.name === 'NotAllowedError' || e?.name === 'SecurityError';
+      this.update(denied ? 'Camera permission was denied: allow the camera for this page, then press Webcam again.' : `The camera could not be opened (${e?.message || e?.name || e}).`);
+      return;
+    }
+    const v = this.els.video;
+    v.srcObject = this.stream;
+    v.hidden = false;
+    this.els.guide.textContent = GUIDE;
+    for (const track of this.stream.getVideoTracks()) {
+      track.addEventListener('ended', () => {
+        if (this.stream) {
+          this.stopCapture();
+          this.update(`The camera stopped. ${this.candidates.length} usable face(s) were kept${this.candidates.length >= MIN_FRAMES ? '; you can build from them' : ''}.`);
+        }
+      });
+    }
+    await v.play().catch(() => {});
+    this.timer = setInterval(() => this.sampleFrom(v), SAMPLE_MS);
+  }
+
+  stopCapture() {
+    clearInterval(this.timer);
+    this.timer = null;
+    if (this.stream) for (const t of this.stream.getTracks()) t.stop();
+    this.stream = null;
+    this.els.video.srcObject = null;
+    this.els.video.hidden = true;
+  }
+
+  async build() {
+    const n = this.candidates.length;
+    if (n < MIN_FRAMES) {
+      this.update(`Too few usable faces: ${n} (at least ${MIN_FRAMES}).`);
+      return;
+    }
+    this.stopCapture();
+    const name = this.els.name.value.trim() || 'My face';
+    const pick = [...this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.min(WANT, n))].sort((a, b) => a - b);
+    const frames = pick.map((i) => {
+      const c = this.candidates[i];
+      return { rgba: c.rgba.slice(), width: c.width, height: c.height, landmarks: c.landmarks };
+    });
+    this.abort = new AbortController();
+    const p = this.els.progress;
+    p.hidden = false;
+    p.value = 0;
+    this.update(`Building ${name} from ${frames.length} frames…`);
+    const t0 = performance.now();
+    try {
+      const r = await buildInWorker({ frames, name }, {
+        signal: this.abort.signal,
+        onProgress: (done, total) => { p.value = done / total; },
+      });
+      this.result = { bytes: r.bytes, name };
+      await this.page.shelf.keep(r.bytes, name, 'built');
+      const model = this.page.fm.Model.fromBytes(r.bytes);
+      this.page.inspect(model, model.info(), name);
+      this.els.done.hidden = false;
+      this.update(`Built ${name} from ${frames.length} frames in ${((performance.now() - t0) / 1000).toFixed(1)} s: ${r.info.shapeModes} shape and ${r.info.appearanceModes} appearance modes. It is kept under Your models.`);
+    } catch (e) {
+      this.update(e.message === 'cancelled' ? 'Build cancelled; nothing was kept.' : `The build failed: ${e.message}`);
+    } finally {
+      this.abort = null;
+      p.hidden = true;
+      this.els.build.disabled = this.candidates.length < MIN_FRAMES;
+    }
+  }
+
+  cancel() {
+    if (this.abort) {
+      this.abort.abort();
+      return;
+    }
+    this.dialog.close();
+  }
+}
