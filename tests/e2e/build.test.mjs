@@ -196,6 +196,13 @@ test('selection, cancelling and bad input', async () => {
   for (const [opts, want] of cases) {
     assert.throws(() => fm.buildModel(opts), want);
   }
+  assert.throws(() => fm.buildModel({ ...base(), refine: 7 }), /refine/);
+  // One round of refinement: progress counts both builds and the fits.
+  const steps = [];
+  const refined = fm.buildModel({ ...base(), refine: 1 }, (p) => { steps.push(p.total); });
+  assert.equal(steps[0], 2 * (frames.length + 2) + frames.length);
+  assert.equal(steps.length, steps[0]);
+  refined.free();
   assert.throws(() => fm.buildModel(base(), 42), /onProgress/);
   assert.throws(() => fm.buildModel(base(), () => { throw new Error('boom'); }), /onProgress threw: boom/);
   const ok = fm.buildModel({ ...base(), reference: 2 });
