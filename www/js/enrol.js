@@ -80,8 +80,10 @@ export class Enrolment {
       cancel: $('button', { type: 'button', className: 'btn', textContent: 'Cancel' }),
       progress: $('progress', { max: 1, value: 0, hidden: true, className: 'enrol-progress' }),
       done: $('div', { className: 'enrol-done', hidden: true }),
+      strip: $('div', { className: 'enrol-strip' }),
     };
     const e = this.els;
+    e.strip.setAttribute('aria-label', 'The frames the model will be built from, with their landmarks');
     e.coverage.setAttribute('aria-label', 'Expression coverage');
     e.name.setAttribute('aria-label', 'Name of the new face');
     e.webcam.addEventListener('click', () => this.startWebcam());
@@ -119,6 +121,7 @@ export class Enrolment {
       e.guide,
       e.video,
       $('div', { className: 'row' }, $('span', { textContent: 'Coverage' }), e.coverage),
+      e.strip,
       e.status,
       $('div', { className: 'row' }, $('label', { textContent: 'Name' }), e.name),
       e.progress,
@@ -166,6 +169,7 @@ export class Enrolment {
 
   /** Adds a frame with its landmarks, pruning to the most varied when there are too many. */
   addCandidate(frame) {
+    frame.id = this.nextId = (this.nextId || 0) + 1;
     this.candidates.push(frame);
     if (this.candidates.length > MAX_CANDIDATES) {
       const keep = this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.round(MAX_CANDIDATES * 0.75));
@@ -182,10 +186,48 @@ export class Enrolment {
       const pick = this.page.fm.selectVaried(shapes, Math.min(WANT, n));
       cover = this.page.fm.shapeCoverage(shapes, pick);
     }
+    this.drawStrip();
     this.els.coverage.value = cover;
     this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(WANT, n)} frames that would be used`;
     this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < MIN_FRAMES ? ` (at least ${MIN_FRAMES} are needed)` : ''}.`;
     this.els.build.disabled = n < MIN_FRAMES || this.abort !== null;
+    this.els.cancel.textContent = this.abort ? 'Cancel' : 'Close';
+  }
+
+  /** Thumbnails of the frames a build would use, with their landmarks (redrawn when they change). */
+  drawStrip() {
+    const n = this.candidates.length;
+    const pick = n >= 2 ? [...this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.min(WANT, n))].sort((a, b) => a - b) : [];
+    const key = pick.map((i) => this.candidates[i].id).join(',');
+    if (key === this.stripKey) return;
+    this.stripKey = key;
+    const H = 56;
+    const thumbs = pick.map((i) => {
+      const c = this.candidates[i];
+      // Crop around the face (landmark box + 30%), scaled to H pixels high.
+      let [x0, y0, x1, y1] = [Infinity, Infinity, -Infinity, -Infinity];
+      for (let k = 0; k < c.landmarks.length; k += 2) {
+        x0 = Math.min(x0, c.landmarks[k]); x1 = Math.max(x1, c.landmarks[k]);
+        y0 = Math.min(y0, c.landmarks[k + 1]); y1 = Math.max(y1, c.landmarks[k + 1]);
+      }
+      const side = Math.max(x1 - x0, y1 - y0) * 1.3;
+      const [cx, cy] = [(x0 + x1) / 2, (y0 + y1) / 2];
+      const k = H / side;
+      const canvas = document.createElement('canvas');
+      canvas.width = H;
+      canvas.height = H;
+      const g = canvas.getContext('2d');
+      const img = new ImageData(new Uint8ClampedArray(c.rgba.buffer, c.rgba.byteOffset, c.rgba.length), c.width, c.height);
+      const src = new OffscreenCanvas(c.width, c.height);
+      src.getContext('2d').putImageData(img, 0, 0);
+      g.drawImage(src, cx - side / 2, cy - side / 2, side, side, 0, 0, H, H);
+      g.fillStyle = '#7cc4ff';
+      for (let j = 0; j < c.landmarks.length; j += 2) {
+        g.fillRect((c.landmarks[j] - cx + side / 2) * k - 0.5, (c.landmarks[j + 1] - cy + side / 2) * k - 0.5, 1.2, 1.2);
+      }
+      return canvas;
+    });
+    this.els.strip.replaceChildren(...thumbs);
   }
 
   async addFiles(files) {
@@ -327,6 +369,8 @@ export class Enrolment {
       });
       this.result = { bytes: r.bytes, name };
       await this.page.shelf.keep(r.bytes, name, 'built');
+      // Ask the browser not to evict the store under storage pressure (it may say no).
+      navigator.storage?.persist?.().catch(() => {});
       const model = this.page.fm.Model.fromBytes(r.bytes);
       this.page.inspect(model, model.info(), name);
       this.els.done.hidden = false;
@@ -335,6 +379,7 @@ export class Enrolment {
       this.update(e.message === 'cancelled' ? 'Build cancelled; nothing was kept.' : `The build failed: ${e.message}`);
     } finally {
       this.abort = null;
+      this.els.cancel.textContent = 'Close';
       p.hidden = true;
       this.els.build.disabled = this.candidates.length < MIN_FRAMES;
     }
