@@ -51,27 +51,19 @@ impl<'a> ImageRef<'a> {
     /// scaled to `0..=1`.
     #[inline]
     pub fn sample_rgb(&self, x: f32, y: f32) -> [f32; 3] {
-        let maxx = (self.width - 1) as f32;
-        let maxy = (self.height - 1) as f32;
-        let x = if x.is_finite() {
-            x.clamp(0.0, maxx)
-        } else {
-            0.0
-        };
-        let y = if y.is_finite() {
-            y.clamp(0.0, maxy)
-        } else {
-            0.0
-        };
-        let x0 = x as u32;
-        let y0 = y as u32;
-        let x1 = (x0 + 1).min(self.width - 1);
-        let y1 = (y0 + 1).min(self.height - 1);
-        let fx = x - x0 as f32;
-        let fy = y - y0 as f32;
+        let b = crate::filter::bilinear(
+            x,
+            y,
+            0.0,
+            0.0,
+            (self.width - 1) as f32,
+            (self.height - 1) as f32,
+        );
+        let (fx, fy) = (b.fx, b.fy);
         let w = self.width as usize;
-        let at = |xx: u32, yy: u32| (yy as usize * w + xx as usize) * 4;
-        let (i00, i10, i01, i11) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
+        let i00 = (b.y * w + b.x) * 4;
+        let (i10, i01) = (i00 + 4 * b.dx, i00 + 4 * w * b.dy);
+        let i11 = i01 + 4 * b.dx;
         let d = self.data;
         let mut out = [0f32; 3];
         for (c, o) in out.iter_mut().enumerate() {

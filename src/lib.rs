@@ -23,6 +23,7 @@ mod builder;
 mod canonical;
 pub mod clone;
 mod error;
+mod filter;
 pub mod fit;
 pub mod format;
 mod frame;

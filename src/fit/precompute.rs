@@ -127,10 +127,9 @@ fn fill_grid(model: &Model, values: &[f64], grid: &mut [f64]) {
 /// Gaussian blur of a grid in place, ignoring (and keeping) NaN cells: normalised
 /// convolution, so values near the mesh border are averages of defined neighbours only.
 fn blur_grid(grid: &mut [f64], w: usize, h: usize, sigma: f64) {
-    let r = (3.0 * sigma).ceil() as isize;
-    let kernel: Vec<f64> = (-r..=r)
-        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp())
-        .collect();
+    let mut k32 = [0f32; 49];
+    let r = crate::filter::gaussian_kernel(sigma as f32, 3.0, 24, &mut k32) as isize;
+    let kernel: Vec<f64> = k32[..=2 * r as usize].iter().map(|&k| k as f64).collect();
     let mut tmp = vec![f64::NAN; w * h];
     for pass in 0..2 {
         let (src, dst): (&[f64], &mut [f64]) = if pass == 0 {

@@ -1,0 +1,276 @@
+//! The fitting algorithms, one type per algorithm in the manner of menpofit's
+//! `aam/algorithm/lk.py`: each builds its Gauss-Newton system at the current state
+//! ([`Algorithm::system`]; what it can precompute lives in the level, see `precompute.rs`),
+//! [`run`] solves it under a Levenberg-Marquardt safeguard, and [`update`] composes the
+//! increment with the current warp and projects the result onto the model.
+
+use crate::similarity::Similarity;
+
+use super::geometry::Geometry;
+use super::grey::{sample, GreyView};
+use super::linalg::{axpy, cholesky, cholesky_solve, dot};
+use super::precompute::{regularise, Level, ShapeBasis};
+
+/// Buffers of one fit, allocated once per fitter.
+pub(super) struct Work {
+    pub init: Vec<f32>,
+    pub cur: Vec<f32>,
+    pub next: Vec<f32>,
+    pub scratch: Vec<f32>,
+    pub delta: Vec<f32>,
+    pub p: Vec<f32>,
+    pub pose: Similarity,
+    pub w: Vec<f32>,
+    pub e: Vec<f32>,
+    pub lam: Vec<f32>,
+    pub tgx: Vec<f32>,
+    pub tgy: Vec<f32>,
+    pub sd: Vec<f32>,
+    pub proj: Vec<f64>,
+    pub g: Vec<f64>,
+    pub h: Vec<f64>,
+    pub hf: Vec<f64>,
+    pub dc: Vec<f64>,
+    pub saved_cur: Vec<f32>,
+    pub saved_p: Vec<f32>,
+    pub saved_pose: Similarity,
+    pub saved_g: Vec<f64>,
+    pub saved_h: Vec<f64>,
+    pub start_cur: Vec<f32>,
+    pub best_cur: Vec<f32>,
+    pub best_p: Vec<f32>,
+    pub best_pose: Similarity,
+    pub rgb: Vec<f32>,
+}
+
+/// What one iteration did.
+pub(super) enum Step {
+    /// Moved by at most this many pixels.
+    Moved(f32),
+    /// The update was not finite or degenerate: state unchanged, stop.
+    Failed,
+}
+
+/// Samples, estimates `lambda` by projection and leaves the residual in `w.e`; returns its
+/// RMS.
+pub(super) fn residual(level: &Level, img: GreyView<'_>, w: &mut Work) -> f32 {
+    let n = level.n;
+    sample(level, img, &w.cur, &mut w.w[..n]);
+    let e = &mut w.e[..n];
+    for ((o, a), b) in e.iter_mut().zip(&w.w[..n]).zip(&level.a0) {
+        *o = a - b;
+    }
+    for i in 0..level.la {
+        let mode = &level.app[i * n..(i + 1) * n];
+        w.lam[i] = dot(mode, e);
+    }
+    for i in 0..level.la {
+        let mode = &level.app[i * n..(i + 1) * n];
+        axpy(-w.lam[i], mode, e);
+    }
+    (dot(e, e) / n as f32).sqrt()
+}
+
+/// One fitting algorithm: builds the Gauss-Newton system `H dc = g` at the current state
+/// (into `w.h` and `w.g`) and returns the cost it minimises. The step itself (solve, update)
+/// is shared: [`run`] and [`update`].
+pub(super) trait Algorithm {
+    /// Samples the image at the current state, fills `w.g` and `w.h`, returns the cost.
+    fn system(&self, c: &Ctx<'_>, w: &mut Work) -> f64;
+}
+
+/// Project-out inverse compositional (Matthews & Baker 2004, section 4.2): the appearance
+/// span is projected out of the steepest-descent images once per model, so the Hessian is
+/// precomputed (`Level::sd_po`, `Level::h_po`) and an iteration costs `O(kN)`.
+pub(super) struct ProjectOut;
+
+/// Simultaneous (Wiberg) inverse compositional with the appearance eliminated (Tzimiropoulos
+/// & Pantic, ICCV 2013; menpofit's `WibergInverseCompositional`): `lambda` by projection, the
+/// template gradient that of `A0 + A lambda`, the Hessian recomputed each iteration (`O(k^2 N)`).
+pub(super) struct Simultaneous;
+
+/// What a stage works with.
+pub(super) struct Ctx<'a> {
+    pub level: &'a Level,
+    pub geom: &'a Geometry,
+    pub basis: &'a ShapeBasis,
+    pub img: GreyView<'a>,
+}
+
+/// Runs up to `max_iters` Levenberg-Marquardt-safeguarded Gauss-Newton iterations of `alg`:
+/// a step that increases the cost (projected-out residual plus prior) is undone and retried
+/// with more damping `mu` (`H + mu diag(H)`); accepted steps relax the damping. Returns
+/// whether the last step moved no landmark more than `tol` pixels.
+pub(super) fn run<A: Algorithm>(
+    alg: &A,
+    c: &Ctx<'_>,
+    w: &mut Work,
+    max_iters: u32,
+    tol: f32,
+    iterations: &mut u32,
+) -> bool {
+    let k = c.basis.k;
+    let mut mu = 0.0f64;
+    let mut best = f64::INFINITY;
+    for _ in 0..max_iters {
+        *iterations += 1;
+        let cost = alg.system(c, w);
+        if cost.is_finite() && cost <= best {
+            best = cost;
+            w.saved_cur.copy_from_slice(&w.cur);
+            w.saved_p.copy_from_slice(&w.p);
+            w.saved_pose = w.pose;
+            w.saved_g.copy_from_slice(&w.g);
+            w.saved_h.copy_from_slice(&w.h);
+            mu = if mu < 1e-4 { 0.0 } else { mu * 0.1 };
+        } else {
+            if !best.is_finite() {
+                return false;
+            }
+            // Undo the last step; retry from the saved state with more damping.
+            w.cur.copy_from_slice(&w.saved_cur);
+            w.p.copy_from_slice(&w.saved_p);
+            w.pose = w.saved_pose;
+            w.g.copy_from_slice(&w.saved_g);
+            w.h.copy_from_slice(&w.saved_h);
+            mu = if mu == 0.0 { 1e-2 } else { mu * 10.0 };
+            if mu > 1e4 {
+                return true;
+            }
+        }
+        // Solve (H + prior + mu diag H) dc = g.
+        w.hf.copy_from_slice(&w.h);
+        for j in 0..k {
+            let d = w.hf[j * k + j];
+            w.hf[j * k + j] = d + mu * d;
+        }
+        regularise(&mut w.hf, &c.level.prior, k);
+        if !cholesky(&mut w.hf, k) {
+            return false;
+        }
+        w.dc.copy_from_slice(&w.g);
+        cholesky_solve(&w.hf, k, &mut w.dc);
+        match update(c.geom, c.basis, w) {
+            Step::Moved(d) if d <= tol => return true,
+            Step::Moved(_) => {}
+            Step::Failed => {
+                w.cur.copy_from_slice(&w.saved_cur);
+                w.p.copy_from_slice(&w.saved_p);
+                w.pose = w.saved_pose;
+                return false;
+            }
+        }
+    }
+    false
+}
+
+/// Prior cost `sum_j w_j p_j^2` and gradient term `w_j p_j` added to `w.g`.
+fn add_prior(c: &Ctx<'_>, w: &mut Work) -> f64 {
+    let mut cost = 0.0;
+    for (j, m) in c.basis.mode_of.iter().enumerate() {
+        if let Some(m) = m {
+            let p = w.p[*m] as f64;
+            w.g[j] += c.level.prior[j] * p;
+            cost += c.level.prior[j] * p * p;
+        }
+    }
+    cost
+}
+
+/// Project-out system at the current state: `g = SD^T e`, `H` precomputed; returns the cost
+/// `|e|^2 - |A^T e|^2 + prior`.
+impl Algorithm for ProjectOut {
+    fn system(&self, c: &Ctx<'_>, w: &mut Work) -> f64 {
+        let l = c.level;
+        let n = l.n;
+        sample(l, c.img, &w.cur, &mut w.w[..n]);
+        for ((o, a), b) in w.e[..n].iter_mut().zip(&w.w[..n]).zip(&l.a0) {
+            *o = a - b;
+        }
+        let e = &w.e[..n];
+        let mut cost = dot(e, e) as f64;
+        for i in 0..l.la {
+            let v = dot(&l.app[i * n..(i + 1) * n], e) as f64;
+            cost -= v * v;
+        }
+        for j in 0..c.basis.k {
+            w.g[j] = dot(&l.sd_po[j * n..(j + 1) * n], e) as f64;
+        }
+        w.h.copy_from_slice(&l.h_po);
+        cost + add_prior(c, w)
+    }
+}
+
+/// Appearance-aware (simultaneous, Wiberg) system: `lambda` by projection, template
+/// `T = A0 + A lambda`, steepest-descent images from `grad T`, Hessian
+/// `SD^T SD - (A^T SD)^T (A^T SD)` (appearance eliminated), `g = SD^T e`.
+impl Algorithm for Simultaneous {
+    fn system(&self, c: &Ctx<'_>, w: &mut Work) -> f64 {
+        let l = c.level;
+        let n = l.n;
+        let k = c.basis.k;
+        let la = l.la;
+        let rms = residual(l, c.img, w) as f64;
+        let cost = rms * rms * n as f64;
+        w.tgx[..n].copy_from_slice(&l.a0_gx);
+        w.tgy[..n].copy_from_slice(&l.a0_gy);
+        for i in 0..la {
+            let lam = w.lam[i];
+            axpy(lam, &l.app_gx[i * n..(i + 1) * n], &mut w.tgx[..n]);
+            axpy(lam, &l.app_gy[i * n..(i + 1) * n], &mut w.tgy[..n]);
+        }
+        for j in 0..k {
+            let sd = &mut w.sd[j * n..(j + 1) * n];
+            let (jx, jy) = (&l.jx[j * n..(j + 1) * n], &l.jy[j * n..(j + 1) * n]);
+            for i in 0..n {
+                sd[i] = w.tgx[i] * jx[i] + w.tgy[i] * jy[i];
+            }
+        }
+        for i in 0..la {
+            let mode = &l.app[i * n..(i + 1) * n];
+            for j in 0..k {
+                w.proj[i * k + j] = dot(mode, &w.sd[j * n..(j + 1) * n]) as f64;
+            }
+        }
+        for a in 0..k {
+            let sa = &w.sd[a * n..(a + 1) * n];
+            for b in 0..=a {
+                let mut v = dot(sa, &w.sd[b * n..(b + 1) * n]) as f64;
+                for i in 0..la {
+                    v -= w.proj[i * k + a] * w.proj[i * k + b];
+                }
+                w.h[a * k + b] = v;
+                w.h[b * k + a] = v;
+            }
+            w.g[a] = dot(sa, &w.e[..n]) as f64;
+        }
+        cost + add_prior(c, w)
+    }
+}
+
+/// Applies the parameter update `w.dc` (combined basis): compose the inverse incremental
+/// warp, project onto the model. Returns the largest landmark movement.
+pub(super) fn update(geom: &Geometry, basis: &ShapeBasis, w: &mut Work) -> Step {
+    if w.dc.iter().any(|v| !v.is_finite()) {
+        return Step::Failed;
+    }
+    let d = w.delta.len();
+    w.delta.iter_mut().for_each(|v| *v = 0.0);
+    for (j, &c) in w.dc.iter().enumerate() {
+        axpy(c as f32, &basis.vectors[j * d..(j + 1) * d], &mut w.delta);
+    }
+    geom.compose_inverse(&w.cur, &w.delta, &mut w.scratch);
+    // Project onto the model (`delta` is free again and serves as scratch).
+    let Some(pose) = geom.project(&w.scratch, &mut w.p, &mut w.delta, &mut w.next) else {
+        return Step::Failed;
+    };
+    let moved = w
+        .cur
+        .iter()
+        .zip(&w.next)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0f32, f32::max);
+    std::mem::swap(&mut w.cur, &mut w.next);
+    w.pose = pose;
+    Step::Moved(moved)
+}

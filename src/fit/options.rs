@@ -1,0 +1,159 @@
+//! Options of the fitter and tracker, with their checks.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Options of the [`Fitter`] and [`Tracker`]. `Default` is tuned for real-time tracking.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitOptions {
+    /// Most project-out iterations per level.
+    pub max_iters: u32,
+    /// Appearance-aware (simultaneous / Wiberg) refinement iterations on the finest level,
+    /// after the project-out iterations (0 = plain project-out).
+    pub refine_iters: u32,
+    /// The levels, coarse to fine. The finest level also gives the reported error.
+    pub levels: Vec<LevelSpec>,
+    /// Convergence tolerance: the fit stops when no landmark moves more than this many image
+    /// pixels in an iteration.
+    pub tolerance: f32,
+    /// Weight `rho` of the Tikhonov prior `rho * N * sum (p_i / sigma_i)^2` on the shape
+    /// parameters (`N` = level pixels). 0 disables it.
+    pub shape_prior: f32,
+    /// Add gain and bias images to the grey appearance basis, making the fit invariant to
+    /// global brightness and contrast changes.
+    pub gain_bias: bool,
+    /// Fitting channels: 1 = luminance only, 2 = luminance and red chroma (lips against
+    /// skin).
+    pub channels: u32,
+    /// Compute the RGB appearance parameters `lambda` of the result (projection of the image
+    /// sampled at the final landmarks; costs one full-frame sample).
+    pub appearance: bool,
+    /// Tracker: a fit whose error (RMS grey residual) exceeds this is a lost face.
+    pub max_error: f32,
+    /// Tracker: a fit whose shape parameters' RMS in standard deviations,
+    /// `sqrt(mean_i (p_i / sigma_i)^2)`, exceeds this is a lost face (an implausible shape).
+    pub max_sigmas: f32,
+    /// Tracker: a fit whose scale changes by more than this fraction from the previous frame
+    /// (or whose rotation by more than 0.5 rad) is a lost face.
+    pub max_scale_jump: f32,
+    /// Starts of the coarsest level in a cold fit ([`Fitter::fit`], [`Fitter::fit_params`],
+    /// the tracker's first frame and re-initialisations), 1 to 7: the given start, then the
+    /// start moved by `+-start_offset` of the face width along x, along y, then rotated by
+    /// `+-start_offset` radians. The coarse result with the lowest cost (projected-out
+    /// residual plus prior) is refined on the finer levels. Widens the convergence basin.
+    #[serde(default = "default_coarse_starts")]
+    pub coarse_starts: u32,
+    /// Starts of the coarsest level for a tracked frame (started from the previous frame's
+    /// result), 1 to 7.
+    #[serde(default = "default_tracking_starts")]
+    pub tracking_starts: u32,
+    /// Offset of the extra coarse starts: a fraction of the face width (and radians).
+    #[serde(default = "default_start_offset")]
+    pub start_offset: f32,
+}
+
+fn default_coarse_starts() -> u32 {
+    3
+}
+
+fn default_tracking_starts() -> u32 {
+    1
+}
+
+fn default_start_offset() -> f32 {
+    0.06
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            max_iters: 10,
+            refine_iters: 0,
+            levels: vec![
+                LevelSpec {
+                    step: 4,
+                    sigma: 4.0,
+                },
+                LevelSpec {
+                    step: 4,
+                    sigma: 2.0,
+                },
+                LevelSpec {
+                    step: 2,
+                    sigma: 0.0,
+                },
+            ],
+            tolerance: 0.05,
+            shape_prior: 3e-5,
+            gain_bias: true,
+            channels: 1,
+            appearance: true,
+            max_error: 0.12,
+            max_sigmas: 3.5,
+            max_scale_jump: 0.25,
+            coarse_starts: 3,
+            tracking_starts: 1,
+            start_offset: 0.06,
+        }
+    }
+}
+
+impl FitOptions {
+    pub(super) fn check(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Params(format!("fit options: {m}")));
+        if self.levels.is_empty() || self.levels.len() > 4 {
+            return bad(format!("{} levels (1 to 4 expected)", self.levels.len()));
+        }
+        for l in &self.levels {
+            // `contains` is false for NaN, so a NaN sigma is rejected too.
+            if !(1..=8).contains(&l.step) || !(0.0..=8.0).contains(&l.sigma) {
+                return bad(format!(
+                    "level {l:?}: step must be in 1..=8, sigma in 0..=8"
+                ));
+            }
+        }
+        if !(1..=2).contains(&self.channels) {
+            return bad(format!("channels = {} must be 1 or 2", self.channels));
+        }
+        for (what, v) in [
+            ("coarse_starts", self.coarse_starts),
+            ("tracking_starts", self.tracking_starts),
+        ] {
+            if !(1..=7).contains(&v) {
+                return bad(format!("{what} = {v} must be in 1..=7"));
+            }
+        }
+        if !(self.start_offset.is_finite() && (0.0..=0.5).contains(&self.start_offset)) {
+            return bad(format!(
+                "start_offset = {} must be in 0..=0.5",
+                self.start_offset
+            ));
+        }
+        if self.max_iters > 1000 || self.refine_iters > 1000 {
+            return bad("more than 1000 iterations".into());
+        }
+        for (what, v) in [
+            ("tolerance", self.tolerance),
+            ("shape_prior", self.shape_prior),
+            ("max_error", self.max_error),
+            ("max_sigmas", self.max_sigmas),
+            ("max_scale_jump", self.max_scale_jump),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("{what} = {v} must be finite and non-negative"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One level of the coarse-to-fine schedule.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LevelSpec {
+    /// Use every `step`-th frame pixel along x and y.
+    pub step: u32,
+    /// Gaussian smoothing (standard deviation, frame pixels) of the template; the image is
+    /// smoothed by the same amount in its own pixels (times the pose's scale). 0 = none.
+    pub sigma: f32,
+}
