@@ -1,0 +1,124 @@
+// Driving the targets with one's own face: a model of GRID speaker 7 is created in the page
+// ("Create a face", from the 20 photos of data/grid/spk07_pwij3p/train20.txt with their .pts
+// files), used as the source, and the webcam source (Chromium's fake camera playing speaker 7's
+// unseen clip data/grid/spk07_id2_vcd_swwp2s, none of whose frames built the model) tracks it
+// with that model and drives every target. The fake camera file is made by the test (MJPEG, in
+// the temporary folder, never committed).
+//   node --test tests/e2e/enrol.test.mjs   (after scripts/build-wasm.sh and scripts/build-models.sh)
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot } from './lib.mjs';
+
+const WWW = path.join(ROOT, 'www');
+const TRAIN = path.join(ROOT, 'data', 'grid', 'spk07_pwij3p');
+const UNSEEN = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
+const CAMERA = ['--autoplay-policy=no-user-gesture-required', '--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream'];
+
+let server;
+
+before(async () => {
+  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
+  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
+  assert.ok(fs.existsSync(path.join(WWW, 'models', 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  server = await serveStatic(WWW);
+});
+
+after(() => server?.close());
+
+/** The unseen clip as a 640x480 MJPEG with the face in the webcam guide (drawn by Chromium). */
+async function faceCamera(t) {
+  const browser = await launchBrowser();
+  const frames = await serveStatic(UNSEEN);
+  try {
+    const page = await browser.newPage();
+    await page.goto(`${frames.url}000000.jpg`);
+    const pts = fs.readFileSync(path.join(UNSEEN, '000000.pts'), 'utf8');
+    const v = pts.slice(pts.indexOf('{') + 1, pts.indexOf('}')).trim().split(/\s+/).map(Number);
+    const xs = v.filter((_, i) => i % 2 === 0);
+    const ys = v.filter((_, i) => i % 2 === 1);
+    const face = { cx: (Math.min(...xs) + Math.max(...xs)) / 2, cy: (Math.min(...ys) + Math.max(...ys)) / 2, h: Math.max(...ys) - Math.min(...ys) };
+    const [W, H] = [640, 480];
+    const scale = (0.5 * H * 0.95) / face.h; // the guide: 0.5 H high, 0.04 H below the middle
+    const dx = W / 2 - face.cx * scale;
+    const dy = H / 2 + 0.04 * H - face.cy * scale;
+    const n = fs.readdirSync(UNSEEN).filter((f) => f.endsWith('.jpg')).length;
+    const jpegs = await page.evaluate(async ({ n, W, H, scale, dx, dy }) => {
+      const c = document.createElement('canvas');
+      c.width = W;
+      c.height = H;
+      const g = c.getContext('2d');
+      const out = [];
+      for (let i = 0; i < n; i++) {
+        const img = new Image();
+        img.src = `${String(i).padStart(6, '0')}.jpg`;
+        await img.decode();
+        g.fillStyle = '#203040';
+        g.fillRect(0, 0, W, H);
+        g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
+        const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.92));
+        const bytes = new Uint8Array(await blob.arrayBuffer());
+        let bin = '';
+        for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
+        out.push(btoa(bin));
+      }
+      return out;
+    }, { n, W, H, scale, dx, dy });
+    const file = path.join(os.tmpdir(), `facemimic-enrol-camera-${process.pid}.mjpeg`);
+    fs.writeFileSync(file, Buffer.concat(jpegs.map((b) => Buffer.from(b, 'base64'))));
+    t.after(() => fs.rmSync(file, { force: true }));
+    return file;
+  } finally {
+    await browser.close();
+    await frames.close();
+  }
+}
+
+test('a face created in the page becomes the source, and the webcam tracks it with its own model and drives the targets', async (t) => {
+  const camera = await faceCamera(t);
+  const browser = await launchBrowser([...CAMERA, `--use-file-for-fake-video-capture=${camera}`]);
+  t.after(() => browser.close());
+  const context = await browser.newContext({ viewport: { width: 1440, height: 1600 } });
+  const page = await context.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  await page.goto(server.url);
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
+  await page.waitForSelector('body[data-shelf="ready"]', { timeout: 30_000 });
+
+  // Create the face from photos.
+  const stems = fs.readFileSync(path.join(TRAIN, 'train20.txt'), 'utf8').split('\n').map((s) => s.trim()).filter(Boolean);
+  await page.click('#create-face');
+  await page.setInputFiles('#enrol input[type="file"]', stems.flatMap((s) => [path.join(TRAIN, `${s}.jpg`), path.join(TRAIN, `${s}.pts`)]));
+  await page.waitForFunction(() => /20 usable faces/.test(document.querySelector('#enrol .enrol-status').textContent));
+  await page.fill('#enrol .enrol-name', 'Me');
+  await page.click('#enrol .btn.primary');
+  await page.waitForFunction(() => /^Built Me/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 60_000 });
+  await page.getByRole('button', { name: 'Use as source' }).click();
+  await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Me'));
+
+  // The webcam source tracks the face with the enrolled model.
+  await page.selectOption('#source-kind', 'webcam');
+  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout: 30_000 });
+  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
+  const log = await page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+  const lost = log.filter((l) => l.lost).length;
+  const meanErr = log.reduce((s, l) => s + l.error, 0) / log.length;
+  console.log(`# enrolled source on the face camera: ${log.length} fits, ${lost} lost, fit error mean ${meanErr.toFixed(4)}`);
+  assert.equal(lost, 0, 'frames lost');
+  assert.ok(meanErr < 0.06, `fit error mean ${meanErr}`);
+  assert.ok((await page.textContent('.face-card.source')).includes('Me'), 'the source is still the enrolled face');
+  // Every target follows.
+  const targets = await page.$$eval('.face-card.target canvas.face', (c) => c.length);
+  assert.ok(targets >= 1);
+  const before = [];
+  for (let i = 0; i < targets; i++) before.push(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`));
+  await page.waitForTimeout(800);
+  for (let i = 0; i < targets; i++) {
+    assert.notEqual(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`), before[i], `target ${i} does not move`);
+  }
+  await screenshot(page, 'enrol-drives-targets', { fullPage: false });
+  assert.deepEqual(errors, []);
+});
