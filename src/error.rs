@@ -40,6 +40,9 @@ pub enum Error {
     /// The caller cancelled a long operation (a build) before it finished; nothing was made.
     #[error("cancelled")]
     Cancelled,
+    /// A face finder's weight file is corrupt or of another layout.
+    #[error("face finder weights: {0}")]
+    Weights(String),
 }
 
 impl From<std::io::Error> for Error {

@@ -24,6 +24,7 @@ mod canonical;
 pub mod clone;
 mod error;
 mod filter;
+pub mod find;
 pub mod fit;
 pub mod format;
 mod frame;
@@ -52,6 +53,7 @@ pub use canonical::{
     CANONICAL_LANDMARKS,
 };
 pub use error::{Error, Result};
+pub use find::{BBox, Face, FaceFinder, FindOptions};
 pub use frame::{triangulate, FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
 pub use model::{LandmarkScheme, Model, Params, Reference};

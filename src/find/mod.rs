@@ -1,0 +1,371 @@
+//! Face finding: every face in an image, with a box, a confidence and the 68 iBUG landmarks.
+//!
+//! Two small pretrained nets from face-api.js (MIT; see `data/weights/LICENSE`), run by a
+//! focused implementation of exactly their layers ([`nn`]): the tiny face detector proposes
+//! boxes, the 68-point landmark net places the points in each box, and a second landmark pass
+//! on a box made from the first pass's points settles them. See `docs/finding.md` for the
+//! measured rates and why the pipeline is what it is.
+
+mod nets;
+mod nn;
+mod weights;
+
+use crate::error::{Error, Result};
+use crate::image::ImageRef;
+use nets::{Detector, LandmarkNet, Scratch, ANCHORS, DETECTOR_MEAN, LANDMARK_INPUT, LANDMARK_MEAN};
+use nn::Map;
+
+/// The tiny face detector's weights (uint8-quantised, `scripts/convert-weights.mjs`).
+pub const DETECTOR_WEIGHTS: &[u8] = include_bytes!("../../data/weights/tiny_face_detector.fmw");
+/// The 68-point landmark net's weights.
+pub const LANDMARK_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_landmark_68.fmw");
+
+/// An axis-aligned box in image pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BBox {
+    /// Left edge.
+    pub x: f32,
+    /// Top edge.
+    pub y: f32,
+    /// Width.
+    pub width: f32,
+    /// Height.
+    pub height: f32,
+}
+
+impl BBox {
+    /// Intersection over union with `other` (0 when either is empty).
+    pub fn iou(&self, other: &BBox) -> f32 {
+        let ix = (self.x + self.width).min(other.x + other.width) - self.x.max(other.x);
+        let iy = (self.y + self.height).min(other.y + other.height) - self.y.max(other.y);
+        if !(ix > 0.0 && iy > 0.0) {
+            return 0.0;
+        }
+        let inter = ix * iy;
+        inter / (self.width * self.height + other.width * other.height - inter)
+    }
+
+    /// The bounding box of interleaved points `x0, y0, x1, y1, ...`.
+    pub fn of_points(points: &[f32]) -> BBox {
+        let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+        for p in points.chunks_exact(2) {
+            x0 = x0.min(p[0]);
+            x1 = x1.max(p[0]);
+            y0 = y0.min(p[1]);
+            y1 = y1.max(p[1]);
+        }
+        BBox {
+            x: x0,
+            y: y0,
+            width: x1 - x0,
+            height: y1 - y0,
+        }
+    }
+
+    fn is_valid(&self) -> bool {
+        self.x.is_finite()
+            && self.y.is_finite()
+            && self.width.is_finite()
+            && self.height.is_finite()
+            && self.width >= 1.0
+            && self.height >= 1.0
+    }
+}
+
+/// One face found in an image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Face {
+    /// The face's box (from the detector, or the landmarks' box refined).
+    pub bbox: BBox,
+    /// Confidence in 0..=1.
+    pub score: f32,
+    /// The 68 iBUG landmarks, interleaved `x0, y0, ... x67, y67`, image pixels (0-based).
+    pub landmarks: Vec<f32>,
+}
+
+/// Tuning of [`FaceFinder::find`].
+#[derive(Clone, Copy, Debug)]
+pub struct FindOptions {
+    /// The detector's input side (a multiple of 32); the image is scaled so its longer side
+    /// fits it.
+    pub input_size: u32,
+    /// Detector confidence below which a box is not considered.
+    pub score_threshold: f32,
+    /// Boxes overlapping a more confident one by more than this IoU are dropped.
+    pub iou_threshold: f32,
+    /// At most this many faces are returned.
+    pub max_faces: usize,
+}
+
+impl Default for FindOptions {
+    fn default() -> Self {
+        FindOptions {
+            input_size: 416,
+            score_threshold: 0.5,
+            iou_threshold: 0.4,
+            max_faces: 16,
+        }
+    }
+}
+
+/// Finds faces and places their landmarks. Holds the nets and all scratch buffers: reuse one
+/// finder (after the first call, `find` and `landmarks` allocate only their results).
+pub struct FaceFinder {
+    detector: Detector,
+    landmark_net: LandmarkNet,
+    options: FindOptions,
+    scratch: Scratch,
+    input: Map,
+    grid: Map,
+    raw: [f32; 136],
+    candidates: Vec<(BBox, f32)>,
+}
+
+impl FaceFinder {
+    /// A finder with the weights shipped in the crate.
+    pub fn new() -> Result<Self> {
+        Self::from_weights(DETECTOR_WEIGHTS, LANDMARK_WEIGHTS)
+    }
+
+    /// A finder from weight files in the `scripts/convert-weights.mjs` format.
+    pub fn from_weights(detector: &[u8], landmarks: &[u8]) -> Result<Self> {
+        Ok(FaceFinder {
+            detector: Detector::load(detector)?,
+            landmark_net: LandmarkNet::load(landmarks)?,
+            options: FindOptions::default(),
+            scratch: Scratch::default(),
+            input: Map::default(),
+            grid: Map::default(),
+            raw: [0.0; 136],
+            candidates: Vec::new(),
+        })
+    }
+
+    /// The options [`find`](Self::find) uses.
+    pub fn options(&self) -> FindOptions {
+        self.options
+    }
+
+    /// Sets the options (`input_size` is rounded to a multiple of 32 in 64..=1024).
+    pub fn set_options(&mut self, mut options: FindOptions) {
+        options.input_size = (options.input_size.clamp(64, 1024) / 32) * 32;
+        if !options.score_threshold.is_finite() {
+            options.score_threshold = FindOptions::default().score_threshold;
+        }
+        if !options.iou_threshold.is_finite() {
+            options.iou_threshold = FindOptions::default().iou_threshold;
+        }
+        self.options = options;
+    }
+
+    /// Every face in `image`, most confident first.
+    pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
+        self.detect(image);
+        let candidates = std::mem::take(&mut self.candidates);
+        let mut faces = Vec::with_capacity(candidates.len());
+        for &(bbox, score) in &candidates {
+            if faces.len() >= self.options.max_faces {
+                break;
+            }
+            if let Ok(landmarks) = self.landmarks(image, bbox) {
+                faces.push(Face {
+                    bbox,
+                    score,
+                    landmarks,
+                });
+            }
+        }
+        self.candidates = candidates;
+        faces
+    }
+
+    /// The detector's boxes and scores (after non-maximum suppression), most confident first,
+    /// into `self.candidates`.
+    fn detect(&mut self, image: &ImageRef) {
+        let s = self.options.input_size as usize;
+        let side = image.width().max(image.height()) as f32;
+        prepare(
+            image,
+            [0.0, 0.0, side],
+            [0.0, 0.0, image.width() as f32, image.height() as f32],
+            s,
+            DETECTOR_MEAN,
+            &mut self.input,
+        );
+        self.detector
+            .run(&self.input, &mut self.scratch, &mut self.grid);
+        decode(
+            &self.grid,
+            side,
+            self.options.score_threshold,
+            &mut self.candidates,
+        );
+        nms(&mut self.candidates, self.options.iou_threshold);
+    }
+
+    /// The 68 landmarks of the face in `bbox` (interleaved, image pixels): the landmark net on
+    /// the square around `bbox`.
+    pub fn landmarks(&mut self, image: &ImageRef, bbox: BBox) -> Result<Vec<f32>> {
+        let mut out = vec![0.0; 136];
+        self.landmarks_into(image, bbox, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`landmarks`](Self::landmarks) into a caller's buffer of 136 values.
+    pub fn landmarks_into(&mut self, image: &ImageRef, bbox: BBox, out: &mut [f32]) -> Result<()> {
+        if out.len() != 136 {
+            return Err(Error::Landmarks(format!(
+                "{} values, expected 136",
+                out.len()
+            )));
+        }
+        if !bbox.is_valid() {
+            return Err(Error::Image(format!("invalid face box {bbox:?}")));
+        }
+        let side = bbox.width.max(bbox.height);
+        let sq = [
+            bbox.x + 0.5 * (bbox.width - side),
+            bbox.y + 0.5 * (bbox.height - side),
+            side,
+        ];
+        prepare(
+            image,
+            sq,
+            [bbox.x, bbox.y, bbox.x + bbox.width, bbox.y + bbox.height],
+            LANDMARK_INPUT,
+            LANDMARK_MEAN,
+            &mut self.input,
+        );
+        self.landmark_net
+            .run(&self.input, &mut self.scratch, &mut self.raw);
+        for (i, (o, r)) in out.iter_mut().zip(self.raw.iter()).enumerate() {
+            *o = sq[i % 2] + r * side;
+        }
+        if out.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(Error::Image(
+                "the landmark net gave non-finite points".into(),
+            ))
+        }
+    }
+}
+
+/// Samples the square `sq = [x0, y0, side]` of `image` (pixels outside `region = [x0, y0, x1,
+/// y1]` or outside the image are black, as face-api.js pads) into an `n x n x 3` map,
+/// normalised `(v - mean) / 255`. Downscaling averages up to 4x4 bilinear samples per output
+/// pixel, so small inputs do not alias.
+fn prepare(
+    image: &ImageRef,
+    sq: [f32; 3],
+    region: [f32; 4],
+    n: usize,
+    mean: [f32; 3],
+    out: &mut Map,
+) {
+    out.reset(n, n, 3);
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let data = image.data();
+    let step = sq[2] / n as f32;
+    let k = (step.ceil() as usize).clamp(1, 4);
+    let sub = step / k as f32;
+    let r = [
+        region[0].max(0.0),
+        region[1].max(0.0),
+        region[2].min(w as f32),
+        region[3].min(h as f32),
+    ];
+    let inv = 1.0 / (k * k) as f32;
+    for oy in 0..n {
+        for ox in 0..n {
+            let mut acc = [0.0f32; 3];
+            for sy in 0..k {
+                let y = sq[1] + oy as f32 * step + (sy as f32 + 0.5) * sub;
+                if y < r[1] || y >= r[3] {
+                    continue;
+                }
+                let fy = (y - 0.5).clamp(0.0, (h - 1) as f32);
+                let y0 = fy as usize;
+                let y1 = (y0 + 1).min(h - 1);
+                let ty = fy - y0 as f32;
+                for sx in 0..k {
+                    let x = sq[0] + ox as f32 * step + (sx as f32 + 0.5) * sub;
+                    if x < r[0] || x >= r[2] {
+                        continue;
+                    }
+                    let fx = (x - 0.5).clamp(0.0, (w - 1) as f32);
+                    let x0 = fx as usize;
+                    let x1 = (x0 + 1).min(w - 1);
+                    let tx = fx - x0 as f32;
+                    let p00 = &data[(y0 * w + x0) * 4..][..3];
+                    let p01 = &data[(y0 * w + x1) * 4..][..3];
+                    let p10 = &data[(y1 * w + x0) * 4..][..3];
+                    let p11 = &data[(y1 * w + x1) * 4..][..3];
+                    for c in 0..3 {
+                        let top = p00[c] as f32 + tx * (p01[c] as f32 - p00[c] as f32);
+                        let bot = p10[c] as f32 + tx * (p11[c] as f32 - p10[c] as f32);
+                        acc[c] += top + ty * (bot - top);
+                    }
+                }
+            }
+            let o = &mut out.data[(oy * n + ox) * 3..][..3];
+            for c in 0..3 {
+                o[c] = (acc[c] * inv - mean[c]) / 255.0;
+            }
+        }
+    }
+}
+
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+/// Decodes the detector's grid into image-pixel boxes with scores above `threshold`; `side` is
+/// the image's longer side (the detector's input square, in pixels).
+fn decode(grid: &Map, side: f32, threshold: f32, out: &mut Vec<(BBox, f32)>) {
+    out.clear();
+    let cells = grid.h as f32;
+    for row in 0..grid.h {
+        for col in 0..grid.w {
+            let cell = &grid.data[(row * grid.w + col) * grid.c..][..grid.c];
+            for (a, &(aw, ah)) in ANCHORS.iter().enumerate() {
+                let v = &cell[a * 5..][..5];
+                let score = sigmoid(v[4]);
+                if !(score > threshold) {
+                    continue;
+                }
+                let cx = (col as f32 + sigmoid(v[0])) / cells * side;
+                let cy = (row as f32 + sigmoid(v[1])) / cells * side;
+                let bw = v[2].exp() * aw / cells * side;
+                let bh = v[3].exp() * ah / cells * side;
+                let b = BBox {
+                    x: cx - 0.5 * bw,
+                    y: cy - 0.5 * bh,
+                    width: bw,
+                    height: bh,
+                };
+                if b.is_valid() {
+                    out.push((b, score));
+                }
+            }
+        }
+    }
+}
+
+/// Greedy non-maximum suppression: sorts by score and drops boxes overlapping a kept one by
+/// more than `iou`.
+fn nms(boxes: &mut Vec<(BBox, f32)>, iou: f32) {
+    boxes.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut kept = 0;
+    for i in 0..boxes.len() {
+        let cand = boxes[i];
+        if boxes[..kept].iter().all(|k| k.0.iou(&cand.0) <= iou) {
+            boxes[kept] = cand;
+            kept += 1;
+        }
+    }
+    boxes.truncate(kept);
+}
+
+#[cfg(test)]
+mod reference;
