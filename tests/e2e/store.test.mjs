@@ -36,6 +36,11 @@ async function open(t) {
   const page = await context.newPage();
   const errors = [];
   page.on('pageerror', (e) => errors.push(String(e)));
+  // Nothing leaves the machine: every request goes to the page's own origin (or is local).
+  page.on('request', (r) => {
+    const u = r.url();
+    if (!u.startsWith(server.url) && !u.startsWith('blob:') && !u.startsWith('data:')) errors.push(`request off the origin: ${u}`);
+  });
   page.on('dialog', (d) => (d.type() === 'prompt' ? d.accept(page.nextName || '') : d.accept()));
   t.after(() => context.close());
   await page.goto(server.url);
