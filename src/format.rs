@@ -19,8 +19,12 @@ use crate::similarity::Similarity;
 /// a non-ASCII first byte and line-ending bytes expose text-mode transfers and truncation).
 pub const MAGIC: [u8; 8] = [0x89, b'F', b'M', b'M', b'\r', b'\n', 0x1a, b'\n'];
 
-/// The format version this library writes and the only one it reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// The format version this library writes (the newest it reads).
+pub const FORMAT_VERSION: u32 = 2;
+
+/// The oldest format version this library reads. Readers keep reading older versions: every
+/// version from this one to [`FORMAT_VERSION`] loads.
+pub const OLDEST_VERSION: u32 = 1;
 
 /// Size in bytes of the fixed header (version 1).
 pub const HEADER_LEN: usize = 112;
@@ -99,11 +103,11 @@ pub enum FormatError {
     #[error("not a facemimic model (bad magic bytes)")]
     BadMagic,
     /// The format version is not one this reader understands.
-    #[error("format version {found} is not supported (this reader supports version {supported}); a newer facemimic may read it")]
+    #[error("format version {found} is not supported (this reader supports versions 1 to {supported}); a newer facemimic may read it")]
     UnsupportedVersion {
         /// Version in the file.
         found: u32,
-        /// Version this reader supports.
+        /// Newest version this reader supports (it reads every version from 1 to this).
         supported: u32,
     },
     /// The file ends before the header or the data the header describes.
@@ -135,6 +139,22 @@ pub enum FormatError {
     ReservedFlags {
         /// The flags value.
         value: u32,
+    },
+    /// The appearance storage tag (version 2) is not one of [`Storage`]'s.
+    #[error("unknown appearance storage tag {tag} (0 = f32, 1 = f16, 2 = i8)")]
+    BadStorageTag {
+        /// The tag.
+        tag: u32,
+    },
+    /// A quantisation scale (version 2, i8 storage) is not positive.
+    #[error("{array}[{index}] is {value}, a scale must be positive")]
+    InvalidScale {
+        /// Which array.
+        array: &'static str,
+        /// Index of the first bad value.
+        index: u32,
+        /// The value.
+        value: f32,
     },
     /// A header value exceeds its limit.
     #[error("{what} is {value}, more than the limit {limit}")]
@@ -318,8 +338,10 @@ const OFF_FINGERPRINT: usize = 104;
 pub mod offsets {
     /// `u32` format version.
     pub const VERSION: usize = super::OFF_VERSION;
-    /// `u32` reserved flags (0).
+    /// `u32` reserved flags (0) in version 1.
     pub const FLAGS: usize = super::OFF_FLAGS;
+    /// `u32` appearance storage tag in version 2 (the same field as version 1's flags).
+    pub const STORAGE: usize = super::OFF_FLAGS;
     /// `u64` total file length in bytes, checksum included.
     pub const FILE_LENGTH: usize = super::OFF_FILE_LENGTH;
     /// `u32` landmarks `n`.
@@ -368,13 +390,22 @@ fn pad4(x: u64) -> u64 {
 // ---------------------------------------------------------------------------------------------
 // Writing.
 
-/// Serialises a model into the `.fmm` format (version [`FORMAT_VERSION`]).
+/// Serialises a model into the `.fmm` format (version [`FORMAT_VERSION`]) with the default,
+/// compact appearance storage ([`Storage::I8`]); see [`write_model_as`].
+pub fn write_model(model: &Model) -> Vec<u8> {
+    write_model_as(model, Storage::default())
+}
+
+/// Serialises a model into the `.fmm` format (version [`FORMAT_VERSION`]), the appearance base
+/// and modes stored as `storage` says.
 ///
 /// Infallible: it writes what the model holds. A model from [`crate::Builder::build`] or
-/// [`read_model`] within the [`LIMITS`] reads back equal (`read_model(&write_model(&m)) ==
-/// Ok(m)`); a model that breaks its invariants or the limits is written faithfully and rejected
-/// by [`read_model`].
-pub fn write_model(model: &Model) -> Vec<u8> {
+/// [`read_model`] within the [`LIMITS`] reads back equal with [`Storage::F32`]
+/// (`read_model(&write_model_as(&m, Storage::F32)) == Ok(m)`), and within the storage's
+/// rounding otherwise (a model read from a file of that storage writes back byte for byte); a
+/// model that breaks its invariants or the limits is written faithfully and rejected by
+/// [`read_model`].
+pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
     let n2 = model.shape.base.len();
     let m = model.shape.variances.len();
     let l = model.appearance.variances.len();
@@ -390,11 +421,14 @@ pub fn write_model(model: &Model) -> Vec<u8> {
         + model.shape.modes.len()
         + m
         + frame.vertices().len()
-        + 3 * frame.triangles().len()
-        + model.appearance.base.len()
-        + model.appearance.modes.len()
-        + l;
-    let total = HEADER_LEN + names + padding + 4 * floats + CHECKSUM_LEN;
+        + 3 * frame.triangles().len();
+    let appearance = appearance_bytes(
+        storage,
+        model.appearance.base.len() as u64,
+        model.appearance.modes.len() as u64 / model.appearance.base.len().max(1) as u64,
+    )
+    .unwrap_or(0) as usize;
+    let total = HEADER_LEN + names + padding + 4 * floats + appearance + CHECKSUM_LEN;
     let mut out = Vec::with_capacity(total);
     let u32le = |out: &mut Vec<u8>, v: u32| out.extend_from_slice(&v.to_le_bytes());
     let f32le = |out: &mut Vec<u8>, v: f32| out.extend_from_slice(&v.to_le_bytes());
@@ -402,7 +436,7 @@ pub fn write_model(model: &Model) -> Vec<u8> {
 
     out.extend_from_slice(&MAGIC);
     u32le(&mut out, FORMAT_VERSION);
-    u32le(&mut out, 0);
+    u32le(&mut out, storage.tag());
     out.extend_from_slice(&(total as u64).to_le_bytes());
     u32le(&mut out, as_u32(n2 / 2));
     u32le(&mut out, as_u32(frame.triangles().len()));
@@ -450,14 +484,7 @@ pub fn write_model(model: &Model) -> Vec<u8> {
         .iter()
         .flatten()
         .for_each(|&i| u32le(&mut out, i));
-    let arrays: [&[f32]; 3] = [
-        &model.appearance.base,
-        &model.appearance.modes,
-        &model.appearance.variances,
-    ];
-    for a in arrays {
-        a.iter().for_each(|&v| f32le(&mut out, v));
-    }
+    write_appearance(&mut out, &model.appearance, storage);
     let crc = crc32(&out);
     u32le(&mut out, crc);
     debug_assert_eq!(out.len(), total);
@@ -542,8 +569,10 @@ fn check_range(what: &'static str, value: u32, min: u32, max: u32) -> Result<(),
     Ok(())
 }
 
-/// The header of a version-1 file, validated against the limits.
+/// The header of a version-1 or version-2 file, validated against the limits.
 struct Header {
+    version: u32,
+    storage: Storage,
     file_length: u64,
     n: u32,
     t: u32,
@@ -571,9 +600,10 @@ impl Header {
         if b[..prefix] != MAGIC[..prefix] {
             return Err(FormatError::BadMagic);
         }
+        let mut version = FORMAT_VERSION;
         if b.len() >= OFF_VERSION + 4 {
-            let version = u32_at(b, OFF_VERSION);
-            if version != FORMAT_VERSION {
+            version = u32_at(b, OFF_VERSION);
+            if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
                 return Err(FormatError::UnsupportedVersion {
                     found: version,
                     supported: FORMAT_VERSION,
@@ -586,12 +616,11 @@ impl Header {
                 available: avail,
             });
         }
-        let flags = u32_at(b, OFF_FLAGS);
-        if flags != 0 {
-            return Err(FormatError::ReservedFlags { value: flags });
-        }
+        let storage = parse_storage_field(version, u32_at(b, OFF_FLAGS))?;
         let lim = &LIMITS;
         let h = Header {
+            version,
+            storage,
             file_length: u64_at(b, OFF_FILE_LENGTH),
             n: u32_at(b, OFF_LANDMARKS),
             t: u32_at(b, OFF_TRIANGLES),
@@ -715,14 +744,12 @@ impl Header {
         );
         let names = self.name_len as u64 + self.ref_name_len as u64;
         let shape = n2.checked_mul(m)?.checked_add(2 * n2)?.checked_add(m)?;
-        let appearance = px3.checked_mul(l)?.checked_add(px3)?.checked_add(l)?;
-        let words = shape
-            .checked_add(t.checked_mul(3)?)?
-            .checked_add(appearance)?;
+        let words = shape.checked_add(t.checked_mul(3)?)?;
         (HEADER_LEN as u64)
             .checked_add(names)?
             .checked_add(pad4(names))?
             .checked_add(words.checked_mul(4)?)?
+            .checked_add(appearance_bytes(self.storage, px3, l)?)?
             .checked_add(CHECKSUM_LEN as u64)
     }
 }
@@ -817,6 +844,11 @@ fn raster_work(vertices: &[f32], triangles: &[[u32; 3]], origin: [f32; 2], w: u3
 /// length its header implies; all allocations are then bounded by a small multiple of the file
 /// size (the frame grid by the area limit).
 pub fn read_model(bytes: &[u8]) -> Result<Model, FormatError> {
+    read_model_info(bytes).map(|(model, _)| model)
+}
+
+/// [`read_model`], also returning the file's version and appearance storage.
+pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
     let h = Header::parse(bytes)?;
     let implied = h.implied_length().ok_or(FormatError::LimitExceeded {
         what: "implied file length",
@@ -893,15 +925,13 @@ pub fn read_model(bytes: &[u8]) -> Result<Model, FormatError> {
         }
         triangles.push(idx);
     }
-    let app_base = c.f32s(px3, "appearance base")?;
-    let app_modes = c.f32s(px3 * l, "appearance modes")?;
-    let app_variances = c.f32s(l, "appearance variances")?;
+    let appearance = read_appearance(&mut c, h.storage, px3, l)?;
     debug_assert_eq!(c.pos, body);
 
     check_variances("shape variances", &shape_variances)?;
-    check_variances("appearance variances", &app_variances)?;
+    check_variances("appearance variances", &appearance.variances)?;
     check_orthonormal("shape modes", &shape_modes, n2, true)?;
-    check_orthonormal("appearance modes", &app_modes, px3, false)?;
+    check_orthonormal("appearance modes", &appearance.modes, px3, false)?;
 
     let work = raster_work(&vertices, &triangles, h.origin, h.width, h.height);
     let work_limit = LIMITS.coverage_per_cell * (h.width as u64 * h.height as u64)
@@ -928,7 +958,11 @@ pub fn read_model(bytes: &[u8]) -> Result<Model, FormatError> {
         });
     }
 
-    Ok(Model {
+    let info = FileInfo {
+        version: h.version,
+        storage: h.storage,
+    };
+    let model = Model {
         name,
         scheme: if h.scheme == SCHEME_IBUG68 {
             LandmarkScheme::Ibug68
@@ -940,11 +974,7 @@ pub fn read_model(bytes: &[u8]) -> Result<Model, FormatError> {
             modes: shape_modes,
             variances: shape_variances,
         },
-        appearance: AppearanceModel {
-            base: app_base,
-            modes: app_modes,
-            variances: app_variances,
-        },
+        appearance,
         frame,
         reference: if h.reference == REFERENCE_TRAINING {
             Reference::Training(ref_name)
@@ -953,5 +983,309 @@ pub fn read_model(bytes: &[u8]) -> Result<Model, FormatError> {
         },
         mean_pose: h.pose,
         image_size: h.image_size,
+    };
+    Ok((model, info))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Appearance storage (version 2). Version 1 stores the appearance base and modes as f32, which
+// is version 2's `Storage::F32` byte for byte.
+
+/// How a version-2 file stores the appearance base `A0` and modes (everything else is always
+/// stored exactly, as `f32` / `u32`). Specified in `docs/model-format.md`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Storage {
+    /// Exact: `f32` base and modes (tag 0; the only storage of version 1).
+    F32,
+    /// IEEE binary16 base and modes (tag 1): half the bytes, relative rounding `2^-11`.
+    F16,
+    /// Tag 2: the base as `u8` levels `q / 255`, each mode as `i8` values `q * scale_i` with one
+    /// `f32` scale per mode; about a quarter of the bytes.
+    I8,
+    /// The compact default (tag 3): as [`Storage::I8`] with the mode values packed in 6 bits
+    /// (about a fifth of the bytes).
+    #[default]
+    I6,
+}
+
+impl Storage {
+    /// Every storage, in tag order.
+    pub const ALL: [Storage; 4] = [Storage::F32, Storage::F16, Storage::I8, Storage::I6];
+
+    /// The tag stored at header offset 12 in version 2.
+    pub fn tag(self) -> u32 {
+        match self {
+            Storage::F32 => 0,
+            Storage::F16 => 1,
+            Storage::I8 => 2,
+            Storage::I6 => 3,
+        }
+    }
+
+    /// The storage of a tag.
+    pub fn from_tag(tag: u32) -> Option<Storage> {
+        Storage::ALL.into_iter().find(|s| s.tag() == tag)
+    }
+
+    /// Its name: `f32`, `f16`, `i8` or `i6` (as `facemimic build --precision` takes it).
+    pub fn name(self) -> &'static str {
+        match self {
+            Storage::F32 => "f32",
+            Storage::F16 => "f16",
+            Storage::I8 => "i8",
+            Storage::I6 => "i6",
+        }
+    }
+
+    /// Bits per stored mode value.
+    pub fn mode_bits(self) -> u32 {
+        match self {
+            Storage::F32 => 32,
+            Storage::F16 => 16,
+            Storage::I8 => 8,
+            Storage::I6 => 6,
+        }
+    }
+}
+
+impl std::fmt::Display for Storage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Storage {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Storage, String> {
+        Storage::ALL
+            .into_iter()
+            .find(|x| x.name() == s)
+            .ok_or_else(|| format!("unknown precision '{s}' (expected f32, f16, i8 or i6)"))
+    }
+}
+
+/// What a file was, besides the model it holds: see [`read_model_info`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FileInfo {
+    /// Its format version (1 or 2).
+    pub version: u32,
+    /// How it stores the appearance ([`Storage::F32`] for version 1).
+    pub storage: Storage,
+}
+
+/// The header field at offset 12: reserved flags (0) in version 1, the storage tag in version 2.
+fn parse_storage_field(version: u32, value: u32) -> Result<Storage, FormatError> {
+    if version == 1 {
+        return match value {
+            0 => Ok(Storage::F32),
+            _ => Err(FormatError::ReservedFlags { value }),
+        };
+    }
+    Storage::from_tag(value).ok_or(FormatError::BadStorageTag { tag: value })
+}
+
+/// Bytes of the appearance section (base, modes, variances and, for i8, the scales) for `3N =
+/// px3` values per vector and `l` modes; `None` on overflow.
+fn appearance_bytes(storage: Storage, px3: u64, l: u64) -> Option<u64> {
+    let values = px3.checked_mul(l)?.checked_add(px3)?;
+    match storage {
+        Storage::F32 => values.checked_add(l)?.checked_mul(4),
+        Storage::F16 => round4(values.checked_mul(2)?)?.checked_add(4 * l),
+        Storage::I8 | Storage::I6 => {
+            let bits = px3
+                .checked_mul(l)?
+                .checked_mul(storage.mode_bits() as u64)?;
+            round4(px3.checked_add(bits.checked_add(7)? / 8)?)?.checked_add(8 * l)
+        }
+    }
+}
+
+fn round4(x: u64) -> Option<u64> {
+    x.checked_add(3).map(|v| v & !3)
+}
+
+/// Decodes an IEEE binary16 value.
+fn f16_to_f32(bits: u16) -> f32 {
+    half::f16::from_bits(bits).to_f32()
+}
+
+/// The scale and `bits`-bit values of one mode: `q = round(v / s0)` with `s0 = max|v| / qmax`,
+/// `qmax = 2^(bits-1) - 1`, then the scale `1 / |q|` so that the decoded mode `q * scale` has
+/// unit norm like the `f32` one (a model read from such a file encodes back to the same bytes).
+fn quantise_mode(mode: &[f32], bits: u32, q: &mut Vec<i8>) -> f32 {
+    let qmax = ((1i32 << (bits - 1)) - 1) as f32;
+    let peak = mode.iter().fold(0f32, |a, &v| a.max(v.abs()));
+    let s0 = if peak > 0.0 && peak.is_finite() {
+        peak / qmax
+    } else {
+        1.0
+    };
+    let mut norm2 = 0f64;
+    for &v in mode {
+        let k = (v / s0).round().clamp(-qmax, qmax) as i8;
+        norm2 += (k as f64) * (k as f64);
+        q.push(k);
+    }
+    if norm2 > 0.0 {
+        (1.0 / norm2.sqrt()) as f32
+    } else {
+        s0
+    }
+}
+
+/// Writes the appearance section (layout in `docs/model-format.md`, "Appearance storage").
+fn write_appearance(out: &mut Vec<u8>, a: &AppearanceModel, storage: Storage) {
+    let f32le = |out: &mut Vec<u8>, v: f32| out.extend_from_slice(&v.to_le_bytes());
+    let start = out.len();
+    match storage {
+        Storage::F32 => {
+            for &v in a.base.iter().chain(&a.modes) {
+                f32le(out, v);
+            }
+        }
+        Storage::F16 => {
+            for &v in a.base.iter().chain(&a.modes) {
+                out.extend_from_slice(&half::f16::from_f32(v).to_bits().to_le_bytes());
+            }
+        }
+        Storage::I8 | Storage::I6 => {
+            let d = a.base.len();
+            let bits = storage.mode_bits();
+            let mut q = Vec::with_capacity(a.modes.len());
+            let scales: Vec<f32> = if d == 0 {
+                Vec::new()
+            } else {
+                a.modes
+                    .chunks_exact(d)
+                    .map(|m| quantise_mode(m, bits, &mut q))
+                    .collect()
+            };
+            scales.iter().for_each(|&s| f32le(out, s));
+            let base_start = out.len();
+            out.extend(
+                a.base
+                    .iter()
+                    .map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8),
+            );
+            pack_bits(&q, bits, out);
+            let pad = pad4((out.len() - base_start) as u64) as usize;
+            out.extend(std::iter::repeat_n(0u8, pad));
+        }
+    }
+    if storage == Storage::F16 {
+        let pad = pad4((out.len() - start) as u64) as usize;
+        out.extend(std::iter::repeat_n(0u8, pad));
+    }
+    a.variances.iter().for_each(|&v| f32le(out, v));
+}
+
+/// Reads and validates the appearance section, expanded to `f32`
+/// (non-finite values, scales that are not positive and non-zero padding are rejected).
+fn read_appearance(
+    c: &mut Cursor<'_>,
+    storage: Storage,
+    px3: usize,
+    l: usize,
+) -> Result<AppearanceModel, FormatError> {
+    let values = px3 * (l + 1);
+    let (base, modes) = match storage {
+        Storage::F32 => (
+            c.f32s(px3, "appearance base")?,
+            c.f32s(px3 * l, "appearance modes")?,
+        ),
+        Storage::F16 => {
+            let bytes = c.take(2 * values)?;
+            let mut base = Vec::with_capacity(px3);
+            let mut modes = Vec::with_capacity(px3 * l);
+            for (i, h) in bytes.chunks_exact(2).enumerate() {
+                let v = f16_to_f32(u16::from_le_bytes([h[0], h[1]]));
+                let (array, index, dst) = if i < px3 {
+                    ("appearance base", i, &mut base)
+                } else {
+                    ("appearance modes", i - px3, &mut modes)
+                };
+                if !v.is_finite() {
+                    return Err(FormatError::NonFinite {
+                        array,
+                        index: index as u64,
+                    });
+                }
+                dst.push(v);
+            }
+            check_padding(c, 2 * values)?;
+            (base, modes)
+        }
+        Storage::I8 | Storage::I6 => {
+            let bits = storage.mode_bits() as usize;
+            let scales = c.f32s(l, "appearance mode scales")?;
+            if let Some(i) = scales.iter().position(|&s| s <= 0.0) {
+                return Err(FormatError::InvalidScale {
+                    array: "appearance mode scales",
+                    index: i as u32,
+                    value: scales[i],
+                });
+            }
+            let base = c.take(px3)?.iter().map(|&q| q as f32 / 255.0).collect();
+            let packed = c.take((px3 * l * bits).div_ceil(8))?;
+            let mut modes = Vec::with_capacity(px3 * l);
+            let mut values = unpack_bits(packed, bits as u32);
+            for &s in &scales {
+                modes.extend(values.by_ref().take(px3).map(|k| k as f32 * s));
+            }
+            check_padding(c, px3 + packed.len())?;
+            (base, modes)
+        }
+    };
+    let variances = c.f32s(l, "appearance variances")?;
+    Ok(AppearanceModel {
+        base,
+        modes,
+        variances,
+    })
+}
+
+/// Consumes the zero padding after `len` bytes of 1- or 2-byte values.
+fn check_padding(c: &mut Cursor<'_>, len: usize) -> Result<(), FormatError> {
+    let pad = pad4(len as u64) as usize;
+    if c.take(pad)?.iter().any(|&b| b != 0) {
+        return Err(FormatError::NonZeroPadding);
+    }
+    Ok(())
+}
+
+/// Appends `q` as `bits`-bit two's-complement values, packed least significant bit first (value
+/// `k` occupies stream bits `[k*bits, (k+1)*bits)`, stream bit `j` being bit `j mod 8` of byte
+/// `j / 8`); the last byte's unused high bits are 0. With 8 bits this is plain `i8` bytes.
+fn pack_bits(q: &[i8], bits: u32, out: &mut Vec<u8>) {
+    let mask = (1u32 << bits) - 1;
+    let (mut acc, mut n) = (0u32, 0u32);
+    for &k in q {
+        acc |= (k as i32 as u32 & mask) << n;
+        n += bits;
+        while n >= 8 {
+            out.push(acc as u8);
+            acc >>= 8;
+            n -= 8;
+        }
+    }
+    if n > 0 {
+        out.push(acc as u8);
+    }
+}
+
+/// The `bits`-bit two's-complement values packed by [`pack_bits`] (sign-extended).
+fn unpack_bits(bytes: &[u8], bits: u32) -> impl Iterator<Item = i32> + '_ {
+    let shift = 32 - bits;
+    let (mut acc, mut n) = (0u32, 0u32);
+    let mut it = bytes.iter();
+    std::iter::from_fn(move || {
+        while n < bits {
+            acc |= (*it.next()? as u32) << n;
+            n += 8;
+        }
+        let v = ((acc << shift) as i32) >> shift;
+        acc >>= bits;
+        n -= bits;
+        Some(v)
     })
 }

@@ -138,13 +138,27 @@ pub fn write_pixmap(path: &Path, pixmap: &tiny_skia::Pixmap) -> Result<()> {
 
 /// Reads and validates a `.fmm` model file.
 pub fn read_model_file(path: &Path) -> Result<crate::Model> {
-    let bytes = std::fs::read(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
-    crate::format::read_model(&bytes)
-        .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))
+    read_model_file_info(path).map(|(model, _)| model)
 }
 
-/// Writes a model as a `.fmm` file.
+/// Writes a model as a `.fmm` file (the default, compact storage).
 pub fn write_model_file(path: &Path, model: &crate::Model) -> Result<()> {
-    std::fs::write(path, crate::format::write_model(model))
+    write_model_file_as(path, model, crate::format::Storage::default())
+}
+
+/// Writes a model as a `.fmm` file with the given appearance storage.
+pub fn write_model_file_as(
+    path: &Path,
+    model: &crate::Model,
+    storage: crate::format::Storage,
+) -> Result<()> {
+    std::fs::write(path, crate::format::write_model_as(model, storage))
         .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
+}
+
+/// Reads and validates a `.fmm` model file, also returning its version and storage.
+pub fn read_model_file_info(path: &Path) -> Result<(crate::Model, crate::format::FileInfo)> {
+    let bytes = std::fs::read(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    crate::format::read_model_info(&bytes)
+        .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))
 }

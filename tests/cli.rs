@@ -491,3 +491,50 @@ fn bad_input_fails_cleanly() {
     ]);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `inspect` names the file's format version and storage precision; `build --precision` picks
+/// the storage (default: the compact `i6`); a version-1 file still inspects.
+#[test]
+fn build_precision_and_inspect_version() {
+    let model = spk07_model();
+    let info = json(&ok(&[&"inspect", &model]));
+    assert_eq!(info["format_version"], 2, "{info}");
+    assert_eq!(info["precision"], "i6", "{info}");
+    let compact = std::fs::metadata(model).unwrap().len();
+    let dir = scratch("precision");
+    let exact = dir.join("spk07-f32.fmm");
+    ok(&[
+        &"build",
+        &"--precision",
+        &"f32",
+        &"--out",
+        &exact,
+        &"--list",
+        &grid("spk07_pwij3p/train20.txt"),
+    ]);
+    let info = json(&ok(&[&"inspect", &exact]));
+    assert_eq!(info["precision"], "f32", "{info}");
+    let exact_len = std::fs::metadata(&exact).unwrap().len();
+    assert!(
+        compact * 4 < exact_len,
+        "i6 {compact} bytes vs f32 {exact_len} bytes"
+    );
+    let out = run(&[
+        "build".as_ref(),
+        "--precision".as_ref(),
+        "f64".as_ref(),
+        "--out".as_ref(),
+        dir.join("x.fmm").as_os_str(),
+    ]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "--precision f64 accepted");
+    assert!(
+        e.contains("unknown precision 'f64' (expected f32, f16, i8 or i6)"),
+        "{e}"
+    );
+    let v1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny-v1.fmm");
+    let info = json(&ok(&[&"inspect", &v1]));
+    assert_eq!(info["format_version"], 1, "{info}");
+    assert_eq!(info["precision"], "f32", "{info}");
+    assert_eq!(info["name"], "tiny-v1", "{info}");
+}

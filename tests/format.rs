@@ -9,7 +9,8 @@
 use std::sync::OnceLock;
 
 use facemimic::format::{
-    crc32, offsets, read_model, write_model, FormatError, FORMAT_VERSION, HEADER_LEN, LIMITS, MAGIC,
+    crc32, offsets, read_model, read_model_info, write_model, write_model_as, FileInfo,
+    FormatError, Storage, FORMAT_VERSION, HEADER_LEN, LIMITS, MAGIC, OLDEST_VERSION,
 };
 use facemimic::{
     BuildOptions, Builder, FrameChoice, Image, Model, Reference, ReferenceChoice, TrainingImage,
@@ -213,7 +214,7 @@ fn layout(m: &Model) -> Layout {
 fn round_trip_is_exact() {
     let ms = models();
     for m in [&ms.a, &ms.b, &ms.c] {
-        let bytes = write_model(m);
+        let bytes = write_model_as(m, Storage::F32);
         assert_eq!(&bytes[..8], &MAGIC);
         assert_eq!(get_u32(&bytes, offsets::VERSION), FORMAT_VERSION);
         assert_eq!(bytes.len(), layout(m).crc + 4, "layout of '{}'", m.name);
@@ -224,7 +225,7 @@ fn round_trip_is_exact() {
         assert_eq!(back.frame.padding(), m.frame.padding());
         assert_eq!(back.frame.fingerprint(), m.frame.fingerprint());
         // Writing is deterministic: a second round gives the same bytes.
-        assert_eq!(write_model(&back), bytes);
+        assert_eq!(write_model_as(&back, Storage::F32), bytes);
     }
     // The three models exercise the scheme tags, both reference kinds and zero modes.
     assert_eq!(ms.a.scheme, facemimic::LandmarkScheme::Ibug68);
@@ -233,6 +234,313 @@ fn round_trip_is_exact() {
     assert_eq!(ms.b.frame, ms.a.frame);
     assert!(ms.a.shape.n_modes() > 1 && ms.a.appearance.n_modes() > 1);
     assert_eq!((ms.c.shape.n_modes(), ms.c.appearance.n_modes()), (0, 0));
+}
+
+/// Bytes of the appearance section of a version-2 file (the spec's formula, re-derived here).
+fn appearance_section_len(m: &Model, s: Storage) -> usize {
+    let (px3, l) = (m.appearance.base.len(), m.appearance.n_modes());
+    let round4 = |x: usize| x.div_ceil(4) * 4;
+    match s {
+        Storage::F32 => 4 * (px3 + px3 * l + l),
+        Storage::F16 => round4(2 * (px3 + px3 * l)) + 4 * l,
+        Storage::I8 => 4 * l + round4(px3 + px3 * l) + 4 * l,
+        Storage::I6 => 4 * l + round4(px3 + (6 * px3 * l).div_ceil(8)) + 4 * l,
+    }
+}
+
+/// Every storage reads back within its rounding, everything but the appearance base and modes
+/// exactly; a model read from a file writes back the same bytes in the same storage; the sizes
+/// follow the specification's formula.
+#[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
+fn every_storage_round_trips_within_its_rounding() {
+    let ms = models();
+    for m in [&ms.a, &ms.b, &ms.c] {
+        let mut sizes = Vec::new();
+        for s in Storage::ALL {
+            let bytes = write_model_as(m, s);
+            let what = format!("'{}' as {s}", m.name);
+            assert_eq!(get_u32(&bytes, offsets::VERSION), FORMAT_VERSION, "{what}");
+            assert_eq!(get_u32(&bytes, offsets::STORAGE), s.tag(), "{what}");
+            assert_eq!(
+                bytes.len(),
+                layout(m).app_base + appearance_section_len(m, s) + 4,
+                "{what}: length"
+            );
+            let (back, info) = read_model_info(&bytes).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_eq!(
+                info,
+                FileInfo {
+                    version: FORMAT_VERSION,
+                    storage: s
+                }
+            );
+            // Everything but the appearance base and modes is exact.
+            let mut same = back.clone();
+            same.appearance.base = m.appearance.base.clone();
+            same.appearance.modes = m.appearance.modes.clone();
+            assert_eq!(&same, m, "{what}");
+            // The base within its rounding.
+            let base_tol = |v: f32| match s {
+                Storage::F32 => 0.0,
+                Storage::F16 => v.abs() / 2048.0,
+                Storage::I8 | Storage::I6 => 0.5 / 255.0 + 1e-6,
+            };
+            for (a, b) in back.appearance.base.iter().zip(&m.appearance.base) {
+                assert!((a - b).abs() <= base_tol(*b), "{what}: base {a} vs {b}");
+            }
+            // Each mode within one quantisation step, and still of unit norm.
+            let d = m.appearance.len();
+            for (i, (q, v)) in back
+                .appearance
+                .modes
+                .chunks_exact(d)
+                .zip(m.appearance.modes.chunks_exact(d))
+                .enumerate()
+            {
+                let peak = v.iter().fold(0f32, |a, x| a.max(x.abs()));
+                let step = match s {
+                    Storage::F32 => 0.0,
+                    Storage::F16 => peak / 2048.0,
+                    Storage::I8 => 1.01 * peak / 127.0,
+                    Storage::I6 => 1.01 * peak / 31.0,
+                };
+                let worst = q.iter().zip(v).fold(0f32, |a, (x, y)| a.max((x - y).abs()));
+                assert!(
+                    worst <= step,
+                    "{what}: mode {i} off by {worst}, step {step}"
+                );
+                let norm: f64 = q.iter().map(|&x| x as f64 * x as f64).sum();
+                assert!((norm - 1.0).abs() < 1e-4, "{what}: mode {i} norm^2 {norm}");
+            }
+            // Converting again changes nothing: the same bytes.
+            assert_eq!(write_model_as(&back, s), bytes, "{what}: second round");
+            sizes.push(bytes.len());
+        }
+        if m.appearance.n_modes() > 0 {
+            assert!(
+                sizes.windows(2).all(|w| w[1] < w[0]),
+                "'{}': sizes {sizes:?} not decreasing f32 > f16 > i8 > i6",
+                m.name
+            );
+        }
+    }
+    // The default is the compact storage.
+    assert_eq!(Storage::default(), Storage::I6);
+    assert_eq!(write_model(&ms.a), write_model_as(&ms.a, Storage::I6));
+    for s in Storage::ALL {
+        assert_eq!(s.name().parse::<Storage>(), Ok(s));
+        assert_eq!(Storage::from_tag(s.tag()), Some(s));
+    }
+    assert!("f64".parse::<Storage>().is_err());
+}
+
+/// A version-1 file kept in the repository (`tests/data/tiny-v1.fmm`, written by the version-1
+/// writer before version 2 existed: 6 frames of GRID spk07, a 28-pixel face, 3 shape and 4
+/// appearance modes) still loads, equal to what it was: version 2 with exact storage is version
+/// 1's layout, so saving it again changes only the version field and the checksum.
+#[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
+fn a_version_1_file_still_loads_as_it_was() {
+    let v1: &[u8] = include_bytes!("data/tiny-v1.fmm");
+    assert_eq!(v1.len(), 46768);
+    assert_eq!(get_u32(v1, offsets::VERSION), OLDEST_VERSION);
+    // The fixture is the one written by the version-1 writer (its stored CRC-32).
+    assert_eq!(get_u32(v1, v1.len() - 4), 0x5995_483b);
+    let (m, info) = read_model_info(v1).expect("the version-1 file loads");
+    assert_eq!(
+        info,
+        FileInfo {
+            version: 1,
+            storage: Storage::F32
+        }
+    );
+    assert_eq!(m.name, "tiny-v1");
+    assert_eq!(m.scheme, facemimic::LandmarkScheme::Ibug68);
+    assert_eq!((m.shape.n_modes(), m.appearance.n_modes()), (3, 4));
+    assert_eq!(
+        (m.frame.width(), m.frame.height(), m.frame.n_pixels()),
+        (36, 39, 709)
+    );
+    assert_eq!(m.frame.fingerprint(), 0xcade_b8ab_086e_0def);
+    assert_eq!(m.image_size, [360, 288]);
+    // Convert on save: every byte but the version and the checksum as it was.
+    let v2 = write_model_as(&m, Storage::F32);
+    assert_eq!(v2.len(), v1.len());
+    assert_eq!(get_u32(&v2, offsets::VERSION), FORMAT_VERSION);
+    assert_eq!(&v2[..8], &v1[..8]);
+    assert_eq!(&v2[12..v1.len() - 4], &v1[12..v1.len() - 4]);
+    assert_eq!(read_model(&v2).unwrap(), m);
+    // And into the compact default, within its rounding.
+    let compact = read_model(&write_model(&m)).unwrap();
+    assert_eq!(compact.shape, m.shape);
+    assert_eq!(compact.frame, m.frame);
+    let worst = compact
+        .appearance
+        .base
+        .iter()
+        .zip(&m.appearance.base)
+        .fold(0f32, |a, (x, y)| a.max((x - y).abs()));
+    assert!(worst <= 0.5 / 255.0 + 1e-6, "base off by {worst}");
+}
+
+/// Version-2 specific bad files: the storage's scales, values, padding and lengths.
+fn compact_bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
+    use Expect::{Exact, Like};
+    use FormatError as E;
+    let a = &models().a;
+    let lay = layout(a);
+    let (px3, l) = (a.appearance.base.len(), a.appearance.n_modes());
+    let mut cases: Vec<(String, Vec<u8>, Expect)> = Vec::new();
+    let mut add = |name: String, bytes: Vec<u8>, e: Expect| cases.push((name, bytes, e));
+    for s in [Storage::I8, Storage::I6] {
+        let v = write_model_as(a, s);
+        let fixed = |f: &dyn Fn(&mut Vec<u8>)| {
+            let mut x = v.clone();
+            f(&mut x);
+            fix_crc(&mut x);
+            x
+        };
+        let scales = lay.app_base;
+        let array = "appearance mode scales";
+        add(
+            format!("{s}: NaN scale"),
+            fixed(&|x| set_f32(x, scales + 4, f32::NAN)),
+            Exact(E::NonFinite { array, index: 1 }),
+        );
+        add(
+            format!("{s}: infinite scale"),
+            fixed(&|x| set_f32(x, scales, f32::INFINITY)),
+            Exact(E::NonFinite { array, index: 0 }),
+        );
+        add(
+            format!("{s}: zero scale"),
+            fixed(&|x| set_f32(x, scales + 8, 0.0)),
+            Exact(E::InvalidScale {
+                array,
+                index: 2,
+                value: 0.0,
+            }),
+        );
+        add(
+            format!("{s}: negative scale"),
+            fixed(&|x| {
+                let v = get_f32(x, scales);
+                set_f32(x, scales, -v)
+            }),
+            Like("InvalidScale", |e| {
+                matches!(e, E::InvalidScale { index: 0, .. })
+            }),
+        );
+        add(
+            format!("{s}: scale doubled"),
+            fixed(&|x| {
+                let v = get_f32(x, scales + 4);
+                set_f32(x, scales + 4, 2.0 * v)
+            }),
+            Like("NotOrthonormal of mode 1", |e| {
+                matches!(e, E::NotOrthonormal { i: 1, j: 1, .. })
+            }),
+        );
+        let mode_bytes = (px3 * l * s.mode_bits() as usize).div_ceil(8);
+        let packed_end = scales + 4 * l + px3 + mode_bytes;
+        let variances = v.len() - 4 - 4 * l;
+        assert!(packed_end <= variances);
+        if packed_end < variances {
+            add(
+                format!("{s}: non-zero padding after the modes"),
+                fixed(&|x| x[variances - 1] = 1),
+                Exact(E::NonZeroPadding),
+            );
+        }
+        add(
+            format!("{s}: negative appearance variance"),
+            fixed(&|x| set_f32(x, variances, -1.0)),
+            Like("NegativeVariance", |e| {
+                matches!(e, E::NegativeVariance { .. })
+            }),
+        );
+        let mut x = v.clone();
+        x[scales + 4 * l + px3 + 3] ^= 0x10;
+        add(
+            format!("{s}: a mode byte flipped"),
+            x,
+            Like("ChecksumMismatch", |e| {
+                matches!(e, E::ChecksumMismatch { .. })
+            }),
+        );
+        add(
+            format!("{s}: truncated by one byte"),
+            v[..v.len() - 1].to_vec(),
+            Exact(E::Truncated {
+                needed: v.len() as u64,
+                available: v.len() as u64 - 1,
+            }),
+        );
+        let other = if s == Storage::I8 {
+            Storage::I6
+        } else {
+            Storage::I8
+        };
+        add(
+            format!("{s}: labelled {other}"),
+            patched(&v, offsets::STORAGE, other.tag()),
+            Like("LengthMismatch", |e| matches!(e, E::LengthMismatch { .. })),
+        );
+        add(
+            format!("{s}: labelled version 1"),
+            patched(&v, offsets::VERSION, 1),
+            Exact(E::ReservedFlags { value: s.tag() }),
+        );
+    }
+    let v = write_model_as(a, Storage::F16);
+    let fixed = |f: &dyn Fn(&mut Vec<u8>)| {
+        let mut x = v.clone();
+        f(&mut x);
+        fix_crc(&mut x);
+        x
+    };
+    let base = lay.app_base;
+    add(
+        "f16: NaN in the base".into(),
+        fixed(&|x| x[base..base + 2].copy_from_slice(&0x7E00u16.to_le_bytes())),
+        Exact(E::NonFinite {
+            array: "appearance base",
+            index: 0,
+        }),
+    );
+    let modes = base + 2 * px3;
+    add(
+        "f16: infinity in the modes".into(),
+        fixed(&|x| x[modes + 6..modes + 8].copy_from_slice(&0xFC00u16.to_le_bytes())),
+        Exact(E::NonFinite {
+            array: "appearance modes",
+            index: 3,
+        }),
+    );
+    if (2 * px3 * (l + 1)) % 4 != 0 {
+        let at = modes + 2 * px3 * l;
+        add(
+            "f16: non-zero padding".into(),
+            fixed(&|x| x[at] = 7),
+            Exact(E::NonZeroPadding),
+        );
+    }
+    add(
+        "f16: mode 0 scaled by 2".into(),
+        fixed(&|x| {
+            for k in 0..px3 {
+                let o = modes + 2 * k;
+                let h = u16::from_le_bytes([x[o], x[o + 1]]);
+                // +1 to the exponent doubles a normal binary16 value.
+                if h & 0x7C00 != 0 && h & 0x7C00 != 0x7800 {
+                    x[o..o + 2].copy_from_slice(&(h + 0x0400).to_le_bytes());
+                }
+            }
+        }),
+        Like("NotOrthonormal of mode 0", |e| {
+            matches!(e, E::NotOrthonormal { i: 0, j: 0, .. })
+        }),
+    );
+    cases
 }
 
 #[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
@@ -254,7 +562,7 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
     use FormatError as E;
     let ms = models();
     let (a, b) = (&ms.a, &ms.b);
-    let v = write_model(a);
+    let v = write_model_as(a, Storage::F32);
     let len = v.len() as u64;
     let lay = layout(a);
     let (n, t) = (a.landmarks() as u32, a.frame.triangles().len() as u32);
@@ -420,9 +728,26 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
 
     // Header fields.
     add(
-        "reserved flags set",
-        patched(&v, offsets::FLAGS, 1),
+        "unknown storage tag",
+        patched(&v, offsets::STORAGE, 4),
+        Exact(E::BadStorageTag { tag: 4 }),
+    );
+    add(
+        "storage tag u32::MAX",
+        patched(&v, offsets::STORAGE, u32::MAX),
+        Exact(E::BadStorageTag { tag: u32::MAX }),
+    );
+    add(
+        "version 1 with reserved flags set",
+        patched(&patched(&v, offsets::VERSION, 1), offsets::FLAGS, 1),
         Exact(E::ReservedFlags { value: 1 }),
+    );
+    add(
+        "f32 data labelled i6",
+        patched(&v, offsets::STORAGE, Storage::I6.tag()),
+        Like("LengthMismatch", |e| {
+            matches!(e, FormatError::LengthMismatch { .. })
+        }),
     );
     let mut x = v.clone();
     set_u64(&mut x, offsets::FILE_LENGTH, len + 4);
@@ -688,7 +1013,7 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
         patched(&v, offsets::NAME_LEN, u32::MAX),
         lim("model name length", u32::MAX, 256),
     );
-    let wb = write_model(b);
+    let wb = write_model_as(b, Storage::F32);
     add(
         "reference name length limit+1",
         patched(&wb, offsets::REFERENCE_NAME_LEN, 257),
@@ -994,7 +1319,8 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
 
 #[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
 fn corrupt_truncated_and_hostile_files_are_rejected_with_the_expected_error() {
-    let cases = bad_cases();
+    let mut cases = bad_cases();
+    cases.extend(compact_bad_cases());
     assert!(cases.len() >= 25, "only {} cases", cases.len());
     eprintln!("{} corrupt, truncated and hostile files", cases.len());
     let mut failures = Vec::new();
@@ -1041,7 +1367,7 @@ fn random_bytes_and_mutations_never_panic() {
     let ms = models();
     let valid: Vec<Vec<u8>> = [&ms.a, &ms.b, &ms.c]
         .iter()
-        .map(|m| write_model(m))
+        .flat_map(|m| Storage::ALL.map(|s| write_model_as(m, s)))
         .collect();
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
     let (mut ok, mut err) = (0usize, 0usize);
@@ -1141,7 +1467,7 @@ fn random_bytes_and_mutations_never_panic() {
 
 #[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]
 fn hostile_header_is_rejected_before_any_allocation_of_its_arrays() {
-    let v = write_model(&models().a);
+    let v = write_model_as(&models().a, Storage::F32);
     let mut x = v[..HEADER_LEN].to_vec();
     x.resize(200, 0);
     set_u32(&mut x, offsets::FRAME_WIDTH, 2048);
@@ -1204,13 +1530,16 @@ fn v_triangles(v: &[u8]) -> u64 {
 #[cfg(not(target_arch = "wasm32"))]
 #[test]
 fn allocations_are_bounded_by_the_file_size() {
-    for m in [&models().a, &models().b, &models().c] {
-        let v = write_model(m);
+    for (m, s) in [&models().a, &models().b, &models().c]
+        .into_iter()
+        .flat_map(|m| Storage::ALL.map(|s| (m, s)))
+    {
+        let v = write_model_as(m, s);
         let (r, peak) = counting::peak_during(|| read_model(&v));
         assert!(r.is_ok());
         let ratio = peak as f64 / v.len() as f64;
         eprintln!(
-            "'{}': {} bytes, peak allocation while reading {peak} bytes ({ratio:.2}x)",
+            "'{}' ({s}): {} bytes, peak allocation while reading {peak} bytes ({ratio:.2}x)",
             m.name,
             v.len()
         );

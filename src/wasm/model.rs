@@ -194,7 +194,7 @@ impl JsModel {
         Ok(JsModel::from(model))
     }
 
-    /// Serialises the model as a `.fmm` file.
+    /// Serialises the model as a `.fmm` file (the newest version, compact `i6` storage).
     #[wasm_bindgen(js_name = toBytes)]
     pub fn to_bytes(&self) -> Vec<u8> {
         crate::format::write_model(&self.model)

@@ -29,6 +29,10 @@ pub struct Args {
     /// --frame model's reference) or the name (file stem) of a training image.
     #[arg(long, default_value = "mean", value_name = "REF")]
     reference: String,
+    /// How the file stores the appearance: `i6` (compact, about a fifth of `f32`), `i8`, `f16`
+    /// or `f32` (exact).
+    #[arg(long, default_value = "i6", value_name = "P")]
+    precision: facemimic::format::Storage,
     /// Model name stored in the file (default: the output's file stem).
     #[arg(long)]
     name: Option<String>,
@@ -80,7 +84,7 @@ pub fn run(a: Args) -> Result<()> {
         ..BuildOptions::default()
     });
     let model = builder.build(&images, frame_model.as_ref())?;
-    io::write_model_file(&a.out, &model)?;
+    io::write_model_file_as(&a.out, &model, a.precision)?;
     eprintln!(
         "facemimic: built '{}' from {} images: {} shape modes, {} appearance modes, {} frame pixels -> {}",
         model.name,

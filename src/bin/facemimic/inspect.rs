@@ -12,10 +12,12 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let m = io::read_model_file(&a.model)?;
+    let (m, info) = io::read_model_file_info(&a.model)?;
     let total = |v: &[f32]| v.iter().sum::<f32>();
     let json = serde_json::json!({
         "name": m.name,
+        "format_version": info.version,
+        "precision": info.storage.name(),
         "landmarks": m.landmarks(),
         "scheme": format!("{:?}", m.scheme),
         "triangles": m.frame.triangles().len(),
