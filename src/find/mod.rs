@@ -62,6 +62,22 @@ impl BBox {
         }
     }
 
+    /// The box the detector would give for a face with these 68 landmarks: centred on the
+    /// points' box (0.025 of its height higher), 1.27 times its width and 1.14 times its height
+    /// (the mean relation between the detector's boxes and the dlib landmarks' boxes, measured on
+    /// GRID, franck-dev and webcam-dev frames; see `docs/finding.md`).
+    pub fn around_landmarks(points: &[f32]) -> BBox {
+        let b = BBox::of_points(points);
+        let (cx, cy) = (b.x + 0.5 * b.width, b.y + (0.5 - 0.025) * b.height);
+        let (w, h) = (1.27 * b.width, 1.14 * b.height);
+        BBox {
+            x: cx - 0.5 * w,
+            y: cy - 0.5 * h,
+            width: w,
+            height: h,
+        }
+    }
+
     fn is_valid(&self) -> bool {
         self.x.is_finite()
             && self.y.is_finite()
@@ -95,15 +111,22 @@ pub struct FindOptions {
     pub iou_threshold: f32,
     /// At most this many faces are returned.
     pub max_faces: usize,
+    /// At most this many detector boxes (most confident first) are checked by the landmark net.
+    pub max_candidates: usize,
+    /// A box is a face only if its last two landmark passes differ by at most this (mean point
+    /// distance over the distance between the outer eye corners, points 36 and 45).
+    pub max_disagreement: f32,
 }
 
 impl Default for FindOptions {
     fn default() -> Self {
         FindOptions {
             input_size: 416,
-            score_threshold: 0.5,
+            score_threshold: 0.05,
             iou_threshold: 0.4,
             max_faces: 16,
+            max_candidates: 10,
+            max_disagreement: 0.05,
         }
     }
 }
@@ -159,24 +182,60 @@ impl FaceFinder {
     }
 
     /// Every face in `image`, most confident first.
+    ///
+    /// The detector proposes boxes down to [`FindOptions::score_threshold`]; on each, the
+    /// landmark net runs three times, each pass on the box of the previous pass's points
+    /// ([`BBox::around_landmarks`]), and a box is kept as a face only if its last two passes
+    /// agree ([`FindOptions::max_disagreement`]): a face's points settle, a non-face's wander.
+    /// The score is the detector's, lowered by the disagreement.
     pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
         self.detect(image);
         let candidates = std::mem::take(&mut self.candidates);
-        let mut faces = Vec::with_capacity(candidates.len());
-        for &(bbox, score) in &candidates {
-            if faces.len() >= self.options.max_faces {
-                break;
+        let mut faces: Vec<Face> = Vec::with_capacity(candidates.len());
+        for &(bbox, score) in candidates.iter().take(self.options.max_candidates) {
+            let Some((face, disagreement)) = self.refine(image, bbox, score) else {
+                continue;
+            };
+            if disagreement > self.options.max_disagreement {
+                continue;
             }
-            if let Ok(landmarks) = self.landmarks(image, bbox) {
-                faces.push(Face {
-                    bbox,
-                    score,
-                    landmarks,
-                });
+            if faces
+                .iter()
+                .any(|f| f.bbox.iou(&face.bbox) > self.options.iou_threshold)
+            {
+                continue;
             }
+            faces.push(face);
         }
+        faces.sort_by(|a, b| b.score.total_cmp(&a.score));
+        faces.truncate(self.options.max_faces);
         self.candidates = candidates;
         faces
+    }
+
+    /// Three landmark passes from a detector box; the face and the disagreement of the last two
+    /// passes (mean point distance over the outer-eye-corner distance).
+    fn refine(&mut self, image: &ImageRef, bbox: BBox, score: f32) -> Option<(Face, f32)> {
+        let mut prev = self.landmarks(image, bbox).ok()?;
+        let mut cur = vec![0.0; 136];
+        for _ in 0..2 {
+            let b = BBox::around_landmarks(&prev);
+            self.landmarks_into(image, b, &mut cur).ok()?;
+            std::mem::swap(&mut prev, &mut cur);
+        }
+        let d = disagreement(&prev, &cur);
+        if !d.is_finite() {
+            return None;
+        }
+        let face = Face {
+            bbox: BBox::around_landmarks(&prev),
+            score: score
+                * (1.0 - d / self.options.max_disagreement)
+                    .clamp(0.0, 1.0)
+                    .sqrt(),
+            landmarks: prev,
+        };
+        Some((face, d))
     }
 
     /// The detector's boxes and scores (after non-maximum suppression), most confident first,
@@ -314,6 +373,17 @@ fn prepare(
             }
         }
     }
+}
+
+/// Mean distance between two 68-point shapes over `b`'s outer-eye-corner distance (36-45).
+fn disagreement(a: &[f32], b: &[f32]) -> f32 {
+    let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
+    let s: f32 = a
+        .chunks_exact(2)
+        .zip(b.chunks_exact(2))
+        .map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt())
+        .sum();
+    s / 68.0 / iod
 }
 
 fn sigmoid(x: f32) -> f32 {
