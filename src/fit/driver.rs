@@ -120,6 +120,7 @@ impl Fitter {
                 iterations: 0,
                 converged: false,
                 lost: false,
+                reacquired: false,
             },
             options,
         })
@@ -323,6 +324,7 @@ impl Fitter {
         r.iterations = iterations;
         r.converged = converged && err.is_finite();
         r.lost = false;
+        r.reacquired = false;
         Ok(&self.result)
     }
 }

@@ -30,7 +30,7 @@ use crate::model::Params;
 
 pub use driver::Fitter;
 pub use options::{FitOptions, LevelSpec};
-pub use tracker::{Tracker, MIN_CONTRAST};
+pub use tracker::{FaceSource, Tracker, MIN_CONTRAST};
 
 /// The result of one fit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -50,4 +50,8 @@ pub struct FitResult {
     /// Set by the [`Tracker`]: the fit was judged a lost face and the result is the last good
     /// one (the tracker re-initialised from it).
     pub lost: bool,
+    /// Set by the [`Tracker`]: this frame's face was (re-)acquired from its [`FaceSource`]
+    /// (the first face of [`Tracker::start_auto`], or a face found again after a loss).
+    #[serde(default)]
+    pub reacquired: bool,
 }

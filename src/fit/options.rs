@@ -51,6 +51,23 @@ pub struct FitOptions {
     /// Offset of the extra coarse starts: a fraction of the face width (and radians).
     #[serde(default = "default_start_offset")]
     pub start_offset: f32,
+    /// Tracker: a tracked fit whose error exceeds this multiple of the typical error of the
+    /// recent good fits (a slow running mean) is a lost face: an occluder or a cut raises the
+    /// error suddenly, long before the fit drifts off. 0 disables the check.
+    #[serde(default = "default_max_error_ratio")]
+    pub max_error_ratio: f32,
+    /// Tracker: a fit with fewer than this fraction of its landmarks inside the image is a
+    /// lost face (a face leaving the picture cannot be checked against the image).
+    #[serde(default = "default_min_inside")]
+    pub min_inside: f32,
+}
+
+fn default_max_error_ratio() -> f32 {
+    3.0
+}
+
+fn default_min_inside() -> f32 {
+    0.75
 }
 
 fn default_coarse_starts() -> u32 {
@@ -95,6 +112,8 @@ impl Default for FitOptions {
             coarse_starts: 3,
             tracking_starts: 1,
             start_offset: 0.06,
+            max_error_ratio: default_max_error_ratio(),
+            min_inside: default_min_inside(),
         }
     }
 }
@@ -130,6 +149,9 @@ impl FitOptions {
                 self.start_offset
             ));
         }
+        if !(0.0..=1.0).contains(&self.min_inside) {
+            return bad(format!("min_inside = {} must be in 0..=1", self.min_inside));
+        }
         if self.max_iters > 1000 || self.refine_iters > 1000 {
             return bad("more than 1000 iterations".into());
         }
@@ -139,6 +161,7 @@ impl FitOptions {
             ("max_error", self.max_error),
             ("max_sigmas", self.max_sigmas),
             ("max_scale_jump", self.max_scale_jump),
+            ("max_error_ratio", self.max_error_ratio),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(format!("{what} = {v} must be finite and non-negative"));
