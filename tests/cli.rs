@@ -538,3 +538,47 @@ fn build_precision_and_inspect_version() {
     assert_eq!(info["precision"], "f32", "{info}");
     assert_eq!(info["name"], "tiny-v1", "{info}");
 }
+
+/// `fit --init auto`: the face finder starts the track (GRID spk07, model built from the
+/// `spk07_pwij3p` clip, tracked on the unseen `spk07_id2_vcd_swwp2s` clip); the CSV has a
+/// `lost` column and the summary counts re-acquisitions.
+#[test]
+fn fit_starts_from_the_face_finder() {
+    let dir = scratch("fit-auto");
+    let model = dir.join("spk07.fmm");
+    ok(&[
+        &"build",
+        &"--list",
+        &grid("spk07_pwij3p/train20.txt"),
+        &"--out",
+        &model,
+    ]);
+    let frames: Vec<PathBuf> = (0..10)
+        .map(|i| grid(&format!("spk07_id2_vcd_swwp2s/{i:06}.jpg")))
+        .collect();
+    let csv = dir.join("track.csv");
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
+        &"fit", &"--model", &model, &"--init", &"auto", &"--out", &csv,
+    ];
+    for f in &frames {
+        args.push(f);
+    }
+    let out = ok(&args);
+    assert!(out.contains("0 lost, 1 re-acquisitions"), "{out}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert!(lines.next().unwrap().starts_with("frame,lost,converged,"));
+    for (l, f) in lines.zip(&frames) {
+        let truth = facemimic::io::read_landmarks(&f.with_extension("pts"), 360, 288).unwrap();
+        let v: Vec<&str> = l.split(',').collect();
+        assert_eq!(v[1], "false", "{l}");
+        let lm: Vec<f32> = v[5..5 + 136].iter().map(|s| s.parse().unwrap()).collect();
+        let iod = (truth[90] - truth[72]).hypot(truth[91] - truth[73]);
+        let err = (0..68)
+            .map(|i| (lm[2 * i] - truth[2 * i]).hypot(lm[2 * i + 1] - truth[2 * i + 1]))
+            .sum::<f32>()
+            / 68.0
+            / iod;
+        assert!(err < 0.08, "{}: error {err}", v[0]);
+    }
+}

@@ -31,6 +31,14 @@ where
     }
 }
 
+/// The face finder is the face source of a 68-landmark model: its faces' landmarks, most
+/// confident first.
+impl FaceSource for crate::find::FaceFinder {
+    fn faces(&mut self, image: &ImageRef<'_>) -> Result<Vec<Vec<f32>>> {
+        Ok(self.find(image).into_iter().map(|f| f.landmarks).collect())
+    }
+}
+
 /// Follows one face through video frames with a [`Fitter`].
 ///
 /// Start a sequence with [`Tracker::start_from_landmarks`] or [`Tracker::start_from_box`], then

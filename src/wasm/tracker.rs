@@ -23,7 +23,10 @@ struct TrackJs<'a> {
     error: f32,
     iterations: u32,
     converged: bool,
+    /// The face is lost on this frame: `landmarks` are the last good fit's, not a face here.
     lost: bool,
+    /// The face was (re-)acquired from the face finder on this frame.
+    reacquired: bool,
 }
 
 fn to_js(r: &FitResult) -> Result<JsValue, JsError> {
@@ -36,6 +39,7 @@ fn to_js(r: &FitResult) -> Result<JsValue, JsError> {
         iterations: r.iterations,
         converged: r.converged,
         lost: r.lost,
+        reacquired: r.reacquired,
     };
     serde_wasm_bindgen::to_value(&v).map_err(|e| JsError::new(&format!("tracker: {e}")))
 }
@@ -81,8 +85,27 @@ impl WasmTracker {
         self.inner.start_from_box(x, y, w, h).map_err(err)
     }
 
+    /// Starts a sequence with no landmarks: the face finder (built in, loaded on the first
+    /// call) finds the face; until it does, frames are reported `lost`. From then on a lost
+    /// face is looked for again on every frame, and the frame it is found on reports
+    /// `reacquired`. Throws for a model without the finder's 68 landmarks.
+    #[wasm_bindgen(js_name = startAuto)]
+    pub fn start_auto(&mut self) -> Result<(), JsError> {
+        if !self.inner.has_face_source() {
+            let n = self.inner.fitter().landmarks();
+            if n != 68 {
+                return Err(JsError::new(&format!(
+                    "tracker: startAuto needs a 68-landmark model (the face finder's layout); this one has {n}"
+                )));
+            }
+            let finder = crate::find::FaceFinder::new().map_err(err)?;
+            self.inner.set_face_source(Box::new(finder));
+        }
+        self.inner.start_auto().map_err(err)
+    }
+
     /// Fits the next frame (RGBA bytes, e.g. `ImageData.data`, `width * height * 4`). Returns
-    /// `{ landmarks, pose, shape, appearance, error, iterations, converged, lost }`.
+    /// `{ landmarks, pose, shape, appearance, error, iterations, converged, lost, reacquired }`.
     pub fn track(&mut self, data: &[u8], width: u32, height: u32) -> Result<JsValue, JsError> {
         let image = ImageRef::new(width, height, data).map_err(err)?;
         let r = self.inner.track(&image).map_err(err)?;
@@ -107,6 +130,13 @@ impl WasmTracker {
     #[wasm_bindgen(getter, js_name = lostCount)]
     pub fn lost_count(&self) -> u32 {
         self.inner.lost_count()
+    }
+
+    /// Faces acquired from the face finder so far (the first of `startAuto`, then each face
+    /// found again after lost frames).
+    #[wasm_bindgen(getter)]
+    pub fn reacquisitions(&self) -> u32 {
+        self.inner.reacquisitions()
     }
 
     /// Frames tracked so far.

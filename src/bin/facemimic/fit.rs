@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{io, Error, Result};
+use facemimic::{io, Error, FaceFinder, Result};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -13,7 +13,9 @@ pub struct Args {
     #[arg(long, value_name = "M.fmm")]
     model: PathBuf,
     /// Landmarks (.pts or .asf) of the face in the first frame: the tracking starts there.
-    #[arg(long, value_name = "INIT.pts")]
+    /// `auto`: start from the face finder's face (68-landmark models), and find the face
+    /// again with it whenever it is lost.
+    #[arg(long, value_name = "INIT.pts|auto")]
     init: PathBuf,
     /// Most project-out iterations per level and frame.
     #[arg(long, value_name = "N")]
@@ -48,11 +50,22 @@ pub fn run(a: Args) -> Result<()> {
         .map(|p| io::read_image(p))
         .collect::<Result<Vec<_>>>()?;
     let first = &images[0];
-    let init = io::read_landmarks(&a.init, first.width, first.height)?;
     let mut tracker = Tracker::new(&model, options)?;
-    tracker
-        .start_from_landmarks(&init)
-        .map_err(|e| e.with_context(&a.init.display().to_string()))?;
+    if a.init.as_os_str() == "auto" {
+        if model.landmarks() != 68 {
+            return Err(Error::Params(format!(
+                "--init auto needs a 68-landmark model (the face finder's layout); this one has {}",
+                model.landmarks()
+            )));
+        }
+        tracker.set_face_source(Box::new(FaceFinder::new()?));
+        tracker.start_auto()?;
+    } else {
+        let init = io::read_landmarks(&a.init, first.width, first.height)?;
+        tracker
+            .start_from_landmarks(&init)
+            .map_err(|e| e.with_context(&a.init.display().to_string()))?;
+    }
 
     let mut results = Vec::with_capacity(images.len());
     let t0 = Instant::now();
@@ -65,7 +78,7 @@ pub fn run(a: Args) -> Result<()> {
     let secs = t0.elapsed().as_secs_f64();
 
     let n = model.landmarks();
-    let mut csv = String::from("frame,converged,iterations,error");
+    let mut csv = String::from("frame,lost,converged,iterations,error");
     for i in 0..n {
         let _ = write!(csv, ",x{i},y{i}");
     }
@@ -87,7 +100,11 @@ pub fn run(a: Args) -> Result<()> {
         } else {
             name
         };
-        let _ = write!(csv, "{name},{},{},{}", r.converged, r.iterations, r.error);
+        let _ = write!(
+            csv,
+            "{name},{},{},{},{}",
+            r.lost, r.converged, r.iterations, r.error
+        );
         for v in &r.landmarks {
             let _ = write!(csv, ",{v}");
         }
@@ -112,11 +129,12 @@ pub fn run(a: Args) -> Result<()> {
     let converged = results.iter().filter(|r| r.converged).count();
     println!(
         "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
-         {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost -> {}",
+         {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions -> {}",
         frames as f64 / secs.max(1e-9),
         1e3 * secs / frames.max(1) as f64,
         tracker.resets(),
         tracker.lost_count(),
+        tracker.reacquisitions(),
         a.out.display()
     );
     Ok(())
