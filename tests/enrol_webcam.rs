@@ -1,0 +1,147 @@
+#![cfg(not(target_arch = "wasm32"))]
+//! Enrolment without landmark files on webcam-dev (research data, read from ../shared, never
+//! committed): a model built from frames 0-599 with the face finder's landmarks (every 5th
+//! frame searched, confident faces kept, 20 varied ones chosen by farthest-point sampling of the
+//! aligned shapes) against a model built from 20 frames of the same part chosen the same way with
+//! the dlib landmarks; both tracked over the unseen frames 600-1336, started from the finder's
+//! landmarks on frame 600 (no landmark file used to start). Error = mean landmark distance /
+//! outer-eye-corner distance against the dlib landmarks.
+//! Skips with a message when ../shared is absent; fails then if the CI variable is set.
+//! `cargo test --release --test enrol_webcam -- --nocapture` prints the figures.
+
+use std::path::{Path, PathBuf};
+
+use facemimic::fit::{FitOptions, Tracker};
+use facemimic::{io, select_varied, BuildOptions, Builder, FaceFinder, Model, TrainingImage};
+
+fn data() -> Option<PathBuf> {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
+    if d.is_dir() {
+        return Some(d);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "{} is missing (CI always has ../shared)",
+        d.display()
+    );
+    eprintln!("SKIPPED: {} is absent", d.display());
+    None
+}
+
+fn frame(dir: &Path, i: usize) -> TrainingImage {
+    io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap()
+}
+
+fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
+    let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
+    let n = truth.len() / 2;
+    (0..n)
+        .map(|i| {
+            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
+                .sqrt()
+        })
+        .sum::<f32>()
+        / n as f32
+        / iod
+}
+
+fn build(name: &str, mut images: Vec<TrainingImage>) -> Model {
+    let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+    let mut keep = select_varied(&shapes, 20).unwrap();
+    keep.sort_unstable();
+    let chosen: Vec<TrainingImage> = keep.iter().rev().map(|&i| images.swap_remove(i)).collect();
+    Builder::new(BuildOptions {
+        name: name.into(),
+        ..BuildOptions::default()
+    })
+    .build(&chosen, None)
+    .unwrap()
+}
+
+fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> (f32, u32) {
+    let mut t = Tracker::new(model, FitOptions::default()).unwrap();
+    t.start_from_landmarks(init).unwrap();
+    let errs: Vec<f32> = test
+        .iter()
+        .map(|f| {
+            norm_error(
+                &t.track(&f.image.view().unwrap()).unwrap().landmarks,
+                &f.landmarks,
+            )
+        })
+        .collect();
+    (errs.iter().sum::<f32>() / errs.len() as f32, t.resets())
+}
+
+/// Long (about 35 s in release: 120 finder searches, five models tracked over 737 frames), so
+/// opt-in: `cargo test --release --test enrol_webcam -- --ignored --nocapture`. It FAILS today:
+/// the finder-enrolled model tracks at 0.36 against 0.030 (see the report in docs/fitting.md,
+/// "Enrolment with the face finder's landmarks"); kept so the gap is measured, not hidden.
+#[test]
+#[ignore = "long, opt-in; fails today (docs/fitting.md): the finder-enrolled model loses the face"]
+fn finder_enrolled_model_tracks_unseen_frames() {
+    let Some(dir) = data() else { return };
+    let mut finder = FaceFinder::new().unwrap();
+    let mut found = Vec::new();
+    let mut dlib = Vec::new();
+    let mut finder_err = Vec::new();
+    let mut searched = 0;
+    let mut same_frames_dlib = Vec::new();
+    for i in (0..600).step_by(5) {
+        let f = frame(&dir, i);
+        searched += 1;
+        let faces = finder.find(&f.image.view().unwrap());
+        if let Some(face) = faces.first().filter(|face| face.score >= 0.5) {
+            finder_err.push(norm_error(&face.landmarks, &f.landmarks));
+            let mut g = f.clone();
+            g.landmarks = face.landmarks.clone();
+            found.push(g);
+            same_frames_dlib.push(f.clone());
+        }
+        dlib.push(f);
+    }
+    let enrolled = build("enrolled", found.clone());
+    let reference = build("dlib20", dlib);
+    let test: Vec<TrainingImage> = (600..=1336).map(|i| frame(&dir, i)).collect();
+    let init = finder
+        .find(&test[0].image.view().unwrap())
+        .first()
+        .map(|f| f.landmarks.clone())
+        .expect("a face in frame 600");
+    {
+        let control = build("control", same_frames_dlib.clone());
+        let (e, r) = track(&control, &test, &init);
+        println!(
+            "control, dlib landmarks on the frames the finder found: {e:.4} ({r} resets), {} shape modes",
+            control.shape.n_modes()
+        );
+    }
+    for rounds in [1usize, 2] {
+        let shapes: Vec<&[f32]> = found.iter().map(|t| t.landmarks.as_slice()).collect();
+        let chosen: Vec<TrainingImage> = select_varied(&shapes, 20)
+            .unwrap()
+            .iter()
+            .map(|&i| found[i].clone())
+            .collect();
+        let m = Builder::new(BuildOptions::default())
+            .build_refined(&chosen, None, rounds, &mut |_| true)
+            .unwrap();
+        let (e, r) = track(&m, &test, &init);
+        println!("finder-enrolled and refined {rounds}x: {e:.4} ({r} resets)");
+    }
+    let (e_enrolled, r1) = track(&enrolled, &test, &init);
+    let (e_dlib, r2) = track(&reference, &test, &init);
+    println!(
+        "webcam-dev: faces found in {}/{searched} searched frames of 0-599 (finder error {:.4}); \
+         tracking 600-1336 from the finder's frame-600 landmarks: finder-enrolled model {e_enrolled:.4} \
+         ({r1} resets), dlib-20 model {e_dlib:.4} ({r2} resets), ratio {:.2}",
+        found.len(),
+        finder_err.iter().sum::<f32>() / finder_err.len().max(1) as f32,
+        e_enrolled / e_dlib
+    );
+    assert!(found.len() >= 20, "only {} faces found", found.len());
+    assert!(
+        e_enrolled <= 1.3 * e_dlib,
+        "the finder-enrolled model tracks at {e_enrolled}, more than 1.3x the dlib model's {e_dlib}"
+    );
+}
