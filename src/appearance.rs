@@ -1,6 +1,6 @@
 //! The appearance model (Eq. 2).
 
-use crate::error::{check_finite, check_len, Result};
+use crate::error::{check_len, Result};
 
 /// A linear appearance model `A(x) = A0(x) + sum_i lambda_i A_i(x)` over the reference frame's
 /// pixels (the paper's Eq. 2).
@@ -33,10 +33,13 @@ impl AppearanceModel {
         self.base.is_empty()
     }
 
-    /// Mode `i` (`3N` values).
-    pub fn mode(&self, i: usize) -> &[f32] {
+    /// Mode `i` (`3N` values); `None` when `i >= l`.
+    pub fn mode(&self, i: usize) -> Option<&[f32]> {
         let d = self.base.len();
-        &self.modes[i * d..(i + 1) * d]
+        if i >= self.n_modes() {
+            return None;
+        }
+        self.modes.get(i * d..(i + 1) * d)
     }
 
     /// `sqrt(eta_i)` per mode.
@@ -47,10 +50,10 @@ impl AppearanceModel {
     /// Eq. 2, `A = A0 + sum_i lambda_i A_i`, into `out` (`3N`). Allocates nothing.
     pub fn instance(&self, lambda: &[f32], out: &mut [f32]) -> Result<()> {
         check_len("appearance parameters", lambda, self.n_modes())?;
-        check_finite("appearance parameters", lambda)?;
+        crate::bounds::check_param_values("appearance parameters", lambda)?;
         check_len("appearance buffer", out, self.base.len())?;
         self.instance_unchecked(lambda, out);
-        Ok(())
+        crate::bounds::check_output("appearance instance", out)
     }
 
     /// [`AppearanceModel::instance`] without checks (hot path).

@@ -130,6 +130,13 @@ impl Builder {
         progress: &mut dyn FnMut(BuildProgress) -> bool,
     ) -> Result<Model> {
         let o = &self.options;
+        let max_name = crate::format::LIMITS.max_name_bytes as usize;
+        if o.name.len() > max_name {
+            return Err(Error::Training(format!(
+                "the model name is {} bytes long, the file format allows at most {max_name}",
+                o.name.len()
+            )));
+        }
         let total = images.len() + 2;
         let mut step = |done: usize| -> Result<()> {
             if progress(BuildProgress { done, total }) {
@@ -255,7 +262,7 @@ impl Builder {
             Some(i) => aligned[i].clone(),
             None => mean(&aligned),
         };
-        let sp = pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes);
+        let sp = pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes)?;
         step(1)?;
         let shape = ShapeModel {
             base: shape_centre.iter().map(|&v| v as f32).collect(),
@@ -287,7 +294,7 @@ impl Builder {
             &app_centre,
             o.appearance_variance,
             o.max_appearance_modes,
-        );
+        )?;
         step(total)?;
         let appearance = AppearanceModel {
             base: app_centre.iter().map(|&v| v as f32).collect(),
@@ -312,7 +319,7 @@ impl Builder {
             ty: ty / k,
         };
 
-        Ok(Model {
+        let model = Model {
             name: o.name.clone(),
             scheme: LandmarkScheme::for_count(n / 2),
             shape,
@@ -324,7 +331,10 @@ impl Builder {
             },
             mean_pose,
             image_size: [images[0].image.width, images[0].image.height],
-        })
+        };
+        // The builder refuses what the reader would reject (a file it writes reads back).
+        crate::bounds::check_model_values(&model).map_err(|e| Error::Training(e.to_string()))?;
+        Ok(model)
     }
 }
 

@@ -32,7 +32,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::error::{check_finite, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
@@ -125,9 +125,7 @@ impl CloneOptions {
     /// Checks the options against a source model: finite gains, per-mode gain vectors no
     /// longer than the source's mode counts, a finite non-negative clamp.
     pub fn validate(&self, source: &Model) -> Result<()> {
-        if !self.gain.is_finite() {
-            return Err(Error::Params(format!("gain {} is not finite", self.gain)));
-        }
+        crate::bounds::check_gain("gain", self.gain)?;
         for (what, g, m) in [
             ("shape gains", &self.shape_gains, source.shape.n_modes()),
             (
@@ -143,12 +141,15 @@ impl CloneOptions {
                     source.name
                 )));
             }
-            check_finite(what, g)?;
+            for (i, &v) in g.iter().enumerate() {
+                crate::bounds::check_gain(&format!("{what}[{i}]"), v)?;
+            }
         }
         if let Some(k) = self.clamp {
-            if !(k.is_finite() && k >= 0.0) {
+            if !(0.0..=crate::bounds::MAX_GAIN).contains(&k) {
                 return Err(Error::Params(format!(
-                    "clamp {k} must be a finite number of standard deviations >= 0"
+                    "clamp {k} must be a number of standard deviations in 0..={}",
+                    crate::bounds::MAX_GAIN
                 )));
             }
         }
@@ -224,10 +225,14 @@ pub fn map_params(r: &[f32], p: &[f32], out: &mut [f32]) {
 /// The constraint (section 3.1): every parameter limited to `[-k sigma_j, k sigma_j]` of the
 /// model it multiplies (the target's for `map`, the source's for `substitute`), so only
 /// plausible faces are produced. Per parameter (a box, not an ellipsoid).
+///
+/// NaN-safe and total: a NaN parameter becomes 0 (the mean), a negative or NaN `k` or sigma
+/// counts as 0, an overflowing `k sigma` as `f32::MAX` (see
+/// [`crate::bounds::clamp_symmetric`]); parameters beyond `sigmas.len()` are left as they
+/// are. Never panics; every clamped value is finite.
 pub fn constrain(params: &mut [f32], sigmas: &[f32], k: f32) {
     for (p, s) in params.iter_mut().zip(sigmas) {
-        let lim = k * s;
-        *p = p.clamp(-lim, lim);
+        *p = crate::bounds::clamp_symmetric(*p, k * s);
     }
 }
 
@@ -592,9 +597,11 @@ impl Cloner {
 
     /// Clones one source frame onto every target in one call. Allocates nothing.
     ///
-    /// Requires: `source` fits the source model (lengths, finite values, valid pose) and the
-    /// options are valid ([`CloneOptions::validate`]); otherwise [`Error::Params`] and no
-    /// output changes.
+    /// Requires: `source` fits the source model (lengths, finite values within the bounds of
+    /// [`crate::bounds`], pose in range) and the options are valid
+    /// ([`CloneOptions::validate`]); otherwise [`Error::Params`] and no output changes. An
+    /// output that overflows anyway is [`Error::Overflow`] naming it (then outputs are
+    /// partly written and must not be used).
     /// Ensures, per target: [`Cloner::target_params`] holds the target parameters (for
     /// `substitute`, see there), [`Cloner::target_shape`] the posed shape in image
     /// coordinates, [`Cloner::target_appearance`] the appearance on the frame pixels.
@@ -693,6 +700,18 @@ impl Cloner {
                 o[0] = x;
                 o[1] = y;
             }
+            // The entry bounds keep these finite; checked so that no NaN can ever leave.
+            let name = &t.model.name;
+            crate::bounds::check_output(&format!("target '{name}' shape"), &t.shape)?;
+            crate::bounds::check_output(&format!("target '{name}' appearance"), &t.appearance)?;
+            crate::bounds::check_output(
+                &format!("target '{name}' shape parameters"),
+                &t.params.shape,
+            )?;
+            crate::bounds::check_output(
+                &format!("target '{name}' appearance parameters"),
+                &t.params.appearance,
+            )?;
         }
         Ok(())
     }

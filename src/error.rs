@@ -43,6 +43,12 @@ pub enum Error {
     /// A face finder's weight file is corrupt or of another layout.
     #[error("face finder weights: {0}")]
     Weights(String),
+    /// A computation from finite inputs overflowed; names what overflowed.
+    #[error("overflow: {0}")]
+    Overflow(String),
+    /// An operation would allocate more than its memory budget (see `bounds`).
+    #[error("memory budget: {0}")]
+    Budget(String),
 }
 
 impl From<std::io::Error> for Error {

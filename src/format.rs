@@ -222,6 +222,19 @@ pub enum FormatError {
         /// Index of the first bad value.
         index: u64,
     },
+    /// A value is finite but outside the range a real model can have (see
+    /// [`crate::bounds::check_model_values`]).
+    #[error("{array}[{index}] is {value}, outside the range {range} a real model can have")]
+    OutOfRange {
+        /// Which array or quantity.
+        array: &'static str,
+        /// Index of the first bad value.
+        index: u64,
+        /// The value.
+        value: f32,
+        /// The allowed range.
+        range: String,
+    },
     /// A variance is negative.
     #[error("{array}[{index}] is negative ({value})")]
     NegativeVariance {
@@ -984,6 +997,7 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
         mean_pose: h.pose,
         image_size: h.image_size,
     };
+    crate::bounds::check_model_values(&model)?;
     Ok((model, info))
 }
 
@@ -1288,4 +1302,18 @@ fn unpack_bits(bytes: &[u8], bits: u32) -> impl Iterator<Item = i32> + '_ {
         n -= bits;
         Some(v)
     })
+}
+
+/// [`write_model_as`], refusing what [`read_model`] would reject: the bytes are read back with
+/// the full validation before they are returned, so a file written is always a file read.
+pub fn write_model_checked_as(model: &Model, storage: Storage) -> Result<Vec<u8>, FormatError> {
+    crate::bounds::check_model_values(model)?;
+    let bytes = write_model_as(model, storage);
+    read_model(&bytes)?;
+    Ok(bytes)
+}
+
+/// [`write_model_checked_as`] with the default storage (as [`write_model`]).
+pub fn write_model_checked(model: &Model) -> Result<Vec<u8>, FormatError> {
+    write_model_checked_as(model, Storage::default())
 }

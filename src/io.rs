@@ -9,8 +9,9 @@ use crate::landmarks::{parse_asf, parse_pts};
 
 /// Decodes a PNG or JPEG file into RGBA8.
 pub fn read_image(path: &Path) -> Result<Image> {
-    let mut reader = ::image::ImageReader::open(path)
-        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?
+    // Through the size cap: a device, FIFO or directory is refused before it is opened.
+    let bytes = crate::bounds::read_file_capped(path, crate::bounds::MAX_IMAGE_FILE_BYTES)?;
+    let mut reader = ::image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
     // The decoder checks the size against these limits before it allocates the pixels.
@@ -58,8 +59,7 @@ pub fn landmark_path(image: &Path) -> Result<PathBuf> {
 
 /// Reads the landmarks of an image of the given size from a `.pts` or `.asf` file.
 pub fn read_landmarks(path: &Path, width: u32, height: u32) -> Result<Vec<f32>> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    let text = crate::bounds::read_text_capped(path, crate::bounds::MAX_TEXT_FILE_BYTES)?;
     let r = if path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("asf"))
@@ -96,8 +96,7 @@ pub fn read_training_image(path: &Path) -> Result<TrainingImage> {
 /// Reads a list file (one image stem a line, relative to the list's folder; `#` comments) and
 /// resolves each stem to an existing `.jpg`, `.jpeg` or `.png` file.
 pub fn read_list(list: &Path) -> Result<Vec<PathBuf>> {
-    let text =
-        std::fs::read_to_string(list).map_err(|e| Error::Io(format!("{}: {e}", list.display())))?;
+    let text = crate::bounds::read_text_capped(list, crate::bounds::MAX_TEXT_FILE_BYTES)?;
     let dir = list.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
     for line in text
@@ -146,19 +145,21 @@ pub fn write_model_file(path: &Path, model: &crate::Model) -> Result<()> {
     write_model_file_as(path, model, crate::format::Storage::default())
 }
 
-/// Writes a model as a `.fmm` file with the given appearance storage.
+/// Writes a model as a `.fmm` file with the given appearance storage; refuses (writing
+/// nothing) a model that [`crate::format::read_model`] would reject.
 pub fn write_model_file_as(
     path: &Path,
     model: &crate::Model,
     storage: crate::format::Storage,
 ) -> Result<()> {
-    std::fs::write(path, crate::format::write_model_as(model, storage))
-        .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
+    let bytes = crate::format::write_model_checked_as(model, storage)
+        .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))?;
+    std::fs::write(path, bytes).map_err(|e| Error::Io(format!("{}: {e}", path.display())))
 }
 
 /// Reads and validates a `.fmm` model file, also returning its version and storage.
 pub fn read_model_file_info(path: &Path) -> Result<(crate::Model, crate::format::FileInfo)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    let bytes = crate::bounds::read_file_capped(path, crate::bounds::MAX_MODEL_FILE_BYTES)?;
     crate::format::read_model_info(&bytes)
         .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))
 }

@@ -8,6 +8,10 @@ use crate::error::{Error, Result};
 /// Most landmarks a file may hold (guards against absurd inputs).
 pub const MAX_LANDMARKS: usize = 4096;
 
+/// Largest magnitude of a landmark coordinate in pixels (= [`crate::bounds::MAX_PARAM`]):
+/// no image is larger, and it keeps every computation on landmarks finite.
+pub const MAX_COORDINATE: f32 = crate::bounds::MAX_PARAM;
+
 /// Parses an iBUG `.pts` file. Its coordinates are 1-based pixel coordinates: 1 is subtracted.
 ///
 /// Requires: `version: 1`, `n_points: N`, `{`, N lines of two finite numbers, `}`.
@@ -60,8 +64,12 @@ pub fn parse_pts(text: &str) -> Result<Vec<f32>> {
         let parse = |s: &str| -> Result<f32> {
             s.parse::<f32>()
                 .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| Error::Landmarks(format!("bad coordinate '{s}'")))
+                .filter(|v| v.abs() <= MAX_COORDINATE)
+                .ok_or_else(|| {
+                    Error::Landmarks(format!(
+                        "bad coordinate '{s}' (a finite number within +-{MAX_COORDINATE:e} is expected)"
+                    ))
+                })
         };
         if out.len() >= 2 * n {
             return Err(Error::Landmarks(format!("more than n_points = {n} points")));
@@ -125,8 +133,16 @@ pub fn parse_asf(text: &str, width: u32, height: u32) -> Result<Vec<f32>> {
             .ok()
             .filter(|v: &f32| v.is_finite())
             .ok_or_else(|| Error::Landmarks(format!("bad relative y '{}' in .asf", f[3])))?;
-        out.push(rx * width as f32);
-        out.push(ry * height as f32);
+        // The product can overflow (1e38 x 640): bounded like every coordinate.
+        for (rel, size, axis) in [(rx, width, "x"), (ry, height, "y")] {
+            let v = rel as f64 * size as f64;
+            if !(v.abs() <= MAX_COORDINATE as f64) {
+                return Err(Error::Landmarks(format!(
+                    "relative {axis} {rel} times the image size {size} is {v:e}, beyond +-{MAX_COORDINATE:e}"
+                )));
+            }
+            out.push(v as f32);
+        }
     }
     Ok(out)
 }
@@ -165,5 +181,9 @@ mod tests {
         let s = parse_asf(text, 200, 100).unwrap();
         assert_eq!(s, vec![100.0, 25.0, 20.0, 20.0]);
         assert!(parse_asf("3\n0 0 0.5 0.5 0 0 0\n", 10, 10).is_err());
+        // A relative coordinate of 1e38 times the image size overflowed to +inf.
+        let e = parse_asf("1\n0 0 1e38 0.5 0 0 0\n", 640, 480).unwrap_err();
+        assert!(e.to_string().contains("relative x"), "{e}");
+        assert!(parse_pts("version: 1\nn_points: 1\n{\n3e38 1\n}\n").is_err());
     }
 }

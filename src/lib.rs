@@ -19,6 +19,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod appearance;
+pub mod bounds;
 mod builder;
 mod canonical;
 pub mod clone;

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::appearance::AppearanceModel;
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{check_len, Error, Result};
 use crate::frame::ReferenceFrame;
 use crate::image::ImageRef;
 use crate::shape::ShapeModel;
@@ -101,20 +101,10 @@ impl Model {
         }
     }
 
-    /// Checks that `params` fits this model: lengths, finite values, a usable pose.
+    /// Checks that `params` fits this model: lengths, finite values within
+    /// [`crate::bounds::MAX_PARAM`], a pose within the pose bounds (see [`crate::bounds`]).
     pub fn check_params(&self, params: &Params) -> Result<()> {
-        check_len("shape parameters", &params.shape, self.shape.n_modes())?;
-        check_len(
-            "appearance parameters",
-            &params.appearance,
-            self.appearance.n_modes(),
-        )?;
-        check_finite("shape parameters", &params.shape)?;
-        check_finite("appearance parameters", &params.appearance)?;
-        if !params.pose.is_valid() {
-            return Err(Error::Params("pose is not finite or has zero scale".into()));
-        }
-        Ok(())
+        crate::bounds::check_params(self, params)
     }
 
     /// The instance's landmarks in image coordinates: `pose(s0 + S p)` into `out` (`2n`).
@@ -123,7 +113,7 @@ impl Model {
         check_len("shape buffer", out, self.shape.base.len())?;
         self.shape.instance_unchecked(&params.shape, out);
         params.pose.apply_in_place(out);
-        Ok(())
+        crate::bounds::check_output("instance landmarks", out)
     }
 
     /// Projects a face: its landmarks (image coordinates) give the pose and `p`; the image
@@ -143,6 +133,8 @@ impl Model {
         crate::warp::sample_rgb(&self.frame, image, landmarks, &mut g)?;
         let mut appearance = vec![0.0; self.appearance.n_modes()];
         self.appearance.project(&g, &mut appearance);
+        crate::bounds::check_output("appearance parameters", &appearance)?;
+        crate::bounds::check_output("shape parameters", &shape)?;
         Ok(Params {
             pose,
             shape,

@@ -24,9 +24,33 @@ pub struct Pca {
 /// at most `max_modes`, and never modes of (numerically) zero variance.
 /// Ensures: modes orthonormal (re-orthogonalised in f64), each mode's sign chosen so that its
 /// largest-magnitude component is positive (deterministic output).
-pub fn pca(samples: &[Vec<f64>], centre: &[f64], fraction: f64, max_modes: usize) -> Pca {
+///
+/// Fails with [`crate::Error::Training`] when a sample's length differs from the centre's or a
+/// value is not finite.
+pub fn pca(
+    samples: &[Vec<f64>],
+    centre: &[f64],
+    fraction: f64,
+    max_modes: usize,
+) -> crate::Result<Pca> {
     let n = samples.len();
     let dim = centre.len();
+    if let Some(i) = samples.iter().position(|s| s.len() != dim) {
+        return Err(crate::Error::Training(format!(
+            "PCA sample {i} has {} values, the centre has {dim}",
+            samples[i].len()
+        )));
+    }
+    if samples
+        .iter()
+        .flatten()
+        .chain(centre)
+        .any(|v| !v.is_finite())
+    {
+        return Err(crate::Error::Training(
+            "PCA samples or centre are not finite".into(),
+        ));
+    }
     let denom = (n.max(2) - 1) as f64;
     // Deviations, n x dim.
     let x = DMatrix::from_fn(n, dim, |r, c| samples[r][c] - centre[c]);
@@ -90,14 +114,14 @@ pub fn pca(samples: &[Vec<f64>], centre: &[f64], fraction: f64, max_modes: usize
         modes.push(d);
         variances.push(lam as f32);
     }
-    Pca {
+    Ok(Pca {
         modes: modes
             .iter()
             .flat_map(|m| m.iter().map(|&v| v as f32))
             .collect(),
         variances,
         total_variance: total,
-    }
+    })
 }
 
 /// The mean of equal-length samples.

@@ -59,6 +59,7 @@ impl Scanline {
     /// Writes an appearance vector (`3N`, RGB in `0..=1`) into the texture.
     pub fn upload(&mut self, frame: &ReferenceFrame, appearance: &[f32]) -> Result<()> {
         check_len("appearance", appearance, frame.n_pixels() * 3)?;
+        crate::error::check_finite("appearance", appearance)?;
         if self.fingerprint != Some(frame.fingerprint()) {
             self.width = frame.width();
             self.height = frame.height();

@@ -77,6 +77,7 @@ impl Renderer {
     pub fn upload(&mut self, frame: &ReferenceFrame, appearance: &[f32]) -> Result<()> {
         self.check_frame(frame)?;
         check_len("appearance", appearance, frame.n_pixels() * 3)?;
+        crate::error::check_finite("appearance", appearance)?;
         let w = frame.width() as usize;
         let data = self.texture.data_mut();
         for (px, rgb) in frame.pixels().iter().zip(appearance.chunks_exact(3)) {

@@ -1,6 +1,6 @@
 //! The shape model (Eq. 1) and generalised Procrustes alignment.
 
-use crate::error::{check_finite, check_len, Result};
+use crate::error::{check_len, Result};
 use crate::similarity::Similarity;
 
 /// A linear shape model `s = s0 + S p` (the paper's Eq. 1) in model coordinates.
@@ -31,10 +31,13 @@ impl ShapeModel {
         self.variances.len()
     }
 
-    /// Mode `i` as a slice of `2n` values.
-    pub fn mode(&self, i: usize) -> &[f32] {
+    /// Mode `i` as a slice of `2n` values; `None` when `i >= m`.
+    pub fn mode(&self, i: usize) -> Option<&[f32]> {
         let d = self.base.len();
-        &self.modes[i * d..(i + 1) * d]
+        if i >= self.n_modes() {
+            return None;
+        }
+        self.modes.get(i * d..(i + 1) * d)
     }
 
     /// `sigma_i = sqrt(gamma_i)` of each mode.
@@ -43,16 +46,22 @@ impl ShapeModel {
     }
 
     /// Eq. 1, `s = s0 + sum_i p_i s_i`, written into `out` (length `2n`). Allocates nothing.
-    /// Requires `p.len() == m` (checked), finite `p` (checked).
+    /// Requires `p.len() == m`, `out.len() == 2n`, finite `p` (all checked); fails with
+    /// [`crate::Error::Overflow`] if the instance overflows.
     pub fn instance(&self, p: &[f32], out: &mut [f32]) -> Result<()> {
         check_len("shape parameters", p, self.n_modes())?;
-        check_finite("shape parameters", p)?;
+        check_len("shape buffer", out, self.base.len())?;
+        crate::bounds::check_param_values("shape parameters", p)?;
         self.instance_unchecked(p, out);
-        Ok(())
+        crate::bounds::check_output("shape instance", out)
     }
 
-    /// [`ShapeModel::instance`] without the checks, for hot paths that already validated `p`.
-    pub fn instance_unchecked(&self, p: &[f32], out: &mut [f32]) {
+    /// [`ShapeModel::instance`] without the checks, for hot paths that already validated `p`
+    /// and `out` (crate-internal: `out.len()` must be `2n`).
+    pub(crate) fn instance_unchecked(&self, p: &[f32], out: &mut [f32]) {
+        if out.len() != self.base.len() {
+            return;
+        }
         out.copy_from_slice(&self.base);
         let d = self.base.len();
         for (pi, mode) in p.iter().zip(self.modes.chunks_exact(d)) {
@@ -79,7 +88,7 @@ impl ShapeModel {
     /// Returns the pose and writes `p` into `out`.
     pub fn project_image_shape(&self, image_shape: &[f32], out: &mut [f32]) -> Result<Similarity> {
         check_len("landmarks", image_shape, self.base.len())?;
-        check_finite("landmarks", image_shape)?;
+        crate::bounds::check_landmarks(image_shape)?;
         // Pose and parameters jointly by alternating least squares: the pose that places the
         // current instance `s0 + S p` best onto the landmarks, then `p` from the landmarks
         // mapped back through it, until the pose settles. (A pose fitted to `s0` alone is off
@@ -210,6 +219,9 @@ pub fn generalised_procrustes(
     reference: Option<&[f64]>,
 ) -> (Vec<Vec<f64>>, Vec<f64>) {
     let mut aligned: Vec<Vec<f64>> = shapes.to_vec();
+    if aligned.is_empty() {
+        return (aligned, reference.map(<[f64]>::to_vec).unwrap_or_default());
+    }
     if let Some(r) = reference {
         for s in &mut aligned {
             align_to(s, r);

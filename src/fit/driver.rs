@@ -39,6 +39,11 @@ impl Fitter {
     /// (degenerate base shape, flat appearance, too few pixels for a level).
     pub fn new(model: &Model, options: FitOptions) -> Result<Fitter> {
         options.check()?;
+        crate::bounds::check_tracking_budget(
+            model,
+            options.levels.len(),
+            options.channels as usize,
+        )?;
         let n2 = model.shape.base.len();
         if n2 < 6 || model.frame.vertices().len() != n2 {
             return Err(Error::Params("the model's shape and frame disagree".into()));

@@ -48,7 +48,15 @@ impl ShapeBasis {
         cands.push((0..d).map(|i| if i % 2 == 0 { 1.0 } else { 0.0 }).collect());
         cands.push((0..d).map(|i| if i % 2 == 1 { 1.0 } else { 0.0 }).collect());
         for i in 0..model.shape.n_modes() {
-            cands.push(model.shape.mode(i).iter().map(|&v| v as f64).collect());
+            cands.push(
+                model
+                    .shape
+                    .mode(i)
+                    .unwrap_or(&[])
+                    .iter()
+                    .map(|&v| v as f64)
+                    .collect(),
+            );
         }
         let mut comps: Vec<Vec<Vec<f64>>> = vec![Vec::new(); cands.len()];
         let kept = gram_schmidt(&mut cands, &mut comps, 1e-4);
@@ -251,7 +259,7 @@ impl Level {
             raw.push(a0_full.clone());
         }
         for i in 0..app.n_modes() {
-            raw.push(grey(app.mode(i)));
+            raw.push(grey(app.mode(i).unwrap_or(&[])));
         }
         // Values and gradients at the level pixels.
         let mut grid = vec![0f64; w * h];

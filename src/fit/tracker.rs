@@ -2,7 +2,7 @@
 //! face is detected, and the tracker re-initialises from the last good result or, when it has
 //! a [`FaceSource`] (a face finder), from the face found nearest the last position.
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{check_len, Error, Result};
 use crate::image::ImageRef;
 use crate::model::Model;
 use crate::similarity::Similarity;
@@ -114,7 +114,7 @@ impl Tracker {
     /// Starts a new sequence from landmarks on the next frame (image coordinates, `2n`).
     pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
         check_len("landmarks", landmarks, self.start.len())?;
-        check_finite("landmarks", landmarks)?;
+        crate::bounds::check_landmarks(landmarks)?;
         let pose = Similarity::align(&self.fitter.geom.s0, landmarks);
         if !(pose.is_valid() && pose.scale() > 1e-4) {
             return Err(Error::Params(
@@ -129,7 +129,7 @@ impl Tracker {
     /// Starts a new sequence from a face box (image coordinates: left, top, width, height):
     /// the base shape is scaled to the box's width and centred in it.
     pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        check_finite("box", &[x, y, w, h])?;
+        crate::bounds::check_param_values("box", &[x, y, w, h])?;
         if !(w >= 4.0 && h >= 4.0) {
             return Err(Error::Params(format!(
                 "box {w}x{h} is too small (at least 4x4)"

@@ -195,9 +195,10 @@ impl JsModel {
     }
 
     /// Serialises the model as a `.fmm` file (the newest version, compact `i6` storage).
+    /// Throws (writing nothing) if the model is one `fromBytes` would reject.
     #[wasm_bindgen(js_name = toBytes)]
-    pub fn to_bytes(&self) -> Vec<u8> {
-        crate::format::write_model(&self.model)
+    pub fn to_bytes(&self) -> Result<Vec<u8>, JsError> {
+        crate::format::write_model_checked(&self.model).map_err(|e| js_err(e.into()))
     }
 
     /// The model's name (e.g. `"spk07"`).

@@ -61,6 +61,7 @@ impl WasmTracker {
     /// A tracker for a model given as `.fmm` bytes. Throws if the bytes are not a valid model.
     #[wasm_bindgen(constructor)]
     pub fn new(model_bytes: &[u8]) -> Result<WasmTracker, JsError> {
+        super::install_panic_hook();
         let model = crate::format::read_model(model_bytes).map_err(|e| err(e.into()))?;
         let inner = Tracker::new(&model, FitOptions::default()).map_err(err)?;
         Ok(WasmTracker { inner })
@@ -69,6 +70,7 @@ impl WasmTracker {
     /// A tracker for a loaded `Model`.
     #[wasm_bindgen(js_name = fromModel)]
     pub fn from_model(model: &JsModel) -> Result<WasmTracker, JsError> {
+        super::install_panic_hook();
         let inner = Tracker::new(model.model(), FitOptions::default()).map_err(err)?;
         Ok(WasmTracker { inner })
     }

@@ -83,8 +83,14 @@ pub fn run(a: Args) -> Result<()> {
         }
         (None, None) => return Err(Error::Params("give --params or --image".into())),
     };
-    let width = a.width.unwrap_or(target.image_size[0]);
-    let height = a.height.unwrap_or(target.image_size[1]);
+    // A size the model declares is only a default, bounded; a larger canvas must be asked for.
+    let (width, height) = match (a.width, a.height) {
+        (Some(w), Some(h)) => (w, h),
+        (w, h) => {
+            let (dw, dh) = facemimic::bounds::default_canvas(&target)?;
+            (w.unwrap_or(dw), h.unwrap_or(dh))
+        }
+    };
     if width == 0
         || height == 0
         || width > facemimic::MAX_IMAGE_SIDE

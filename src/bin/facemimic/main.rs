@@ -42,6 +42,64 @@ mod cli {
         Fit(super::fit::Args),
     }
 
+    /// Command-line mistakes in one line: clap's message, the usage, and a hint. Help and
+    /// version requests print as clap renders them.
+    fn usage_error(e: clap::Error) -> ExitCode {
+        use clap::error::ErrorKind;
+        if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        // The subcommand named on the command line, for the hint.
+        let sub = std::env::args().nth(1).filter(|a| {
+            ["build", "inspect", "project", "render", "clone", "fit"].contains(&a.as_str())
+        });
+        let hint = match sub {
+            Some(ref s) => format!("facemimic {s} --help"),
+            None => "facemimic --help".to_string(),
+        };
+        let line = if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+            match sub {
+                Some(_) => "a required argument is missing".to_string(),
+                None => {
+                    "no command given (build, inspect, project, render, clone or fit)".to_string()
+                }
+            }
+        } else {
+            one_line_usage(&e.render().to_string())
+        };
+        eprintln!("facemimic: error: {line}; see {hint}");
+        ExitCode::from(2)
+    }
+
+    /// Folds clap's multi-line error (message, tips, usage) into one line.
+    fn one_line_usage(text: &str) -> String {
+        let mut message = String::new();
+        let mut usage = String::new();
+        for line in text.lines().map(str::trim).filter(|l| !l.is_empty()) {
+            if let Some(u) = line.strip_prefix("Usage:") {
+                usage = u.trim().to_string();
+            } else if line.starts_with("For more information") {
+            } else if line.starts_with("tip:") {
+                let tip = line.trim_start_matches("tip:").trim();
+                message.push_str(&format!(" ({tip})"));
+            } else if let Some(m) = line.strip_prefix("error:") {
+                message.push_str(m.trim());
+            } else if !usage.is_empty() {
+                usage.push(' ');
+                usage.push_str(line);
+            } else {
+                message.push(' ');
+                message.push_str(line);
+            }
+        }
+        let mut out = message;
+        if !usage.is_empty() {
+            out.push_str(&format!("; usage: {usage}"));
+        }
+        out
+    }
+
     pub fn main() -> ExitCode {
         // Nothing should panic; if something does, say so in one line, not a backtrace.
         std::panic::set_hook(Box::new(|info| {
@@ -53,7 +111,10 @@ mod cli {
                 .unwrap_or_else(|| "unknown".into());
             eprintln!("facemimic: internal error: {msg}");
         }));
-        let cli = Cli::parse();
+        let cli = match Cli::try_parse() {
+            Ok(cli) => cli,
+            Err(e) => return usage_error(e),
+        };
         let result = match cli.command {
             Command::Build(a) => super::build::run(a),
             Command::Inspect(a) => super::inspect::run(a),

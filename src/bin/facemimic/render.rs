@@ -28,8 +28,7 @@ pub struct Args {
 
 /// Reads a parameters JSON file.
 pub fn read_params(path: &Path) -> Result<Params> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+    let text = facemimic::bounds::read_text_capped(path, facemimic::bounds::MAX_TEXT_FILE_BYTES)?;
     serde_json::from_str(&text).map_err(|e| Error::Params(format!("{}: {e}", path.display())))
 }
 
@@ -74,7 +73,13 @@ pub fn run(a: Args) -> Result<()> {
         None => model.base_params(),
     };
     model.check_params(&params)?;
-    let width = a.width.unwrap_or(model.image_size[0]);
-    let height = a.height.unwrap_or(model.image_size[1]);
+    // A size the model declares is only a default, bounded; a larger canvas must be asked for.
+    let (width, height) = match (a.width, a.height) {
+        (Some(w), Some(h)) => (w, h),
+        (w, h) => {
+            let (dw, dh) = facemimic::bounds::default_canvas(&model)?;
+            (w.unwrap_or(dw), h.unwrap_or(dh))
+        }
+    };
     render_to_files(&model, &params, width, height, &a.out, a.out_pts.as_deref())
 }

@@ -1,0 +1,119 @@
+#![cfg(target_arch = "wasm32")]
+//! Hostile input through the wasm API in headless Chromium (wasm-bindgen-test,
+//! `run_in_browser`): `cargo test --target wasm32-unknown-unknown --test browser_hostile`.
+//!
+//! Each case of the hostile-input review gives a JS `Error` (a `JsError`), never a trap that
+//! kills the page: models with a huge mean pose, base appearance, base shape or declared size
+//! of no real model; parameters and gains of 1e30; a clamp of NaN; a model whose tracker
+//! precomputation is over its memory budget; a model name the reader would reject. After each,
+//! the module keeps working.
+
+#[path = "../fuzz/engine.rs"]
+#[allow(dead_code)]
+mod engine;
+
+use facemimic::format::write_model;
+use facemimic::wasm::{JsCloner, JsModel, WasmTracker};
+use facemimic::{BuildOptions, Builder, FrameChoice, Model, Params, Similarity};
+use wasm_bindgen::prelude::*;
+use wasm_bindgen::JsCast;
+use wasm_bindgen_test::*;
+
+wasm_bindgen_test_configure!(run_in_browser);
+
+fn message(e: JsError) -> String {
+    let v: JsValue = e.into();
+    v.dyn_into::<js_sys::Error>()
+        .map(|e| String::from(e.message()))
+        .unwrap_or_default()
+}
+
+fn params_js(p: &Params) -> JsValue {
+    serde_wasm_bindgen::to_value(p).unwrap()
+}
+
+fn seeds() -> &'static engine::Seeds {
+    static S: std::sync::OnceLock<engine::Seeds> = std::sync::OnceLock::new();
+    S.get_or_init(engine::Seeds::new)
+}
+
+fn load_err(m: &Model) -> String {
+    let bytes = facemimic::format::write_model_as(m, facemimic::format::Storage::F32);
+    message(JsModel::from_bytes(&bytes).err().expect("refused"))
+}
+
+#[wasm_bindgen_test]
+fn hostile_models_are_js_errors() {
+    let base = &seeds().models[0];
+    let mut m = base.clone();
+    m.mean_pose = Similarity {
+        a: 3e38,
+        b: 0.0,
+        tx: 0.0,
+        ty: 0.0,
+    };
+    assert!(load_err(&m).contains("mean pose scale"));
+    let mut m = base.clone();
+    m.appearance.base[0] = f32::MAX;
+    assert!(load_err(&m).contains("appearance base"));
+    let mut m = base.clone();
+    m.shape.base.iter_mut().for_each(|v| *v *= 1e30);
+    assert!(!load_err(&m).contains("degenerate"));
+    // A 300-byte name: toBytes refuses what fromBytes would reject.
+    let mut m = base.clone();
+    m.name = "x".repeat(300);
+    let e = message(JsModel::from(m).to_bytes().err().expect("refused"));
+    assert!(e.contains("model name length"), "{e}");
+    // The module keeps working.
+    assert!(JsModel::from_bytes(&write_model(base)).is_ok());
+}
+
+#[wasm_bindgen_test]
+fn huge_parameters_gains_and_clamps_are_js_errors() {
+    let s = &seeds().models;
+    let source = JsModel::from(s[0].clone());
+    let mut cloner = JsCloner::new(&source).unwrap();
+    cloner.add_target(&JsModel::from(s[1].clone())).unwrap();
+    let mut p = s[0].base_params();
+    p.shape.iter_mut().for_each(|v| *v = 1e30);
+    let e = message(cloner.set_source_params(params_js(&p)).unwrap_err());
+    assert!(e.contains("shape parameters[0]"), "{e}");
+    assert!(cloner.set_gain(1e30).is_err());
+    assert!(cloner.set_clamp(Some(f32::NAN)).is_err());
+    assert!(cloner.set_shape_gains(&[1e30]).is_err());
+    // The largest accepted values: finite output.
+    p.shape.iter_mut().for_each(|v| *v = 1e6);
+    cloner.set_source_params(params_js(&p)).unwrap();
+    cloner.set_gain(1e3).unwrap();
+    cloner.set_clamp(None).unwrap();
+    cloner.update().unwrap();
+    let lm = cloner.target_landmarks(0).unwrap().to_vec();
+    assert!(lm.iter().all(|v| v.is_finite()));
+}
+
+#[wasm_bindgen_test]
+fn tracker_over_budget_is_a_js_error_not_an_out_of_memory_trap() {
+    let images = engine::training_set(128, 4, 11);
+    let mut m = Builder::new(BuildOptions {
+        name: "many-modes".into(),
+        face_width: 240.0,
+        frame: FrameChoice::Own,
+        max_appearance_modes: 0,
+        ..BuildOptions::default()
+    })
+    .build(&images, None)
+    .unwrap();
+    let d = m.shape.base.len();
+    m.shape.modes = vec![0.0; 256 * d];
+    for i in 0..256 {
+        m.shape.modes[i * d + i] = 1.0;
+    }
+    m.shape.variances = vec![1.0; 256];
+    let bytes = write_model(&m);
+    let e = message(WasmTracker::new(&bytes).err().expect("refused"));
+    assert!(e.starts_with("memory budget:"), "{e}");
+    let js = JsModel::from_bytes(&bytes).unwrap();
+    assert!(WasmTracker::from_model(&js).is_err());
+    // A model within its budget tracks.
+    assert!(WasmTracker::new(&write_model(&seeds().models[0])).is_ok());
+}
