@@ -30,7 +30,8 @@ fn main() {
     let mut saved = 0;
     for i in 0..execs {
         match f.step() {
-            Ok(Some((class, input))) => {
+            // The first 300 inputs of a new outcome class form the corpus (kept small).
+            Ok(Some((class, input))) if saved < 300 => {
                 let target = class.split(':').next().unwrap_or("x").to_string();
                 let dir = root.join("corpus");
                 let _ = std::fs::create_dir_all(&dir);
