@@ -58,6 +58,27 @@ fn benches(c: &mut Criterion) {
         })
     });
 
+    // Synthesis straight from the compact storages (what a per-frame reader of the packed file
+    // would do), against the f32 expansion the library does once on load (above).
+    let d = model.appearance.len();
+    let compact = Compact::new(&model.appearance.base, &model.appearance.modes, d);
+    c.bench_function("appearance synthesis from i8 storage (no expansion)", |b| {
+        b.iter(|| compact.synthesise_i8(black_box(&params.appearance), &mut appearance))
+    });
+    c.bench_function("appearance synthesis from i6 storage (no expansion)", |b| {
+        b.iter(|| compact.synthesise_i6(black_box(&params.appearance), &mut appearance))
+    });
+    let mut expanded = vec![0f32; model.appearance.len()];
+    model
+        .appearance
+        .instance_unchecked(&params.appearance, &mut expanded);
+    compact.synthesise_i6(&params.appearance, &mut appearance);
+    let worst = expanded
+        .iter()
+        .zip(&appearance)
+        .fold(0f32, |a, (x, y)| a.max((x - y).abs()));
+    assert!(worst < 0.05, "i6 synthesis off by {worst}");
+
     c.bench_function("upload appearance to texture", |b| {
         b.iter(|| {
             renderer
@@ -91,6 +112,91 @@ fn benches(c: &mut Criterion) {
     c.bench_function("project (pose, shape, appearance)", |b| {
         b.iter(|| black_box(model.project(&view, black_box(&probe.landmarks)).unwrap()))
     });
+}
+
+/// The appearance in the file's compact forms: base as u8 levels, modes as i8 values with a
+/// per-mode scale, and the same values packed in 6 bits (as `docs/model-format.md` specifies).
+struct Compact {
+    base: Vec<u8>,
+    scales: Vec<f32>,
+    scales6: Vec<f32>,
+    q8: Vec<i8>,
+    q6: Vec<u8>,
+    d: usize,
+}
+
+impl Compact {
+    fn new(base: &[f32], modes: &[f32], d: usize) -> Compact {
+        let (mut scales, mut scales6) = (Vec::new(), Vec::new());
+        let (mut q8, mut q6bits) = (Vec::new(), Vec::new());
+        for mode in modes.chunks_exact(d) {
+            let peak = mode.iter().fold(0f32, |a, &v| a.max(v.abs()));
+            let s = peak / 127.0;
+            q8.extend(mode.iter().map(|&v| (v / s).round() as i8));
+            scales.push(s);
+            scales6.push(peak / 31.0);
+            q6bits.extend(mode.iter().map(|&v| (v / (peak / 31.0)).round() as i8));
+        }
+        let mut q6 = Vec::new();
+        let (mut acc, mut n) = (0u32, 0u32);
+        for &k in &q6bits {
+            acc |= (k as i32 as u32 & 63) << n;
+            n += 6;
+            while n >= 8 {
+                q6.push(acc as u8);
+                acc >>= 8;
+                n -= 8;
+            }
+        }
+        q6.extend([acc as u8, 0, 0, 0, 0, 0, 0, 0, 0]);
+        Compact {
+            base: base.iter().map(|&v| (v * 255.0).round() as u8).collect(),
+            scales,
+            scales6,
+            q8,
+            q6,
+            d,
+        }
+    }
+
+    /// `A0 + sum_i w_i s_i q_i`, blocked like `facemimic::synthesise`.
+    fn synthesise_i8(&self, w: &[f32], out: &mut [f32]) {
+        const BLOCK: usize = 2048;
+        let d = self.d;
+        let mut start = 0;
+        while start < d {
+            let end = (start + BLOCK).min(d);
+            let o = &mut out[start..end];
+            for (a, &b) in o.iter_mut().zip(&self.base[start..end]) {
+                *a = b as f32 * (1.0 / 255.0);
+            }
+            for (i, (&wi, &s)) in w.iter().zip(&self.scales).enumerate() {
+                let ws = wi * s;
+                for (a, &q) in o.iter_mut().zip(&self.q8[i * d + start..i * d + end]) {
+                    *a += ws * q as f32;
+                }
+            }
+            start = end;
+        }
+    }
+
+    /// The same from the 6-bit stream (value `j` at stream bit `6 j`).
+    fn synthesise_i6(&self, w: &[f32], out: &mut [f32]) {
+        let d = self.d;
+        for (a, &b) in out.iter_mut().zip(&self.base) {
+            *a = b as f32 * (1.0 / 255.0);
+        }
+        for (i, (&wi, &s)) in w.iter().zip(&self.scales6).enumerate() {
+            let ws = wi * s;
+            for (k, a) in out.iter_mut().enumerate() {
+                let bit = (i * d + k) * 6;
+                let byte = bit / 8;
+                let word = u16::from_le_bytes([self.q6[byte], self.q6[byte + 1]]) as u32;
+                let q = (((word >> (bit % 8)) << 26) as i32) >> 26;
+                *a += ws * q as f32;
+            }
+        }
+    }
 }
 
 criterion_group!(core, benches);

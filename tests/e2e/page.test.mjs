@@ -513,3 +513,38 @@ test('"Fast raster" switches to the scanline warp: faces stay painted and look t
   assert.ok(meanAbsDiff(skia, await canvasPixels(page, `${TARGETS} >> nth=0`)) < 0.01, 'tiny-skia render not restored');
   assert.deepEqual(errors, []);
 });
+
+test('first load (wasm, JS and the bundled models) is at most 6 MB', async (t) => {
+  // A fresh context (empty cache; the server sends no-store): every byte the page fetches until
+  // it is ready and has drawn a few frames, from the network log (response body + headers).
+  const context = await browser.newContext({ viewport: { width: 1440, height: 900 } });
+  t.after(async () => {
+    await context.close();
+  });
+  const page = await context.newPage();
+  const sizes = [];
+  page.on('requestfinished', (r) => {
+    sizes.push(
+      r.sizes().then((s) => ({
+        path: new URL(r.url()).pathname,
+        bytes: s.responseBodySize + s.responseHeadersSize,
+      })),
+    );
+  });
+  await page.goto(server.url);
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
+  await page.waitForFunction(() => /^\d+$/.test(document.getElementById('ro-fps').textContent));
+  const got = await Promise.all(sizes);
+  const total = got.reduce((a, r) => a + r.bytes, 0);
+  const sum = (re) => got.filter((r) => re.test(r.path)).reduce((a, r) => a + r.bytes, 0);
+  const models = got.filter((r) => r.path.endsWith('.fmm'));
+  console.log(
+    `first load: ${got.length} responses, ${(total / 1e6).toFixed(3)} MB: ` +
+      `${models.length} models ${(sum(/\.fmm$/) / 1e6).toFixed(3)} MB, wasm ${(sum(/\.wasm$/) / 1e6).toFixed(3)} MB, ` +
+      `JS ${(sum(/\.m?js$/) / 1e6).toFixed(3)} MB, other ${((total - sum(/\.fmm$|\.wasm$|\.m?js$/)) / 1e6).toFixed(3)} MB`,
+  );
+  const wanted = [manifest.source, ...manifest.targets].map((f) => `/models/${f}`);
+  for (const w of wanted) assert.ok(models.some((r) => r.path === w), `${w} was not loaded`);
+  assert.ok(sum(/\.wasm$/) > 0, 'no wasm in the network log');
+  assert.ok(total <= 6e6, `first load ${total} bytes, more than 6 MB`);
+});
