@@ -47,6 +47,11 @@ impl AppearanceModel {
         self.variances.iter().map(|v| v.sqrt()).collect()
     }
 
+    /// Each mode's share of the kept variance (summing to 1; all 0 without variance).
+    pub fn variance_shares(&self) -> Vec<f32> {
+        crate::pca::variance_shares(&self.variances)
+    }
+
     /// Eq. 2, `A = A0 + sum_i lambda_i A_i`, into `out` (`3N`). Allocates nothing.
     pub fn instance(&self, lambda: &[f32], out: &mut [f32]) -> Result<()> {
         check_len("appearance parameters", lambda, self.n_modes())?;

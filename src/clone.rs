@@ -449,30 +449,140 @@ fn check_model(m: &Model) -> Result<()> {
 // ---------------------------------------------------------------------------------------
 // The cloner.
 
-/// One target: its model, the pair's precomputation and the output buffers of the last frame.
-#[derive(Clone, Debug)]
-struct Target {
-    model: Model,
-    pair: Pair,
+/// One target's output of a cloned frame: the target parameters, the posed target shape
+/// (image coordinates) and the target appearance (frame pixels). [`Cloner`] keeps one per
+/// target; [`Cloner::clone_target`] writes into one of the caller's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TargetFrame {
     params: Params,
     shape: Vec<f32>,
     appearance: Vec<f32>,
 }
 
-impl Target {
-    fn new(source: &Model, model: Model) -> Result<Target> {
-        let pair = Pair::new(source, &model)?;
+impl TargetFrame {
+    /// The target's reference face at its mean pose.
+    fn reference(model: &Model) -> TargetFrame {
         let params = model.base_params();
         let mut shape = model.shape.base.clone();
         params.pose.apply_in_place(&mut shape);
-        let appearance = model.appearance.base.clone();
-        Ok(Target {
-            model,
-            pair,
+        TargetFrame {
             params,
             shape,
-            appearance,
-        })
+            appearance: model.appearance.base.clone(),
+        }
+    }
+
+    /// The target parameters (see [`Cloner::target_params`]).
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// The posed target shape in image coordinates (`2n` values).
+    pub fn shape(&self) -> &[f32] {
+        &self.shape
+    }
+
+    /// The target appearance on the frame pixels (`3N` RGB values).
+    pub fn appearance(&self) -> &[f32] {
+        &self.appearance
+    }
+}
+
+/// One target: its model, the pair's precomputation and the output of the last frame.
+#[derive(Clone, Debug)]
+struct Target {
+    model: Model,
+    pair: Pair,
+    out: TargetFrame,
+}
+
+impl Target {
+    fn new(source: &Model, model: Model) -> Result<Target> {
+        let pair = Pair::new(source, &model)?;
+        let out = TargetFrame::reference(&model);
+        Ok(Target { model, pair, out })
+    }
+}
+
+/// What every target of one frame shares: the source, its gained (and, for `substitute`,
+/// constrained) parameters and the options.
+struct Step<'a> {
+    source: &'a Model,
+    source_mean_inverse: &'a Similarity,
+    source_pose: &'a Similarity,
+    p: &'a [f32],
+    lambda: &'a [f32],
+    options: &'a CloneOptions,
+}
+
+impl Step<'_> {
+    /// Clones the step onto one target (`model`, `pair`) into `out`; `acc` is shape scratch.
+    /// Fails with [`Error::Overflow`] naming an output that is not finite.
+    fn clone_onto(
+        &self,
+        model: &Model,
+        pair: &Pair,
+        out: &mut TargetFrame,
+        acc: &mut [f64],
+    ) -> Result<()> {
+        let (m, p, lambda, options) = (model, self.p, self.lambda, self.options);
+        out.params.pose = target_pose(
+            self.source_mean_inverse,
+            self.source_pose,
+            &m.mean_pose,
+            options.follow_pose,
+        );
+        map_params(&pair.shape_map, p, &mut out.params.shape);
+        map_params(&pair.appearance_map, lambda, &mut out.params.appearance);
+        match options.method {
+            Method::Substitute => {
+                substitute_shape(&m.shape.base, &self.source.shape.modes, p, acc);
+                crate::synthesise(
+                    &m.appearance.base,
+                    &self.source.appearance.modes,
+                    lambda,
+                    &mut out.appearance,
+                );
+            }
+            Method::Map | Method::MapResidual => {
+                if let Some(k) = options.clamp {
+                    constrain(&mut out.params.shape, &pair.target_shape_sigmas, k);
+                    constrain(
+                        &mut out.params.appearance,
+                        &pair.target_appearance_sigmas,
+                        k,
+                    );
+                }
+                map_shape(&m.shape.base, &m.shape.modes, &out.params.shape, acc);
+                if options.method == Method::MapResidual {
+                    add_residual(&pair.residual, p, acc);
+                }
+                crate::synthesise(
+                    &m.appearance.base,
+                    &m.appearance.modes,
+                    &out.params.appearance,
+                    &mut out.appearance,
+                );
+            }
+        }
+        let pose = out.params.pose;
+        for (o, a) in out.shape.chunks_exact_mut(2).zip(acc.chunks_exact(2)) {
+            let (x, y) = pose.apply_point(a[0] as f32, a[1] as f32);
+            o[0] = x;
+            o[1] = y;
+        }
+        // The entry bounds keep these finite; checked so that no NaN can ever leave.
+        let name = &model.name;
+        crate::bounds::check_output(&format!("target '{name}' shape"), &out.shape)?;
+        crate::bounds::check_output(&format!("target '{name}' appearance"), &out.appearance)?;
+        crate::bounds::check_output(
+            &format!("target '{name}' shape parameters"),
+            &out.params.shape,
+        )?;
+        crate::bounds::check_output(
+            &format!("target '{name}' appearance parameters"),
+            &out.params.appearance,
+        )
     }
 }
 
@@ -487,8 +597,8 @@ impl Target {
 /// Ensures: every target is compatible with the source (same landmark scheme and frame);
 /// `clone_frame` allocates nothing; a failed call leaves every output untouched.
 ///
-/// Rendering target `i`: `renderer.upload(&cloner.target(i).frame, cloner.target_appearance(i))`
-/// then `renderer.warp(&cloner.target(i).frame, cloner.target_shape(i), &view, &mut pixmap)`.
+/// Drawing target `i`: `drawer.draw(&cloner.target(i).frame, cloner.target_appearance(i),
+/// cloner.target_shape(i), &view, &mut pixmap)` with a [`crate::FaceDrawer`].
 #[derive(Clone, Debug)]
 pub struct Cloner {
     source: Model,
@@ -606,9 +716,76 @@ impl Cloner {
     /// `substitute`, see there), [`Cloner::target_shape`] the posed shape in image
     /// coordinates, [`Cloner::target_appearance`] the appearance on the frame pixels.
     pub fn clone_frame(&mut self, source: &Params, options: &CloneOptions) -> Result<()> {
+        self.prepare(source, options, 0..self.targets.len())?;
+        let step = Step {
+            source: &self.source,
+            source_mean_inverse: &self.source_mean_inverse,
+            source_pose: &source.pose,
+            p: &self.gained_shape,
+            lambda: &self.gained_appearance,
+            options,
+        };
+        for t in &mut self.targets {
+            step.clone_onto(&t.model, &t.pair, &mut t.out, &mut self.acc)?;
+        }
+        Ok(())
+    }
+
+    /// Clones one source frame onto target `index` alone, into `out` (for example with
+    /// another method than the one every target follows: the paper's Fig. 4 side by side),
+    /// leaving the cloner's own outputs untouched. Allocates nothing.
+    ///
+    /// Requires what [`Cloner::clone_frame`] requires, and `out` made for this target by
+    /// [`Cloner::target_frame`]; otherwise an error and `out` is unchanged.
+    pub fn clone_target(
+        &mut self,
+        index: usize,
+        source: &Params,
+        options: &CloneOptions,
+        out: &mut TargetFrame,
+    ) -> Result<()> {
+        self.check_index(index)?;
+        let t = &self.targets[index];
+        if out.shape.len() != t.out.shape.len()
+            || out.appearance.len() != t.out.appearance.len()
+            || out.params.shape.len() != t.out.params.shape.len()
+            || out.params.appearance.len() != t.out.params.appearance.len()
+        {
+            return Err(Error::Params(format!(
+                "the output was not made for target '{}' (use Cloner::target_frame)",
+                t.model.name
+            )));
+        }
+        self.prepare(source, options, index..index + 1)?;
+        let step = Step {
+            source: &self.source,
+            source_mean_inverse: &self.source_mean_inverse,
+            source_pose: &source.pose,
+            p: &self.gained_shape,
+            lambda: &self.gained_appearance,
+            options,
+        };
+        let t = &self.targets[index];
+        step.clone_onto(&t.model, &t.pair, out, &mut self.acc)
+    }
+
+    /// A copy of target `index`'s output of the last frame (a buffer for
+    /// [`Cloner::clone_target`]), or `None` when out of range.
+    pub fn target_frame(&self, index: usize) -> Option<TargetFrame> {
+        self.targets.get(index).map(|t| t.out.clone())
+    }
+
+    /// Checks the source parameters, the options and the poses of `targets`, then writes the
+    /// gained (and, for `substitute`, constrained) source parameters into the scratch.
+    fn prepare(
+        &mut self,
+        source: &Params,
+        options: &CloneOptions,
+        targets: std::ops::Range<usize>,
+    ) -> Result<()> {
         self.source.check_params(source)?;
         options.validate(&self.source)?;
-        for t in &self.targets {
+        for t in &self.targets[targets] {
             let pose = target_pose(
                 &self.source_mean_inverse,
                 &source.pose,
@@ -647,72 +824,6 @@ impl Cloner {
                 );
             }
         }
-        let (p, lambda) = (&self.gained_shape, &self.gained_appearance);
-        for t in &mut self.targets {
-            let m = &t.model;
-            t.params.pose = target_pose(
-                &self.source_mean_inverse,
-                &source.pose,
-                &m.mean_pose,
-                options.follow_pose,
-            );
-            map_params(&t.pair.shape_map, p, &mut t.params.shape);
-            map_params(&t.pair.appearance_map, lambda, &mut t.params.appearance);
-            match options.method {
-                Method::Substitute => {
-                    substitute_shape(&m.shape.base, &self.source.shape.modes, p, &mut self.acc);
-                    crate::synthesise(
-                        &m.appearance.base,
-                        &self.source.appearance.modes,
-                        lambda,
-                        &mut t.appearance,
-                    );
-                }
-                Method::Map | Method::MapResidual => {
-                    if let Some(k) = options.clamp {
-                        constrain(&mut t.params.shape, &t.pair.target_shape_sigmas, k);
-                        constrain(
-                            &mut t.params.appearance,
-                            &t.pair.target_appearance_sigmas,
-                            k,
-                        );
-                    }
-                    map_shape(
-                        &m.shape.base,
-                        &m.shape.modes,
-                        &t.params.shape,
-                        &mut self.acc,
-                    );
-                    if options.method == Method::MapResidual {
-                        add_residual(&t.pair.residual, p, &mut self.acc);
-                    }
-                    crate::synthesise(
-                        &m.appearance.base,
-                        &m.appearance.modes,
-                        &t.params.appearance,
-                        &mut t.appearance,
-                    );
-                }
-            }
-            let pose = t.params.pose;
-            for (o, a) in t.shape.chunks_exact_mut(2).zip(self.acc.chunks_exact(2)) {
-                let (x, y) = pose.apply_point(a[0] as f32, a[1] as f32);
-                o[0] = x;
-                o[1] = y;
-            }
-            // The entry bounds keep these finite; checked so that no NaN can ever leave.
-            let name = &t.model.name;
-            crate::bounds::check_output(&format!("target '{name}' shape"), &t.shape)?;
-            crate::bounds::check_output(&format!("target '{name}' appearance"), &t.appearance)?;
-            crate::bounds::check_output(
-                &format!("target '{name}' shape parameters"),
-                &t.params.shape,
-            )?;
-            crate::bounds::check_output(
-                &format!("target '{name}' appearance parameters"),
-                &t.params.appearance,
-            )?;
-        }
         Ok(())
     }
 
@@ -728,18 +839,18 @@ impl Cloner {
     /// the source's modes and is in [`Cloner::target_shape`] / [`Cloner::target_appearance`].
     /// Panics when `index` is out of range.
     pub fn target_params(&self, index: usize) -> &Params {
-        &self.targets[index].params
+        &self.targets[index].out.params
     }
 
     /// Target `index`'s instance landmarks of the last frame, posed, in image coordinates
     /// (`2n` values). Panics when `index` is out of range.
     pub fn target_shape(&self, index: usize) -> &[f32] {
-        &self.targets[index].shape
+        &self.targets[index].out.shape
     }
 
     /// Target `index`'s appearance of the last frame: `3N` RGB values on the frame pixels,
-    /// ready for [`crate::Renderer::upload`]. Panics when `index` is out of range.
+    /// ready for [`crate::FaceDrawer::upload`]. Panics when `index` is out of range.
     pub fn target_appearance(&self, index: usize) -> &[f32] {
-        &self.targets[index].appearance
+        &self.targets[index].out.appearance
     }
 }

@@ -10,8 +10,10 @@
 //!   PCA shape model (Eq. 1), a shape-normalised PCA appearance model (Eq. 2) and a triangulated
 //!   [`ReferenceFrame`].
 //! - [`format`] reads and writes the versioned binary model file (`.fmm`).
-//! - [`Renderer`] warps an instance onto any shape with tiny-skia; [`Rasterizer::Scanline`] is
-//!   an opt-in faster fixed-point rasteriser writing into the same tiny-skia pixmap.
+//! - [`FaceDrawer`] draws a face (an instance warped onto any shape, optionally with its mesh)
+//!   into a tiny-skia pixmap with the chosen backend: [`Renderer`] (tiny-skia pattern fills, the
+//!   default) or [`Scanline`] ([`Rasterizer::Scanline`], an opt-in faster fixed-point warp);
+//!   [`fit_view`] lays a face out in a canvas.
 #![warn(missing_docs)]
 // `!(x > y)` is used on purpose: it is true for NaN, which is how bad input is rejected.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -35,7 +37,6 @@ pub mod io;
 pub mod landmarks;
 mod model;
 mod pca;
-mod raster;
 mod refine;
 mod render;
 mod select;
@@ -59,9 +60,11 @@ pub use frame::{triangulate, FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
 pub use model::{LandmarkScheme, Model, Params, Reference};
 pub use pca::{pca, Pca};
-pub use raster::{Rasterizer, Scanline};
 pub use refine::refine_landmarks;
-pub use render::{demultiply, demultiply_into, triangle_affine, Renderer};
+pub use render::{
+    base_box, canvas_view, demultiply, demultiply_into, fit_view, mesh_edges, triangle_affine,
+    DrawOptions, FaceDrawer, MeshOverlay, Rasterizer, Renderer, Scanline, FACE_FILL,
+};
 pub use select::{coverage, select_varied};
 pub use shape::{generalised_procrustes, ShapeModel};
 pub use similarity::{PoseJson, Similarity};

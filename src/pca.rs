@@ -135,3 +135,18 @@ pub fn mean(samples: &[Vec<f64>]) -> Vec<f64> {
     m.iter_mut().for_each(|v| *v /= n);
     m
 }
+
+/// Each variance's share of their sum, computed in f64 (all 0 when the sum is not positive).
+pub fn variance_shares(variances: &[f32]) -> Vec<f32> {
+    let total: f64 = variances.iter().map(|&v| v as f64).sum();
+    variances
+        .iter()
+        .map(|&v| {
+            if total > 0.0 {
+                (v as f64 / total) as f32
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}

@@ -45,6 +45,11 @@ impl ShapeModel {
         self.variances.iter().map(|v| v.sqrt()).collect()
     }
 
+    /// Each mode's share of the kept variance (summing to 1; all 0 without variance).
+    pub fn variance_shares(&self) -> Vec<f32> {
+        crate::pca::variance_shares(&self.variances)
+    }
+
     /// Eq. 1, `s = s0 + sum_i p_i s_i`, written into `out` (length `2n`). Allocates nothing.
     /// Requires `p.len() == m`, `out.len() == 2n`, finite `p` (all checked); fails with
     /// [`crate::Error::Overflow`] if the instance overflows.

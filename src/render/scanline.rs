@@ -1,10 +1,10 @@
 //! The per-frame triangle warp, scanline edition: the same piecewise-affine warp as
-//! [`crate::Renderer::warp`] (bilinear texture lookups, pixel centres inside the warped mesh
+//! [`super::Renderer::warp`] (bilinear texture lookups, pixel centres inside the warped mesh
 //! painted, shared edges painted exactly once), written straight into the same tiny-skia
 //! pixmap with 8-bit fixed-point bilinear filtering. tiny-skia's pattern fill runs its
 //! high-precision f32 pipeline with source-over blending for every pixel, several times the
-//! cost of this path; results agree within ~1.5 levels. [`Rasterizer`] picks one of the two;
-//! [`Rasterizer::TinySkia`] (`Renderer::warp`) is the default everywhere.
+//! cost of this path; results agree within ~1.5 levels. [`super::Rasterizer`] picks one of the
+//! two; [`super::Rasterizer::TinySkia`] (`Renderer::warp`) is the default everywhere.
 //!
 //! Coverage rule: a pixel whose centre `(i, j)` (integers) lies in a triangle is painted by
 //! it, with half-open spans in `x` and `y` (top-left rule); every edge is evaluated from its
@@ -14,25 +14,14 @@
 
 use tiny_skia::PixmapMut;
 
+use super::triangle_affine;
 use crate::error::{check_finite, check_len, Result};
 use crate::frame::ReferenceFrame;
-use crate::render::{triangle_affine, Renderer};
 use crate::similarity::Similarity;
 use glam::Vec2;
 
-/// Which rasteriser warps the triangles of a piecewise-affine warp into a tiny-skia pixmap.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Rasterizer {
-    /// [`crate::Renderer::warp`]: one tiny-skia pattern fill per triangle (the default).
-    #[default]
-    TinySkia,
-    /// [`Scanline::warp`]: a faster fixed-point rasteriser that writes into the same tiny-skia
-    /// pixmap; results agree within ~1.5 levels.
-    Scanline,
-}
-
 /// Reusable state of the scanline path: the frame texture as packed RGBA8 words (the same
-/// content as [`crate::Renderer::upload`] writes into its pixmap: the appearance on the mesh
+/// content as [`super::Renderer::upload`] writes into its pixmap: the appearance on the mesh
 /// pixels, the padding ring copied from the nearest inside pixels, transparent elsewhere) and
 /// the destination points. Create once and reuse: after the first frame on a reference frame,
 /// uploading and warping allocate nothing.
@@ -268,62 +257,10 @@ impl Scanline {
     }
 }
 
-impl Rasterizer {
-    /// Uploads an appearance vector (`3N`, RGB in `0..=1`) as the texture of the chosen
-    /// rasteriser: [`crate::Renderer::upload`] or [`Scanline::upload`].
-    pub fn upload(
-        self,
-        renderer: &mut Renderer,
-        scanline: &mut Scanline,
-        frame: &ReferenceFrame,
-        appearance: &[f32],
-    ) -> Result<()> {
-        match self {
-            Rasterizer::TinySkia => renderer.upload(frame, appearance),
-            Rasterizer::Scanline => scanline.upload(frame, appearance),
-        }
-    }
-
-    /// Warps the texture uploaded by [`Rasterizer::upload`] onto `image_shape` (image
-    /// coordinates) mapped through `view` (image to target pixels), into `target`:
-    /// [`crate::Renderer::warp`] or [`Scanline::warp`].
-    #[allow(clippy::too_many_arguments)]
-    pub fn warp(
-        self,
-        renderer: &mut Renderer,
-        scanline: &mut Scanline,
-        frame: &ReferenceFrame,
-        image_shape: &[f32],
-        view: &Similarity,
-        target: &mut PixmapMut<'_>,
-    ) -> Result<()> {
-        match self {
-            Rasterizer::TinySkia => renderer.warp(frame, image_shape, view, target),
-            Rasterizer::Scanline => scanline.warp(frame, image_shape, view, target),
-        }
-    }
-
-    /// [`Rasterizer::upload`] then [`Rasterizer::warp`]: draws `appearance` warped onto
-    /// `image_shape` through `view` into `target`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw(
-        self,
-        renderer: &mut Renderer,
-        scanline: &mut Scanline,
-        frame: &ReferenceFrame,
-        appearance: &[f32],
-        image_shape: &[f32],
-        view: &Similarity,
-        target: &mut PixmapMut<'_>,
-    ) -> Result<()> {
-        self.upload(renderer, scanline, frame, appearance)?;
-        self.warp(renderer, scanline, frame, image_shape, view, target)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::{DrawOptions, FaceDrawer, Rasterizer};
     use tiny_skia::{Color, Pixmap};
     use wasm_bindgen_test::wasm_bindgen_test;
 
@@ -380,18 +317,14 @@ mod tests {
         }
         let mut pixmap = Pixmap::new(260, 300).unwrap();
         pixmap.fill(Color::from_rgba8(255, 0, 255, 255));
-        let mut renderer = Renderer::new(frame).unwrap();
-        let mut scanline = Scanline::new();
-        r.draw(
-            &mut renderer,
-            &mut scanline,
-            frame,
-            &appearance,
-            &shape,
-            view,
-            &mut pixmap.as_mut(),
-        )
-        .unwrap();
+        let options = DrawOptions {
+            rasterizer: r,
+            mesh: false,
+        };
+        let mut drawer = FaceDrawer::new(frame, options).unwrap();
+        drawer
+            .draw(frame, &appearance, &shape, view, &mut pixmap.as_mut())
+            .unwrap();
         pixmap
     }
 

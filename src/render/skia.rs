@@ -1,11 +1,12 @@
-//! Rendering: the piecewise-affine warp of an appearance from the reference frame onto a
-//! shape, rasterised with tiny-skia.
+//! The tiny-skia backend: the piecewise-affine warp of an appearance from the reference frame
+//! onto a shape, one pattern-shaded triangle fill per mesh triangle.
 
-use glam::{Affine2, Mat2, Vec2};
+use glam::Vec2;
 use tiny_skia::{
     FillRule, FilterQuality, Paint, PathBuilder, Pattern, Pixmap, PixmapMut, SpreadMode, Transform,
 };
 
+use super::{instance_into, triangle_affine};
 use crate::error::{check_len, Error, Result};
 use crate::frame::ReferenceFrame;
 use crate::model::{Model, Params};
@@ -36,19 +37,6 @@ impl std::fmt::Debug for Renderer {
             .field("frame_fingerprint", &self.frame_fingerprint)
             .finish()
     }
-}
-
-/// The affine map taking triangle `src` onto triangle `dst` (`None` when `src` is degenerate).
-pub fn triangle_affine(src: [Vec2; 3], dst: [Vec2; 3]) -> Option<Affine2> {
-    let s = Mat2::from_cols(src[1] - src[0], src[2] - src[0]);
-    let det = s.determinant();
-    if !(det.abs() > 1e-12) {
-        return None;
-    }
-    let d = Mat2::from_cols(dst[1] - dst[0], dst[2] - dst[0]);
-    let m = d * s.inverse();
-    let t = dst[0] - m * src[0];
-    Some(Affine2::from_mat2_translation(m, t))
 }
 
 impl Renderer {
@@ -188,18 +176,14 @@ impl Renderer {
     ) -> Result<()> {
         model.check_params(params)?;
         self.check_frame(&model.frame)?;
+        // Taking the buffers out of `self` (and back) moves them without allocating.
         let mut appearance = std::mem::take(&mut self.appearance);
-        model
-            .appearance
-            .instance_unchecked(&params.appearance, &mut appearance);
-        let r = self.upload(&model.frame, &appearance);
-        self.appearance = appearance;
-        r?;
-        // Taking the buffer out of `self` (and back) moves it without allocating.
         let mut instance = std::mem::take(&mut self.instance);
-        model.shape.instance_unchecked(&params.shape, &mut instance);
-        params.pose.apply_in_place(&mut instance);
-        let r = self.warp(&model.frame, &instance, view, target);
+        instance_into(model, params, &mut appearance, &mut instance);
+        let r = self
+            .upload(&model.frame, &appearance)
+            .and_then(|()| self.warp(&model.frame, &instance, view, target));
+        self.appearance = appearance;
         self.instance = instance;
         r
     }
@@ -208,20 +192,4 @@ impl Renderer {
 #[inline]
 fn to_u8(v: f32) -> u8 {
     (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8
-}
-
-/// The pixmap's pixels as straight (non-premultiplied) RGBA8, as PNG files and `ImageData` use.
-pub fn demultiply(pixmap: &Pixmap) -> Vec<u8> {
-    let mut out = Vec::with_capacity(pixmap.data().len());
-    demultiply_into(pixmap.as_ref(), &mut out);
-    out
-}
-
-/// [`demultiply`] into a reusable buffer (cleared first; no allocation once it is large enough).
-pub fn demultiply_into(pixmap: tiny_skia::PixmapRef<'_>, out: &mut Vec<u8>) {
-    out.clear();
-    for p in pixmap.pixels() {
-        let c = p.demultiply();
-        out.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
-    }
 }

@@ -6,14 +6,12 @@ use wasm_bindgen::prelude::*;
 use web_sys::ImageData;
 
 use super::model::{model_info, JsModel};
-use super::surface::{
-    base_box, draw_face, now_ms, paint, params_into, Ctx, MeshOverlay, RenderOptions, Sink, Stages,
-};
+use super::surface::{now_ms, paint, params_into, Ctx, RenderOptions, Sink, Stages};
 use super::{install_panic_hook, js_err, params_to_js, RenderOptionsArg};
-use crate::clone::{CloneOptions, Cloner, Method};
+use crate::clone::{CloneOptions, Cloner, Method, TargetFrame};
+use crate::frame::ReferenceFrame;
 use crate::model::{Model, Params};
-use crate::raster::Scanline;
-use crate::render::Renderer;
+use crate::render::{base_box, fit_view, FaceDrawer};
 
 /// Stage timings accumulated since the last `update()`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -24,13 +22,22 @@ struct Timings {
     blit: f64,
 }
 
-/// A one-target cloner that renders a target with another method than the main one (the
-/// compare view), rebuilt when the targets change.
+/// The compare view's output: one target cloned with another method than the main one,
+/// into its own buffers (made again when the targets change).
 struct Compare {
     /// Which target of the main cloner it mirrors, and the main cloner's generation then.
     index: usize,
     generation: u64,
-    cloner: Cloner,
+    out: TargetFrame,
+}
+
+/// One face to draw: an appearance on the frame, a shape in image coordinates, and the box
+/// the canvas view is fitted to.
+struct Face<'a> {
+    frame: &'a ReferenceFrame,
+    appearance: &'a [f32],
+    shape: &'a [f32],
+    bbox: [f32; 4],
 }
 
 /// One source model cloned onto any number of targets (the paper's section 3), with rendering
@@ -42,19 +49,22 @@ pub struct JsCloner {
     source_params: Params,
     /// Scratch for `setSourceParams` (same lengths as `source_params`).
     pending: Params,
-    renderer: Renderer,
+    drawer: FaceDrawer,
     /// Scratch: source appearance (3N) and source landmarks (2n).
     appearance: Vec<f32>,
     shape: Vec<f32>,
     /// Bounding boxes of the mean placements: source, then one per target.
     source_box: [f32; 4],
     target_boxes: Vec<[f32; 4]>,
-    overlay: MeshOverlay,
-    scanline: Scanline,
     timings: Timings,
     compare: Option<Compare>,
     /// Bumped whenever the source or the targets change.
     generation: u64,
+}
+
+/// The box target `index`'s view is fitted to (its mean placement).
+fn target_box(boxes: &[[f32; 4]], index: usize, model: &Model) -> [f32; 4] {
+    boxes.get(index).copied().unwrap_or_else(|| base_box(model))
 }
 
 fn parse_method(method: &str) -> Result<Method, JsError> {
@@ -90,38 +100,24 @@ impl JsCloner {
         Ok(())
     }
 
-    /// Uploads `appearance` and warps `shape` (image coordinates) of a model on the shared
-    /// frame into the sink, adding the stage times.
-    #[allow(clippy::too_many_arguments)]
+    /// Uploads the face's appearance and warps its shape into the sink with the drawer,
+    /// adding the stage times.
     fn draw(
-        renderer: &mut Renderer,
-        scanline: &mut Scanline,
-        overlay: &mut MeshOverlay,
+        drawer: &mut FaceDrawer,
         timings: &mut Timings,
-        model: &Model,
-        appearance: &[f32],
-        shape: &[f32],
-        bbox: [f32; 4],
+        face: Face<'_>,
         sink: Sink<'_>,
         options: &RenderOptions,
     ) -> Result<(), JsError> {
         let t0 = now_ms();
-        options
-            .raster
-            .upload(renderer, scanline, &model.frame, appearance)
-            .map_err(js_err)?;
+        drawer.set_options(options.draw);
+        drawer.upload(face.frame, face.appearance).map_err(js_err)?;
         timings.synth += now_ms() - t0;
         let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
-            draw_face(
-                options,
-                renderer,
-                scanline,
-                overlay,
-                &model.frame,
-                shape,
-                bbox,
-                (pixmap, w, h),
-            )
+            let view = fit_view(face.bbox, w, h);
+            drawer
+                .warp(face.frame, face.shape, &view, pixmap)
+                .map_err(js_err)
         })?;
         timings.raster += stages.raster;
         timings.blit += stages.blit;
@@ -146,18 +142,13 @@ impl JsCloner {
             &mut self.appearance,
         );
         self.timings.synth += now_ms() - t0;
-        Self::draw(
-            &mut self.renderer,
-            &mut self.scanline,
-            &mut self.overlay,
-            &mut self.timings,
-            model,
-            &self.appearance,
-            &self.shape,
-            self.source_box,
-            sink,
-            options,
-        )
+        let face = Face {
+            frame: &model.frame,
+            appearance: &self.appearance,
+            shape: &self.shape,
+            bbox: self.source_box,
+        };
+        Self::draw(&mut self.drawer, &mut self.timings, face, sink, options)
     }
 
     fn render_target_into(
@@ -169,23 +160,13 @@ impl JsCloner {
         let Some(model) = self.cloner.get_target(index) else {
             return Err(JsError::new(&format!("target index {index} out of range")));
         };
-        let bbox = self
-            .target_boxes
-            .get(index)
-            .copied()
-            .unwrap_or_else(|| base_box(model));
-        Self::draw(
-            &mut self.renderer,
-            &mut self.scanline,
-            &mut self.overlay,
-            &mut self.timings,
-            model,
-            self.cloner.target_appearance(index),
-            self.cloner.target_shape(index),
-            bbox,
-            sink,
-            options,
-        )
+        let face = Face {
+            frame: &model.frame,
+            appearance: self.cloner.target_appearance(index),
+            shape: self.cloner.target_shape(index),
+            bbox: target_box(&self.target_boxes, index, model),
+        };
+        Self::draw(&mut self.drawer, &mut self.timings, face, sink, options)
     }
 
     fn changed(&mut self) {
@@ -201,7 +182,7 @@ impl JsCloner {
     pub fn new(source: &JsModel) -> Result<JsCloner, JsError> {
         install_panic_hook();
         let model: Model = source.model().clone();
-        let renderer = Renderer::new(&model.frame).map_err(js_err)?;
+        let drawer = FaceDrawer::new(&model.frame, Default::default()).map_err(js_err)?;
         let source_params = model.base_params();
         let appearance = vec![0.0; model.appearance.len()];
         let shape = vec![0.0; model.shape.base.len()];
@@ -212,13 +193,11 @@ impl JsCloner {
             options: CloneOptions::default(),
             pending: source_params.clone(),
             source_params,
-            renderer,
+            drawer,
             appearance,
             shape,
             source_box,
             target_boxes: Vec::new(),
-            overlay: MeshOverlay::default(),
-            scanline: Scanline::default(),
             timings: Timings::default(),
             compare: None,
             generation: 0,
@@ -231,13 +210,13 @@ impl JsCloner {
     #[wasm_bindgen(js_name = setSource)]
     pub fn set_source(&mut self, source: &JsModel) -> Result<(), JsError> {
         let model = source.model().clone();
-        let renderer = Renderer::new(&model.frame).map_err(js_err)?;
+        let drawer = FaceDrawer::new(&model.frame, Default::default()).map_err(js_err)?;
         let params = model.base_params();
         let source_box = base_box(&model);
         let (m, l) = (model.shape.n_modes(), model.appearance.n_modes());
         let (n2, d) = (model.shape.base.len(), model.appearance.len());
         self.cloner.set_source(model).map_err(js_err)?;
-        self.renderer = renderer;
+        self.drawer = drawer;
         self.pending = params.clone();
         self.source_params = params;
         self.source_box = source_box;
@@ -546,44 +525,39 @@ impl JsCloner {
         let fresh =
             matches!(&self.compare, Some(c) if c.index == i && c.generation == self.generation);
         if !fresh {
-            let (Some(target), source) = (self.cloner.get_target(i), self.cloner.source()) else {
+            let Some(out) = self.cloner.target_frame(i) else {
                 return Err(JsError::new("target index out of range"));
             };
-            let mut cloner = Cloner::new(source.clone()).map_err(js_err)?;
-            cloner.add_target(target.clone()).map_err(js_err)?;
             self.compare = Some(Compare {
                 index: i,
                 generation: self.generation,
-                cloner,
+                out,
             });
         }
         let Some(compare) = self.compare.as_mut() else {
-            return Err(JsError::new("internal error: compare cloner"));
+            return Err(JsError::new("internal error: compare output"));
         };
         let t0 = now_ms();
         // Only the method differs; the options were validated when set.
         let saved = self.options.method;
         self.options.method = method;
-        let r = compare
+        let r = self
             .cloner
-            .clone_frame(&self.source_params, &self.options);
+            .clone_target(i, &self.source_params, &self.options, &mut compare.out);
         self.options.method = saved;
         r.map_err(js_err)?;
         self.timings.map += now_ms() - t0;
-        let bbox = self
-            .target_boxes
-            .get(i)
-            .copied()
-            .unwrap_or_else(|| base_box(compare.cloner.target(0)));
+        let model = self.cloner.target(i);
+        let face = Face {
+            frame: &model.frame,
+            appearance: compare.out.appearance(),
+            shape: compare.out.shape(),
+            bbox: target_box(&self.target_boxes, i, model),
+        };
         Self::draw(
-            &mut self.renderer,
-            &mut self.scanline,
-            &mut self.overlay,
+            &mut self.drawer,
             &mut self.timings,
-            compare.cloner.target(0),
-            compare.cloner.target_appearance(0),
-            compare.cloner.target_shape(0),
-            bbox,
+            face,
             Sink::Canvas(&ctx),
             &render_options,
         )

@@ -2,7 +2,7 @@
 //!
 //! A thin layer over the core: [`JsModel`] (`Model` in JS) wraps [`crate::Model`] and
 //! [`crate::format`], [`JsCloner`] (`Cloner`) wraps [`crate::clone::Cloner`], and rendering goes
-//! through [`crate::Renderer`] into a reusable tiny-skia pixmap per canvas size, then into the
+//! through [`crate::FaceDrawer`] into a reusable tiny-skia pixmap per canvas size, then into the
 //! canvas with `putImageData`. The contract is `npm/README.md`.
 //!
 //! Every entry point validates its input and returns `Result<_, JsError>`: a bad model file,
@@ -48,12 +48,7 @@ pub(crate) fn params_to_js(params: &Params) -> Result<JsValue, JsError> {
     serde_wasm_bindgen::to_value(params).map_err(|e| JsError::new(&format!("parameters: {e}")))
 }
 
-/// The view (image coordinates -> canvas pixels) with which `model` is drawn into a
-/// `width x height` canvas: its base shape at its mean pose, bounding box centred, the box's
-/// larger side at 85% of the smaller canvas side. Stable for a model and a canvas size.
-pub fn canvas_view(model: &crate::Model, width: u32, height: u32) -> crate::Similarity {
-    surface::fit_view(surface::base_box(model), width, height)
-}
+pub use crate::render::canvas_view;
 
 /// The package version (the crate's).
 #[wasm_bindgen]

@@ -6,12 +6,11 @@ use std::rc::Rc;
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
-use super::surface::{base_box, draw_face, paint, Ctx, MeshOverlay, RenderOptions, Sink};
+use super::surface::{paint, Ctx, RenderOptions, Sink};
 use super::{install_panic_hook, js_err, params_from_js, params_to_js, RenderOptionsArg};
 use crate::image::ImageRef;
 use crate::model::{Model, Params, Reference};
-use crate::raster::Scanline;
-use crate::render::Renderer;
+use crate::render::{base_box, fit_view, FaceDrawer};
 
 /// The plain object `Model.info()` returns (see the TypeScript `ModelInfo`).
 #[derive(Serialize)]
@@ -36,20 +35,6 @@ pub(crate) struct ModelInfo {
     image_height: u32,
 }
 
-fn shares(variances: &[f32]) -> Vec<f32> {
-    let total: f64 = variances.iter().map(|&v| v as f64).sum();
-    variances
-        .iter()
-        .map(|&v| {
-            if total > 0.0 {
-                (v as f64 / total) as f32
-            } else {
-                0.0
-            }
-        })
-        .collect()
-}
-
 pub(crate) fn model_info(m: &Model) -> Result<JsValue, JsError> {
     let info = ModelInfo {
         name: m.name.clone(),
@@ -63,8 +48,8 @@ pub(crate) fn model_info(m: &Model) -> Result<JsValue, JsError> {
         appearance_modes: m.appearance.n_modes(),
         shape_sigma: m.shape.sigmas(),
         appearance_sigma: m.appearance.sigmas(),
-        shape_variance_share: shares(&m.shape.variances),
-        appearance_variance_share: shares(&m.appearance.variances),
+        shape_variance_share: m.shape.variance_shares(),
+        appearance_variance_share: m.appearance.variance_shares(),
         fingerprint: format!("{:016x}", m.frame.fingerprint()),
         reference: match &m.reference {
             Reference::Mean => "mean".into(),
@@ -78,24 +63,16 @@ pub(crate) fn model_info(m: &Model) -> Result<JsValue, JsError> {
 
 /// Per-model rendering scratch (created on the first render, reused afterwards).
 pub(crate) struct ModelScratch {
-    renderer: Renderer,
-    appearance: Vec<f32>,
-    shape: Vec<f32>,
+    drawer: FaceDrawer,
     params: Params,
-    overlay: MeshOverlay,
-    scanline: Scanline,
     bbox: [f32; 4],
 }
 
 impl ModelScratch {
     fn new(model: &Model) -> Result<ModelScratch, JsError> {
         Ok(ModelScratch {
-            renderer: Renderer::new(&model.frame).map_err(js_err)?,
-            appearance: vec![0.0; model.appearance.len()],
-            shape: vec![0.0; model.shape.base.len()],
+            drawer: FaceDrawer::new(&model.frame, Default::default()).map_err(js_err)?,
             params: model.base_params(),
-            overlay: MeshOverlay::default(),
-            scanline: Scanline::default(),
             bbox: base_box(model),
         })
     }
@@ -103,39 +80,12 @@ impl ModelScratch {
     /// Renders `self.params` of `model` into `ctx`.
     fn render(&mut self, model: &Model, ctx: &Ctx, options: &RenderOptions) -> Result<(), JsError> {
         model.check_params(&self.params).map_err(js_err)?;
-        model
-            .appearance
-            .instance_unchecked(&self.params.appearance, &mut self.appearance);
-        options
-            .raster
-            .upload(
-                &mut self.renderer,
-                &mut self.scanline,
-                &model.frame,
-                &self.appearance,
-            )
-            .map_err(js_err)?;
-        model
-            .image_shape(&self.params, &mut self.shape)
-            .map_err(js_err)?;
-        let bbox = self.bbox;
-        let (renderer, shape, overlay, scanline) = (
-            &mut self.renderer,
-            &self.shape,
-            &mut self.overlay,
-            &mut self.scanline,
-        );
+        let (drawer, params, bbox) = (&mut self.drawer, &self.params, self.bbox);
+        drawer.set_options(options.draw);
         paint(Sink::Canvas(ctx), options.background, |pixmap, w, h| {
-            draw_face(
-                options,
-                renderer,
-                scanline,
-                overlay,
-                &model.frame,
-                shape,
-                bbox,
-                (pixmap, w, h),
-            )
+            drawer
+                .render(model, params, &fit_view(bbox, w, h), pixmap)
+                .map_err(js_err)
         })?;
         Ok(())
     }

@@ -1,18 +1,17 @@
 //! Canvas plumbing shared by every render entry point: the 2D context (on-screen or offscreen),
-//! the reusable tiny-skia pixmaps (one per canvas size), the view that centres a face in a
-//! canvas, the background colour, the mesh overlay, the blit and the clock.
+//! the render options read from JS, the reusable tiny-skia pixmaps (one per canvas size), the
+//! blit and the clock. What is drawn, and where in the canvas, is the core's
+//! ([`crate::FaceDrawer`], [`crate::fit_view`]).
 
 use std::cell::RefCell;
 
-use tiny_skia::{Color, Paint, PathBuilder, Pixmap, PixmapMut, Stroke, Transform};
+use tiny_skia::{Color, Pixmap, PixmapMut};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::{Clamped, JsCast};
 use web_sys::{CanvasRenderingContext2d, ImageData, OffscreenCanvasRenderingContext2d};
 
-use crate::frame::ReferenceFrame;
 use crate::image::MAX_IMAGE_SIDE;
-use crate::model::Model;
-use crate::raster::Rasterizer;
+use crate::render::{DrawOptions, Rasterizer};
 use crate::similarity::Similarity;
 
 #[wasm_bindgen]
@@ -26,9 +25,6 @@ extern "C" {
 pub(crate) fn now_ms() -> f64 {
     performance_now()
 }
-
-/// Share of the smaller canvas side that the face's bounding box takes.
-pub(crate) const FACE_FILL: f32 = 0.85;
 
 /// A 2D context to draw into: `CanvasRenderingContext2D` or `OffscreenCanvasRenderingContext2D`.
 pub(crate) enum Ctx {
@@ -128,10 +124,8 @@ pub(crate) fn describe(value: &JsValue) -> String {
 pub(crate) struct RenderOptions {
     /// Premultiplied background colour.
     pub background: Color,
-    /// Overlay the triangle mesh.
-    pub mesh: bool,
-    /// The triangle rasteriser (default tiny-skia).
-    pub raster: Rasterizer,
+    /// The rasteriser and the mesh overlay.
+    pub draw: DrawOptions,
 }
 
 /// The default background, `#202024`.
@@ -142,8 +136,7 @@ impl Default for RenderOptions {
         let [r, g, b, a] = DEFAULT_BACKGROUND;
         RenderOptions {
             background: Color::from_rgba8(r, g, b, a),
-            mesh: false,
-            raster: Rasterizer::TinySkia,
+            draw: DrawOptions::default(),
         }
     }
 }
@@ -204,7 +197,7 @@ impl RenderOptions {
         }
         let mesh = get("mesh")?;
         if !(mesh.is_undefined() || mesh.is_null()) {
-            o.mesh = mesh.as_bool().ok_or_else(|| {
+            o.draw.mesh = mesh.as_bool().ok_or_else(|| {
                 JsError::new(&format!(
                     "render options: mesh must be a boolean, got {}",
                     describe(&mesh)
@@ -213,7 +206,7 @@ impl RenderOptions {
         }
         let raster = get("raster")?;
         if !(raster.is_undefined() || raster.is_null()) {
-            o.raster = if js_sys::Object::is(&raster, &JsValue::from_str("scanline")) {
+            o.draw.rasterizer = if js_sys::Object::is(&raster, &JsValue::from_str("scanline")) {
                 Rasterizer::Scanline
             } else if js_sys::Object::is(&raster, &JsValue::from_str("tiny-skia")) {
                 Rasterizer::TinySkia
@@ -252,38 +245,6 @@ pub(crate) fn parse_colour(text: &str) -> Option<Color> {
         _ => return None,
     };
     Some(Color::from_rgba8(r, g, b, a))
-}
-
-/// The bounding box `[min x, min y, max x, max y]` of a model's base shape placed at its mean
-/// pose, in image coordinates. Allocation-free.
-pub(crate) fn base_box(model: &Model) -> [f32; 4] {
-    let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
-    for p in model.shape.base.chunks_exact(2) {
-        let (x, y) = model.mean_pose.apply_point(p[0], p[1]);
-        b[0] = b[0].min(x);
-        b[1] = b[1].min(y);
-        b[2] = b[2].max(x);
-        b[3] = b[3].max(y);
-    }
-    b
-}
-
-/// The view (image coordinates -> canvas pixels) that centres the box in a `w x h` canvas with
-/// its larger side at [`FACE_FILL`] of the smaller canvas side. Stable for a model and size.
-pub(crate) fn fit_view(bbox: [f32; 4], w: u32, h: u32) -> Similarity {
-    let bw = (bbox[2] - bbox[0]).max(1e-3);
-    let bh = (bbox[3] - bbox[1]).max(1e-3);
-    let side = w.min(h) as f32;
-    let s = FACE_FILL * side / bw.max(bh);
-    let s = if s.is_finite() && s > 0.0 { s } else { 1.0 };
-    let (cx, cy) = (0.5 * (bbox[0] + bbox[2]), 0.5 * (bbox[1] + bbox[3]));
-    // Pixel centres are on integers, so the canvas centre is at (w - 1) / 2.
-    Similarity {
-        a: s,
-        b: 0.0,
-        tx: 0.5 * (w as f32 - 1.0) - s * cx,
-        ty: 0.5 * (h as f32 - 1.0) - s * cy,
-    }
 }
 
 /// A reusable pixmap of one canvas size and its straight-alpha copy (for non-opaque
@@ -412,7 +373,7 @@ where
         let bytes: &[u8] = if background.is_opaque() {
             surface.pixmap.data()
         } else {
-            crate::render::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
+            crate::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
             &surface.straight
         };
         match sink {
@@ -436,96 +397,6 @@ where
             blit: t2 - t1,
         })
     })
-}
-
-/// Draws one face into `pixmap` (`w x h`): warps the uploaded texture onto `shape` (image
-/// coordinates) through the view fitted to `bbox`, with the rasteriser `options` choose, then
-/// the mesh overlay when asked. The drawing step every face of the glue shares.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn draw_face(
-    options: &RenderOptions,
-    renderer: &mut crate::Renderer,
-    scanline: &mut crate::Scanline,
-    overlay: &mut MeshOverlay,
-    frame: &ReferenceFrame,
-    shape: &[f32],
-    bbox: [f32; 4],
-    (pixmap, w, h): (&mut PixmapMut<'_>, u32, u32),
-) -> Result<(), JsError> {
-    let view = fit_view(bbox, w, h);
-    options
-        .raster
-        .warp(renderer, scanline, frame, shape, &view, pixmap)
-        .map_err(super::js_err)?;
-    if options.mesh {
-        overlay.draw(frame, shape, &view, pixmap);
-    }
-    Ok(())
-}
-
-/// Unique undirected edges of a frame's triangles (for the mesh overlay).
-pub(crate) fn mesh_edges(frame: &ReferenceFrame) -> Vec<[u32; 2]> {
-    let mut e: Vec<[u32; 2]> = frame
-        .triangles()
-        .iter()
-        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
-        .map(|[a, b]| if a < b { [a, b] } else { [b, a] })
-        .collect();
-    e.sort_unstable();
-    e.dedup();
-    e
-}
-
-/// Reusable state for drawing the mesh overlay.
-#[derive(Default)]
-pub(crate) struct MeshOverlay {
-    edges: Vec<[u32; 2]>,
-    fingerprint: Option<u64>,
-    path: Option<PathBuilder>,
-}
-
-impl MeshOverlay {
-    /// Strokes the mesh edges of `frame` at `image_shape` (image coordinates) through `view`:
-    /// thin, semi-transparent white hairlines.
-    pub(crate) fn draw(
-        &mut self,
-        frame: &ReferenceFrame,
-        image_shape: &[f32],
-        view: &Similarity,
-        target: &mut PixmapMut<'_>,
-    ) {
-        if self.fingerprint != Some(frame.fingerprint()) {
-            self.edges = mesh_edges(frame);
-            self.fingerprint = Some(frame.fingerprint());
-        }
-        let mut pb = self.path.take().unwrap_or_default();
-        let pt = |i: u32| -> Option<(f32, f32)> {
-            let x = *image_shape.get(2 * i as usize)?;
-            let y = *image_shape.get(2 * i as usize + 1)?;
-            let (u, v) = view.apply_point(x, y);
-            (u.is_finite() && v.is_finite()).then_some((u + 0.5, v + 0.5))
-        };
-        for &[a, b] in &self.edges {
-            if let (Some(p), Some(q)) = (pt(a), pt(b)) {
-                pb.move_to(p.0, p.1);
-                pb.line_to(q.0, q.1);
-            }
-        }
-        let Some(path) = pb.finish() else {
-            self.path = Some(PathBuilder::new());
-            return;
-        };
-        let mut paint = Paint::default();
-        paint.set_color_rgba8(255, 255, 255, 110);
-        paint.anti_alias = true;
-        // Width 1 takes tiny-skia's hairline path: no stroked-path allocation.
-        let stroke = Stroke {
-            width: 1.0,
-            ..Stroke::default()
-        };
-        target.stroke_path(&path, &paint, &stroke, Transform::identity(), None);
-        self.path = Some(path.clear());
-    }
 }
 
 /// Reads a JS property, naming it in the error.

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use facemimic::clone::{CloneOptions, Cloner, Method};
-use facemimic::{io, Error, Renderer, Result, Similarity};
+use facemimic::{io, Error, FaceDrawer, Result, Similarity};
 
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["params", "image"])))]
@@ -63,6 +63,8 @@ pub struct Args {
     /// are printed on stdout.
     #[arg(long, value_name = "OUT.json")]
     out_params: Option<PathBuf>,
+    #[command(flatten)]
+    draw: super::render::DrawArgs,
 }
 
 fn write(path: &Path, text: &str) -> Result<()> {
@@ -91,15 +93,7 @@ pub fn run(a: Args) -> Result<()> {
             (w.unwrap_or(dw), h.unwrap_or(dh))
         }
     };
-    if width == 0
-        || height == 0
-        || width > facemimic::MAX_IMAGE_SIDE
-        || height > facemimic::MAX_IMAGE_SIDE
-    {
-        return Err(Error::Image(format!(
-            "canvas size {width}x{height} not supported"
-        )));
-    }
+    super::render::check_canvas(width, height)?;
     let options = CloneOptions {
         method,
         gain: a.gain,
@@ -112,14 +106,12 @@ pub fn run(a: Args) -> Result<()> {
     cloner.clone_frame(&params, &options)?;
 
     if let Some(out) = &a.out {
-        let mut pixmap = facemimic::tiny_skia::Pixmap::new(width, height)
-            .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
-        pixmap.fill(facemimic::tiny_skia::Color::from_rgba8(32, 32, 36, 255));
+        let mut pixmap = super::render::canvas(width, height)?;
         let frame = &cloner.target(0).frame;
-        let mut renderer = Renderer::new(frame)?;
-        renderer.upload(frame, cloner.target_appearance(0))?;
-        renderer.warp(
+        let mut drawer = FaceDrawer::new(frame, a.draw.options())?;
+        drawer.draw(
             frame,
+            cloner.target_appearance(0),
             cloner.target_shape(0),
             &Similarity::IDENTITY,
             &mut pixmap.as_mut(),

@@ -13,7 +13,6 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let (m, info) = io::read_model_file_info(&a.model)?;
-    let total = |v: &[f32]| v.iter().sum::<f32>();
     let json = serde_json::json!({
         "name": m.name,
         "format_version": info.version,
@@ -29,8 +28,8 @@ pub fn run(a: Args) -> Result<()> {
         "appearance_modes": m.appearance.n_modes(),
         "shape_sigma": m.shape.sigmas(),
         "appearance_sigma": m.appearance.sigmas(),
-        "shape_variance_share": m.shape.variances.iter().map(|v| v / total(&m.shape.variances)).collect::<Vec<_>>(),
-        "appearance_variance_share": m.appearance.variances.iter().map(|v| v / total(&m.appearance.variances)).collect::<Vec<_>>(),
+        "shape_variance_share": m.shape.variance_shares(),
+        "appearance_variance_share": m.appearance.variance_shares(),
         "frame_fingerprint": format!("{:016x}", m.frame.fingerprint()),
         "reference": match &m.reference { Reference::Mean => "mean".to_string(), Reference::Training(n) => n.clone() },
         "image_width": m.image_size[0],

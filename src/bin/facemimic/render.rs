@@ -2,7 +2,58 @@
 
 use std::path::{Path, PathBuf};
 
-use facemimic::{io, Error, Params, Renderer, Result, Similarity};
+use facemimic::tiny_skia::{Color, Pixmap};
+use facemimic::{io, DrawOptions, Error, FaceDrawer, Params, Rasterizer, Result, Similarity};
+
+/// How faces are drawn (shared by `render` and `clone`).
+#[derive(clap::Args)]
+pub struct DrawArgs {
+    /// Stroke the triangle mesh over the face.
+    #[arg(long)]
+    mesh: bool,
+    /// The triangle rasteriser: tiny-skia (pattern fills, the default) or scanline (faster,
+    /// within ~1.5 levels of tiny-skia).
+    #[arg(long, default_value = "tiny-skia", value_name = "RASTER",
+          value_parser = clap::builder::PossibleValuesParser::new(["tiny-skia", "scanline"]))]
+    raster: String,
+}
+
+impl DrawArgs {
+    /// The core's drawing options.
+    pub fn options(&self) -> DrawOptions {
+        DrawOptions {
+            rasterizer: if self.raster == "scanline" {
+                Rasterizer::Scanline
+            } else {
+                Rasterizer::TinySkia
+            },
+            mesh: self.mesh,
+        }
+    }
+}
+
+/// An error naming an unsupported canvas size.
+pub fn check_canvas(width: u32, height: u32) -> Result<()> {
+    if width == 0
+        || height == 0
+        || width > facemimic::MAX_IMAGE_SIDE
+        || height > facemimic::MAX_IMAGE_SIDE
+    {
+        return Err(Error::Image(format!(
+            "canvas size {width}x{height} not supported"
+        )));
+    }
+    Ok(())
+}
+
+/// A `width x height` canvas filled with the dark grey background.
+pub fn canvas(width: u32, height: u32) -> Result<Pixmap> {
+    check_canvas(width, height)?;
+    let mut pixmap = Pixmap::new(width, height)
+        .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
+    pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
+    Ok(pixmap)
+}
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -24,6 +75,8 @@ pub struct Args {
     /// Also write the instance's landmarks (canvas pixel coordinates) as .pts.
     #[arg(long, value_name = "OUT.pts")]
     out_pts: Option<PathBuf>,
+    #[command(flatten)]
+    draw: DrawArgs,
 }
 
 /// Reads a parameters JSON file.
@@ -33,29 +86,18 @@ pub fn read_params(path: &Path) -> Result<Params> {
 }
 
 /// Renders `params` of `model` on a `width x height` canvas (dark grey background) and writes
-/// the PNG and optionally the landmarks.
+/// the PNG and optionally the landmarks (`(png, pts)`).
 pub fn render_to_files(
     model: &facemimic::Model,
     params: &Params,
     width: u32,
     height: u32,
-    out: &Path,
-    out_pts: Option<&Path>,
+    draw: DrawOptions,
+    (out, out_pts): (&Path, Option<&Path>),
 ) -> Result<()> {
-    if width == 0
-        || height == 0
-        || width > facemimic::MAX_IMAGE_SIDE
-        || height > facemimic::MAX_IMAGE_SIDE
-    {
-        return Err(Error::Image(format!(
-            "canvas size {width}x{height} not supported"
-        )));
-    }
-    let mut pixmap = facemimic::tiny_skia::Pixmap::new(width, height)
-        .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
-    pixmap.fill(facemimic::tiny_skia::Color::from_rgba8(32, 32, 36, 255));
-    let mut renderer = Renderer::new(&model.frame)?;
-    renderer.render(model, params, &Similarity::IDENTITY, &mut pixmap.as_mut())?;
+    let mut pixmap = canvas(width, height)?;
+    let mut drawer = FaceDrawer::new(&model.frame, draw)?;
+    drawer.render(model, params, &Similarity::IDENTITY, &mut pixmap.as_mut())?;
     io::write_pixmap(out, &pixmap)?;
     if let Some(p) = out_pts {
         let mut shape = vec![0.0; model.landmarks() * 2];
@@ -81,5 +123,6 @@ pub fn run(a: Args) -> Result<()> {
             (w.unwrap_or(dw), h.unwrap_or(dh))
         }
     };
-    render_to_files(&model, &params, width, height, &a.out, a.out_pts.as_deref())
+    let files = (a.out.as_path(), a.out_pts.as_deref());
+    render_to_files(&model, &params, width, height, a.draw.options(), files)
 }
