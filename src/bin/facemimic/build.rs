@@ -2,7 +2,9 @@
 
 use std::path::PathBuf;
 
-use facemimic::{io, BuildOptions, Builder, FrameChoice, ReferenceChoice, Result};
+use facemimic::{
+    io, BuildOptions, Builder, FaceFinder, FrameChoice, ReferenceChoice, Result, TrainingImage,
+};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -39,7 +41,15 @@ pub struct Args {
     /// A list of image stems, one a line, relative to the list's folder.
     #[arg(long, value_name = "FILE")]
     list: Option<PathBuf>,
-    /// Images (PNG or JPEG), each with a sibling .pts or .asf landmark file.
+    /// Place the landmarks with the face finder (the most confident face of each image),
+    /// ignoring any landmark files; images without a face are skipped with a note.
+    #[arg(long)]
+    find_faces: bool,
+    /// Keep this many varied frames (farthest-point sampling of the aligned shapes).
+    #[arg(long, value_name = "N")]
+    select: Option<usize>,
+    /// Images (PNG or JPEG), each with a sibling .pts or .asf landmark file (unless
+    /// --find-faces).
     #[arg(value_name = "IMAGE")]
     images: Vec<PathBuf>,
 }
@@ -54,10 +64,29 @@ pub fn run(a: Args) -> Result<()> {
             "no training images given (IMAGE... or --list)".into(),
         ));
     }
-    let images = paths
-        .iter()
-        .map(|p| io::read_training_image(p))
-        .collect::<Result<Vec<_>>>()?;
+    let mut images = if a.find_faces {
+        find_faces(&paths)?
+    } else {
+        paths
+            .iter()
+            .map(|p| io::read_training_image(p))
+            .collect::<Result<Vec<_>>>()?
+    };
+    if let Some(n) = a.select {
+        if n < 2 {
+            return Err(facemimic::Error::Training(format!(
+                "--select {n}: at least 2 frames are needed"
+            )));
+        }
+        if n < images.len() {
+            let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+            let mut keep = facemimic::select_varied(&shapes, n)?;
+            keep.sort_unstable();
+            let mut all: Vec<Option<TrainingImage>> = images.into_iter().map(Some).collect();
+            images = keep.iter().filter_map(|&i| all[i].take()).collect();
+            eprintln!("facemimic: selected {} varied frames", images.len());
+        }
+    }
     let frame_model = a.frame.as_deref().map(io::read_model_file).transpose()?;
     let reference = match a.reference.as_str() {
         "mean" => ReferenceChoice::Mean,
@@ -95,4 +124,35 @@ pub fn run(a: Args) -> Result<()> {
         a.out.display()
     );
     Ok(())
+}
+
+/// The training images with the finder's landmarks; images without a face are skipped with a
+/// note. Fewer than two faces is an error (nothing is written).
+fn find_faces(paths: &[PathBuf]) -> Result<Vec<TrainingImage>> {
+    let mut finder = FaceFinder::new()?;
+    let mut out = Vec::new();
+    for p in paths {
+        let image = io::read_image(p)?;
+        let faces = finder.find(&image.view()?);
+        let Some(face) = faces.into_iter().next() else {
+            eprintln!("facemimic: no face found in {}, skipped", p.display());
+            continue;
+        };
+        out.push(TrainingImage {
+            name: p
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            image,
+            landmarks: face.landmarks,
+        });
+    }
+    if out.len() < 2 {
+        return Err(facemimic::Error::Training(format!(
+            "faces found in {} of {} images: at least 2 are needed",
+            out.len(),
+            paths.len()
+        )));
+    }
+    Ok(out)
 }

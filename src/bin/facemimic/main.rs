@@ -9,6 +9,8 @@ mod fit;
 #[cfg(not(target_arch = "wasm32"))]
 mod inspect;
 #[cfg(not(target_arch = "wasm32"))]
+mod landmark;
+#[cfg(not(target_arch = "wasm32"))]
 mod project;
 #[cfg(not(target_arch = "wasm32"))]
 mod render;
@@ -40,6 +42,8 @@ mod cli {
         Clone(super::clone::Args),
         /// Fit (track) a model through a sequence of frames.
         Fit(super::fit::Args),
+        /// Find the most confident face in each image and write its 68 landmarks (STEM.pts).
+        Landmark(super::landmark::Args),
     }
 
     /// Command-line mistakes in one line: clap's message, the usage, and a hint. Help and
@@ -122,6 +126,7 @@ mod cli {
             Command::Render(a) => super::render::run(a),
             Command::Clone(a) => super::clone::run(a),
             Command::Fit(a) => super::fit::run(a),
+            Command::Landmark(a) => super::landmark::run(a),
         };
         match result {
             Ok(()) => ExitCode::SUCCESS,

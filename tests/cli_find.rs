@@ -1,0 +1,150 @@
+#![cfg(not(target_arch = "wasm32"))]
+//! `facemimic landmark` and `facemimic build --find-faces [--select N]`, run as a process on
+//! GRID frames (`data/grid`) and on images without a face.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn grid(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/grid")
+        .join(rel)
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("facemimic-clifind-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&Path]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_facemimic"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Copies GRID frames (without their .pts) into `dir`.
+fn frames(dir: &Path, stems: &[&str]) -> Vec<PathBuf> {
+    stems
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let to = dir.join(format!("f{i}.jpg"));
+            std::fs::copy(grid(&format!("{s}.jpg")), &to).unwrap();
+            to
+        })
+        .collect()
+}
+
+fn grey_png(path: &Path) {
+    facemimic::io::write_png(path, 64, 48, &[128u8; 64 * 48 * 4]).unwrap();
+}
+
+#[test]
+fn landmark_writes_pts_beside_or_into_a_folder_and_never_overwrites() {
+    let d = scratch("landmark");
+    let imgs = frames(&d, &["spk01_bbaf2n/000004", "spk05_lrwp9a/000008"]);
+    let blank = d.join("blank.png");
+    grey_png(&blank);
+    let o = run(&[Path::new("landmark"), &imgs[0], &imgs[1], &blank]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no face found in") && stderr(&o).contains("blank.png"));
+    assert!(!d.join("blank.pts").exists());
+    // The points are close to dlib's (1-based iBUG file, read back 0-based).
+    let found =
+        facemimic::landmarks::parse_pts(&std::fs::read_to_string(d.join("f0.pts")).unwrap())
+            .unwrap();
+    let truth = facemimic::landmarks::parse_pts(
+        &std::fs::read_to_string(grid("spk01_bbaf2n/000004.pts")).unwrap(),
+    )
+    .unwrap();
+    let iod = ((truth[72] - truth[90]).powi(2) + (truth[73] - truth[91]).powi(2)).sqrt();
+    let err: f32 = found
+        .chunks(2)
+        .zip(truth.chunks(2))
+        .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt())
+        .sum::<f32>()
+        / 68.0
+        / iod;
+    assert!(err < 0.08, "error {err}");
+    // No overwrite without --force: an error line, exit 1, the file untouched.
+    std::fs::write(d.join("f1.pts"), "keep").unwrap();
+    let o = run(&[Path::new("landmark"), &imgs[1]]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--force") && stderr(&o).lines().count() == 1);
+    assert_eq!(std::fs::read_to_string(d.join("f1.pts")).unwrap(), "keep");
+    let o = run(&[Path::new("landmark"), Path::new("--force"), &imgs[1]]);
+    assert!(o.status.success());
+    assert_ne!(std::fs::read_to_string(d.join("f1.pts")).unwrap(), "keep");
+    // --out-dir
+    let out = d.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let o = run(&[
+        Path::new("landmark"),
+        Path::new("--out-dir"),
+        &out,
+        &imgs[0],
+    ]);
+    assert!(o.status.success());
+    assert!(out.join("f0.pts").is_file());
+    // An unreadable image: one line, exit 1.
+    let bad = d.join("bad.jpg");
+    std::fs::write(&bad, b"not an image").unwrap();
+    let o = run(&[Path::new("landmark"), &bad]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
+}
+
+#[test]
+fn build_find_faces_selects_varied_frames_and_refuses_too_few_faces() {
+    let d = scratch("build");
+    let stems: Vec<String> = std::fs::read_dir(grid("spk07_pwij3p"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
+        .map(|p| format!("spk07_pwij3p/{}", p.file_stem().unwrap().to_string_lossy()))
+        .take(12)
+        .collect();
+    let stems: Vec<&str> = stems.iter().map(String::as_str).collect();
+    let mut imgs = frames(&d, &stems);
+    let blank = d.join("blank.png");
+    grey_png(&blank);
+    imgs.push(blank.clone());
+    let model = d.join("m.fmm");
+    let mut args: Vec<&Path> = vec![
+        Path::new("build"),
+        Path::new("--find-faces"),
+        Path::new("--select"),
+        Path::new("6"),
+        Path::new("--out"),
+        &model,
+    ];
+    args.extend(imgs.iter().map(PathBuf::as_path));
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("blank.png") && e.contains("selected 6") && e.contains("from 6 images"),
+        "{e}"
+    );
+    assert!(facemimic::io::read_model_file(&model).is_ok());
+    // Too few faces: an error, nothing written.
+    let none = d.join("none.fmm");
+    let o = run(&[
+        Path::new("build"),
+        Path::new("--find-faces"),
+        Path::new("--out"),
+        &none,
+        &blank,
+        &imgs[0],
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("at least 2"), "{}", stderr(&o));
+    assert!(!none.exists());
+}
