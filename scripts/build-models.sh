@@ -45,19 +45,24 @@ track_clip=data/grid/spk07_id2_vcd_swwp2s
 } > "$out/spk07-track.json.tmp"
 mv "$out/spk07-track.json.tmp" "$out/spk07-track.json"
 
-python3 - "$out" "${targets[@]}" <<'PY'
-import json, sys
-out, targets = sys.argv[1], sys.argv[2:]
-default = [t for t in ["spk02", "spk03", "spk06", "spk10"] if t in targets]
-manifest = {
-    "source": "spk07.fmm",
-    "track": {"file": "spk07-track.json", "fps": 25,
-              "description": "GRID speaker 7, clip id2_vcd_swwp2s (unseen), projected from its landmarks"},
-    "targets": [f"{t}.fmm" for t in default],
-    "library": [f"{t}.fmm" for t in targets],
-    "credits": "GRID audio-visual corpus (Cooke, Barker, Cunningham & Shao, 2006), CC BY 4.0",
+# The manifest (plain shell: no interpreter beyond bash is needed).
+json_list() { local sep='' t; printf '['; for t in "$@"; do printf '%s"%s.fmm"' "$sep" "$t"; sep=', '; done; printf ']'; }
+default=()
+for t in spk02 spk03 spk06 spk10; do
+  for have in "${targets[@]}"; do [ "$have" = "$t" ] && default+=("$t"); done
+done
+cat > "$out/manifest.json" <<EOF
+{
+  "source": "spk07.fmm",
+  "track": {
+    "file": "spk07-track.json",
+    "fps": 25,
+    "description": "GRID speaker 7, clip id2_vcd_swwp2s (unseen), projected from its landmarks"
+  },
+  "targets": $(json_list "${default[@]}"),
+  "library": $(json_list "${targets[@]}"),
+  "credits": "GRID audio-visual corpus (Cooke, Barker, Cunningham & Shao, 2006), CC BY 4.0"
 }
-json.dump(manifest, open(f"{out}/manifest.json", "w"), indent=2)
-PY
+EOF
 touch "$stamp"
-echo "build-models: $(ls "$out"/*.fmm | wc -l) models and a $(python3 -c "import json;print(len(json.load(open('$out/spk07-track.json'))))")-frame track in $out" >&2
+echo "build-models: $(ls "$out"/*.fmm | wc -l) models and a $(ls "$track_clip"/*.jpg | wc -l)-frame track in $out" >&2
