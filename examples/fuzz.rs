@@ -41,7 +41,7 @@ fn main() {
                 }
                 eprintln!("new: {name}: {class}");
             }
-            Ok(None) => {}
+            Ok(_) => {}
             Err(fail) => {
                 let dir = root.join("failures");
                 let _ = std::fs::create_dir_all(&dir);
