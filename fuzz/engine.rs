@@ -481,9 +481,9 @@ fn params_finite(p: &Params) -> bool {
     finite(&p.shape) && finite(&p.appearance) && finite(&[p.pose.a, p.pose.b, p.pose.tx, p.pose.ty])
 }
 
-/// The memory budget of a model load: `MODEL_BYTES_FACTOR x file bytes + LOAD_ALLOWANCE`.
+/// The memory budget of a model load: `LOAD_BYTES_FACTOR x file bytes + LOAD_ALLOWANCE`.
 pub fn load_budget(file_bytes: usize) -> u64 {
-    facemimic::bounds::MODEL_BYTES_FACTOR * file_bytes as u64 + facemimic::bounds::LOAD_ALLOWANCE
+    facemimic::bounds::LOAD_BYTES_FACTOR * file_bytes as u64 + facemimic::bounds::LOAD_ALLOWANCE
 }
 
 /// Downstream operations on an accepted model; `Err(description)` on a broken promise.

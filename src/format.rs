@@ -90,7 +90,7 @@ pub const LIMITS: Limits = Limits {
     max_reference_name_bytes: 256,
     max_image_side: MAX_IMAGE_SIDE,
     area_per_pixel: 4,
-    area_slack: 4096,
+    area_slack: 2048,
     coverage_per_cell: 16,
     coverage_per_triangle: 64,
     orthonormal_tolerance: 1e-3,

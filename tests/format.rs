@@ -918,7 +918,7 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
         Exact(E::LimitExceeded {
             what: "frame area (width x height) for the pixel count",
             value: 2048 * 2048,
-            limit: 4 * px as u64 + 4096,
+            limit: 4 * px as u64 + LIMITS.area_slack,
         }),
     );
     add(
