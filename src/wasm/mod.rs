@@ -16,12 +16,14 @@ use crate::model::Params;
 
 mod build;
 mod cloner;
+mod finder;
 mod model;
 mod surface;
 mod tracker;
 
 pub use build::build_model;
 pub use cloner::JsCloner;
+pub use finder::JsFaceFinder;
 pub use model::{render_mode, JsModel};
 pub use tracker::WasmTracker;
 
