@@ -545,6 +545,7 @@ fn bad_input_throws_and_the_module_keeps_working() {
     // An incompatible target (its own frame) names the problem.
     let alien = Builder::new(BuildOptions {
         name: "alien".into(),
+        frame: facemimic::FrameChoice::Own,
         ..BuildOptions::default()
     })
     .build(&training(&SPK02, 0.3), None)
