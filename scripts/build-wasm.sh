@@ -4,7 +4,8 @@
 #   scripts/build-wasm.sh [--force]
 #
 # Steps: cargo (wasm32, release, simd128 from .cargo/config.toml) -> wasm-bindgen --target web
-# -> wasm-opt -O3 (npm `binaryen`, never Debian's) -> package.json / README / licences from npm/.
+# -> wasm-opt -O3 (npm `binaryen`, never Debian's) -> package.json / README / licences from npm/
+# (and the face finder weights' licence from data/weights/).
 # Idempotent: does nothing when pkg/ and www/pkg/ are newer than every input.
 # Environment: CARGO_TARGET_DIR (default target/), FACEMIMIC_NO_OPT=1 skips wasm-opt.
 set -euo pipefail
@@ -23,9 +24,9 @@ PKG="$ROOT/pkg"
 WWW_PKG="$ROOT/www/pkg"
 STAMP="$PKG/.build-stamp"
 
-# Inputs: Rust sources, manifests, the package template and this script.
+# Inputs: Rust sources, embedded weights, manifests, the package template and this script.
 newest_input() {
-  find src Cargo.toml Cargo.lock .cargo npm scripts/build-wasm.sh -type f -newer "$1" -print -quit 2>/dev/null
+  find src data/weights Cargo.toml Cargo.lock .cargo npm scripts/build-wasm.sh -type f -newer "$1" -print -quit 2>/dev/null
 }
 
 if [ "$FORCE" = 0 ] && [ -f "$STAMP" ] && [ -f "$WWW_PKG/facemimic_bg.wasm" ] && [ -z "$(newest_input "$STAMP")" ]; then
@@ -68,6 +69,8 @@ VERSION=$(sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
 rm -f "$PKG"/facemimic* "$PKG"/package.json "$PKG"/README.md "$PKG"/LICENSE*
 cp "$TMP"/facemimic.js "$TMP"/facemimic.d.ts "$TMP"/facemimic_bg.wasm "$TMP"/facemimic_bg.wasm.d.ts "$PKG"/
 cp npm/README.md npm/LICENSE-MIT npm/LICENSE-APACHE "$PKG"/
+# The face finder's weights are embedded in the wasm: their MIT licence and credit ship with it.
+cp data/weights/LICENSE-face-api "$PKG"/
 node -e '
   const fs = require("fs");
   const p = JSON.parse(fs.readFileSync(process.argv[1], "utf8"));
