@@ -1,0 +1,124 @@
+#![cfg(target_arch = "wasm32")]
+//! The wasm `FaceFinder` under Node (wasm-bindgen-test):
+//! `cargo test --target wasm32-unknown-unknown --test wasm_find`.
+//!
+//! - A GRID frame (`data/grid/spk01_bbaf2n/000004`, committed; the finder's nets were trained by
+//!   face-api.js on other data, so the frame is unseen): one face, 68 finite landmarks, close
+//!   to the frame's dlib `.pts` (mean distance below 0.1 of the outer-eye-corner distance).
+//! - A flat grey image: an empty array.
+//! - Bad input (a buffer of the wrong length, 0x0, sizes over the limit and `u32::MAX`): a JS
+//!   `Error` (a `JsError`) naming the problem, never a trap; the finder keeps working after.
+
+use facemimic::landmarks::parse_pts;
+use facemimic::wasm::JsFaceFinder;
+use js_sys::{Array, Float32Array, Reflect};
+use wasm_bindgen::prelude::*;
+use wasm_bindgen::JsCast;
+use wasm_bindgen_test::wasm_bindgen_test;
+
+const JPG: &[u8] = include_bytes!("../data/grid/spk01_bbaf2n/000004.jpg");
+const PTS: &str = include_str!("../data/grid/spk01_bbaf2n/000004.pts");
+
+fn frame() -> (Vec<u8>, u32, u32) {
+    let img = image::load_from_memory_with_format(JPG, image::ImageFormat::Jpeg)
+        .expect("GRID frame")
+        .to_rgba8();
+    let (w, h) = img.dimensions();
+    (img.into_raw(), w, h)
+}
+
+fn message(e: JsError) -> String {
+    let v: JsValue = e.into();
+    v.dyn_into::<js_sys::Error>()
+        .map(|e| String::from(e.message()))
+        .unwrap_or_default()
+}
+
+fn get(o: &JsValue, k: &str) -> JsValue {
+    Reflect::get(o, &JsValue::from_str(k)).expect(k)
+}
+
+fn num(o: &JsValue, k: &str) -> f64 {
+    get(o, k)
+        .as_f64()
+        .unwrap_or_else(|| panic!("{k} is not a number"))
+}
+
+#[wasm_bindgen_test]
+fn finds_the_face_of_a_grid_frame_near_its_landmarks() {
+    let (rgba, w, h) = frame();
+    let truth = parse_pts(PTS).expect("pts");
+    assert_eq!(truth.len(), 136);
+    let mut finder = JsFaceFinder::new().expect("finder");
+    let faces: Array = finder.find(&rgba, w, h).expect("find");
+    assert_eq!(faces.length(), 1, "one face expected");
+    let face = faces.get(0);
+    let score = num(&face, "score");
+    assert!(score > 0.0 && score <= 1.0, "score {score}");
+    let b = get(&face, "box");
+    let (bx, by, bw, bh) = (
+        num(&b, "x"),
+        num(&b, "y"),
+        num(&b, "width"),
+        num(&b, "height"),
+    );
+    assert!(bw > 20.0 && bh > 20.0, "box {bw}x{bh}");
+    let points: Vec<f32> = get(&face, "landmarks")
+        .dyn_into::<Float32Array>()
+        .expect("landmarks is a Float32Array")
+        .to_vec();
+    assert_eq!(points.len(), 136);
+    assert!(points.iter().all(|v| v.is_finite()));
+    // The box holds the truth's centre.
+    let n = 68.0;
+    let cx = truth.iter().step_by(2).sum::<f32>() as f64 / n;
+    let cy = truth.iter().skip(1).step_by(2).sum::<f32>() as f64 / n;
+    assert!(cx > bx && cx < bx + bw && cy > by && cy < by + bh);
+    let eyes = ((truth[72] - truth[90]).powi(2) + (truth[73] - truth[91]).powi(2)).sqrt();
+    let err = points
+        .chunks(2)
+        .zip(truth.chunks(2))
+        .map(|(p, t)| ((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2)).sqrt())
+        .sum::<f32>()
+        / 68.0
+        / eyes;
+    assert!(err < 0.1, "mean landmark error {err} of the eye distance");
+}
+
+#[wasm_bindgen_test]
+fn a_flat_image_has_no_face() {
+    let (w, h) = (320u32, 240u32);
+    let mut rgba = vec![128u8; (w * h * 4) as usize];
+    rgba.iter_mut().skip(3).step_by(4).for_each(|a| *a = 255);
+    let mut finder = JsFaceFinder::new().expect("finder");
+    let faces = finder.find(&rgba, w, h).expect("find");
+    assert_eq!(faces.length(), 0);
+}
+
+#[wasm_bindgen_test]
+fn bad_sizes_are_js_errors() {
+    let mut finder = JsFaceFinder::new().expect("finder");
+    let small = vec![0u8; 64];
+    // A buffer of the wrong length.
+    let e = message(finder.find(&small, 10, 10).unwrap_err());
+    assert!(
+        e.contains("FaceFinder.find") && e.contains("64 bytes"),
+        "{e}"
+    );
+    let e = message(finder.find(&vec![0u8; 399], 10, 10).unwrap_err());
+    assert!(e.contains("expected 400"), "{e}");
+    // 0x0 (and an empty buffer), a zero side.
+    let e = message(finder.find(&[], 0, 0).unwrap_err());
+    assert!(e.contains("0x0"), "{e}");
+    assert!(finder.find(&[], 0, 10).is_err());
+    // Huge sizes: over the side limit, u32::MAX (whose byte count would overflow 32 bits).
+    let e = message(finder.find(&small, 100_000, 100_000).unwrap_err());
+    assert!(e.contains("100000x100000"), "{e}");
+    assert!(finder.find(&small, u32::MAX, u32::MAX).is_err());
+    assert!(finder.find(&small, u32::MAX, 1).is_err());
+    // The largest allowed size with a short buffer: refused before any allocation.
+    assert!(finder.find(&small, 8192, 8192).is_err());
+    // The finder still works.
+    let (rgba, w, h) = frame();
+    assert_eq!(finder.find(&rgba, w, h).expect("find").length(), 1);
+}
