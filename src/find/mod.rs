@@ -437,5 +437,5 @@ fn nms(boxes: &mut Vec<(BBox, f32)>, iou: f32) {
     boxes.truncate(kept);
 }
 
-#[cfg(test)]
+#[cfg(all(test, not(target_arch = "wasm32")))]
 mod reference;
