@@ -1,3 +1,4 @@
+#![cfg(not(target_arch = "wasm32"))]
 //! Hostile input, one regression test per case of the "hostile input" review: finite numbers
 //! that used to give NaN or infinity, memory far beyond the input, files the reader could not
 //! read back, multi-line or misleading errors, and public helpers that panicked. The models are
