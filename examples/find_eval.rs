@@ -4,101 +4,114 @@
 //! its own. A frame counts as found when the most confident face's landmarks lie within 0.25 of
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
 //! the found frames.
-use facemimic::io::{read_image, read_landmarks};
-use facemimic::FaceFinder;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+#![cfg_attr(target_arch = "wasm32", no_main)]
 
-fn frames(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "jpg" || x == "png")
-                && p.with_extension("pts").exists()
-            {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
+#[cfg(not(target_arch = "wasm32"))]
+fn main() -> impl std::process::Termination {
+    native::main()
 }
 
-fn nme(a: &[f32], b: &[f32]) -> f32 {
-    let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
-    let s: f32 = a
-        .chunks_exact(2)
-        .zip(b.chunks_exact(2))
-        .map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt())
-        .sum();
-    s / 68.0 / iod
-}
+/// Native only: the example reads files.
+#[cfg(not(target_arch = "wasm32"))]
+mod native {
+    use facemimic::io::{read_image, read_landmarks};
+    use facemimic::FaceFinder;
+    use std::path::{Path, PathBuf};
+    use std::time::Instant;
 
-fn main() {
-    let mut args = std::env::args().skip(1);
-    let step: usize = args.next().map(|s| s.parse().unwrap()).unwrap_or(1);
-    let mut sets: Vec<String> = args.collect();
-    if sets.is_empty() {
-        sets = ["grid", "franck-dev", "franck-dev2", "webcam-dev"]
-            .map(String::from)
-            .to_vec();
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-    let mut finder = FaceFinder::new().unwrap();
-    let mut opts = finder.options();
-    if let Ok(t) = std::env::var("FIND_THRESHOLD") {
-        opts.score_threshold = t.parse().unwrap();
-    }
-    if let Ok(t) = std::env::var("FIND_DISAGREEMENT") {
-        opts.max_disagreement = t.parse().unwrap();
-    }
-    finder.set_options(opts);
-    for set in sets {
-        let all = frames(&root.join(&set));
-        let (mut n, mut found, mut err_sum, mut worst, mut secs, mut extra) =
-            (0, 0, 0.0, 0.0f32, 0.0, 0);
-        let mut missed = Vec::new();
-        for p in all.iter().step_by(step) {
-            let img = read_image(p).unwrap();
-            let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
-            let view = img.view().unwrap();
-            let t = Instant::now();
-            let faces = finder.find(&view);
-            secs += t.elapsed().as_secs_f64();
-            n += 1;
-            extra += faces.len().saturating_sub(1);
-            match faces.first().map(|f| nme(&f.landmarks, &truth)) {
-                Some(e) if e < 0.25 => {
-                    if std::env::var_os("FIND_EVAL_BOXES").is_some() {
-                        let f = &faces[0];
-                        let lb = facemimic::BBox::of_points(&truth);
-                        println!(
-                            "box {:.3} {:.3} {:.3} {:.3} score {:.3}",
-                            (f.bbox.x + 0.5 * f.bbox.width - lb.x - 0.5 * lb.width) / lb.width,
-                            (f.bbox.y + 0.5 * f.bbox.height - lb.y - 0.5 * lb.height) / lb.height,
-                            f.bbox.width / lb.width,
-                            f.bbox.height / lb.height,
-                            f.score
-                        );
-                    }
-                    found += 1;
-                    err_sum += e;
-                    worst = worst.max(e);
+    fn frames(dir: &Path) -> Vec<PathBuf> {
+        let mut out = Vec::new();
+        let mut stack = vec![dir.to_path_buf()];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).unwrap().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|x| x == "jpg" || x == "png")
+                    && p.with_extension("pts").exists()
+                {
+                    out.push(p);
                 }
-                _ => missed.push(p.file_name().unwrap().to_string_lossy().to_string()),
             }
         }
-        println!(
-            "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
-            100.0 * found as f64 / n as f64,
-            err_sum / found.max(1) as f32,
-            worst,
-            1000.0 * secs / n as f64,
-            &missed[..missed.len().min(8)]
-        );
+        out.sort();
+        out
+    }
+
+    fn nme(a: &[f32], b: &[f32]) -> f32 {
+        let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
+        let s: f32 = a
+            .chunks_exact(2)
+            .zip(b.chunks_exact(2))
+            .map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt())
+            .sum();
+        s / 68.0 / iod
+    }
+
+    pub(crate) fn main() {
+        let mut args = std::env::args().skip(1);
+        let step: usize = args.next().map(|s| s.parse().unwrap()).unwrap_or(1);
+        let mut sets: Vec<String> = args.collect();
+        if sets.is_empty() {
+            sets = ["grid", "franck-dev", "franck-dev2", "webcam-dev"]
+                .map(String::from)
+                .to_vec();
+        }
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+        let mut finder = FaceFinder::new().unwrap();
+        let mut opts = finder.options();
+        if let Ok(t) = std::env::var("FIND_THRESHOLD") {
+            opts.score_threshold = t.parse().unwrap();
+        }
+        if let Ok(t) = std::env::var("FIND_DISAGREEMENT") {
+            opts.max_disagreement = t.parse().unwrap();
+        }
+        finder.set_options(opts);
+        for set in sets {
+            let all = frames(&root.join(&set));
+            let (mut n, mut found, mut err_sum, mut worst, mut secs, mut extra) =
+                (0, 0, 0.0, 0.0f32, 0.0, 0);
+            let mut missed = Vec::new();
+            for p in all.iter().step_by(step) {
+                let img = read_image(p).unwrap();
+                let truth =
+                    read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
+                let view = img.view().unwrap();
+                let t = Instant::now();
+                let faces = finder.find(&view);
+                secs += t.elapsed().as_secs_f64();
+                n += 1;
+                extra += faces.len().saturating_sub(1);
+                match faces.first().map(|f| nme(&f.landmarks, &truth)) {
+                    Some(e) if e < 0.25 => {
+                        if std::env::var_os("FIND_EVAL_BOXES").is_some() {
+                            let f = &faces[0];
+                            let lb = facemimic::BBox::of_points(&truth);
+                            println!(
+                                "box {:.3} {:.3} {:.3} {:.3} score {:.3}",
+                                (f.bbox.x + 0.5 * f.bbox.width - lb.x - 0.5 * lb.width) / lb.width,
+                                (f.bbox.y + 0.5 * f.bbox.height - lb.y - 0.5 * lb.height)
+                                    / lb.height,
+                                f.bbox.width / lb.width,
+                                f.bbox.height / lb.height,
+                                f.score
+                            );
+                        }
+                        found += 1;
+                        err_sum += e;
+                        worst = worst.max(e);
+                    }
+                    _ => missed.push(p.file_name().unwrap().to_string_lossy().to_string()),
+                }
+            }
+            println!(
+                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
+                100.0 * found as f64 / n as f64,
+                err_sum / found.max(1) as f32,
+                worst,
+                1000.0 * secs / n as f64,
+                &missed[..missed.len().min(8)]
+            );
+        }
     }
 }
