@@ -1,9 +1,10 @@
 // A small static file server for the demo: serves a folder on 127.0.0.1 only, with the right
 // MIME types (application/wasm for streaming compilation), no directory listings, no path
-// escapes. Prints "facemimic demo: http://127.0.0.1:PORT/" once the page can be loaded.
+// escapes, text and wasm gzip-compressed for clients that accept it (as static hosts do). Prints "facemimic demo: http://127.0.0.1:PORT/" once the page can be loaded.
 // Usage: node scripts/serve.mjs [ROOT=www] ; PORT from the environment (default 8080).
 import { createServer } from 'node:http';
-import { createReadStream, statSync } from 'node:fs';
+import { createReadStream, readFileSync, statSync } from 'node:fs';
+import { gzipSync } from 'node:zlib';
 import { extname, join, normalize, resolve, sep } from 'node:path';
 
 const root = resolve(process.argv[2] || 'www');
@@ -16,6 +17,9 @@ const types = {
   '.png': 'image/png', '.jpg': 'image/jpeg', '.svg': 'image/svg+xml', '.webm': 'video/webm',
   '.ts': 'text/plain; charset=utf-8', '.md': 'text/plain; charset=utf-8', '.ico': 'image/x-icon',
 };
+
+const compressible = new Set(['.html', '.js', '.mjs', '.css', '.json', '.wasm', '.svg', '.ts', '.md']);
+const gzipCache = new Map();
 
 const server = createServer((req, res) => {
   let path;
@@ -33,6 +37,23 @@ const server = createServer((req, res) => {
   try {
     if (statSync(file).isDirectory()) file = join(file, 'index.html');
     const st = statSync(file);
+    const ext = extname(file).toLowerCase();
+    if (compressible.has(ext) && /\bgzip\b/.test(req.headers['accept-encoding'] || '')) {
+      const key = `${file}:${st.size}:${st.mtimeMs}`;
+      let body = gzipCache.get(key);
+      if (!body) {
+        body = gzipSync(readFileSync(file), { level: 9 });
+        gzipCache.set(key, body);
+      }
+      res.writeHead(200, {
+        'Content-Type': types[ext],
+        'Content-Encoding': 'gzip',
+        Vary: 'Accept-Encoding',
+        'Content-Length': body.length,
+        'Cache-Control': 'no-cache',
+      });
+      return res.end(req.method === 'HEAD' ? undefined : body);
+    }
     res.writeHead(200, {
       'Content-Type': types[extname(file).toLowerCase()] || 'application/octet-stream',
       'Content-Length': st.size,

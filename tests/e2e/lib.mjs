@@ -11,6 +11,7 @@ import fs from 'node:fs';
 import fsp from 'node:fs/promises';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
+import zlib from 'node:zlib';
 import { chromium } from 'playwright-core';
 
 /** The repository root (two levels above this file). */
@@ -57,6 +58,20 @@ const MIME = {
  * Returns `{ url, port, requests, close }`; `requests` lists every path asked for (so a test can
  * check that nothing outside the origin was wanted).
  */
+/** File types served gzip-compressed (text and wasm; not models or media). */
+const GZIP_TYPES = new Set(['.html', '.js', '.mjs', '.css', '.json', '.wasm', '.svg', '.txt']);
+const gzipCache = new Map();
+/** The gzip of a file, cached by path, size and modification time. */
+async function gzipped(file, st) {
+  const key = `${file}:${st.size}:${st.mtimeMs}`;
+  let body = gzipCache.get(key);
+  if (!body) {
+    body = zlib.gzipSync(await fsp.readFile(file), { level: 9 });
+    gzipCache.set(key, body);
+  }
+  return body;
+}
+
 export async function serveStatic(dir) {
   const base = path.resolve(ROOT, dir);
   const requests = [];
@@ -82,7 +97,22 @@ export async function serveStatic(dir) {
         res.writeHead(404, { 'content-type': 'text/plain' }).end('not found');
         return;
       }
-      const type = MIME[path.extname(file).toLowerCase()] || 'application/octet-stream';
+      const ext = path.extname(file).toLowerCase();
+      const type = MIME[ext] || 'application/octet-stream';
+      // As an ordinary static host does (and as scripts/serve.mjs does): text and wasm go out
+      // gzip-compressed to a client that accepts it; model files and media as they are.
+      if (GZIP_TYPES.has(ext) && /\bgzip\b/.test(req.headers['accept-encoding'] || '')) {
+        const body = await gzipped(file, st);
+        res.writeHead(200, {
+          'content-type': type,
+          'content-encoding': 'gzip',
+          vary: 'accept-encoding',
+          'content-length': body.length,
+          'cache-control': 'no-store',
+        });
+        res.end(req.method === 'HEAD' ? undefined : body);
+        return;
+      }
       res.writeHead(200, { 'content-type': type, 'content-length': st.size, 'cache-control': 'no-store' });
       if (req.method === 'HEAD') res.end();
       else fs.createReadStream(file).pipe(res);
