@@ -73,6 +73,15 @@ pub type Result<T> = std::result::Result<T, Error>;
 
 /// Fails with [`Error::Params`] unless every value is finite.
 pub(crate) fn check_finite(what: &str, values: &[f32]) -> Result<()> {
+    // A branch-free pass over the exponent bits (vectorises; this runs on every rendered
+    // face), then the position only when something is wrong.
+    const EXP: u32 = 0x7f80_0000;
+    let bad = values
+        .iter()
+        .fold(0u32, |acc, v| acc | u32::from(v.to_bits() & EXP == EXP));
+    if bad == 0 {
+        return Ok(());
+    }
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
         Some(i) => Err(Error::Params(format!(
