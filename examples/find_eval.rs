@@ -38,16 +38,6 @@ mod native {
         out
     }
 
-    fn nme(a: &[f32], b: &[f32]) -> f32 {
-        let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
-        let s: f32 = a
-            .chunks_exact(2)
-            .zip(b.chunks_exact(2))
-            .map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt())
-            .sum();
-        s / 68.0 / iod
-    }
-
     pub(crate) fn main() {
         let mut args = std::env::args().skip(1);
         let step: usize = args.next().map(|s| s.parse().unwrap()).unwrap_or(1);
@@ -82,7 +72,10 @@ mod native {
                 secs += t.elapsed().as_secs_f64();
                 n += 1;
                 extra += faces.len().saturating_sub(1);
-                match faces.first().map(|f| nme(&f.landmarks, &truth)) {
+                match faces
+                    .first()
+                    .map(|f| facemimic::find::landmark_error(&f.landmarks, &truth))
+                {
                     Some(e) if e < 0.25 => {
                         if std::env::var_os("FIND_EVAL_BOXES").is_some() {
                             let f = &faces[0];

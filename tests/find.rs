@@ -46,16 +46,6 @@ fn frames(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-fn nme(a: &[f32], b: &[f32]) -> f32 {
-    let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
-    let s: f32 = a
-        .chunks_exact(2)
-        .zip(b.chunks_exact(2))
-        .map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt())
-        .sum();
-    s / 68.0 / iod
-}
-
 #[test]
 fn finds_every_face_of_the_shared_clips_with_accurate_landmarks() {
     let Some(root) = shared() else { return };
@@ -69,7 +59,10 @@ fn finds_every_face_of_the_shared_clips_with_accurate_landmarks() {
                 io::read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
             let faces = finder.find(&img.view().unwrap());
             n += 1;
-            if let Some(e) = faces.first().map(|f| nme(&f.landmarks, &truth)) {
+            if let Some(e) = faces
+                .first()
+                .map(|f| facemimic::find::landmark_error(&f.landmarks, &truth))
+            {
                 if e < 0.25 {
                     found += 1;
                     err += e;

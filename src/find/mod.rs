@@ -223,7 +223,7 @@ impl FaceFinder {
             self.landmarks_into(image, b, &mut cur).ok()?;
             std::mem::swap(&mut prev, &mut cur);
         }
-        let d = disagreement(&prev, &cur);
+        let d = landmark_error(&prev, &cur);
         if !d.is_finite() {
             return None;
         }
@@ -375,8 +375,10 @@ fn prepare(
     }
 }
 
-/// Mean distance between two 68-point shapes over `b`'s outer-eye-corner distance (36-45).
-fn disagreement(a: &[f32], b: &[f32]) -> f32 {
+/// Mean distance between two 68-point shapes (interleaved x, y) over `b`'s outer-eye-corner
+/// distance (points 36 and 45): the landmark error used throughout the project's figures, and
+/// the finder's pass-to-pass disagreement.
+pub fn landmark_error(a: &[f32], b: &[f32]) -> f32 {
     let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
     let s: f32 = a
         .chunks_exact(2)
