@@ -52,16 +52,16 @@ fn bench(c: &mut Criterion) {
     let (source, targets, params) = setup();
     eprintln!(
         "source spk07: {} shape / {} appearance modes, {} frame pixels; targets {}",
-        source.shape.n_modes(),
-        source.appearance.n_modes(),
-        source.frame.n_pixels(),
+        source.shape().n_modes(),
+        source.appearance().n_modes(),
+        source.frame().n_pixels(),
         targets
             .iter()
             .map(|t| format!(
                 "{} ({} / {} modes)",
-                t.name,
-                t.shape.n_modes(),
-                t.appearance.n_modes()
+                t.name(),
+                t.shape().n_modes(),
+                t.appearance().n_modes()
             ))
             .collect::<Vec<_>>()
             .join(", ")
@@ -97,7 +97,7 @@ fn bench(c: &mut Criterion) {
             },
         )
         .unwrap();
-    let frame = cloner.target(0).frame.clone();
+    let frame = cloner.target(0).frame().clone();
     let mut renderer = Renderer::new(&frame).unwrap();
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(360, 288).unwrap();
     let mut group = c.benchmark_group("render_one_target");

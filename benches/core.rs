@@ -33,7 +33,7 @@ fn benches(c: &mut Criterion) {
         b.iter(|| black_box(builder.build(black_box(&images), None).unwrap()))
     });
 
-    let mut renderer = Renderer::new(&model.frame).unwrap();
+    let mut renderer = Renderer::new(model.frame()).unwrap();
     let mut pixmap = Pixmap::new(360, 288).unwrap();
     pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
     c.bench_function("render 360x288 (synthesis + upload + warp)", |b| {
@@ -49,28 +49,28 @@ fn benches(c: &mut Criterion) {
         })
     });
 
-    let mut appearance = vec![0f32; model.appearance.len()];
+    let mut appearance = vec![0f32; model.appearance().len()];
     c.bench_function("appearance synthesis (Eq. 2)", |b| {
         b.iter(|| {
             model
-                .appearance
+                .appearance()
                 .instance_unchecked(black_box(&params.appearance), &mut appearance)
         })
     });
 
     // Synthesis straight from the compact storages (what a per-frame reader of the packed file
     // would do), against the f32 expansion the library does once on load (above).
-    let d = model.appearance.len();
-    let compact = Compact::new(&model.appearance.base, &model.appearance.modes, d);
+    let d = model.appearance().len();
+    let compact = Compact::new(&model.appearance().base, &model.appearance().modes, d);
     c.bench_function("appearance synthesis from i8 storage (no expansion)", |b| {
         b.iter(|| compact.synthesise_i8(black_box(&params.appearance), &mut appearance))
     });
     c.bench_function("appearance synthesis from i6 storage (no expansion)", |b| {
         b.iter(|| compact.synthesise_i6(black_box(&params.appearance), &mut appearance))
     });
-    let mut expanded = vec![0f32; model.appearance.len()];
+    let mut expanded = vec![0f32; model.appearance().len()];
     model
-        .appearance
+        .appearance()
         .instance_unchecked(&params.appearance, &mut expanded);
     compact.synthesise_i6(&params.appearance, &mut appearance);
     let worst = expanded
@@ -82,7 +82,7 @@ fn benches(c: &mut Criterion) {
     c.bench_function("upload appearance to texture", |b| {
         b.iter(|| {
             renderer
-                .upload(&model.frame, black_box(&appearance))
+                .upload(model.frame(), black_box(&appearance))
                 .unwrap()
         })
     });
@@ -93,7 +93,7 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             renderer
                 .warp(
-                    &model.frame,
+                    model.frame(),
                     black_box(&shape),
                     &Similarity::IDENTITY,
                     &mut pixmap.as_mut(),
@@ -102,10 +102,11 @@ fn benches(c: &mut Criterion) {
         })
     });
 
-    let mut g = vec![0f32; model.appearance.len()];
+    let mut g = vec![0f32; model.appearance().len()];
     c.bench_function("sample_rgb image -> frame", |b| {
         b.iter(|| {
-            facemimic::sample_rgb(&model.frame, &view, black_box(&probe.landmarks), &mut g).unwrap()
+            facemimic::sample_rgb(model.frame(), &view, black_box(&probe.landmarks), &mut g)
+                .unwrap()
         })
     });
 

@@ -47,9 +47,9 @@ fn bench_track(c: &mut Criterion, name: &str, model: &Model, seq: &[(Image, Vec<
         "{name}: {} landmarks, {} shape modes, {} RGB appearance modes, {} frame pixels; \
          fitting {} parameters on {:?} level pixels with {:?} grey appearance images",
         model.landmarks(),
-        model.shape.n_modes(),
-        model.appearance.n_modes(),
-        model.frame.n_pixels(),
+        model.shape().n_modes(),
+        model.appearance().n_modes(),
+        model.frame().n_pixels(),
         fitter.n_params(),
         fitter.level_pixels(),
         fitter.level_appearance_modes()

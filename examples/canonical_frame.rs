@@ -35,7 +35,7 @@ mod native {
         })
         .build(&images, None)?;
         let text = write_frame(
-            &model.frame,
+            model.frame(),
             "facemimic canonical reference frame (68 landmarks, iBUG layout), model coordinates.\n\
              The frame of GRID speaker 7's model from data/grid/spk07_pwij3p/train20.txt, base face\n\
              150 px wide; made by `cargo run --example canonical_frame`.\n\
@@ -45,10 +45,10 @@ mod native {
         std::fs::write(&out, text).map_err(|e| facemimic::Error::Io(e.to_string()))?;
         eprintln!(
             "canonical frame {:016x}: {}x{}, {} pixels -> {out}",
-            model.frame.fingerprint(),
-            model.frame.width(),
-            model.frame.height(),
-            model.frame.n_pixels()
+            model.frame().fingerprint(),
+            model.frame().width(),
+            model.frame().height(),
+            model.frame().n_pixels()
         );
         Ok(())
     }

@@ -493,7 +493,7 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
     let base = m.base_params();
     // Parameters: the base, then random ones from the interesting floats scaled by sigmas.
     let mut params = base.clone();
-    let sig = m.shape.sigmas();
+    let sig = m.shape().sigmas();
     for (p, s) in params.shape.iter_mut().zip(&sig) {
         *p = if rng.chance(3) {
             float(rng)
@@ -501,7 +501,7 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
             rng.sym() * 3.0 * s
         };
     }
-    let asig = m.appearance.sigmas();
+    let asig = m.appearance().sigmas();
     for (p, s) in params.appearance.iter_mut().zip(&asig) {
         *p = if rng.chance(3) {
             float(rng)
@@ -524,7 +524,7 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
     }
     // Render into a small canvas.
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(48, 40).unwrap();
-    if let Ok(mut r) = Renderer::new(&m.frame) {
+    if let Ok(mut r) = Renderer::new(m.frame()) {
         let _ = r.render(m, &params, &Similarity::IDENTITY, &mut pixmap.as_mut());
         let _ = r.render(m, &base, &Similarity::IDENTITY, &mut pixmap.as_mut());
     }
@@ -750,7 +750,7 @@ impl Fuzzer {
                                 return Err("image_shape gave non-finite landmarks".into());
                             }
                             let mut pixmap = facemimic::tiny_skia::Pixmap::new(32, 32).unwrap();
-                            let mut ren = Renderer::new(&m.frame).map_err(|e| e.to_string())?;
+                            let mut ren = Renderer::new(m.frame()).map_err(|e| e.to_string())?;
                             let _ = ren.render(m, p, &Similarity::IDENTITY, &mut pixmap.as_mut());
                             let mut c = Cloner::new(m.clone()).map_err(|e| e.to_string())?;
                             c.add_target(seeds.models[1].clone())

@@ -75,16 +75,16 @@ pub fn model_budget(model_bytes: u64) -> u64 {
 /// The size in bytes of `model`'s data as stored in a file (the arrays and names; within a
 /// few hundred bytes of the file's length).
 pub fn model_bytes(model: &Model) -> u64 {
-    let floats = model.shape.base.len()
-        + model.shape.modes.len()
-        + model.shape.variances.len()
-        + model.frame.vertices().len()
-        + 3 * model.frame.triangles().len()
-        + model.appearance.base.len()
-        + model.appearance.modes.len()
-        + model.appearance.variances.len();
-    let names = model.name.len()
-        + match &model.reference {
+    let floats = model.shape().base.len()
+        + model.shape().modes.len()
+        + model.shape().variances.len()
+        + model.frame().vertices().len()
+        + 3 * model.frame().triangles().len()
+        + model.appearance().base.len()
+        + model.appearance().modes.len()
+        + model.appearance().variances.len();
+    let names = model.name().len()
+        + match &model.reference() {
             Reference::Mean => 0,
             Reference::Training(s) => s.len(),
         };
@@ -160,11 +160,11 @@ pub fn check_gain(what: &str, g: f32) -> Result<()> {
 /// Checks parameters against a model's mode counts and the value bounds (lengths, finite and
 /// within [`MAX_PARAM`], pose range).
 pub fn check_params(model: &Model, params: &Params) -> Result<()> {
-    crate::error::check_len("shape parameters", &params.shape, model.shape.n_modes())?;
+    crate::error::check_len("shape parameters", &params.shape, model.shape().n_modes())?;
     crate::error::check_len(
         "appearance parameters",
         &params.appearance,
-        model.appearance.n_modes(),
+        model.appearance().n_modes(),
     )?;
     check_param_values("shape parameters", &params.shape)?;
     check_param_values("appearance parameters", &params.appearance)?;
@@ -209,10 +209,10 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
             range,
         };
     for (name, bytes, max) in [
-        ("model name length", model.name.len(), lim.max_name_bytes),
+        ("model name length", model.name().len(), lim.max_name_bytes),
         (
             "reference name length",
-            match &model.reference {
+            match &model.reference() {
                 Reference::Mean => 0,
                 Reference::Training(s) => s.len(),
             },
@@ -227,7 +227,7 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
             });
         }
     }
-    for (i, &v) in model.image_size.iter().enumerate() {
+    for (i, &v) in model.image_size().iter().enumerate() {
         if v == 0 || v > MAX_IMAGE_SIDE {
             return Err(FormatError::LimitExceeded {
                 what: if i == 0 {
@@ -240,7 +240,7 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
             });
         }
     }
-    let p = &model.mean_pose;
+    let p = &model.mean_pose();
     for (i, v) in [p.a, p.b, p.tx, p.ty].into_iter().enumerate() {
         if !v.is_finite() {
             return Err(FormatError::NonFinite {
@@ -281,35 +281,35 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
     };
     in_range(
         "shape base",
-        &model.shape.base,
+        &model.shape().base,
         -MAX_SHAPE_COORD,
         MAX_SHAPE_COORD,
     )?;
     in_range(
         "frame origin",
-        &model.frame.origin(),
+        &model.frame().origin(),
         -MAX_SHAPE_COORD,
         MAX_SHAPE_COORD,
     )?;
     in_range(
         "appearance base",
-        &model.appearance.base,
+        &model.appearance().base,
         MIN_APPEARANCE,
         MAX_APPEARANCE,
     )?;
-    let n2 = model.shape.base.len() as f32;
+    let n2 = model.shape().base.len() as f32;
     let max_shape_var = n2 * (2.0 * MAX_SHAPE_COORD).powi(2);
     in_range(
         "shape variances",
-        &model.shape.variances,
+        &model.shape().variances,
         0.0,
         max_shape_var,
     )?;
     let span = MAX_APPEARANCE - MIN_APPEARANCE;
-    let max_app_var = model.appearance.base.len() as f32 * span * span;
+    let max_app_var = model.appearance().base.len() as f32 * span * span;
     in_range(
         "appearance variances",
-        &model.appearance.variances,
+        &model.appearance().variances,
         0.0,
         max_app_var,
     )?;
@@ -321,10 +321,10 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
 /// in x and y, the smoothed appearance modes `(l + 1) x N x channels`, the f64 smoothing grids
 /// and the `(m + 4)^2` normal matrices).
 pub fn tracking_bytes(model: &Model, levels: usize, channels: usize) -> u64 {
-    let n = model.frame.n_pixels() as u64;
-    let k = model.shape.n_modes() as u64 + 4;
-    let l = model.appearance.n_modes() as u64 + 1;
-    let grid = model.frame.width() as u64 * model.frame.height() as u64;
+    let n = model.frame().n_pixels() as u64;
+    let k = model.shape().n_modes() as u64 + 4;
+    let l = model.appearance().n_modes() as u64 + 1;
+    let grid = model.frame().width() as u64 * model.frame().height() as u64;
     let c = channels.max(1) as u64;
     let per_level = 8 * k * n + 8 * l * n * c + 8 * grid * (2 + c) + 16 * k * k + 64 * n * c;
     per_level.saturating_mul(levels.max(1) as u64)
@@ -340,9 +340,9 @@ pub fn check_tracking_budget(model: &Model, levels: usize, channels: usize) -> R
         return Err(Error::Budget(format!(
             "tracking model '{}' ({} shape modes x {} pixels, {} levels) needs about {} MB of \
              precomputation, more than its memory budget of {} MB ({} x the model's {} KB + {} MB)",
-            model.name,
-            model.shape.n_modes(),
-            model.frame.n_pixels(),
+            model.name(),
+            model.shape().n_modes(),
+            model.frame().n_pixels(),
             levels,
             need >> 20,
             budget >> 20,
@@ -363,7 +363,7 @@ pub const MAX_DEFAULT_CANVAS_PIXELS: u64 = 2048 * 2048;
 /// training-image size, if at most [`MAX_DEFAULT_CANVAS_PIXELS`]; otherwise an
 /// [`Error::Budget`] asking for an explicit size.
 pub fn default_canvas(model: &Model) -> Result<(u32, u32)> {
-    let [w, h] = model.image_size;
+    let [w, h] = model.image_size();
     if w as u64 * h as u64 > MAX_DEFAULT_CANVAS_PIXELS {
         return Err(Error::Budget(format!(
             "the model declares a {w}x{h} image, larger than the default canvas limit of {} \

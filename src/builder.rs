@@ -5,7 +5,7 @@ use crate::canonical::{canonical_frame, CANONICAL_LANDMARKS};
 use crate::error::{Error, Result};
 use crate::frame::ReferenceFrame;
 use crate::image::Image;
-use crate::model::{LandmarkScheme, Model, Reference};
+use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::pca::{mean, pca};
 use crate::shape::{generalised_procrustes, ShapeModel};
 use crate::similarity::Similarity;
@@ -188,7 +188,7 @@ impl Builder {
         }
         // The frame to build in and the shape the training shapes are aligned to.
         let target: Option<(&ReferenceFrame, &[f32])> = match frame_of {
-            Some(f) => Some((&f.frame, &f.shape.base)),
+            Some(f) => Some((f.frame(), &f.shape().base)),
             None if o.frame == FrameChoice::Canonical && n == 2 * CANONICAL_LANDMARKS => {
                 let c = canonical_frame();
                 Some((c, c.vertices()))
@@ -196,11 +196,11 @@ impl Builder {
             None => None,
         };
         if let Some(f) = frame_of {
-            if f.shape.base.len() != n {
+            if f.shape().base.len() != n {
                 return Err(Error::Incompatible(format!(
                     "training landmarks have {} points, the frame model '{}' has {}",
                     n / 2,
-                    f.name,
+                    f.name(),
                     f.landmarks()
                 )));
             }
@@ -319,7 +319,7 @@ impl Builder {
             ty: ty / k,
         };
 
-        let model = Model {
+        let model = Model::new(ModelParts {
             name: o.name.clone(),
             scheme: LandmarkScheme::for_count(n / 2),
             shape,
@@ -331,7 +331,7 @@ impl Builder {
             },
             mean_pose,
             image_size: [images[0].image.width, images[0].image.height],
-        };
+        })?;
         // The builder refuses what the reader would reject (a file it writes reads back).
         crate::bounds::check_model_values(&model).map_err(|e| Error::Training(e.to_string()))?;
         Ok(model)

@@ -127,18 +127,18 @@ impl CloneOptions {
     pub fn validate(&self, source: &Model) -> Result<()> {
         crate::bounds::check_gain("gain", self.gain)?;
         for (what, g, m) in [
-            ("shape gains", &self.shape_gains, source.shape.n_modes()),
+            ("shape gains", &self.shape_gains, source.shape().n_modes()),
             (
                 "appearance gains",
                 &self.appearance_gains,
-                source.appearance.n_modes(),
+                source.appearance().n_modes(),
             ),
         ] {
             if g.len() > m {
                 return Err(Error::Params(format!(
                     "{} {what} given, the source '{}' has {m} modes",
                     g.len(),
-                    source.name
+                    source.name()
                 )));
             }
             for (i, &v) in g.iter().enumerate() {
@@ -345,23 +345,33 @@ pub struct Pair {
 }
 
 impl Pair {
-    /// Precomputes the pair, after checking that both models are internally consistent and
-    /// compatible (same landmark scheme, same reference frame): [`Error::Incompatible`]
+    /// Precomputes the pair, after checking that both models are compatible (same landmark
+    /// scheme, same reference frame) and have an invertible mean pose: [`Error::Incompatible`]
     /// naming what differs otherwise.
     pub fn new(source: &Model, target: &Model) -> Result<Pair> {
-        check_model(source)?;
-        check_model(target)?;
+        for m in [source, target] {
+            if m.mean_pose().inverse().is_none() {
+                return Err(Error::Incompatible(format!(
+                    "model '{}' is inconsistent: its mean pose is not a valid similarity",
+                    m.name()
+                )));
+            }
+        }
         source.check_compatible(target)?;
-        let d = source.shape.base.len();
-        let da = source.appearance.len();
+        let d = source.shape().base.len();
+        let da = source.appearance().len();
         Ok(Pair {
-            shape_map: inner_products(&target.shape.modes, &source.shape.modes, d),
-            appearance_map: inner_products(&target.appearance.modes, &source.appearance.modes, da),
-            residual: residual_directions(&target.shape.modes, &source.shape.modes, d),
-            target_shape_sigmas: target.shape.sigmas(),
-            target_appearance_sigmas: target.appearance.sigmas(),
-            source_modes: [source.shape.n_modes(), source.appearance.n_modes()],
-            target_modes: [target.shape.n_modes(), target.appearance.n_modes()],
+            shape_map: inner_products(&target.shape().modes, &source.shape().modes, d),
+            appearance_map: inner_products(
+                &target.appearance().modes,
+                &source.appearance().modes,
+                da,
+            ),
+            residual: residual_directions(&target.shape().modes, &source.shape().modes, d),
+            target_shape_sigmas: target.shape().sigmas(),
+            target_appearance_sigmas: target.appearance().sigmas(),
+            source_modes: [source.shape().n_modes(), source.appearance().n_modes()],
+            target_modes: [target.shape().n_modes(), target.appearance().n_modes()],
         })
     }
 
@@ -393,59 +403,6 @@ impl Pair {
     }
 }
 
-/// Checks the dimensions a [`Model`] promises (a hand-made model could break them), so that
-/// cloning can index without checks.
-fn check_model(m: &Model) -> Result<()> {
-    let bad = |what: String| {
-        Err(Error::Incompatible(format!(
-            "model '{}' is inconsistent: {what}",
-            m.name
-        )))
-    };
-    let d = m.shape.base.len();
-    let da = m.appearance.base.len();
-    if d == 0 || d != 2 * m.frame.landmarks() || d != 2 * m.scheme.count() {
-        return bad(format!(
-            "{} shape values for {} frame landmarks ({:?})",
-            d,
-            m.frame.landmarks(),
-            m.scheme
-        ));
-    }
-    if da != 3 * m.frame.n_pixels() {
-        return bad(format!(
-            "{da} appearance values for {} frame pixels",
-            m.frame.n_pixels()
-        ));
-    }
-    if m.shape.modes.len() != d * m.shape.n_modes() {
-        return bad(format!(
-            "{} shape mode values for {} modes",
-            m.shape.modes.len(),
-            m.shape.n_modes()
-        ));
-    }
-    if m.appearance.modes.len() != da * m.appearance.n_modes() {
-        return bad(format!(
-            "{} appearance mode values for {} modes",
-            m.appearance.modes.len(),
-            m.appearance.n_modes()
-        ));
-    }
-    if m.shape
-        .variances
-        .iter()
-        .chain(&m.appearance.variances)
-        .any(|v| !(v.is_finite() && *v >= 0.0))
-    {
-        return bad("a variance is negative or not finite".into());
-    }
-    if !m.mean_pose.is_valid() || m.mean_pose.inverse().is_none() {
-        return bad("its mean pose is not a valid similarity".into());
-    }
-    Ok(())
-}
-
 // ---------------------------------------------------------------------------------------
 // The cloner.
 
@@ -463,12 +420,12 @@ impl TargetFrame {
     /// The target's reference face at its mean pose.
     fn reference(model: &Model) -> TargetFrame {
         let params = model.base_params();
-        let mut shape = model.shape.base.clone();
+        let mut shape = model.shape().base.clone();
         params.pose.apply_in_place(&mut shape);
         TargetFrame {
             params,
             shape,
-            appearance: model.appearance.base.clone(),
+            appearance: model.appearance().base.clone(),
         }
     }
 
@@ -529,17 +486,17 @@ impl Step<'_> {
         out.params.pose = target_pose(
             self.source_mean_inverse,
             self.source_pose,
-            &m.mean_pose,
+            &m.mean_pose(),
             options.follow_pose,
         );
         map_params(&pair.shape_map, p, &mut out.params.shape);
         map_params(&pair.appearance_map, lambda, &mut out.params.appearance);
         match options.method {
             Method::Substitute => {
-                substitute_shape(&m.shape.base, &self.source.shape.modes, p, acc);
+                substitute_shape(&m.shape().base, &self.source.shape().modes, p, acc);
                 crate::synthesise(
-                    &m.appearance.base,
-                    &self.source.appearance.modes,
+                    &m.appearance().base,
+                    &self.source.appearance().modes,
                     lambda,
                     &mut out.appearance,
                 );
@@ -553,13 +510,13 @@ impl Step<'_> {
                         k,
                     );
                 }
-                map_shape(&m.shape.base, &m.shape.modes, &out.params.shape, acc);
+                map_shape(&m.shape().base, &m.shape().modes, &out.params.shape, acc);
                 if options.method == Method::MapResidual {
                     add_residual(&pair.residual, p, acc);
                 }
                 crate::synthesise(
-                    &m.appearance.base,
-                    &m.appearance.modes,
+                    &m.appearance().base,
+                    &m.appearance().modes,
                     &out.params.appearance,
                     &mut out.appearance,
                 );
@@ -572,7 +529,7 @@ impl Step<'_> {
             o[1] = y;
         }
         // The entry bounds keep these finite; checked so that no NaN can ever leave.
-        let name = &model.name;
+        let name = &model.name();
         crate::bounds::check_output(&format!("target '{name}' shape"), &out.shape)?;
         crate::bounds::check_output(&format!("target '{name}' appearance"), &out.appearance)?;
         crate::bounds::check_output(
@@ -612,21 +569,20 @@ pub struct Cloner {
 }
 
 impl Cloner {
-    /// A cloner for `source`, with no targets yet. Fails if the model is inconsistent.
+    /// A cloner for `source`, with no targets yet.
     pub fn new(source: Model) -> Result<Cloner> {
-        check_model(&source)?;
         let inv = source
-            .mean_pose
+            .mean_pose()
             .inverse()
             .ok_or_else(|| Error::Incompatible("the source's mean pose is degenerate".into()))?;
         Ok(Cloner {
             source_mean_inverse: inv,
-            source_shape_sigmas: source.shape.sigmas(),
-            source_appearance_sigmas: source.appearance.sigmas(),
+            source_shape_sigmas: source.shape().sigmas(),
+            source_appearance_sigmas: source.appearance().sigmas(),
             targets: Vec::new(),
-            gained_shape: vec![0.0; source.shape.n_modes()],
-            gained_appearance: vec![0.0; source.appearance.n_modes()],
-            acc: vec![0.0; source.shape.base.len()],
+            gained_shape: vec![0.0; source.shape().n_modes()],
+            gained_appearance: vec![0.0; source.appearance().n_modes()],
+            acc: vec![0.0; source.shape().base.len()],
             source,
         })
     }
@@ -753,7 +709,7 @@ impl Cloner {
         {
             return Err(Error::Params(format!(
                 "the output was not made for target '{}' (use Cloner::target_frame)",
-                t.model.name
+                t.model.name()
             )));
         }
         self.prepare(source, options, index..index + 1)?;
@@ -789,13 +745,13 @@ impl Cloner {
             let pose = target_pose(
                 &self.source_mean_inverse,
                 &source.pose,
-                &t.model.mean_pose,
+                &t.model.mean_pose(),
                 options.follow_pose,
             );
             if !pose_in_range(&pose) {
                 return Err(Error::Params(format!(
                     "the pose for target '{}' is out of range (scale {}, translation {}, {})",
-                    t.model.name,
+                    t.model.name(),
                     pose.scale(),
                     pose.tx,
                     pose.ty

@@ -17,7 +17,8 @@ pub enum Error {
     /// A model cannot be built from the given training data.
     #[error("training: {0}")]
     Training(String),
-    /// Two models cannot be used together (different landmark scheme or reference frame).
+    /// Two models cannot be used together (different landmark scheme or reference frame), or
+    /// the parts given to [`crate::Model::new`] do not fit together.
     #[error("incompatible models: {0}")]
     Incompatible(String),
     /// Parameters have the wrong length or are not finite.

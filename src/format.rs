@@ -11,7 +11,7 @@
 use crate::appearance::AppearanceModel;
 use crate::frame::{ReferenceFrame, MAX_FRAME_SIDE};
 use crate::image::MAX_IMAGE_SIDE;
-use crate::model::{LandmarkScheme, Model, Reference};
+use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::shape::ShapeModel;
 use crate::similarity::Similarity;
 
@@ -419,26 +419,26 @@ pub fn write_model(model: &Model) -> Vec<u8> {
 /// model that breaks its invariants or the limits is written faithfully and rejected by
 /// [`read_model`].
 pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
-    let n2 = model.shape.base.len();
-    let m = model.shape.variances.len();
-    let l = model.appearance.variances.len();
-    let frame = &model.frame;
-    let name = model.name.as_bytes();
-    let (ref_tag, ref_name): (u32, &[u8]) = match &model.reference {
+    let n2 = model.shape().base.len();
+    let m = model.shape().variances.len();
+    let l = model.appearance().variances.len();
+    let frame = &model.frame();
+    let name = model.name().as_bytes();
+    let (ref_tag, ref_name): (u32, &[u8]) = match &model.reference() {
         Reference::Mean => (REFERENCE_MEAN, &[]),
         Reference::Training(s) => (REFERENCE_TRAINING, s.as_bytes()),
     };
     let names = name.len() + ref_name.len();
     let padding = pad4(names as u64) as usize;
-    let floats = model.shape.base.len()
-        + model.shape.modes.len()
+    let floats = model.shape().base.len()
+        + model.shape().modes.len()
         + m
         + frame.vertices().len()
         + 3 * frame.triangles().len();
     let appearance = appearance_bytes(
         storage,
-        model.appearance.base.len() as u64,
-        model.appearance.modes.len() as u64 / model.appearance.base.len().max(1) as u64,
+        model.appearance().base.len() as u64,
+        model.appearance().modes.len() as u64 / model.appearance().base.len().max(1) as u64,
     )
     .unwrap_or(0) as usize;
     let total = HEADER_LEN + names + padding + 4 * floats + appearance + CHECKSUM_LEN;
@@ -457,13 +457,13 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
     u32le(&mut out, frame.height());
     f32le(&mut out, frame.origin()[0]);
     f32le(&mut out, frame.origin()[1]);
-    u32le(&mut out, as_u32(model.appearance.base.len() / 3));
+    u32le(&mut out, as_u32(model.appearance().base.len() / 3));
     u32le(&mut out, 3);
     u32le(&mut out, as_u32(m));
     u32le(&mut out, as_u32(l));
     u32le(
         &mut out,
-        match model.scheme {
+        match model.scheme() {
             LandmarkScheme::Ibug68 => SCHEME_IBUG68,
             LandmarkScheme::Generic(_) => SCHEME_GENERIC,
         },
@@ -471,12 +471,12 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
     u32le(&mut out, ref_tag);
     u32le(&mut out, as_u32(name.len()));
     u32le(&mut out, as_u32(ref_name.len()));
-    let p = model.mean_pose;
+    let p = model.mean_pose();
     for v in [p.a, p.b, p.tx, p.ty] {
         f32le(&mut out, v);
     }
-    u32le(&mut out, model.image_size[0]);
-    u32le(&mut out, model.image_size[1]);
+    u32le(&mut out, model.image_size()[0]);
+    u32le(&mut out, model.image_size()[1]);
     out.extend_from_slice(&frame.fingerprint().to_le_bytes());
     debug_assert_eq!(out.len(), HEADER_LEN);
 
@@ -484,9 +484,9 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
     out.extend_from_slice(ref_name);
     out.extend(std::iter::repeat_n(0u8, padding));
     let arrays: [&[f32]; 4] = [
-        &model.shape.base,
-        &model.shape.modes,
-        &model.shape.variances,
+        &model.shape().base,
+        &model.shape().modes,
+        &model.shape().variances,
         frame.vertices(),
     ];
     for a in arrays {
@@ -497,7 +497,7 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
         .iter()
         .flatten()
         .for_each(|&i| u32le(&mut out, i));
-    write_appearance(&mut out, &model.appearance, storage);
+    write_appearance(&mut out, model.appearance(), storage);
     let crc = crc32(&out);
     u32le(&mut out, crc);
     debug_assert_eq!(out.len(), total);
@@ -975,7 +975,7 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
         version: h.version,
         storage: h.storage,
     };
-    let model = Model {
+    let model = Model::new(ModelParts {
         name,
         scheme: if h.scheme == SCHEME_IBUG68 {
             LandmarkScheme::Ibug68
@@ -996,7 +996,8 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
         },
         mean_pose: h.pose,
         image_size: h.image_size,
-    };
+    })
+    .map_err(|e| FormatError::InconsistentDimensions(e.to_string()))?;
     crate::bounds::check_model_values(&model)?;
     Ok((model, info))
 }

@@ -58,7 +58,7 @@ pub use error::{Error, Result};
 pub use find::{BBox, Face, FaceFinder, FindOptions};
 pub use frame::{triangulate, FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
-pub use model::{LandmarkScheme, Model, Params, Reference};
+pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
 pub use pca::{pca, Pca};
 pub use refine::refine_landmarks;
 pub use render::{

@@ -63,11 +63,28 @@ pub struct Params {
 /// Represents: a shape model (Eq. 1), an appearance model (Eq. 2) on the pixels of a
 /// reference frame, the base mesh of that frame, which face the bases show, and the average
 /// pose and size of the training images (for placing the face on a canvas).
-/// Ensures (after [`crate::Builder::build`] or [`crate::format::read_model`]): all dimensions
-/// agree (`2n` shape values, `3N` appearance values with `N` the frame's pixel count), every
-/// number finite, the frame's landmark count equals the shape's.
+/// Ensures: all dimensions agree (`2n` shape values, `3N` appearance values with `N` the
+/// frame's pixel count, `n` the scheme's and the frame's landmark count, one variance per
+/// mode) and every number is finite. The fields are private: a `Model` only comes from
+/// [`Model::new`] (which checks all of this), [`crate::Builder`] or
+/// [`crate::format::read_model`], so code holding one need not check it again. The value
+/// bounds of the file format ([`crate::bounds`]) are checked when a model is read or written.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
+    name: String,
+    scheme: LandmarkScheme,
+    shape: ShapeModel,
+    appearance: AppearanceModel,
+    frame: ReferenceFrame,
+    reference: Reference,
+    mean_pose: Similarity,
+    image_size: [u32; 2],
+}
+
+/// Everything a [`Model`] is made of, with public fields: build one, then check it with
+/// [`Model::new`]; [`Model::into_parts`] takes a model apart again.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelParts {
     /// A short name (for people; e.g. "spk07").
     pub name: String,
     /// The landmark layout.
@@ -87,6 +104,99 @@ pub struct Model {
 }
 
 impl Model {
+    /// Checks `parts` and makes a model of them. Fails with [`Error::Incompatible`] ("model
+    /// 'name' is inconsistent: ...") naming the first part that does not fit: the scheme's,
+    /// the shape's and the frame's landmark counts, the modes' lengths against the bases (`3N`
+    /// appearance values for a frame of `N` pixels), a value that is not finite, a negative
+    /// variance, or a mean pose of zero scale.
+    pub fn new(parts: ModelParts) -> Result<Model> {
+        if let Err(what) = check_parts(&parts) {
+            return Err(Error::Incompatible(format!(
+                "model '{}' is inconsistent: {what}",
+                parts.name
+            )));
+        }
+        let ModelParts {
+            name,
+            scheme,
+            shape,
+            appearance,
+            frame,
+            reference,
+            mean_pose,
+            image_size,
+        } = parts;
+        Ok(Model {
+            name,
+            scheme,
+            shape,
+            appearance,
+            frame,
+            reference,
+            mean_pose,
+            image_size,
+        })
+    }
+
+    /// Takes the model apart (to change a part and check it again with [`Model::new`]).
+    pub fn into_parts(self) -> ModelParts {
+        ModelParts {
+            name: self.name,
+            scheme: self.scheme,
+            shape: self.shape,
+            appearance: self.appearance,
+            frame: self.frame,
+            reference: self.reference,
+            mean_pose: self.mean_pose,
+            image_size: self.image_size,
+        }
+    }
+
+    /// A short name (for people; e.g. "spk07").
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Renames the model (any text; the file format limits its length when it is written).
+    pub fn set_name(&mut self, name: impl Into<String>) {
+        self.name = name.into();
+    }
+
+    /// The landmark layout.
+    pub fn scheme(&self) -> LandmarkScheme {
+        self.scheme
+    }
+
+    /// The shape model (Eq. 1), in model coordinates.
+    pub fn shape(&self) -> &ShapeModel {
+        &self.shape
+    }
+
+    /// The appearance model (Eq. 2) over the frame's pixels.
+    pub fn appearance(&self) -> &AppearanceModel {
+        &self.appearance
+    }
+
+    /// The reference frame (mesh, pixel grid, barycentrics).
+    pub fn frame(&self) -> &ReferenceFrame {
+        &self.frame
+    }
+
+    /// Which face the bases show.
+    pub fn reference(&self) -> &Reference {
+        &self.reference
+    }
+
+    /// The average pose of the training faces in their images.
+    pub fn mean_pose(&self) -> Similarity {
+        self.mean_pose
+    }
+
+    /// The size of the training images `[width, height]`.
+    pub fn image_size(&self) -> [u32; 2] {
+        self.image_size
+    }
+
     /// Number of landmarks.
     pub fn landmarks(&self) -> usize {
         self.shape.landmarks()
@@ -175,4 +285,60 @@ impl Model {
         }
         Ok(())
     }
+}
+
+/// What [`Model::new`] checks, as a message naming the first problem.
+fn check_parts(m: &ModelParts) -> std::result::Result<(), String> {
+    let d = m.shape.base.len();
+    let da = m.appearance.base.len();
+    if d == 0 || d != 2 * m.frame.landmarks() || d != 2 * m.scheme.count() {
+        return Err(format!(
+            "{} shape values for {} frame landmarks ({:?})",
+            d,
+            m.frame.landmarks(),
+            m.scheme
+        ));
+    }
+    if da != 3 * m.frame.n_pixels() {
+        return Err(format!(
+            "{da} appearance values for {} frame pixels",
+            m.frame.n_pixels()
+        ));
+    }
+    if Some(m.shape.modes.len()) != d.checked_mul(m.shape.variances.len()) {
+        return Err(format!(
+            "{} shape mode values for {} modes",
+            m.shape.modes.len(),
+            m.shape.variances.len()
+        ));
+    }
+    if Some(m.appearance.modes.len()) != da.checked_mul(m.appearance.variances.len()) {
+        return Err(format!(
+            "{} appearance mode values for {} modes",
+            m.appearance.modes.len(),
+            m.appearance.variances.len()
+        ));
+    }
+    let pose = [m.mean_pose.a, m.mean_pose.b, m.mean_pose.tx, m.mean_pose.ty];
+    for (what, values) in [
+        ("shape base", &m.shape.base[..]),
+        ("shape modes", &m.shape.modes[..]),
+        ("appearance base", &m.appearance.base[..]),
+        ("appearance modes", &m.appearance.modes[..]),
+        ("mean pose", &pose[..]),
+    ] {
+        crate::error::check_finite(what, values).map_err(|e| e.to_string())?;
+    }
+    if m.shape
+        .variances
+        .iter()
+        .chain(&m.appearance.variances)
+        .any(|v| !(v.is_finite() && *v >= 0.0))
+    {
+        return Err("a variance is negative or not finite".into());
+    }
+    if !m.mean_pose.is_valid() {
+        return Err("its mean pose is not a valid similarity".into());
+    }
+    Ok(())
 }

@@ -174,7 +174,7 @@ fn inside_pixels(
         .chunks_exact(2)
         .map(|p| view.apply_point(p[0], p[1]))
         .collect();
-    let tris = model.frame.triangles();
+    let tris = model.frame().triangles();
     let mut count = std::collections::HashMap::new();
     for t in tris {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
@@ -183,7 +183,7 @@ fn inside_pixels(
     }
     // The outline: edges of one triangle only, plus every edge of a triangle the instance
     // folds over (its orientation differs from the frame's), since a fold moves the outline.
-    let v = model.frame.vertices();
+    let v = model.frame().vertices();
     let area = |p: [(f32, f32); 3]| {
         (p[1].0 - p[0].0) * (p[2].1 - p[0].1) - (p[2].0 - p[0].0) * (p[1].1 - p[0].1)
     };
@@ -305,7 +305,7 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     cloner
         .render_source(sctx.clone(), options("#ff00ff", false))
         .expect("render source");
-    let mut shape = vec![0.0; source.shape.base.len()];
+    let mut shape = vec![0.0; source.shape().base.len()];
     source
         .image_shape(&source.base_params(), &mut shape)
         .unwrap();
@@ -313,9 +313,9 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
 
     // Move the source 2 sigma along its first shape and appearance modes: the target changes.
     let mut p = source.base_params();
-    p.shape[0] = 2.0 * source.shape.variances[0].sqrt();
+    p.shape[0] = 2.0 * source.shape().variances[0].sqrt();
     if let Some(a) = p.appearance.first_mut() {
-        *a = 2.0 * source.appearance.variances[0].sqrt();
+        *a = 2.0 * source.appearance().variances[0].sqrt();
     }
     cloner.set_source_params(params_js(&p)).expect("params");
     cloner.update().expect("update");
@@ -387,7 +387,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
         .render_source(ctx.clone(), options("#ff00ff", false))
         .expect("html canvas");
     let plain = read_pixels(&ctx);
-    let mut shape = vec![0.0; source.shape.base.len()];
+    let mut shape = vec![0.0; source.shape().base.len()];
     source
         .image_shape(&source.base_params(), &mut shape)
         .unwrap();
@@ -434,7 +434,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
         mean_abs_diff(&m0, &read_pixels(&octx)) > 0.5,
         "shape mode 0 does not move the face"
     );
-    if source.appearance.n_modes() > 0 {
+    if source.appearance().n_modes() > 0 {
         render_mode(
             &model,
             "appearance",
@@ -500,7 +500,7 @@ fn bad_input_throws_and_the_module_keeps_working() {
     .contains("parameters"));
     // Typed arrays are accepted; a missing pose field is named.
     let mut p = source.base_params();
-    p.shape[1] = 0.5 * source.shape.variances[1].sqrt();
+    p.shape[1] = 0.5 * source.shape().variances[1].sqrt();
     let v = params_js(&p);
     let typed = js_sys::Float32Array::from(&p.shape[..]);
     js_sys::Reflect::set(&v, &"shape".into(), &typed).unwrap();
@@ -579,7 +579,7 @@ fn scanline_and_tiny_skia_rasterisers_agree() {
     let mut cloner = JsCloner::new(&JsModel::from(source.clone())).unwrap();
     cloner.add_target(&JsModel::from(target.clone())).unwrap();
     let mut p = source.base_params();
-    p.shape[0] = 1.5 * source.shape.variances[0].sqrt();
+    p.shape[0] = 1.5 * source.shape().variances[0].sqrt();
     p.pose = Similarity::from_parts(p.pose.scale() * 1.1, 0.2, p.pose.tx + 7.0, p.pose.ty - 5.0);
     cloner.set_source_params(params_js(&p)).unwrap();
     cloner.set_follow_pose(true);

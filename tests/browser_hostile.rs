@@ -14,7 +14,7 @@ mod engine;
 
 use facemimic::format::write_model;
 use facemimic::wasm::{JsCloner, JsModel, WasmTracker};
-use facemimic::{BuildOptions, Builder, FrameChoice, Model, Params, Similarity};
+use facemimic::{BuildOptions, Builder, FrameChoice, Model, ModelParts, Params, Similarity};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
@@ -45,24 +45,29 @@ fn load_err(m: &Model) -> String {
 #[wasm_bindgen_test]
 fn hostile_models_are_js_errors() {
     let base = &seeds().models[0];
-    let mut m = base.clone();
-    m.mean_pose = Similarity {
-        a: 3e38,
-        b: 0.0,
-        tx: 0.0,
-        ty: 0.0,
+    // `base` with a part changed (still a `Model`: finite, dimensions that agree).
+    let edited = |change: &dyn Fn(&mut ModelParts)| {
+        let mut parts = base.clone().into_parts();
+        change(&mut parts);
+        Model::new(parts).unwrap()
     };
+    let m = edited(&|p| {
+        p.mean_pose = Similarity {
+            a: 3e38,
+            b: 0.0,
+            tx: 0.0,
+            ty: 0.0,
+        }
+    });
     assert!(load_err(&m).contains("mean pose scale"));
-    let mut m = base.clone();
-    m.appearance.base[0] = f32::MAX;
+    let m = edited(&|p| p.appearance.base[0] = f32::MAX);
     assert!(load_err(&m).contains("appearance base"));
-    let mut m = base.clone();
-    m.shape.base.iter_mut().for_each(|v| *v *= 1e30);
+    let m = edited(&|p| p.shape.base.iter_mut().for_each(|v| *v *= 1e30));
     assert!(!load_err(&m).contains("degenerate"));
     // A 300-byte name: toBytes refuses what fromBytes would reject.
     let mut m = base.clone();
-    m.name = "x".repeat(300);
-    let e = message(JsModel::from(m).to_bytes().err().expect("refused"));
+    m.set_name("x".repeat(300));
+    let e = message(JsModel::from(m).to_bytes().expect_err("refused"));
     assert!(e.contains("model name length"), "{e}");
     // The module keeps working.
     assert!(JsModel::from_bytes(&write_model(base)).is_ok());
@@ -94,7 +99,7 @@ fn huge_parameters_gains_and_clamps_are_js_errors() {
 #[wasm_bindgen_test]
 fn tracker_over_budget_is_a_js_error_not_an_out_of_memory_trap() {
     let images = engine::training_set(128, 4, 11);
-    let mut m = Builder::new(BuildOptions {
+    let m = Builder::new(BuildOptions {
         name: "many-modes".into(),
         face_width: 240.0,
         frame: FrameChoice::Own,
@@ -103,12 +108,14 @@ fn tracker_over_budget_is_a_js_error_not_an_out_of_memory_trap() {
     })
     .build(&images, None)
     .unwrap();
-    let d = m.shape.base.len();
-    m.shape.modes = vec![0.0; 256 * d];
+    let d = m.shape().base.len();
+    let mut parts = m.into_parts();
+    parts.shape.modes = vec![0.0; 256 * d];
     for i in 0..256 {
-        m.shape.modes[i * d + i] = 1.0;
+        parts.shape.modes[i * d + i] = 1.0;
     }
-    m.shape.variances = vec![1.0; 256];
+    parts.shape.variances = vec![1.0; 256];
+    let m = Model::new(parts).unwrap();
     let bytes = write_model(&m);
     let e = message(WasmTracker::new(&bytes).err().expect("refused"));
     assert!(e.contains("memory budget:"), "{e}");

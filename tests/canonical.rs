@@ -44,13 +44,13 @@ fn asset_is_spk07_own_frame() {
     assert!(c.n_pixels() > 10_000, "{} pixels", c.n_pixels());
     let own = build("spk07_pwij3p", "spk07", FrameChoice::Own);
     assert!(
-        own.frame == *c,
+        *own.frame() == *c,
         "spk07's own frame is not the canonical one"
     );
     // Built in the canonical frame (the default), spk07 gets back the frame's mesh as its base.
     let canon = build("spk07_pwij3p", "spk07", FrameChoice::Canonical);
     let d = canon
-        .shape
+        .shape()
         .base
         .iter()
         .zip(c.vertices())
@@ -91,12 +91,12 @@ fn damaged_frame_text_is_refused() {
 fn separately_built_models_clone_both_ways() {
     let a = build("spk07_pwij3p", "spk07", FrameChoice::Canonical);
     let b = build("spk02_brbk7n", "spk02", FrameChoice::Canonical);
-    assert_eq!(a.frame.fingerprint(), CANONICAL_FINGERPRINT);
-    assert_eq!(b.frame.fingerprint(), CANONICAL_FINGERPRINT);
+    assert_eq!(a.frame().fingerprint(), CANONICAL_FINGERPRINT);
+    assert_eq!(b.frame().fingerprint(), CANONICAL_FINGERPRINT);
     for (s, t) in [(&a, &b), (&b, &a)] {
         let mut c = Cloner::new(s.clone()).unwrap();
         c.add_target(t.clone()).unwrap();
-        let im = images(if s.name == "spk07" {
+        let im = images(if s.name() == "spk07" {
             "spk07_pwij3p"
         } else {
             "spk02_brbk7n"
@@ -110,7 +110,7 @@ fn separately_built_models_clone_both_ways() {
         assert!(q.shape.iter().any(|v| v.abs() > 1e-3), "{:?}", q.shape);
     }
     let own = build("spk02_brbk7n", "spk02-own", FrameChoice::Own);
-    assert_ne!(own.frame.fingerprint(), CANONICAL_FINGERPRINT);
+    assert_ne!(own.frame().fingerprint(), CANONICAL_FINGERPRINT);
     let mut c = Cloner::new(a.clone()).unwrap();
     match c.add_target(own) {
         Err(Error::Incompatible(m)) => {

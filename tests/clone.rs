@@ -9,7 +9,8 @@ use facemimic::clone::{
 };
 use facemimic::{
     synthesise, AppearanceModel, BuildOptions, Builder, Error, Image, LandmarkScheme, Model,
-    Params, Reference, ReferenceChoice, ReferenceFrame, ShapeModel, Similarity, TrainingImage,
+    ModelParts, Params, Reference, ReferenceChoice, ReferenceFrame, ShapeModel, Similarity,
+    TrainingImage,
 };
 use wasm_bindgen_test::wasm_bindgen_test;
 
@@ -64,6 +65,17 @@ fn base_shape() -> Vec<f32> {
 /// A synthetic model: `m` shape modes, `l` appearance modes, random orthonormal bases, on
 /// `frame` (or its own frame when `None`).
 fn synthetic(name: &str, seed: u64, m: usize, l: usize, frame: Option<&ReferenceFrame>) -> Model {
+    Model::new(synthetic_parts(name, seed, m, l, frame)).unwrap()
+}
+
+/// The parts of [`synthetic`] (unchecked: a test may take one of them alone).
+fn synthetic_parts(
+    name: &str,
+    seed: u64,
+    m: usize,
+    l: usize,
+    frame: Option<&ReferenceFrame>,
+) -> ModelParts {
     let mut rng = Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
     let mut base = base_shape();
     let frame = match frame {
@@ -86,7 +98,7 @@ fn synthetic(name: &str, seed: u64, m: usize, l: usize, frame: Option<&Reference
         modes: orthonormalise(&rng.vec(l * da), da),
         variances: (0..l).map(|i| 4.0 / (1.0 + i as f32)).collect(),
     };
-    Model {
+    ModelParts {
         name: name.into(),
         scheme: LandmarkScheme::for_count(d / 2),
         shape,
@@ -102,18 +114,18 @@ fn synthetic(name: &str, seed: u64, m: usize, l: usize, frame: Option<&Reference
 fn random_params(model: &Model, seed: u64, spread: f32) -> Params {
     let mut rng = Rng(seed | 1);
     let shape = model
-        .shape
+        .shape()
         .sigmas()
         .iter()
         .map(|s| spread * s * rng.next())
         .collect();
     let appearance = model
-        .appearance
+        .appearance()
         .sigmas()
         .iter()
         .map(|s| spread * s * rng.next())
         .collect();
-    let pose = model.mean_pose.compose(&Similarity::from_parts(
+    let pose = model.mean_pose().compose(&Similarity::from_parts(
         1.0 + 0.1 * rng.next(),
         0.2 * rng.next(),
         5.0 * rng.next(),
@@ -128,11 +140,11 @@ fn random_params(model: &Model, seed: u64, spread: f32) -> Params {
 
 /// The source's own instance: posed shape (image coordinates) and appearance.
 fn instance(model: &Model, params: &Params) -> (Vec<f32>, Vec<f32>) {
-    let mut s = vec![0.0; model.shape.base.len()];
+    let mut s = vec![0.0; model.shape().base.len()];
     model.image_shape(params, &mut s).unwrap();
-    let mut a = vec![0.0; model.appearance.len()];
+    let mut a = vec![0.0; model.appearance().len()];
     model
-        .appearance
+        .appearance()
         .instance(&params.appearance, &mut a)
         .unwrap();
     (s, a)
@@ -179,25 +191,25 @@ fn remixed(source: &Model, q_shape: &[f32], q_app: &[f32]) -> Model {
         }
         (out, v)
     };
-    let mut t = source.clone();
+    let mut t = source.clone().into_parts();
     t.name = "remixed".into();
     let (m, v) = mix(
-        &source.shape.modes,
-        source.shape.base.len(),
+        &source.shape().modes,
+        source.shape().base.len(),
         q_shape,
-        &source.shape.variances,
+        &source.shape().variances,
     );
     t.shape.modes = m;
     t.shape.variances = v;
     let (m, v) = mix(
-        &source.appearance.modes,
-        source.appearance.len(),
+        &source.appearance().modes,
+        source.appearance().len(),
         q_app,
-        &source.appearance.variances,
+        &source.appearance().variances,
     );
     t.appearance.modes = m;
     t.appearance.variances = v;
-    t
+    Model::new(t).unwrap()
 }
 
 fn permutation_with_signs(k: usize, seed: u64) -> Vec<f32> {
@@ -323,7 +335,7 @@ fn same_span_any_signs_order_or_mixing() {
 #[wasm_bindgen_test(unsupported = test)]
 fn residual_restores_the_source_displacement() {
     let source = synthetic("src", 3, 6, 4, None);
-    let target = synthetic("tgt", 4, 5, 4, Some(&source.frame));
+    let target = synthetic("tgt", 4, 5, 4, Some(source.frame()));
     let mut c = one_target(&source, &target);
     assert!(
         c.pair(0).unwrap().residual_norms().iter().all(|&n| n > 0.1),
@@ -336,18 +348,21 @@ fn residual_restores_the_source_displacement() {
     };
     for seed in 1..4 {
         let params = random_params(&source, seed, 2.0);
-        let mut src_disp = vec![0.0; source.shape.base.len()];
-        source.shape.instance(&params.shape, &mut src_disp).unwrap();
+        let mut src_disp = vec![0.0; source.shape().base.len()];
+        source
+            .shape()
+            .instance(&params.shape, &mut src_disp)
+            .unwrap();
         src_disp
             .iter_mut()
-            .zip(&source.shape.base)
+            .zip(&source.shape().base)
             .for_each(|(d, b)| *d -= b);
-        let inv = target.mean_pose.inverse().unwrap();
+        let inv = target.mean_pose().inverse().unwrap();
         let disp = |c: &Cloner| -> Vec<f32> {
             let mut s = c.target_shape(0).to_vec();
             inv.apply_in_place(&mut s);
             s.iter()
-                .zip(&target.shape.base)
+                .zip(&target.shape().base)
                 .map(|(a, b)| a - b)
                 .collect()
         };
@@ -382,17 +397,17 @@ fn residual_restores_the_source_displacement() {
         );
     }
     // The same identity at the level of the named functions, without any pose.
-    let d = source.shape.base.len();
-    let r = inner_products(&target.shape.modes, &source.shape.modes, d);
-    let delta = residual_directions(&target.shape.modes, &source.shape.modes, d);
+    let d = source.shape().base.len();
+    let r = inner_products(&target.shape().modes, &source.shape().modes, d);
+    let delta = residual_directions(&target.shape().modes, &source.shape().modes, d);
     let p = [1.5f32, -2.0, 0.5, 3.0, -1.0, 0.25];
     let mut mapped = vec![0.0; 5];
     map_params(&r, &p, &mut mapped);
     let mut acc = vec![0f64; d];
-    map_shape(&vec![0.0; d], &target.shape.modes, &mapped, &mut acc);
+    map_shape(&vec![0.0; d], &target.shape().modes, &mapped, &mut acc);
     add_residual(&delta, &p, &mut acc);
     let mut direct = vec![0f32; d];
-    synthesise(&vec![0.0; d], &source.shape.modes, &p, &mut direct);
+    synthesise(&vec![0.0; d], &source.shape().modes, &p, &mut direct);
     for (a, b) in acc.iter().zip(&direct) {
         assert!((*a as f32 - b).abs() < 1e-5, "{a} vs {b}");
     }
@@ -403,9 +418,9 @@ fn residual_restores_the_source_displacement() {
 #[wasm_bindgen_test(unsupported = test)]
 fn constraint_bounds_every_mapped_parameter() {
     let source = synthetic("src", 5, 6, 5, None);
-    let target = synthetic("tgt", 6, 4, 3, Some(&source.frame));
+    let target = synthetic("tgt", 6, 4, 3, Some(source.frame()));
     let mut c = one_target(&source, &target);
-    let (ss, sa) = (target.shape.sigmas(), target.appearance.sigmas());
+    let (ss, sa) = (target.shape().sigmas(), target.appearance().sigmas());
     for &k in &[0.5f32, 1.0, 3.0] {
         let mut clipped = 0;
         for seed in 1..6 {
@@ -465,24 +480,24 @@ fn substitute_onto_itself_is_the_source_instance() {
 #[wasm_bindgen_test(unsupported = test)]
 fn substitute_uses_target_bases_and_source_modes() {
     let source = synthetic("src", 8, 4, 3, None);
-    let target = synthetic("tgt", 9, 5, 6, Some(&source.frame));
+    let target = synthetic("tgt", 9, 5, 6, Some(source.frame()));
     let mut c = one_target(&source, &target);
     let params = random_params(&source, 5, 1.0);
     c.clone_frame(&params, &opts(Method::Substitute, None, false))
         .unwrap();
-    let mut s = vec![0.0; target.shape.base.len()];
+    let mut s = vec![0.0; target.shape().base.len()];
     synthesise(
-        &target.shape.base,
-        &source.shape.modes,
+        &target.shape().base,
+        &source.shape().modes,
         &params.shape,
         &mut s,
     );
-    target.mean_pose.apply_in_place(&mut s);
+    target.mean_pose().apply_in_place(&mut s);
     assert!(max_diff(c.target_shape(0), &s) < 1e-4);
-    let mut a = vec![0.0; target.appearance.len()];
+    let mut a = vec![0.0; target.appearance().len()];
     synthesise(
-        &target.appearance.base,
-        &source.appearance.modes,
+        &target.appearance().base,
+        &source.appearance().modes,
         &params.appearance,
         &mut a,
     );
@@ -506,7 +521,7 @@ fn many_targets_equal_single_pairs() {
                 20 + k,
                 3 + k as usize,
                 2 + k as usize,
-                Some(&source.frame),
+                Some(source.frame()),
             )
         })
         .collect();
@@ -548,12 +563,13 @@ fn many_targets_equal_single_pairs() {
 fn incompatible_pairs_are_refused() {
     let source = synthetic("src", 12, 4, 3, None);
     // Different landmark count.
-    let mut other = synthetic("eleven", 13, 4, 3, None);
+    let mut other = synthetic("eleven", 13, 4, 3, None).into_parts();
     other.shape.base.truncate(22);
     other.shape.modes = orthonormalise(&Rng(5).vec(4 * 22), 22);
     other.scheme = LandmarkScheme::for_count(11);
     other.frame = ReferenceFrame::from_base(&other.shape.base).unwrap();
-    other.appearance = synthetic("x", 1, 1, 3, Some(&other.frame)).appearance;
+    other.appearance = synthetic_parts("x", 1, 1, 3, Some(&other.frame)).appearance;
+    let other = Model::new(other).unwrap();
     let mut c = Cloner::new(source.clone()).unwrap();
     match c.add_target(other.clone()) {
         Err(Error::Incompatible(m)) => {
@@ -563,10 +579,11 @@ fn incompatible_pairs_are_refused() {
     }
     // Same landmark count, another frame (its own).
     let own = synthetic("own-frame", 14, 4, 3, None);
-    let mut moved = own.clone();
+    let mut moved = own.clone().into_parts();
     moved.shape.base.iter_mut().for_each(|v| *v *= 1.2);
     moved.frame = ReferenceFrame::from_base(&moved.shape.base).unwrap();
-    moved.appearance = synthetic("y", 2, 1, 3, Some(&moved.frame)).appearance;
+    moved.appearance = synthetic_parts("y", 2, 1, 3, Some(&moved.frame)).appearance;
+    let moved = Model::new(moved).unwrap();
     match c.add_target(moved.clone()) {
         Err(Error::Incompatible(m)) => assert!(
             m.contains("reference frames") && m.contains("fingerprints"),
@@ -576,7 +593,7 @@ fn incompatible_pairs_are_refused() {
     }
     assert_eq!(c.n_targets(), 0);
     // A compatible target, then failing set_source / replace_target keep the old state.
-    let good = synthetic("good", 15, 3, 2, Some(&source.frame));
+    let good = synthetic("good", 15, 3, 2, Some(source.frame()));
     assert_eq!(c.add_target(good.clone()).unwrap(), 0);
     let params = random_params(&source, 3, 1.0);
     c.clone_frame(&params, &CloneOptions::default()).unwrap();
@@ -589,8 +606,8 @@ fn incompatible_pairs_are_refused() {
         c.replace_target(0, other.clone()),
         Err(Error::Incompatible(_))
     ));
-    assert_eq!(c.source().name, "src");
-    assert_eq!(c.target(0).name, "good");
+    assert_eq!(c.source().name(), "src");
+    assert_eq!(c.target(0).name(), "good");
     assert_eq!(
         (c.target_shape(0).to_vec(), c.target_params(0).clone()),
         before
@@ -602,19 +619,20 @@ fn incompatible_pairs_are_refused() {
     ));
     assert!(c.get_target(1).is_none());
     // An internally inconsistent model is refused without a panic.
-    let mut broken = good.clone();
+    // (a `Model` is checked when it is made, so the cloner never sees one).
+    let mut broken = good.clone().into_parts();
     broken.appearance.modes.pop();
-    assert!(matches!(c.add_target(broken), Err(Error::Incompatible(_))));
+    assert!(matches!(Model::new(broken), Err(Error::Incompatible(_))));
     // Compatible operations work.
-    c.replace_target(0, synthetic("good2", 16, 2, 2, Some(&source.frame)))
+    c.replace_target(0, synthetic("good2", 16, 2, 2, Some(source.frame())))
         .unwrap();
-    assert_eq!(c.target(0).name, "good2");
-    assert_eq!(c.remove_target(0).unwrap().name, "good2");
+    assert_eq!(c.target(0).name(), "good2");
+    assert_eq!(c.remove_target(0).unwrap().name(), "good2");
     assert_eq!(c.n_targets(), 0);
     c.add_target(good).unwrap();
-    c.set_source(synthetic("src2", 17, 5, 5, Some(&source.frame)))
+    c.set_source(synthetic("src2", 17, 5, 5, Some(source.frame())))
         .unwrap();
-    assert_eq!(c.source().name, "src2");
+    assert_eq!(c.source().name(), "src2");
     c.clone_frame(&random_params(c.source(), 1, 1.0), &CloneOptions::default())
         .unwrap();
 }
@@ -627,11 +645,11 @@ fn incompatible_pairs_are_refused() {
 #[wasm_bindgen_test(unsupported = test)]
 fn gains() {
     let source = synthetic("src", 30, 5, 4, None);
-    let target = synthetic("tgt", 31, 4, 4, Some(&source.frame));
+    let target = synthetic("tgt", 31, 4, 4, Some(source.frame()));
     let mut c = one_target(&source, &target);
     let params = random_params(&source, 9, 2.0);
-    let mut base = target.shape.base.clone();
-    target.mean_pose.apply_in_place(&mut base);
+    let mut base = target.shape().base.clone();
+    target.mean_pose().apply_in_place(&mut base);
     for method in Method::ALL {
         c.clone_frame(
             &params,
@@ -643,7 +661,7 @@ fn gains() {
         )
         .unwrap();
         assert!(max_diff(c.target_shape(0), &base) < 1e-4, "{method}");
-        assert_eq!(c.target_appearance(0), &target.appearance.base[..]);
+        assert_eq!(c.target_appearance(0), &target.appearance().base[..]);
         let disp = |c: &Cloner| -> Vec<f32> {
             c.target_shape(0)
                 .iter()
@@ -705,20 +723,20 @@ fn gains() {
 #[wasm_bindgen_test(unsupported = test)]
 fn pose_follows_or_stays() {
     let source = synthetic("src", 40, 3, 2, None);
-    let target = synthetic("tgt", 41, 3, 2, Some(&source.frame));
+    let target = synthetic("tgt", 41, 3, 2, Some(source.frame()));
     let mut c = one_target(&source, &target);
     let rel = Similarity::from_parts(1.2, 0.3, 4.0, -2.0);
     let mut params = source.base_params();
-    params.pose = source.mean_pose.compose(&rel);
+    params.pose = source.mean_pose().compose(&rel);
     c.clone_frame(&params, &opts(Method::Map, None, false))
         .unwrap();
-    let mut expect = target.shape.base.clone();
-    target.mean_pose.apply_in_place(&mut expect);
+    let mut expect = target.shape().base.clone();
+    target.mean_pose().apply_in_place(&mut expect);
     assert!(max_diff(c.target_shape(0), &expect) < 1e-4);
-    assert_eq!(c.target_params(0).pose, target.mean_pose);
+    assert_eq!(c.target_params(0).pose, target.mean_pose());
     c.clone_frame(&params, &opts(Method::Map, None, true))
         .unwrap();
-    let want = target.mean_pose.compose(&rel);
+    let want = target.mean_pose().compose(&rel);
     let got = c.target_params(0).pose;
     for (a, b) in [
         (got.a, want.a),
@@ -728,7 +746,7 @@ fn pose_follows_or_stays() {
     ] {
         assert!((a - b).abs() < 1e-4, "{got:?} vs {want:?}");
     }
-    let mut expect = target.shape.base.clone();
+    let mut expect = target.shape().base.clone();
     want.apply_in_place(&mut expect);
     assert!(max_diff(c.target_shape(0), &expect) < 1e-3);
 }
@@ -737,7 +755,7 @@ fn pose_follows_or_stays() {
 #[wasm_bindgen_test(unsupported = test)]
 fn bad_input_is_refused() {
     let source = synthetic("src", 50, 3, 2, None);
-    let target = synthetic("tgt", 51, 3, 2, Some(&source.frame));
+    let target = synthetic("tgt", 51, 3, 2, Some(source.frame()));
     let mut c = one_target(&source, &target);
     let good = random_params(&source, 1, 1.0);
     c.clone_frame(&good, &CloneOptions::default()).unwrap();
@@ -903,24 +921,24 @@ fn reference_named_training_image() {
         })
     };
     let mean = b(ReferenceChoice::Mean).build(&images, None).unwrap();
-    assert_eq!(mean.reference, Reference::Mean);
+    assert_eq!(*mean.reference(), Reference::Mean);
     for frame_of in [None, Some(&mean)] {
         let m = b(ReferenceChoice::Named("img5".into()))
             .build(&images, frame_of)
             .unwrap();
-        assert_eq!(m.reference, Reference::Training("img5".into()));
+        assert_eq!(*m.reference(), Reference::Training("img5".into()));
         // The base is a similarity transform of img5's landmarks.
         let t = &images[5];
-        let pose = Similarity::align(&m.shape.base, &t.landmarks);
-        let mut placed = m.shape.base.clone();
+        let pose = Similarity::align(&m.shape().base, &t.landmarks);
+        let mut placed = m.shape().base.clone();
         pose.apply_in_place(&mut placed);
         assert!(
             max_diff(&placed, &t.landmarks) < 1e-3,
             "base is not img5's shape"
         );
         // ... and differs from the mean's (the choice matters).
-        let pm = Similarity::align(&mean.shape.base, &t.landmarks);
-        let mut mp = mean.shape.base.clone();
+        let pm = Similarity::align(&mean.shape().base, &t.landmarks);
+        let mut mp = mean.shape().base.clone();
         pm.apply_in_place(&mut mp);
         assert!(max_diff(&mp, &t.landmarks) > 0.05);
         // The modes are about it: img5 projects to zero parameters.
@@ -959,11 +977,11 @@ fn reference_closest_to_frame() {
     let images = training_set(6, 9);
     // Independently: align each image's landmarks onto the frame base, take the nearest.
     let dist = |lm: &[f32]| -> f32 {
-        let t = Similarity::align(lm, &source.shape.base);
+        let t = Similarity::align(lm, &source.shape().base);
         let mut a = lm.to_vec();
         t.apply_in_place(&mut a);
         a.iter()
-            .zip(&source.shape.base)
+            .zip(&source.shape().base)
             .map(|(x, y)| (x - y) * (x - y))
             .sum()
     };
@@ -977,11 +995,11 @@ fn reference_closest_to_frame() {
     .build(&images, Some(&source))
     .unwrap();
     assert_eq!(
-        m.reference,
+        *m.reference(),
         Reference::Training(images[best].name.clone()),
         "distances {d:?}"
     );
-    assert!(max_diff(m.frame.vertices(), source.frame.vertices()) == 0.0);
+    assert!(max_diff(m.frame().vertices(), source.frame().vertices()) == 0.0);
     let p = m
         .project(&images[best].image.view().unwrap(), &images[best].landmarks)
         .unwrap();
@@ -995,11 +1013,11 @@ fn reference_closest_to_frame() {
 #[wasm_bindgen_test(unsupported = test)]
 fn pair_accessors() {
     let source = synthetic("src", 60, 4, 3, None);
-    let target = synthetic("tgt", 61, 2, 5, Some(&source.frame));
+    let target = synthetic("tgt", 61, 2, 5, Some(source.frame()));
     let pair = Pair::new(&source, &target).unwrap();
     assert_eq!(pair.shape_map().len(), 2 * 4);
     assert_eq!(pair.appearance_map().len(), 5 * 3);
-    assert_eq!(pair.residual(3).unwrap().len(), source.shape.base.len());
+    assert_eq!(pair.residual(3).unwrap().len(), source.shape().base.len());
     assert!(pair.residual(4).is_none());
     // |delta_i|^2 + sum_j R_ji^2 = 1 (Pythagoras: each source mode is a unit vector).
     for (i, n) in pair.residual_norms().iter().enumerate() {
@@ -1093,15 +1111,15 @@ mod grid {
     /// Share of the source's shape variance that the target's basis can express:
     /// `sum_i gamma_i |R e_i|^2 / sum_i gamma_i`.
     pub fn expressible(source: &Model, pair: &Pair) -> f32 {
-        let m = source.shape.n_modes();
+        let m = source.shape().n_modes();
         let r = pair.shape_map();
         let q = r.len() / m;
         let mut num = 0.0;
         for i in 0..m {
             let c: f32 = (0..q).map(|j| r[j * m + i].powi(2)).sum();
-            num += source.shape.variances[i] * c;
+            num += source.shape().variances[i] * c;
         }
-        num / source.shape.variances.iter().sum::<f32>()
+        num / source.shape().variances.iter().sum::<f32>()
     }
 
     /// Renders a comparison figure: per target a row of (source frame | target reference |
@@ -1122,8 +1140,8 @@ mod grid {
         canvas.fill(Color::from_rgba8(32, 32, 36, 255));
         // The cell's view: the face's mean-pose centre in the middle, 1.35 face widths across.
         let view_for = |m: &Model, col: u32, row: u32| -> Similarity {
-            let (cx, cy) = m.mean_pose.apply_point(0.0, 4.0);
-            let width = 150.0 * m.mean_pose.scale() * 1.35;
+            let (cx, cy) = m.mean_pose().apply_point(0.0, 4.0);
+            let width = 150.0 * m.mean_pose().scale() * 1.35;
             let k = cell as f32 / width;
             Similarity {
                 a: k,
@@ -1156,7 +1174,7 @@ mod grid {
             };
             let r = Rect::from_xywh(0.0, (row * cell) as f32, cell as f32, cell as f32).unwrap();
             canvas.fill_rect(r, &paint, Transform::identity(), None);
-            let frame = cloner.target(ti).frame.clone();
+            let frame = cloner.target(ti).frame().clone();
             let mut renderer = Renderer::new(&frame).unwrap();
             let setups = [
                 (Method::Map, 0.0),
@@ -1211,7 +1229,7 @@ fn grid_mouth_articulation_per_method() {
         })
         .collect();
     let built = t0.elapsed();
-    let mut s = vec![0.0; source.shape.base.len()];
+    let mut s = vec![0.0; source.shape().base.len()];
     let src_open: Vec<f32> = params
         .iter()
         .map(|p| {
@@ -1222,9 +1240,9 @@ fn grid_mouth_articulation_per_method() {
     let raw_open: Vec<f32> = clip.iter().map(|f| opening(&f.landmarks)).collect();
     println!(
         "source spk07: {} shape / {} appearance modes, {} frame pixels; clip opening std {:.4} (model) / {:.4} (landmarks), peak-to-peak {:.4} / {:.4}",
-        source.shape.n_modes(),
-        source.appearance.n_modes(),
-        source.frame.n_pixels(),
+        source.shape().n_modes(),
+        source.appearance().n_modes(),
+        source.frame().n_pixels(),
         std(&src_open),
         std(&raw_open),
         p2p(&src_open),
@@ -1263,7 +1281,7 @@ fn grid_mouth_articulation_per_method() {
         println!(
             "| {} | {} | {:.2} | {} |",
             &t[..5],
-            cloner.target(ti).shape.n_modes(),
+            cloner.target(ti).shape().n_modes(),
             expressible(&source, cloner.pair(ti).unwrap()),
             cells.join(" | ")
         );

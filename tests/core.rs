@@ -169,7 +169,7 @@ fn procrustes_removes_pose() {
         .collect();
     let a = build(&training_set(&plain, &image), 0.98, 0.98);
     let b = build(&training_set(&posed, &image), 0.98, 0.98);
-    let (sa, sb) = (&a.shape, &b.shape);
+    let (sa, sb) = (&a.shape(), &b.shape());
     assert!(
         sa.n_modes() >= 3,
         "the three articulated modes are found ({})",
@@ -332,7 +332,7 @@ fn projection_reconstructs_training_faces() {
     let images = training_set(&posed, &image);
     let full = build(&images, 1.0, 1.0);
     assert_eq!(
-        full.shape.n_modes(),
+        full.shape().n_modes(),
         15,
         "16 shapes of 136 values span 15 dimensions"
     );
@@ -354,16 +354,16 @@ fn projection_reconstructs_training_faces() {
             t.name
         );
 
-        let mut g = vec![0f32; full.appearance.len()];
-        facemimic::sample_rgb(&full.frame, &image.view().unwrap(), &t.landmarks, &mut g).unwrap();
+        let mut g = vec![0f32; full.appearance().len()];
+        facemimic::sample_rgb(full.frame(), &image.view().unwrap(), &t.landmarks, &mut g).unwrap();
         let mut rec = vec![0f32; g.len()];
-        full.appearance
+        full.appearance()
             .instance(&params.appearance, &mut rec)
             .unwrap();
         let e: Vec<f32> = rec.iter().zip(&g).map(|(a, b)| a - b).collect();
         let d: Vec<f32> = g
             .iter()
-            .zip(&full.appearance.base)
+            .zip(&full.appearance().base)
             .map(|(a, b)| a - b)
             .collect();
         let rel = norm(&e) / norm(&d);
@@ -378,29 +378,29 @@ fn projection_reconstructs_training_faces() {
         let m = build(&images, f, f);
         let mut shape_total = 0.0;
         let mut app_total = 0.0;
-        let mut g = vec![0f32; m.appearance.len()];
+        let mut g = vec![0f32; m.appearance().len()];
         for t in &images {
             // The training shape in model coordinates, as the builder aligned it (least
             // squares onto the base, which is the scaled Procrustes mean).
-            let to_model = Similarity::align(&t.landmarks, &m.shape.base);
+            let to_model = Similarity::align(&t.landmarks, &m.shape().base);
             let mut s = t.landmarks.clone();
             to_model.apply_in_place(&mut s);
             shape_total += s
                 .iter()
-                .zip(&m.shape.base)
+                .zip(&m.shape().base)
                 .map(|(a, b)| ((a - b) as f64).powi(2))
                 .sum::<f64>();
-            facemimic::sample_rgb(&m.frame, &image.view().unwrap(), &t.landmarks, &mut g).unwrap();
+            facemimic::sample_rgb(m.frame(), &image.view().unwrap(), &t.landmarks, &mut g).unwrap();
             app_total += g
                 .iter()
-                .zip(&m.appearance.base)
+                .zip(&m.appearance().base)
                 .map(|(a, b)| ((a - b) as f64).powi(2))
                 .sum::<f64>();
         }
         let denom = (images.len() - 1) as f64;
         for (what, vars, total) in [
-            ("shape", &m.shape.variances, shape_total / denom),
-            ("appearance", &m.appearance.variances, app_total / denom),
+            ("shape", &m.shape().variances, shape_total / denom),
+            ("appearance", &m.appearance().variances, app_total / denom),
         ] {
             let kept: f64 = vars.iter().map(|&v| v as f64).sum();
             let fewer = kept - *vars.last().unwrap() as f64;

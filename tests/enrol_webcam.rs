@@ -113,7 +113,7 @@ fn finder_enrolled_model_tracks_unseen_frames() {
         let (e, r) = track(&control, &test, &init);
         println!(
             "control, dlib landmarks on the frames the finder found: {e:.4} ({r} resets), {} shape modes",
-            control.shape.n_modes()
+            control.shape().n_modes()
         );
     }
     for rounds in [1usize, 2] {

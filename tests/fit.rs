@@ -221,21 +221,21 @@ fn franck_convergence_basin() {
 #[test]
 fn recovers_synthetic_instance() {
     let (model, _) = build(&repo("data/grid/spk07_pwij3p/train20.txt"));
-    let sig = model.shape.sigmas();
+    let sig = model.shape().sigmas();
     let mut params = model.base_params();
     // Rendered above the frame's resolution (scale 1.2) so the image is not aliased.
     params.pose = Similarity::from_parts(1.2, 0.1, 180.0, 150.0);
     for (i, p) in params.shape.iter_mut().enumerate().take(4) {
         *p = sig[i] * [1.0, -0.8, 0.6, -0.5][i];
     }
-    let sa = model.appearance.sigmas();
+    let sa = model.appearance().sigmas();
     for (i, l) in params.appearance.iter_mut().enumerate().take(3) {
         *l = sa[i] * [0.8, -0.6, 0.5][i];
     }
     let (w, h) = (400u32, 360u32);
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(w, h).unwrap();
     pixmap.fill(facemimic::tiny_skia::Color::from_rgba8(90, 90, 90, 255));
-    let mut renderer = facemimic::Renderer::new(&model.frame).unwrap();
+    let mut renderer = facemimic::Renderer::new(model.frame()).unwrap();
     renderer
         .render(&model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut())
         .unwrap();
@@ -244,7 +244,7 @@ fn recovers_synthetic_instance() {
         height: h,
         data: facemimic::demultiply(&pixmap),
     };
-    let mut truth = vec![0.0; model.shape.base.len()];
+    let mut truth = vec![0.0; model.shape().base.len()];
     model.image_shape(&params, &mut truth).unwrap();
 
     let mut fitter = Fitter::new(
@@ -292,7 +292,7 @@ fn bad_input_is_an_error_not_a_panic() {
         data: vec![0; 256],
     };
     let view = img.view().unwrap();
-    let n2 = model.shape.base.len();
+    let n2 = model.shape().base.len();
     assert!(fitter.fit(&view, &[0.0; 3]).is_err());
     assert!(fitter.fit(&view, &vec![f32::NAN; n2]).is_err());
     assert!(
@@ -300,8 +300,8 @@ fn bad_input_is_an_error_not_a_panic() {
         "degenerate landmarks"
     );
     // A tiny black image far from the face: no panic, a result with a large error.
-    let mut lm = model.shape.base.clone();
-    model.mean_pose.apply_in_place(&mut lm);
+    let mut lm = model.shape().base.clone();
+    model.mean_pose().apply_in_place(&mut lm);
     assert!(fitter.fit(&view, &lm).is_ok());
     let mut t = Tracker::new(&model, FitOptions::default()).unwrap();
     assert!(t.track(&view).is_err(), "no start");

@@ -178,21 +178,21 @@ struct Layout {
 }
 
 fn layout(m: &Model) -> Layout {
-    let names = m.name.len()
-        + match &m.reference {
+    let names = m.name().len()
+        + match &m.reference() {
             Reference::Mean => 0,
             Reference::Training(s) => s.len(),
         };
     let pad = HEADER_LEN + names;
     let shape_base = pad + (4 - names % 4) % 4;
-    let shape_modes = shape_base + 4 * m.shape.base.len();
-    let shape_variances = shape_modes + 4 * m.shape.modes.len();
-    let vertices = shape_variances + 4 * m.shape.variances.len();
-    let triangles = vertices + 4 * m.frame.vertices().len();
-    let app_base = triangles + 12 * m.frame.triangles().len();
-    let app_modes = app_base + 4 * m.appearance.base.len();
-    let app_variances = app_modes + 4 * m.appearance.modes.len();
-    let crc = app_variances + 4 * m.appearance.variances.len();
+    let shape_modes = shape_base + 4 * m.shape().base.len();
+    let shape_variances = shape_modes + 4 * m.shape().modes.len();
+    let vertices = shape_variances + 4 * m.shape().variances.len();
+    let triangles = vertices + 4 * m.frame().vertices().len();
+    let app_base = triangles + 12 * m.frame().triangles().len();
+    let app_modes = app_base + 4 * m.appearance().base.len();
+    let app_variances = app_modes + 4 * m.appearance().modes.len();
+    let crc = app_variances + 4 * m.appearance().variances.len();
     Layout {
         pad,
         shape_base,
@@ -217,28 +217,31 @@ fn round_trip_is_exact() {
         let bytes = write_model_as(m, Storage::F32);
         assert_eq!(&bytes[..8], &MAGIC);
         assert_eq!(get_u32(&bytes, offsets::VERSION), FORMAT_VERSION);
-        assert_eq!(bytes.len(), layout(m).crc + 4, "layout of '{}'", m.name);
-        let back = read_model(&bytes).unwrap_or_else(|e| panic!("'{}': {e}", m.name));
+        assert_eq!(bytes.len(), layout(m).crc + 4, "layout of '{}'", m.name());
+        let back = read_model(&bytes).unwrap_or_else(|e| panic!("'{}': {e}", m.name()));
         assert_eq!(&back, m);
         // Fields PartialEq on the frame does not cover: the recomputed pixels and padding.
-        assert_eq!(back.frame.pixels(), m.frame.pixels());
-        assert_eq!(back.frame.padding(), m.frame.padding());
-        assert_eq!(back.frame.fingerprint(), m.frame.fingerprint());
+        assert_eq!(back.frame().pixels(), m.frame().pixels());
+        assert_eq!(back.frame().padding(), m.frame().padding());
+        assert_eq!(back.frame().fingerprint(), m.frame().fingerprint());
         // Writing is deterministic: a second round gives the same bytes.
         assert_eq!(write_model_as(&back, Storage::F32), bytes);
     }
     // The three models exercise the scheme tags, both reference kinds and zero modes.
-    assert_eq!(ms.a.scheme, facemimic::LandmarkScheme::Ibug68);
-    assert_eq!(ms.c.scheme, facemimic::LandmarkScheme::Generic(30));
-    assert_eq!(ms.b.reference, Reference::Training("b3".into()));
-    assert_eq!(ms.b.frame, ms.a.frame);
-    assert!(ms.a.shape.n_modes() > 1 && ms.a.appearance.n_modes() > 1);
-    assert_eq!((ms.c.shape.n_modes(), ms.c.appearance.n_modes()), (0, 0));
+    assert_eq!(ms.a.scheme(), facemimic::LandmarkScheme::Ibug68);
+    assert_eq!(ms.c.scheme(), facemimic::LandmarkScheme::Generic(30));
+    assert_eq!(*ms.b.reference(), Reference::Training("b3".into()));
+    assert_eq!(ms.b.frame(), ms.a.frame());
+    assert!(ms.a.shape().n_modes() > 1 && ms.a.appearance().n_modes() > 1);
+    assert_eq!(
+        (ms.c.shape().n_modes(), ms.c.appearance().n_modes()),
+        (0, 0)
+    );
 }
 
 /// Bytes of the appearance section of a version-2 file (the spec's formula, re-derived here).
 fn appearance_section_len(m: &Model, s: Storage) -> usize {
-    let (px3, l) = (m.appearance.base.len(), m.appearance.n_modes());
+    let (px3, l) = (m.appearance().base.len(), m.appearance().n_modes());
     let round4 = |x: usize| x.div_ceil(4) * 4;
     match s {
         Storage::F32 => 4 * (px3 + px3 * l + l),
@@ -258,7 +261,7 @@ fn every_storage_round_trips_within_its_rounding() {
         let mut sizes = Vec::new();
         for s in Storage::ALL {
             let bytes = write_model_as(m, s);
-            let what = format!("'{}' as {s}", m.name);
+            let what = format!("'{}' as {s}", m.name());
             assert_eq!(get_u32(&bytes, offsets::VERSION), FORMAT_VERSION, "{what}");
             assert_eq!(get_u32(&bytes, offsets::STORAGE), s.tag(), "{what}");
             assert_eq!(
@@ -275,26 +278,26 @@ fn every_storage_round_trips_within_its_rounding() {
                 }
             );
             // Everything but the appearance base and modes is exact.
-            let mut same = back.clone();
-            same.appearance.base = m.appearance.base.clone();
-            same.appearance.modes = m.appearance.modes.clone();
-            assert_eq!(&same, m, "{what}");
+            let mut same = back.clone().into_parts();
+            same.appearance.base = m.appearance().base.clone();
+            same.appearance.modes = m.appearance().modes.clone();
+            assert_eq!(&Model::new(same).unwrap(), m, "{what}");
             // The base within its rounding.
             let base_tol = |v: f32| match s {
                 Storage::F32 => 0.0,
                 Storage::F16 => v.abs() / 2048.0,
                 Storage::I8 | Storage::I6 => 0.5 / 255.0 + 1e-6,
             };
-            for (a, b) in back.appearance.base.iter().zip(&m.appearance.base) {
+            for (a, b) in back.appearance().base.iter().zip(&m.appearance().base) {
                 assert!((a - b).abs() <= base_tol(*b), "{what}: base {a} vs {b}");
             }
             // Each mode within one quantisation step, and still of unit norm.
-            let d = m.appearance.len();
+            let d = m.appearance().len();
             for (i, (q, v)) in back
-                .appearance
+                .appearance()
                 .modes
                 .chunks_exact(d)
-                .zip(m.appearance.modes.chunks_exact(d))
+                .zip(m.appearance().modes.chunks_exact(d))
                 .enumerate()
             {
                 let peak = v.iter().fold(0f32, |a, x| a.max(x.abs()));
@@ -316,11 +319,11 @@ fn every_storage_round_trips_within_its_rounding() {
             assert_eq!(write_model_as(&back, s), bytes, "{what}: second round");
             sizes.push(bytes.len());
         }
-        if m.appearance.n_modes() > 0 {
+        if m.appearance().n_modes() > 0 {
             assert!(
                 sizes.windows(2).all(|w| w[1] < w[0]),
                 "'{}': sizes {sizes:?} not decreasing f32 > f16 > i8 > i6",
-                m.name
+                m.name()
             );
         }
     }
@@ -353,15 +356,15 @@ fn a_version_1_file_still_loads_as_it_was() {
             storage: Storage::F32
         }
     );
-    assert_eq!(m.name, "tiny-v1");
-    assert_eq!(m.scheme, facemimic::LandmarkScheme::Ibug68);
-    assert_eq!((m.shape.n_modes(), m.appearance.n_modes()), (3, 4));
+    assert_eq!(m.name(), "tiny-v1");
+    assert_eq!(m.scheme(), facemimic::LandmarkScheme::Ibug68);
+    assert_eq!((m.shape().n_modes(), m.appearance().n_modes()), (3, 4));
     assert_eq!(
-        (m.frame.width(), m.frame.height(), m.frame.n_pixels()),
+        (m.frame().width(), m.frame().height(), m.frame().n_pixels()),
         (36, 39, 709)
     );
-    assert_eq!(m.frame.fingerprint(), 0xcade_b8ab_086e_0def);
-    assert_eq!(m.image_size, [360, 288]);
+    assert_eq!(m.frame().fingerprint(), 0xcade_b8ab_086e_0def);
+    assert_eq!(m.image_size(), [360, 288]);
     // Convert on save: every byte but the version and the checksum as it was.
     let v2 = write_model_as(&m, Storage::F32);
     assert_eq!(v2.len(), v1.len());
@@ -371,13 +374,13 @@ fn a_version_1_file_still_loads_as_it_was() {
     assert_eq!(read_model(&v2).unwrap(), m);
     // And into the compact default, within its rounding.
     let compact = read_model(&write_model(&m)).unwrap();
-    assert_eq!(compact.shape, m.shape);
-    assert_eq!(compact.frame, m.frame);
+    assert_eq!(compact.shape(), m.shape());
+    assert_eq!(compact.frame(), m.frame());
     let worst = compact
-        .appearance
+        .appearance()
         .base
         .iter()
-        .zip(&m.appearance.base)
+        .zip(&m.appearance().base)
         .fold(0f32, |a, (x, y)| a.max((x - y).abs()));
     assert!(worst <= 0.5 / 255.0 + 1e-6, "base off by {worst}");
 }
@@ -388,7 +391,7 @@ fn compact_bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
     use FormatError as E;
     let a = &models().a;
     let lay = layout(a);
-    let (px3, l) = (a.appearance.base.len(), a.appearance.n_modes());
+    let (px3, l) = (a.appearance().base.len(), a.appearance().n_modes());
     let mut cases: Vec<(String, Vec<u8>, Expect)> = Vec::new();
     let mut add = |name: String, bytes: Vec<u8>, e: Expect| cases.push((name, bytes, e));
     for s in [Storage::I8, Storage::I6] {
@@ -565,10 +568,10 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
     let v = write_model_as(a, Storage::F32);
     let len = v.len() as u64;
     let lay = layout(a);
-    let (n, t) = (a.landmarks() as u32, a.frame.triangles().len() as u32);
-    let (w, h) = (a.frame.width(), a.frame.height());
-    let px = a.frame.n_pixels() as u32;
-    let (m, l) = (a.shape.n_modes() as u64, a.appearance.n_modes() as u64);
+    let (n, t) = (a.landmarks() as u32, a.frame().triangles().len() as u32);
+    let (w, h) = (a.frame().width(), a.frame().height());
+    let px = a.frame().n_pixels() as u32;
+    let (m, l) = (a.shape().n_modes() as u64, a.appearance().n_modes() as u64);
     let mut cases: Vec<(String, Vec<u8>, Expect)> = Vec::new();
     let mut add = |name: &str, bytes: Vec<u8>, e: Expect| cases.push((name.to_string(), bytes, e));
     let lim = |what: &'static str, value: u32, limit: u32| {
@@ -1253,8 +1256,8 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
         "wrong fingerprint",
         fixed(&|x| x[offsets::FINGERPRINT] ^= 1),
         Exact(E::FingerprintMismatch {
-            stored: a.frame.fingerprint() ^ 1,
-            recomputed: a.frame.fingerprint(),
+            stored: a.frame().fingerprint() ^ 1,
+            recomputed: a.frame().fingerprint(),
         }),
     );
     add(
@@ -1277,7 +1280,7 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
     );
     // Every triangle spans the whole mesh: the rasterisation work exceeds its limit.
     let ext = {
-        let vs = a.frame.vertices();
+        let vs = a.frame().vertices();
         let arg = |f: &dyn Fn(usize) -> f32| {
             (0..n as usize)
                 .max_by(|&i, &j| f(i).total_cmp(&f(j)))
@@ -1338,7 +1341,7 @@ fn corrupt_truncated_and_hostile_files_are_rejected_with_the_expected_error() {
             };
             failures.push(format!(
                 "{name}: expected {want}, got {:?}",
-                got.as_ref().map(|m| &m.name)
+                got.as_ref().map(|m| m.name())
             ));
         }
         // Every message is one readable line.
@@ -1540,13 +1543,13 @@ fn allocations_are_bounded_by_the_file_size() {
         let ratio = peak as f64 / v.len() as f64;
         eprintln!(
             "'{}' ({s}): {} bytes, peak allocation while reading {peak} bytes ({ratio:.2}x)",
-            m.name,
+            m.name(),
             v.len()
         );
         assert!(
             peak <= 16 * v.len() + 64 * 1024,
             "'{}': peak {peak} for a {}-byte file",
-            m.name,
+            m.name(),
             v.len()
         );
     }

@@ -36,9 +36,9 @@ fn render() -> Vec<u8> {
     })
     .build(&images, None)
     .unwrap();
-    assert!(model.shape.n_modes() >= 2 && model.appearance.n_modes() >= 1);
+    assert!(model.shape().n_modes() >= 2 && model.appearance().n_modes() >= 1);
     let mut params = model.base_params();
-    let (ss, sa) = (model.shape.sigmas(), model.appearance.sigmas());
+    let (ss, sa) = (model.shape().sigmas(), model.appearance().sigmas());
     params.shape[0] = 1.5 * ss[0];
     params.shape[1] = -ss[1];
     params.appearance[0] = sa[0];
@@ -53,7 +53,7 @@ fn render() -> Vec<u8> {
     };
     let mut pixmap = Pixmap::new(SIZE.0, SIZE.1).unwrap();
     pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
-    let mut renderer = Renderer::new(&model.frame).unwrap();
+    let mut renderer = Renderer::new(model.frame()).unwrap();
     renderer
         .render(&model, &params, &view, &mut pixmap.as_mut())
         .unwrap();

@@ -13,7 +13,9 @@ use std::sync::OnceLock;
 use facemimic::clone::{constrain, CloneOptions, Cloner, Method};
 use facemimic::fit::{FitOptions, Tracker};
 use facemimic::format::{read_model, write_model, write_model_checked, FormatError};
-use facemimic::{BuildOptions, Builder, Error, FrameChoice, Model, Params, Renderer, Similarity};
+use facemimic::{
+    BuildOptions, Builder, Error, FrameChoice, Model, ModelParts, Params, Renderer, Similarity,
+};
 
 fn seeds() -> &'static engine::Seeds {
     static S: OnceLock<engine::Seeds> = OnceLock::new();
@@ -22,6 +24,13 @@ fn seeds() -> &'static engine::Seeds {
 
 fn model() -> Model {
     seeds().models[0].clone()
+}
+
+/// [`model`] with a part changed (still a `Model`: finite numbers, dimensions that agree).
+fn edited(change: impl FnOnce(&mut ModelParts)) -> Model {
+    let mut parts = model().into_parts();
+    change(&mut parts);
+    Model::new(parts).expect("a model")
 }
 
 /// Writes `m` without checks (exact `f32` storage) and reads it back: the loader's verdict.
@@ -38,13 +47,14 @@ fn finite(v: &[f32]) -> bool {
 
 #[test]
 fn huge_mean_pose_is_rejected_on_load_naming_the_pose() {
-    let mut m = model();
-    m.mean_pose = Similarity {
-        a: 3e38,
-        b: 0.0,
-        tx: 0.0,
-        ty: 0.0,
-    };
+    let m = edited(|p| {
+        p.mean_pose = Similarity {
+            a: 3e38,
+            b: 0.0,
+            tx: 0.0,
+            ty: 0.0,
+        }
+    });
     let e = reload(&m).unwrap_err();
     assert!(
         matches!(
@@ -56,16 +66,14 @@ fn huge_mean_pose_is_rejected_on_load_naming_the_pose() {
         ),
         "{e}"
     );
-    let mut m = model();
-    m.mean_pose.tx = 1e30;
+    let m = edited(|p| p.mean_pose.tx = 1e30);
     let e = reload(&m).unwrap_err();
     assert!(e.to_string().contains("mean pose translation"), "{e}");
 }
 
 #[test]
 fn huge_base_appearance_and_shape_and_variances_are_rejected_on_load() {
-    let mut m = model();
-    m.appearance.base[5] = f32::MAX;
+    let m = edited(|p| p.appearance.base[5] = f32::MAX);
     let e = reload(&m).unwrap_err();
     assert!(
         matches!(
@@ -78,19 +86,16 @@ fn huge_base_appearance_and_shape_and_variances_are_rejected_on_load() {
         ),
         "{e}"
     );
-    let mut m = model();
-    m.shape.variances[0] = 3e38;
+    let m = edited(|p| p.shape.variances[0] = 3e38);
     let e = reload(&m).unwrap_err();
     assert!(e.to_string().contains("shape variances"), "{e}");
-    let mut m = model();
-    m.appearance.variances[0] = 1e30;
+    let m = edited(|p| p.appearance.variances[0] = 1e30);
     assert!(reload(&m)
         .unwrap_err()
         .to_string()
         .contains("appearance variances"));
     // A 1e30 base shape: named as such (it used to read "landmarks are degenerate").
-    let mut m = model();
-    m.shape.base.iter_mut().for_each(|v| *v *= 1e30);
+    let m = edited(|p| p.shape.base.iter_mut().for_each(|v| *v *= 1e30));
     let e = reload(&m).unwrap_err().to_string();
     assert!(!e.contains("degenerate"), "{e}");
 }
@@ -204,12 +209,12 @@ fn constrain_is_nan_safe_and_total() {
 #[test]
 fn renderers_refuse_non_finite_appearance() {
     let m = model();
-    let mut r = Renderer::new(&m.frame).unwrap();
-    let mut a = m.appearance.base.clone();
+    let mut r = Renderer::new(m.frame()).unwrap();
+    let mut a = m.appearance().base.clone();
     a[3] = f32::NAN;
-    assert!(r.upload(&m.frame, &a).is_err());
+    assert!(r.upload(m.frame(), &a).is_err());
     let mut s = facemimic::Scanline::new();
-    assert!(s.upload(&m.frame, &a).is_err());
+    assert!(s.upload(m.frame(), &a).is_err());
     let mut p = m.base_params();
     p.appearance[0] = 1e30;
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(32, 32).unwrap();
@@ -224,14 +229,14 @@ fn public_helpers_do_not_panic() {
     // Wrong-length output.
     let mut short = vec![0.0; 3];
     assert!(m
-        .shape
-        .instance(&vec![0.0; m.shape.n_modes()], &mut short)
+        .shape()
+        .instance(&vec![0.0; m.shape().n_modes()], &mut short)
         .is_err());
     // Mode out of range.
-    assert!(m.shape.mode(m.shape.n_modes()).is_none());
-    assert!(m.shape.mode(usize::MAX).is_none());
-    assert!(m.appearance.mode(999).is_none());
-    assert!(m.shape.mode(0).is_some());
+    assert!(m.shape().mode(m.shape().n_modes()).is_none());
+    assert!(m.shape().mode(usize::MAX).is_none());
+    assert!(m.appearance().mode(999).is_none());
+    assert!(m.shape().mode(0).is_some());
     // PCA with ragged samples or non-finite values.
     let samples = vec![vec![1.0, 2.0, 3.0], vec![1.0, 2.0]];
     assert!(facemimic::pca(&samples, &[0.0, 0.0, 0.0], 0.9, 10).is_err());
@@ -262,7 +267,7 @@ fn writers_refuse_what_readers_reject() {
     .unwrap_err();
     assert!(e.to_string().contains("300 bytes"), "{e}");
     let mut m = model();
-    m.name = long;
+    m.set_name(long);
     assert!(read_model(&write_model(&m)).is_err());
     let e = write_model_checked(&m).unwrap_err();
     assert!(e.to_string().contains("model name length"), "{e}");
@@ -273,7 +278,7 @@ fn tracker_refuses_a_model_over_its_memory_budget_before_allocating() {
     // 128 landmarks, a large frame, then 256 orthonormal shape modes: the 0.8 MB model
     // whose tracker precomputation took 81 MB.
     let images = engine::training_set(128, 4, 11);
-    let mut m = Builder::new(BuildOptions {
+    let m = Builder::new(BuildOptions {
         name: "many-modes".into(),
         face_width: 240.0,
         frame: FrameChoice::Own,
@@ -282,13 +287,15 @@ fn tracker_refuses_a_model_over_its_memory_budget_before_allocating() {
     })
     .build(&images, None)
     .unwrap();
-    let d = m.shape.base.len();
+    let d = m.shape().base.len();
     let k = 256;
-    m.shape.modes = vec![0.0; k * d];
+    let mut parts = m.into_parts();
+    parts.shape.modes = vec![0.0; k * d];
     for i in 0..k {
-        m.shape.modes[i * d + i] = 1.0;
+        parts.shape.modes[i * d + i] = 1.0;
     }
-    m.shape.variances = vec![1.0; k];
+    parts.shape.variances = vec![1.0; k];
+    let m = Model::new(parts).unwrap();
     let m = reload(&m).expect("a valid model file");
     let bytes = write_model(&m).len() as u64;
     let need = facemimic::bounds::tracking_bytes(&m, FitOptions::default().levels.len(), 1);
@@ -335,8 +342,7 @@ fn files_are_read_through_a_size_cap_refusing_special_files() {
 
 #[test]
 fn default_render_canvas_is_bounded_not_the_declared_size() {
-    let mut m = model();
-    m.image_size = [8192, 8192];
+    let m = edited(|p| p.image_size = [8192, 8192]);
     let m = reload(&m).unwrap();
     let e = facemimic::bounds::default_canvas(&m).unwrap_err();
     assert!(matches!(e, Error::Budget(_)), "{e}");
@@ -430,8 +436,9 @@ fn cli_hostile_cases_fail_in_one_line() {
     assert!(e.contains("not a regular file"), "{e}");
     fails_one_line(&["inspect", d.to_str().unwrap()]);
     // A model declaring an 8192x8192 image: no 530 MB canvas by default.
-    let mut m = s[0].clone();
-    m.image_size = [8192, 8192];
+    let mut parts = s[0].clone().into_parts();
+    parts.image_size = [8192, 8192];
+    let m = Model::new(parts).unwrap();
     let big = d.join("big.fmm");
     std::fs::write(&big, write_model(&m)).unwrap();
     let e = fails_one_line(&["render", "--model", big.to_str().unwrap(), "--out", png]);

@@ -216,18 +216,18 @@ fn spk07_reconstructs_unseen_frames() {
     let model = spk07_model(&train, 0.98);
     println!(
         "spk07 model: {} shape modes, {} appearance modes, {} frame pixels, built in {:.0} ms (test profile)",
-        model.shape.n_modes(),
-        model.appearance.n_modes(),
-        model.frame.n_pixels(),
+        model.shape().n_modes(),
+        model.appearance().n_modes(),
+        model.frame().n_pixels(),
         t0.elapsed().as_secs_f64() * 1e3
     );
     assert!(
-        model.appearance.n_modes() >= 5,
+        model.appearance().n_modes() >= 5,
         "{} appearance modes",
-        model.appearance.n_modes()
+        model.appearance().n_modes()
     );
-    let mut renderer = Renderer::new(&model.frame).unwrap();
-    let mut g = vec![0f32; model.appearance.len()];
+    let mut renderer = Renderer::new(model.frame()).unwrap();
+    let mut g = vec![0f32; model.appearance().len()];
     let (mut sq_full, mut sq_mean, mut sq_warp, mut ab_full, mut ab_mean, mut count) =
         (0.0, 0.0, 0.0, 0.0, 0.0, 0usize);
     let mut worst_ratio = 0f64;
@@ -244,13 +244,18 @@ fn spk07_reconstructs_unseen_frames() {
         assert_eq!(n, n2, "same shape and pose, same region");
         // The warp-only floor: the frame's own pixels sampled at its landmarks and rendered
         // back at them (no model in between).
-        facemimic::sample_rgb(&model.frame, &t.image.view().unwrap(), &t.landmarks, &mut g)
-            .unwrap();
-        renderer.upload(&model.frame, &g).unwrap();
+        facemimic::sample_rgb(
+            model.frame(),
+            &t.image.view().unwrap(),
+            &t.landmarks,
+            &mut g,
+        )
+        .unwrap();
+        renderer.upload(model.frame(), &g).unwrap();
         let mut pixmap = Pixmap::new(t.image.width, t.image.height).unwrap();
         renderer
             .warp(
-                &model.frame,
+                model.frame(),
                 &t.landmarks,
                 &Similarity::IDENTITY,
                 &mut pixmap.as_mut(),
@@ -322,7 +327,7 @@ fn compact_storage_keeps_the_reconstruction() {
     let model = spk07_model(&load(&train_paths), 0.98);
     let unseen = load(&unseen_paths);
     let psnr_of = |m: &Model| {
-        let mut renderer = Renderer::new(&m.frame).unwrap();
+        let mut renderer = Renderer::new(m.frame()).unwrap();
         let (mut sq, mut count) = (0.0, 0usize);
         for t in &unseen {
             let params = m.project(&t.image.view().unwrap(), &t.landmarks).unwrap();

@@ -116,9 +116,9 @@ fn refinement_reduces_landmark_noise() {
          tracking the unseen clip: dlib-built {tc:.4}, noisy-built {tn:.4}, refined {tr:.4}",
         mean(&err_noisy),
         mean(&err_fitted),
-        clean.shape.n_modes(),
-        first.shape.n_modes(),
-        refined.shape.n_modes(),
+        clean.shape().n_modes(),
+        first.shape().n_modes(),
+        refined.shape().n_modes(),
     );
     assert!(
         mean(&err_noisy) > 0.03,

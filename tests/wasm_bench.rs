@@ -135,15 +135,15 @@ fn core_timings() {
     let params = model.project(&view, &probe).unwrap();
     say(&format!(
         "[{target}] model: {} shape modes, {} appearance modes, {} frame pixels",
-        model.shape.n_modes(),
-        model.appearance.n_modes(),
-        model.frame.n_pixels()
+        model.shape().n_modes(),
+        model.appearance().n_modes(),
+        model.frame().n_pixels()
     ));
 
     let build = time(3000.0, || {
         std::hint::black_box(builder.build(&images, None).unwrap());
     });
-    let mut renderer = Renderer::new(&model.frame).unwrap();
+    let mut renderer = Renderer::new(model.frame()).unwrap();
     let mut pixmap = Pixmap::new(360, 288).unwrap();
     pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
     let render = time(2000.0, || {
@@ -151,30 +151,30 @@ fn core_timings() {
             .render(&model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut())
             .unwrap();
     });
-    let mut appearance = vec![0f32; model.appearance.len()];
+    let mut appearance = vec![0f32; model.appearance().len()];
     let synth = time(1000.0, || {
         model
-            .appearance
+            .appearance()
             .instance_unchecked(&params.appearance, &mut appearance)
     });
     let upload = time(1000.0, || {
-        renderer.upload(&model.frame, &appearance).unwrap()
+        renderer.upload(model.frame(), &appearance).unwrap()
     });
     let mut shape = vec![0f32; model.landmarks() * 2];
     model.image_shape(&params, &mut shape).unwrap();
     let warp = time(2000.0, || {
         renderer
             .warp(
-                &model.frame,
+                model.frame(),
                 &shape,
                 &Similarity::IDENTITY,
                 &mut pixmap.as_mut(),
             )
             .unwrap();
     });
-    let mut g = vec![0f32; model.appearance.len()];
+    let mut g = vec![0f32; model.appearance().len()];
     let sample = time(2000.0, || {
-        facemimic::sample_rgb(&model.frame, &view, &probe, &mut g).unwrap()
+        facemimic::sample_rgb(model.frame(), &view, &probe, &mut g).unwrap()
     });
     let project = time(2000.0, || {
         std::hint::black_box(model.project(&view, &probe).unwrap());

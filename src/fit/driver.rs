@@ -44,11 +44,11 @@ impl Fitter {
             options.levels.len(),
             options.channels as usize,
         )?;
-        let n2 = model.shape.base.len();
-        if n2 < 6 || model.frame.vertices().len() != n2 {
+        let n2 = model.shape().base.len();
+        if n2 < 6 || model.frame().vertices().len() != n2 {
             return Err(Error::Params("the model's shape and frame disagree".into()));
         }
-        if model.appearance.len() != model.frame.n_pixels() * 3 {
+        if model.appearance().len() != model.frame().n_pixels() * 3 {
             return Err(Error::Params(
                 "the model's appearance and frame disagree".into(),
             ));
@@ -72,7 +72,7 @@ impl Fitter {
         let k = basis.k;
         let nmax = levels.iter().map(|l| l.n).max().unwrap_or(0);
         let lmax = levels.iter().map(|l| l.la).max().unwrap_or(0);
-        let m = model.shape.n_modes();
+        let m = model.shape().n_modes();
         let work = Work {
             init: vec![0.0; n2],
             cur: vec![0.0; n2],
@@ -102,7 +102,7 @@ impl Fitter {
             best_p: vec![0.0; m],
             best_pose: Similarity::IDENTITY,
             rgb: if options.appearance {
-                vec![0.0; model.appearance.len()]
+                vec![0.0; model.appearance().len()]
             } else {
                 Vec::new()
             },
@@ -111,11 +111,11 @@ impl Fitter {
             geom: Geometry::new(model),
             basis,
             levels,
-            model_sigmas: model.shape.sigmas(),
-            appearance: model.appearance.clone(),
-            frame: model.frame.clone(),
+            model_sigmas: model.shape().sigmas(),
+            appearance: model.appearance().clone(),
+            frame: model.frame().clone(),
             contrast: 0.0,
-            face_width: shape_width(&model.shape.base),
+            face_width: shape_width(&model.shape().base),
             grey: Grey::new(options.channels as usize),
             work,
             result: FitResult {

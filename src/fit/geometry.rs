@@ -23,8 +23,8 @@ pub(crate) struct Geometry {
 
 impl Geometry {
     pub(crate) fn new(model: &Model) -> Geometry {
-        let s0 = model.shape.base.clone();
-        let tris = model.frame.triangles().to_vec();
+        let s0 = model.shape().base.clone();
+        let tris = model.frame().triangles().to_vec();
         let n = s0.len() / 2;
         let p = |i: u32| (s0[2 * i as usize], s0[2 * i as usize + 1]);
         let base_inv = tris
@@ -59,7 +59,7 @@ impl Geometry {
         }
         Geometry {
             s0,
-            modes: model.shape.modes.clone(),
+            modes: model.shape().modes.clone(),
             tris,
             base_inv,
             inc_start: counts,

@@ -36,7 +36,7 @@ pub(crate) struct ShapeBasis {
 
 impl ShapeBasis {
     pub(crate) fn new(model: &Model) -> Result<ShapeBasis> {
-        let s0 = &model.shape.base;
+        let s0 = &model.shape().base;
         let d = s0.len();
         let mut cands: Vec<Vec<f64>> = Vec::new();
         cands.push(s0.iter().map(|&v| v as f64).collect());
@@ -47,10 +47,10 @@ impl ShapeBasis {
         );
         cands.push((0..d).map(|i| if i % 2 == 0 { 1.0 } else { 0.0 }).collect());
         cands.push((0..d).map(|i| if i % 2 == 1 { 1.0 } else { 0.0 }).collect());
-        for i in 0..model.shape.n_modes() {
+        for i in 0..model.shape().n_modes() {
             cands.push(
                 model
-                    .shape
+                    .shape()
                     .mode(i)
                     .unwrap_or(&[])
                     .iter()
@@ -121,7 +121,7 @@ pub(crate) struct Level {
 /// Fills a full-resolution frame grid with per-pixel values (plus the frame's padding ring),
 /// NaN elsewhere.
 fn fill_grid(model: &Model, values: &[f64], grid: &mut [f64]) {
-    let f = &model.frame;
+    let f = &model.frame();
     let w = f.width() as usize;
     grid.iter_mut().for_each(|g| *g = f64::NAN);
     for (px, v) in f.pixels().iter().zip(values) {
@@ -210,7 +210,7 @@ impl Level {
     ) -> Result<Level> {
         let weights = channel_weights(channels);
         let nc = weights.len();
-        let f = &model.frame;
+        let f = &model.frame();
         let (w, h) = (f.width() as usize, f.height() as usize);
         let npx = f.n_pixels();
         let step = step.max(1);
@@ -237,7 +237,7 @@ impl Level {
         let bary: Vec<[f32; 3]> = sel.iter().map(|&i| f.pixels()[i].bary).collect();
 
         // Channel images on the full frame (channel-major): A0 and each RGB mode.
-        let app = &model.appearance;
+        let app = &model.appearance();
         let grey = |v: &[f32]| -> Vec<f64> {
             let mut out = Vec::with_capacity(npx * nc);
             for wc in weights {
@@ -299,7 +299,7 @@ impl Level {
 
         // Warp Jacobians dW/dc_j at each level pixel.
         let k = basis.k;
-        let d = model.shape.base.len();
+        let d = model.shape().base.len();
         let mut jx = vec![0f32; k * n];
         let mut jy = vec![0f32; k * n];
         for j in 0..k {
@@ -347,7 +347,7 @@ impl Level {
             .iter()
             .map(|m| match m {
                 Some(i) => {
-                    let var = model.shape.variances[*i].max(1e-12) as f64;
+                    let var = model.shape().variances[*i].max(1e-12) as f64;
                     shape_prior.max(0.0) as f64 * frac * npx as f64 / var
                 }
                 None => 0.0,

@@ -144,13 +144,13 @@ impl FaceDrawer {
         check_len(
             "appearance scratch",
             &self.appearance,
-            model.appearance.len(),
+            model.appearance().len(),
         )?;
-        check_len("shape scratch", &self.shape, model.shape.base.len())?;
+        check_len("shape scratch", &self.shape, model.shape().base.len())?;
         let mut appearance = std::mem::take(&mut self.appearance);
         let mut shape = std::mem::take(&mut self.shape);
         instance_into(model, params, &mut appearance, &mut shape);
-        let r = self.draw(&model.frame, &appearance, &shape, view, target);
+        let r = self.draw(model.frame(), &appearance, &shape, view, target);
         self.appearance = appearance;
         self.shape = shape;
         r
@@ -161,9 +161,9 @@ impl FaceDrawer {
 /// `params`. Requires checked parameters and buffers of the model's lengths.
 fn instance_into(model: &Model, params: &Params, appearance: &mut [f32], shape: &mut [f32]) {
     model
-        .appearance
+        .appearance()
         .instance_unchecked(&params.appearance, appearance);
-    model.shape.instance_unchecked(&params.shape, shape);
+    model.shape().instance_unchecked(&params.shape, shape);
     params.pose.apply_in_place(shape);
 }
 

@@ -175,14 +175,14 @@ impl Renderer {
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
         model.check_params(params)?;
-        self.check_frame(&model.frame)?;
+        self.check_frame(model.frame())?;
         // Taking the buffers out of `self` (and back) moves them without allocating.
         let mut appearance = std::mem::take(&mut self.appearance);
         let mut instance = std::mem::take(&mut self.instance);
         instance_into(model, params, &mut appearance, &mut instance);
         let r = self
-            .upload(&model.frame, &appearance)
-            .and_then(|()| self.warp(&model.frame, &instance, view, target));
+            .upload(model.frame(), &appearance)
+            .and_then(|()| self.warp(model.frame(), &instance, view, target));
         self.appearance = appearance;
         self.instance = instance;
         r

@@ -11,8 +11,8 @@ pub const FACE_FILL: f32 = 0.85;
 /// pose, in image coordinates. Allocation-free.
 pub fn base_box(model: &Model) -> [f32; 4] {
     let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
-    for p in model.shape.base.chunks_exact(2) {
-        let (x, y) = model.mean_pose.apply_point(p[0], p[1]);
+    for p in model.shape().base.chunks_exact(2) {
+        let (x, y) = model.mean_pose().apply_point(p[0], p[1]);
         b[0] = b[0].min(x);
         b[1] = b[1].min(y);
         b[2] = b[2].max(x);

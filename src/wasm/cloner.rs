@@ -136,14 +136,14 @@ impl JsCloner {
             .map_err(js_err)?;
         // Eq. 2 for the source, cache-blocked (bit-identical to `instance_unchecked`).
         crate::synthesise(
-            &model.appearance.base,
-            &model.appearance.modes,
+            &model.appearance().base,
+            &model.appearance().modes,
             &self.source_params.appearance,
             &mut self.appearance,
         );
         self.timings.synth += now_ms() - t0;
         let face = Face {
-            frame: &model.frame,
+            frame: model.frame(),
             appearance: &self.appearance,
             shape: &self.shape,
             bbox: self.source_box,
@@ -161,7 +161,7 @@ impl JsCloner {
             return Err(JsError::new(&format!("target index {index} out of range")));
         };
         let face = Face {
-            frame: &model.frame,
+            frame: model.frame(),
             appearance: self.cloner.target_appearance(index),
             shape: self.cloner.target_shape(index),
             bbox: target_box(&self.target_boxes, index, model),
@@ -182,10 +182,10 @@ impl JsCloner {
     pub fn new(source: &JsModel) -> Result<JsCloner, JsError> {
         install_panic_hook();
         let model: Model = source.model().clone();
-        let drawer = FaceDrawer::new(&model.frame, Default::default()).map_err(js_err)?;
+        let drawer = FaceDrawer::new(model.frame(), Default::default()).map_err(js_err)?;
         let source_params = model.base_params();
-        let appearance = vec![0.0; model.appearance.len()];
-        let shape = vec![0.0; model.shape.base.len()];
+        let appearance = vec![0.0; model.appearance().len()];
+        let shape = vec![0.0; model.shape().base.len()];
         let source_box = base_box(&model);
         let cloner = Cloner::new(model).map_err(js_err)?;
         Ok(JsCloner {
@@ -210,11 +210,11 @@ impl JsCloner {
     #[wasm_bindgen(js_name = setSource)]
     pub fn set_source(&mut self, source: &JsModel) -> Result<(), JsError> {
         let model = source.model().clone();
-        let drawer = FaceDrawer::new(&model.frame, Default::default()).map_err(js_err)?;
+        let drawer = FaceDrawer::new(model.frame(), Default::default()).map_err(js_err)?;
         let params = model.base_params();
         let source_box = base_box(&model);
-        let (m, l) = (model.shape.n_modes(), model.appearance.n_modes());
-        let (n2, d) = (model.shape.base.len(), model.appearance.len());
+        let (m, l) = (model.shape().n_modes(), model.appearance().n_modes());
+        let (n2, d) = (model.shape().base.len(), model.appearance().len());
         self.cloner.set_source(model).map_err(js_err)?;
         self.drawer = drawer;
         self.pending = params.clone();
@@ -549,7 +549,7 @@ impl JsCloner {
         self.timings.map += now_ms() - t0;
         let model = self.cloner.target(i);
         let face = Face {
-            frame: &model.frame,
+            frame: model.frame(),
             appearance: compare.out.appearance(),
             shape: compare.out.shape(),
             bbox: target_box(&self.target_boxes, i, model),

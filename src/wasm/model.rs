@@ -37,26 +37,26 @@ pub(crate) struct ModelInfo {
 
 pub(crate) fn model_info(m: &Model) -> Result<JsValue, JsError> {
     let info = ModelInfo {
-        name: m.name.clone(),
+        name: m.name().to_string(),
         landmarks: m.landmarks(),
-        triangles: m.frame.triangles().len(),
-        frame_width: m.frame.width(),
-        frame_height: m.frame.height(),
-        pixels: m.frame.n_pixels(),
+        triangles: m.frame().triangles().len(),
+        frame_width: m.frame().width(),
+        frame_height: m.frame().height(),
+        pixels: m.frame().n_pixels(),
         channels: 3,
-        shape_modes: m.shape.n_modes(),
-        appearance_modes: m.appearance.n_modes(),
-        shape_sigma: m.shape.sigmas(),
-        appearance_sigma: m.appearance.sigmas(),
-        shape_variance_share: m.shape.variance_shares(),
-        appearance_variance_share: m.appearance.variance_shares(),
-        fingerprint: format!("{:016x}", m.frame.fingerprint()),
-        reference: match &m.reference {
+        shape_modes: m.shape().n_modes(),
+        appearance_modes: m.appearance().n_modes(),
+        shape_sigma: m.shape().sigmas(),
+        appearance_sigma: m.appearance().sigmas(),
+        shape_variance_share: m.shape().variance_shares(),
+        appearance_variance_share: m.appearance().variance_shares(),
+        fingerprint: format!("{:016x}", m.frame().fingerprint()),
+        reference: match &m.reference() {
             Reference::Mean => "mean".into(),
             Reference::Training(name) => name.clone(),
         },
-        image_width: m.image_size[0],
-        image_height: m.image_size[1],
+        image_width: m.image_size()[0],
+        image_height: m.image_size()[1],
     };
     serde_wasm_bindgen::to_value(&info).map_err(|e| JsError::new(&format!("model info: {e}")))
 }
@@ -71,7 +71,7 @@ pub(crate) struct ModelScratch {
 impl ModelScratch {
     fn new(model: &Model) -> Result<ModelScratch, JsError> {
         Ok(ModelScratch {
-            drawer: FaceDrawer::new(&model.frame, Default::default()).map_err(js_err)?,
+            drawer: FaceDrawer::new(model.frame(), Default::default()).map_err(js_err)?,
             params: model.base_params(),
             bbox: base_box(model),
         })
@@ -154,7 +154,7 @@ impl JsModel {
     /// The model's name (e.g. `"spk07"`).
     #[wasm_bindgen(getter)]
     pub fn name(&self) -> String {
-        self.model.name.clone()
+        self.model.name().to_string()
     }
 
     /// Sizes, variances and identity of the model.
@@ -192,7 +192,7 @@ impl JsModel {
         #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
     ) -> Result<Vec<f32>, JsError> {
         let params = params_from_js(&params)?;
-        let mut out = vec![0.0; self.model.shape.base.len()];
+        let mut out = vec![0.0; self.model.shape().base.len()];
         self.model.image_shape(&params, &mut out).map_err(js_err)?;
         Ok(out)
     }
@@ -271,9 +271,9 @@ pub fn render_mode(
     }
     let m = &model.model;
     let (count, variances) = if shape {
-        (m.shape.n_modes(), &m.shape.variances)
+        (m.shape().n_modes(), &m.shape().variances)
     } else {
-        (m.appearance.n_modes(), &m.appearance.variances)
+        (m.appearance().n_modes(), &m.appearance().variances)
     };
     let i = mode as usize;
     let Some(var) = variances.get(i) else {
@@ -285,7 +285,7 @@ pub fn render_mode(
     let ctx = Ctx::from_js(&ctx)?;
     let options = RenderOptions::from_js(&options.map(JsValue::from))?;
     model.with_scratch(|model, s| {
-        s.params.pose = model.mean_pose;
+        s.params.pose = model.mean_pose();
         s.params.shape.iter_mut().for_each(|v| *v = 0.0);
         s.params.appearance.iter_mut().for_each(|v| *v = 0.0);
         let block = if shape {

@@ -116,11 +116,11 @@ pub fn run(a: Args) -> Result<()> {
     io::write_model_file_as(&a.out, &model, a.precision)?;
     eprintln!(
         "facemimic: built '{}' from {} images: {} shape modes, {} appearance modes, {} frame pixels -> {}",
-        model.name,
+        model.name(),
         images.len(),
-        model.shape.n_modes(),
-        model.appearance.n_modes(),
-        model.frame.n_pixels(),
+        model.shape().n_modes(),
+        model.appearance().n_modes(),
+        model.frame().n_pixels(),
         a.out.display()
     );
     Ok(())

@@ -107,7 +107,7 @@ pub fn run(a: Args) -> Result<()> {
 
     if let Some(out) = &a.out {
         let mut pixmap = super::render::canvas(width, height)?;
-        let frame = &cloner.target(0).frame;
+        let frame = &cloner.target(0).frame();
         let mut drawer = FaceDrawer::new(frame, a.draw.options())?;
         drawer.draw(
             frame,

@@ -83,10 +83,10 @@ pub fn run(a: Args) -> Result<()> {
         let _ = write!(csv, ",x{i},y{i}");
     }
     csv.push_str(",scale,rotation,tx,ty");
-    for i in 0..model.shape.n_modes() {
+    for i in 0..model.shape().n_modes() {
         let _ = write!(csv, ",p{i}");
     }
-    for i in 0..model.appearance.n_modes() {
+    for i in 0..model.appearance().n_modes() {
         let _ = write!(csv, ",lambda{i}");
     }
     csv.push('\n');

@@ -96,7 +96,7 @@ pub fn render_to_files(
     (out, out_pts): (&Path, Option<&Path>),
 ) -> Result<()> {
     let mut pixmap = canvas(width, height)?;
-    let mut drawer = FaceDrawer::new(&model.frame, draw)?;
+    let mut drawer = FaceDrawer::new(model.frame(), draw)?;
     drawer.render(model, params, &Similarity::IDENTITY, &mut pixmap.as_mut())?;
     io::write_pixmap(out, &pixmap)?;
     if let Some(p) = out_pts {
