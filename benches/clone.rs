@@ -1,4 +1,4 @@
-//! Per-frame cost of expression cloning (issue 3): `Cloner::clone_frame` (mapping +
+//! Per-frame cost of expression cloning: `Cloner::clone_frame` (mapping +
 //! synthesising every target's shape and appearance) for 1 and 8 targets, next to the cost of
 //! rendering one target (Renderer upload + warp onto a 360x288 pixmap).
 //!

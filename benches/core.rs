@@ -105,8 +105,13 @@ fn benches(c: &mut Criterion) {
     let mut g = vec![0f32; model.appearance().len()];
     c.bench_function("sample_rgb image -> frame", |b| {
         b.iter(|| {
-            facemimic::sample_rgb(model.frame(), &view, black_box(&probe.landmarks), &mut g)
-                .unwrap()
+            facemimic::numerics::sample_rgb(
+                model.frame(),
+                &view,
+                black_box(&probe.landmarks),
+                &mut g,
+            )
+            .unwrap()
         })
     });
 
@@ -160,7 +165,7 @@ impl Compact {
         }
     }
 
-    /// `A0 + sum_i w_i s_i q_i`, blocked like `facemimic::synthesise`.
+    /// `A0 + sum_i w_i s_i q_i`, blocked like `facemimic::numerics::synthesise`.
     fn synthesise_i8(&self, w: &[f32], out: &mut [f32]) {
         const BLOCK: usize = 2048;
         let d = self.d;

@@ -1,4 +1,4 @@
-//! Benchmarks of the AAM fitter (issue 5): fits per second, native single thread.
+//! Benchmarks of the AAM fitter: fits per second, native single thread.
 //!
 //! - `fit/track/grid-spk07`: the spk07 model (built from `train20.txt`) tracking the 75 frames
 //!   of the unseen GRID clip (one criterion iteration = one frame, in sequence).

@@ -17,7 +17,8 @@ mod native {
 
     use std::path::Path;
 
-    use facemimic::{io, write_frame, BuildOptions, Builder, FrameChoice};
+    use facemimic::canonical::write_frame;
+    use facemimic::{io, BuildOptions, Builder, FrameChoice};
 
     pub(crate) fn main() -> facemimic::Result<()> {
         let out = std::env::args()

@@ -14,6 +14,7 @@ bash scripts/setup.sh --browser
 step "format and lints"
 cargo fmt --all -- --check
 cargo clippy --all-targets -q -- -D warnings
+RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -q
 
 step "native tests"
 cargo test --all-targets

@@ -55,10 +55,10 @@ impl AppearanceModel {
     /// Eq. 2, `A = A0 + sum_i lambda_i A_i`, into `out` (`3N`). Allocates nothing.
     pub fn instance(&self, lambda: &[f32], out: &mut [f32]) -> Result<()> {
         check_len("appearance parameters", lambda, self.n_modes())?;
-        crate::bounds::check_param_values("appearance parameters", lambda)?;
+        crate::limits::check_param_values("appearance parameters", lambda)?;
         check_len("appearance buffer", out, self.base.len())?;
         self.instance_unchecked(lambda, out);
-        crate::bounds::check_output("appearance instance", out)
+        crate::limits::check_output("appearance instance", out)
     }
 
     /// [`AppearanceModel::instance`] without checks (hot path).

@@ -16,34 +16,15 @@
 //!    [`MAX_IMAGE_FILE_BYTES`]). The tracker checks its precomputation against the budget before
 //!    allocating it ([`check_tracking_budget`]).
 
-use crate::error::{Error, Result};
-use crate::format::FormatError;
-use crate::frame::MAX_FRAME_SIDE;
-use crate::image::MAX_IMAGE_SIDE;
-use crate::model::{Model, Params, Reference};
-use crate::similarity::Similarity;
+pub use crate::limits::{
+    check_gain, check_landmarks, check_output, check_param_values, check_pose_range,
+    clamp_symmetric, Limits, LIMITS, MAX_APPEARANCE, MAX_GAIN, MAX_PARAM, MAX_POSE_SCALE,
+    MAX_POSE_SHIFT, MAX_SHAPE_COORD, MIN_APPEARANCE, MIN_POSE_SCALE,
+};
 
-/// Largest magnitude of a base shape coordinate or frame origin (model coordinates): the frame
-/// holding the mesh is at most [`MAX_FRAME_SIDE`] wide, so twice that leaves room for any
-/// origin.
-pub const MAX_SHAPE_COORD: f32 = 2.0 * MAX_FRAME_SIDE as f32;
-/// Base appearance values (RGB, nominally `0..=1`) must lie in `[MIN_APPEARANCE, MAX_APPEARANCE]`.
-pub const MIN_APPEARANCE: f32 = -1.0;
-/// See [`MIN_APPEARANCE`].
-pub const MAX_APPEARANCE: f32 = 2.0;
-/// Pose scale (model coordinates to image pixels) of a model's mean pose and of any pose given
-/// with parameters: `MIN_POSE_SCALE..=MAX_POSE_SCALE`.
-pub const MIN_POSE_SCALE: f32 = 1e-4;
-/// See [`MIN_POSE_SCALE`].
-pub const MAX_POSE_SCALE: f32 = 1e4;
-/// Largest magnitude of a pose translation (image pixels).
-pub const MAX_POSE_SHIFT: f32 = 1e6;
-/// Largest magnitude of a shape or appearance parameter given to the library. A real face is
-/// within a few standard deviations (at most a few thousand model units); this bound only
-/// keeps `s0 + S p` and `A0 + A lambda` far from `f32` overflow.
-pub const MAX_PARAM: f32 = 1e6;
-/// Largest magnitude of a cloning gain (global or per mode) and of the constraint's `k`.
-pub const MAX_GAIN: f32 = 1e3;
+use crate::error::{Error, FormatError, Result};
+use crate::image::MAX_IMAGE_SIDE;
+use crate::model::{Model, Reference};
 
 /// Memory budget: allocations because of a model are at most this many times its size in
 /// bytes ...
@@ -91,116 +72,13 @@ pub fn model_bytes(model: &Model) -> u64 {
     4 * floats as u64 + names as u64 + 128
 }
 
-/// NaN-safe clamp: `v` limited to `[-lim, lim]`; a NaN `v` becomes 0 (the mean), a NaN or
-/// negative `lim` counts as 0, an infinite one as `f32::MAX`. Always returns a finite number.
-pub fn clamp_symmetric(v: f32, lim: f32) -> f32 {
-    // An infinite limit (k x sigma overflowed) is the largest finite one: the result stays
-    // finite even for an infinite `v`.
-    let lim = if lim >= 0.0 { lim.min(f32::MAX) } else { 0.0 };
-    if v > lim {
-        lim
-    } else if v < -lim {
-        -lim
-    } else if v.is_nan() {
-        0.0
-    } else {
-        v
-    }
-}
-
-/// Fails with [`Error::Params`] unless every value is finite and at most [`MAX_PARAM`] in
-/// magnitude, naming the first bad one.
-pub fn check_param_values(what: &str, values: &[f32]) -> Result<()> {
-    match values.iter().position(|v| !(v.abs() <= MAX_PARAM)) {
-        None => Ok(()),
-        Some(i) if values[i].is_finite() => Err(Error::Params(format!(
-            "{what}[{i}] is {}, beyond the limit +-{MAX_PARAM:e}",
-            values[i]
-        ))),
-        Some(i) => Err(Error::Params(format!(
-            "{what}[{i}] is not finite ({})",
-            values[i]
-        ))),
-    }
-}
-
-/// Fails with [`Error::Params`] unless the pose is finite with a scale in
-/// `MIN_POSE_SCALE..=MAX_POSE_SCALE` and a translation within `+-MAX_POSE_SHIFT`.
-pub fn check_pose_range(what: &str, pose: &Similarity) -> Result<()> {
-    let v = [pose.a, pose.b, pose.tx, pose.ty];
-    if v.iter().any(|x| !x.is_finite()) {
-        return Err(Error::Params(format!("{what} is not finite ({v:?})")));
-    }
-    let s = pose.scale();
-    if !(MIN_POSE_SCALE..=MAX_POSE_SCALE).contains(&s) {
-        return Err(Error::Params(format!(
-            "{what} has scale {s}, outside {MIN_POSE_SCALE:e}..={MAX_POSE_SCALE:e}"
-        )));
-    }
-    if !(pose.tx.abs() <= MAX_POSE_SHIFT && pose.ty.abs() <= MAX_POSE_SHIFT) {
-        return Err(Error::Params(format!(
-            "{what} has translation ({}, {}), beyond +-{MAX_POSE_SHIFT:e}",
-            pose.tx, pose.ty
-        )));
-    }
-    Ok(())
-}
-
-/// Fails with [`Error::Params`] unless `g` is finite and within `+-MAX_GAIN`.
-pub fn check_gain(what: &str, g: f32) -> Result<()> {
-    if g.abs() <= MAX_GAIN {
-        Ok(())
-    } else {
-        Err(Error::Params(format!(
-            "{what} {g} is not a finite number within +-{MAX_GAIN}"
-        )))
-    }
-}
-
-/// Checks parameters against a model's mode counts and the value bounds (lengths, finite and
-/// within [`MAX_PARAM`], pose range).
-pub fn check_params(model: &Model, params: &Params) -> Result<()> {
-    crate::error::check_len("shape parameters", &params.shape, model.shape().n_modes())?;
-    crate::error::check_len(
-        "appearance parameters",
-        &params.appearance,
-        model.appearance().n_modes(),
-    )?;
-    check_param_values("shape parameters", &params.shape)?;
-    check_param_values("appearance parameters", &params.appearance)?;
-    check_pose_range("pose", &params.pose)
-}
-
-/// Fails with [`Error::Landmarks`] unless every landmark coordinate is finite and within
-/// `+-MAX_PARAM` pixels (a larger coordinate is no image's).
-pub fn check_landmarks(values: &[f32]) -> Result<()> {
-    match values.iter().position(|v| !(v.abs() <= MAX_PARAM)) {
-        None => Ok(()),
-        Some(i) => Err(Error::Landmarks(format!(
-            "coordinate {i} is {}, not a finite number within +-{MAX_PARAM:e} pixels",
-            values[i]
-        ))),
-    }
-}
-
-/// Fails with [`Error::Overflow`] naming `what` unless every value of an output is finite.
-pub fn check_output(what: &str, values: &[f32]) -> Result<()> {
-    match values.iter().position(|v| !v.is_finite()) {
-        None => Ok(()),
-        Some(i) => Err(Error::Overflow(format!(
-            "{what}[{i}] overflowed ({}); the inputs are too large for this model",
-            values[i]
-        ))),
-    }
-}
-
 /// The value bounds of a model (checked on load and before writing): mean pose in range,
 /// base shape and frame origin within `+-MAX_SHAPE_COORD`, base appearance within
 /// `MIN_APPEARANCE..=MAX_APPEARANCE`, variances no larger than the base's own range allows
 /// (shape: `2n (2 MAX_SHAPE_COORD)^2`; appearance: `3N (MAX_APPEARANCE - MIN_APPEARANCE)^2`),
 /// image size within `1..=MAX_IMAGE_SIDE`, the names within the format's limits.
 pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError> {
-    let lim = &crate::format::LIMITS;
+    let lim = &LIMITS;
     let bad =
         |array: &'static str, index: usize, value: f32, range: String| FormatError::OutOfRange {
             array,

@@ -130,7 +130,7 @@ impl Builder {
         progress: &mut dyn FnMut(BuildProgress) -> bool,
     ) -> Result<Model> {
         let o = &self.options;
-        let max_name = crate::format::LIMITS.max_name_bytes as usize;
+        let max_name = crate::bounds::LIMITS.max_name_bytes as usize;
         if o.name.len() > max_name {
             return Err(Error::Training(format!(
                 "the model name is {} bytes long, the file format allows at most {max_name}",

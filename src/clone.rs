@@ -15,7 +15,7 @@
 //!   `A = A0* + A* (Ra lambda)`.
 //! - `map-residual` (Eq. 4, Fig. 4 C), [`map_shape`] then [`add_residual`]:
 //!   `s = s0* + S* (R p) + sum_i delta_i p_i`. The residual is ADDED back (the paper's printed
-//!   `delta_t - delta_s` would remove it; see `NOTES.md`). Appearance residuals are not added.
+//!   `delta_t - delta_s` would remove it; see docs/cloning.md). Appearance residuals are not added.
 //!
 //! Before mapping, [`apply_gains`] scales the source parameters (global and per-mode gain);
 //! after mapping, [`constrain`] limits the target parameters to `+-k sigma*`.
@@ -238,14 +238,14 @@ pub fn constrain(params: &mut [f32], sigmas: &[f32], k: f32) {
 
 /// Substitute (Fig. 4 A, the baseline of section 4): `s = s0* + S p`, the target's base shape
 /// with the SOURCE's shape modes; in f64 into `acc` (`2n`). The appearance is
-/// `A = A0* + A lambda` ([`crate::synthesise`] with the target's base and the source's
+/// `A = A0* + A lambda` ([`crate::numerics::synthesise`] with the target's base and the source's
 /// modes).
 pub fn substitute_shape(target_base: &[f32], source_modes: &[f32], p: &[f32], acc: &mut [f64]) {
     linear_f64(target_base, source_modes, p, acc);
 }
 
 /// Eq. 3, shape: `s = s0* + S* p*` with `p* = R p` already mapped (and constrained), in f64
-/// into `acc` (`2n`). The appearance is `A = A0* + A* lambda*` ([`crate::synthesise`]).
+/// into `acc` (`2n`). The appearance is `A = A0* + A* lambda*` ([`crate::numerics::synthesise`]).
 pub fn map_shape(target_base: &[f32], target_modes: &[f32], mapped: &[f32], acc: &mut [f64]) {
     linear_f64(target_base, target_modes, mapped, acc);
 }
@@ -494,7 +494,7 @@ impl Step<'_> {
         match options.method {
             Method::Substitute => {
                 substitute_shape(&m.shape().base, &self.source.shape().modes, p, acc);
-                crate::synthesise(
+                crate::appearance::synthesise(
                     &m.appearance().base,
                     &self.source.appearance().modes,
                     lambda,
@@ -514,7 +514,7 @@ impl Step<'_> {
                 if options.method == Method::MapResidual {
                     add_residual(&pair.residual, p, acc);
                 }
-                crate::synthesise(
+                crate::appearance::synthesise(
                     &m.appearance().base,
                     &m.appearance().modes,
                     &out.params.appearance,

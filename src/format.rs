@@ -8,9 +8,11 @@
 //! reference frame from the stored mesh and checks that it yields the stored pixel count and
 //! fingerprint. Every failure is a [`FormatError`] variant naming the problem.
 
+pub use crate::bounds::{Limits, LIMITS};
+pub use crate::error::FormatError;
+
 use crate::appearance::AppearanceModel;
-use crate::frame::{ReferenceFrame, MAX_FRAME_SIDE};
-use crate::image::MAX_IMAGE_SIDE;
+use crate::frame::ReferenceFrame;
 use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::shape::ShapeModel;
 use crate::similarity::Similarity;
@@ -41,285 +43,10 @@ pub const REFERENCE_MEAN: u32 = 0;
 /// Reference tag: the bases show the named training image.
 pub const REFERENCE_TRAINING: u32 = 1;
 
-/// The explicit limits a model file must respect (see `docs/model-format.md`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Limits {
-    /// Landmarks `n`: `3..=max_landmarks`.
-    pub max_landmarks: u32,
-    /// Triangles `t`: `1..=max_triangles`.
-    pub max_triangles: u32,
-    /// Frame width and height: `1..=max_frame_side` (= [`MAX_FRAME_SIDE`]).
-    pub max_frame_side: u32,
-    /// Frame pixels inside the mesh `N`: `1..=max_pixels`.
-    pub max_pixels: u32,
-    /// Shape modes `m`: `0..=max_shape_modes` (and `m <= 2n`).
-    pub max_shape_modes: u32,
-    /// Appearance modes `l`: `0..=max_appearance_modes` (and `l <= 3N`).
-    pub max_appearance_modes: u32,
-    /// Model name: at most this many bytes of UTF-8.
-    pub max_name_bytes: u32,
-    /// Reference image name: at most this many bytes of UTF-8.
-    pub max_reference_name_bytes: u32,
-    /// Training image width and height: `1..=max_image_side` (= [`MAX_IMAGE_SIDE`]).
-    pub max_image_side: u32,
-    /// Frame grid area: `width * height <= area_per_pixel * N + area_slack`, so that a small
-    /// file cannot make the reader allocate a large grid.
-    pub area_per_pixel: u64,
-    /// See [`Limits::area_per_pixel`].
-    pub area_slack: u64,
-    /// Rasterisation work: the sum over triangles of their bounding boxes (in grid cells,
-    /// clipped to the grid) must be at most `coverage_per_cell * width * height +
-    /// coverage_per_triangle * t`.
-    pub coverage_per_cell: u64,
-    /// See [`Limits::coverage_per_cell`].
-    pub coverage_per_triangle: u64,
-    /// Tolerance of the mode checks: `|<s_i, s_j> - delta_ij| <= orthonormal_tolerance` for the
-    /// shape modes (every pair), `| |A_i|^2 - 1 | <=` it for the appearance modes (norms only).
-    pub orthonormal_tolerance: f32,
-}
-
-/// The limits of format version 1.
-pub const LIMITS: Limits = Limits {
-    max_landmarks: 1024,
-    max_triangles: 8192,
-    max_frame_side: MAX_FRAME_SIDE,
-    max_pixels: 4_194_304,
-    max_shape_modes: 256,
-    max_appearance_modes: 256,
-    max_name_bytes: 256,
-    max_reference_name_bytes: 256,
-    max_image_side: MAX_IMAGE_SIDE,
-    area_per_pixel: 4,
-    area_slack: 2048,
-    coverage_per_cell: 16,
-    coverage_per_triangle: 64,
-    orthonormal_tolerance: 1e-3,
-};
-
-/// Why a model file was rejected. Each variant names the problem precisely.
-#[derive(Debug, Clone, thiserror::Error, PartialEq)]
-pub enum FormatError {
-    /// The file does not start with [`MAGIC`].
-    #[error("not a facemimic model (bad magic bytes)")]
-    BadMagic,
-    /// The format version is not one this reader understands.
-    #[error("format version {found} is not supported (this reader supports versions 1 to {supported}); a newer facemimic may read it")]
-    UnsupportedVersion {
-        /// Version in the file.
-        found: u32,
-        /// Newest version this reader supports (it reads every version from 1 to this).
-        supported: u32,
-    },
-    /// The file ends before the header or the data the header describes.
-    #[error("truncated: {needed} bytes needed, {available} available")]
-    Truncated {
-        /// Bytes the header (or the fixed header size) requires.
-        needed: u64,
-        /// Bytes present.
-        available: u64,
-    },
-    /// Bytes follow the checksum.
-    #[error("{} trailing bytes after the model (expected {expected} bytes, found {found})", found.saturating_sub(*expected))]
-    TrailingBytes {
-        /// Length the header implies.
-        expected: u64,
-        /// Actual length.
-        found: u64,
-    },
-    /// The file length stored in the header disagrees with the length its dimensions imply.
-    #[error("header states a file length of {stated} bytes but its dimensions imply {implied}")]
-    LengthMismatch {
-        /// The header's `file_length` field.
-        stated: u64,
-        /// The length computed from the header's dimensions.
-        implied: u64,
-    },
-    /// The reserved flags field is not zero.
-    #[error("reserved flags are {value:#x}, expected 0")]
-    ReservedFlags {
-        /// The flags value.
-        value: u32,
-    },
-    /// The appearance storage tag (version 2) is not one of [`Storage`]'s.
-    #[error("unknown appearance storage tag {tag} (0 = f32, 1 = f16, 2 = i8)")]
-    BadStorageTag {
-        /// The tag.
-        tag: u32,
-    },
-    /// A quantisation scale (version 2, i8 storage) is not positive.
-    #[error("{array}[{index}] is {value}, a scale must be positive")]
-    InvalidScale {
-        /// Which array.
-        array: &'static str,
-        /// Index of the first bad value.
-        index: u32,
-        /// The value.
-        value: f32,
-    },
-    /// A header value exceeds its limit.
-    #[error("{what} is {value}, more than the limit {limit}")]
-    LimitExceeded {
-        /// Which quantity.
-        what: &'static str,
-        /// Its value.
-        value: u64,
-        /// The limit.
-        limit: u64,
-    },
-    /// A header value is below its minimum (e.g. zero landmarks).
-    #[error("{what} is {value}, less than the minimum {minimum}")]
-    BelowMinimum {
-        /// Which quantity.
-        what: &'static str,
-        /// Its value.
-        value: u64,
-        /// The minimum.
-        minimum: u64,
-    },
-    /// The channel count is not 3 (RGB).
-    #[error("{found} channels, only 3 (RGB) are supported")]
-    UnsupportedChannels {
-        /// Channels in the file.
-        found: u32,
-    },
-    /// Unknown landmark scheme tag.
-    #[error("unknown landmark scheme tag {tag}")]
-    BadSchemeTag {
-        /// The tag.
-        tag: u32,
-    },
-    /// Unknown reference tag.
-    #[error("unknown reference tag {tag}")]
-    BadReferenceTag {
-        /// The tag.
-        tag: u32,
-    },
-    /// Header values contradict each other.
-    #[error("inconsistent dimensions: {0}")]
-    InconsistentDimensions(String),
-    /// The CRC-32 of the file does not match the stored one (bit flips, bad transfer).
-    #[error("checksum mismatch: stored {stored:08x}, computed {computed:08x} (file corrupt)")]
-    ChecksumMismatch {
-        /// Checksum in the file.
-        stored: u32,
-        /// Checksum of the bytes read.
-        computed: u32,
-    },
-    /// A name is not valid UTF-8.
-    #[error("the {field} is not valid UTF-8")]
-    InvalidUtf8 {
-        /// Which name ("model name" or "reference name").
-        field: &'static str,
-    },
-    /// The alignment padding after the names is not zero.
-    #[error("padding after the names is not zero")]
-    NonZeroPadding,
-    /// An array holds NaN or an infinity.
-    #[error("{array}[{index}] is not finite")]
-    NonFinite {
-        /// Which array.
-        array: &'static str,
-        /// Index of the first bad value.
-        index: u64,
-    },
-    /// A value is finite but outside the range a real model can have (see
-    /// [`crate::bounds::check_model_values`]).
-    #[error("{array}[{index}] is {value}, outside the range {range} a real model can have")]
-    OutOfRange {
-        /// Which array or quantity.
-        array: &'static str,
-        /// Index of the first bad value.
-        index: u64,
-        /// The value.
-        value: f32,
-        /// The allowed range.
-        range: String,
-    },
-    /// A variance is negative.
-    #[error("{array}[{index}] is negative ({value})")]
-    NegativeVariance {
-        /// Which array.
-        array: &'static str,
-        /// Index of the mode.
-        index: u32,
-        /// The value.
-        value: f32,
-    },
-    /// Modes are not orthonormal: `<mode_i, mode_j>` is `dot` (should be 1 when `i == j`,
-    /// 0 otherwise).
-    #[error("{array} are not orthonormal: <mode {i}, mode {j}> = {dot}")]
-    NotOrthonormal {
-        /// Which modes ("shape modes" or "appearance modes").
-        array: &'static str,
-        /// First mode.
-        i: u32,
-        /// Second mode.
-        j: u32,
-        /// Their dot product.
-        dot: f32,
-    },
-    /// A triangle refers to a vertex that does not exist.
-    #[error("triangle {triangle} uses vertex {index}, but there are only {landmarks} landmarks")]
-    InvalidTriangleIndex {
-        /// Triangle number.
-        triangle: u32,
-        /// The bad vertex index.
-        index: u32,
-        /// Number of landmarks.
-        landmarks: u32,
-    },
-    /// The stored mesh and grid do not make a valid reference frame.
-    #[error("bad reference frame: {0}")]
-    BadFrame(String),
-    /// The frame rebuilt from the mesh has a different pixel count than the header states.
-    #[error("header states {header} frame pixels, the mesh yields {recomputed}")]
-    PixelCountMismatch {
-        /// The header's pixel count.
-        header: u32,
-        /// The count recomputed from the mesh.
-        recomputed: u64,
-    },
-    /// The frame rebuilt from the mesh has a different fingerprint than the stored one.
-    #[error("frame fingerprint mismatch: stored {stored:016x}, recomputed {recomputed:016x}")]
-    FingerprintMismatch {
-        /// Fingerprint in the file.
-        stored: u64,
-        /// Fingerprint of the rebuilt frame.
-        recomputed: u64,
-    },
-}
-
-// ---------------------------------------------------------------------------------------------
-// CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320, init and final xor 0xFFFFFFFF: the CRC
-// of zlib, PNG and gzip).
-
-const CRC_TABLE: [u32; 256] = {
-    let mut table = [0u32; 256];
-    let mut i = 0;
-    while i < 256 {
-        let mut c = i as u32;
-        let mut k = 0;
-        while k < 8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-            k += 1;
-        }
-        table[i] = c;
-        i += 1;
-    }
-    table
-};
-
-/// CRC-32 (IEEE, as zlib's `crc32`) of `bytes`. `crc32(b"123456789") == 0xCBF43926`.
+/// CRC-32 (IEEE 802.3, as zlib's, PNG's and gzip's `crc32`) of `bytes`, the file's checksum.
+/// `crc32(b"123456789") == 0xCBF43926`.
 pub fn crc32(bytes: &[u8]) -> u32 {
-    let mut c = 0xFFFF_FFFFu32;
-    for &b in bytes {
-        c = CRC_TABLE[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8);
-    }
-    c ^ 0xFFFF_FFFF
+    crc32fast::hash(bytes)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -537,7 +264,7 @@ impl<'a> Cursor<'a> {
         })?)?;
         let mut out = Vec::with_capacity(count);
         for (i, c) in bytes.chunks_exact(4).enumerate() {
-            let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            let v = f32::from_le_bytes(le_at(c, 0));
             if !v.is_finite() {
                 return Err(FormatError::NonFinite {
                     array,
@@ -550,17 +277,24 @@ impl<'a> Cursor<'a> {
     }
 }
 
+/// The `N` bytes at `off` (for `from_le_bytes`). Callers check `b.len() >= HEADER_LEN` (or
+/// `off + N`) first.
+fn le_at<const N: usize>(b: &[u8], off: usize) -> [u8; N] {
+    let mut a = [0; N];
+    a.copy_from_slice(&b[off..off + N]);
+    a
+}
+
 fn u32_at(b: &[u8], off: usize) -> u32 {
-    // Callers check `b.len() >= HEADER_LEN` (or `off + 4`) first.
-    u32::from_le_bytes([b[off], b[off + 1], b[off + 2], b[off + 3]])
+    u32::from_le_bytes(le_at(b, off))
 }
 
 fn f32_at(b: &[u8], off: usize) -> f32 {
-    f32::from_bits(u32_at(b, off))
+    f32::from_le_bytes(le_at(b, off))
 }
 
 fn u64_at(b: &[u8], off: usize) -> u64 {
-    u32_at(b, off) as u64 | (u32_at(b, off + 4) as u64) << 32
+    u64::from_le_bytes(le_at(b, off))
 }
 
 /// Fails unless `min <= value <= max`.
@@ -1213,7 +947,7 @@ fn read_appearance(
             let mut base = Vec::with_capacity(px3);
             let mut modes = Vec::with_capacity(px3 * l);
             for (i, h) in bytes.chunks_exact(2).enumerate() {
-                let v = f16_to_f32(u16::from_le_bytes([h[0], h[1]]));
+                let v = f16_to_f32(u16::from_le_bytes(le_at(h, 0)));
                 let (array, index, dst) = if i < px3 {
                     ("appearance base", i, &mut base)
                 } else {

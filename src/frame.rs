@@ -94,7 +94,7 @@ fn tri_area(v: &[f32], t: &[u32; 3]) -> f32 {
 
 impl ReferenceFrame {
     /// Builds the frame for a base shape: triangulates it and sizes the grid to its bounding
-    /// box plus [`FRAME_MARGIN`].
+    /// box plus a margin of `FRAME_MARGIN` (3) pixels.
     pub fn from_base(base: &[f32]) -> Result<ReferenceFrame> {
         let triangles = triangulate(base)?;
         let (mut minx, mut miny, mut maxx, mut maxy) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);

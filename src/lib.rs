@@ -9,12 +9,20 @@
 //! - [`Builder`] builds a person-specific [`Model`] from landmarked images: a Procrustes-aligned
 //!   PCA shape model (Eq. 1), a shape-normalised PCA appearance model (Eq. 2) and a triangulated
 //!   [`ReferenceFrame`].
-//! - [`format`] reads and writes the versioned binary model file (`.fmm`).
+//! - [`format`](mod@format) reads and writes the versioned binary model file (`.fmm`).
 //! - [`FaceDrawer`] draws a face (an instance warped onto any shape, optionally with its mesh)
 //!   into a tiny-skia pixmap with the chosen backend: [`Renderer`] (tiny-skia pattern fills, the
 //!   default) or [`Scanline`] ([`Rasterizer::Scanline`], an opt-in faster fixed-point warp);
 //!   [`fit_view`] lays a face out in a canvas.
+//! - [`fit`] tracks a face in video ([`fit::Tracker`]), [`clone`] maps one face's parameters
+//!   onto other models ([`clone::Cloner`]), [`find`] finds faces and their landmarks
+//!   ([`FaceFinder`]).
+//! - [`bounds`] holds the limits every input is checked against and the memory budget;
+//!   [`canonical`] the reference frame every model is built in by default; [`numerics`] the
+//!   numerical steps (PCA, Procrustes, sampling, synthesis) for tests and research use.
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
+#![warn(missing_debug_implementations)]
 // `!(x > y)` is used on purpose: it is true for NaN, which is how bad input is rejected.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 // Index loops over several parallel arrays read better than zipped iterators in the numerics.
@@ -23,7 +31,7 @@
 mod appearance;
 pub mod bounds;
 mod builder;
-mod canonical;
+pub mod canonical;
 pub mod clone;
 mod error;
 mod filter;
@@ -35,7 +43,9 @@ mod image;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod io;
 pub mod landmarks;
+mod limits;
 mod model;
+pub mod numerics;
 mod pca;
 mod refine;
 mod render;
@@ -46,27 +56,22 @@ mod warp;
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;
 
-pub use appearance::{synthesise, AppearanceModel};
+pub use appearance::AppearanceModel;
 pub use builder::{
     BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
 };
-pub use canonical::{
-    canonical_frame, parse_frame, write_frame, CANONICAL_FINGERPRINT, CANONICAL_FRAME_TEXT,
-    CANONICAL_LANDMARKS,
-};
-pub use error::{Error, Result};
+pub use canonical::{canonical_frame, CANONICAL_FINGERPRINT};
+pub use error::{Error, FormatError, Result};
 pub use find::{BBox, Face, FaceFinder, FindOptions};
-pub use frame::{triangulate, FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
+pub use frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
-pub use pca::{pca, Pca};
 pub use refine::refine_landmarks;
 pub use render::{
-    base_box, canvas_view, demultiply, demultiply_into, fit_view, mesh_edges, triangle_affine,
-    DrawOptions, FaceDrawer, MeshOverlay, Rasterizer, Renderer, Scanline, FACE_FILL,
+    base_box, canvas_view, demultiply, demultiply_into, fit_view, DrawOptions, FaceDrawer,
+    Rasterizer, Renderer, Scanline,
 };
 pub use select::{coverage, select_varied};
-pub use shape::{generalised_procrustes, ShapeModel};
+pub use shape::ShapeModel;
 pub use similarity::{PoseJson, Similarity};
 pub use tiny_skia;
-pub use warp::sample_rgb;

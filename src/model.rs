@@ -6,6 +6,7 @@ use crate::appearance::AppearanceModel;
 use crate::error::{check_len, Error, Result};
 use crate::frame::ReferenceFrame;
 use crate::image::ImageRef;
+use crate::limits::{check_output, check_param_values, check_pose_range};
 use crate::shape::ShapeModel;
 use crate::similarity::Similarity;
 
@@ -214,7 +215,15 @@ impl Model {
     /// Checks that `params` fits this model: lengths, finite values within
     /// [`crate::bounds::MAX_PARAM`], a pose within the pose bounds (see [`crate::bounds`]).
     pub fn check_params(&self, params: &Params) -> Result<()> {
-        crate::bounds::check_params(self, params)
+        check_len("shape parameters", &params.shape, self.shape.n_modes())?;
+        check_len(
+            "appearance parameters",
+            &params.appearance,
+            self.appearance.n_modes(),
+        )?;
+        check_param_values("shape parameters", &params.shape)?;
+        check_param_values("appearance parameters", &params.appearance)?;
+        check_pose_range("pose", &params.pose)
     }
 
     /// The instance's landmarks in image coordinates: `pose(s0 + S p)` into `out` (`2n`).
@@ -223,7 +232,7 @@ impl Model {
         check_len("shape buffer", out, self.shape.base.len())?;
         self.shape.instance_unchecked(&params.shape, out);
         params.pose.apply_in_place(out);
-        crate::bounds::check_output("instance landmarks", out)
+        check_output("instance landmarks", out)
     }
 
     /// Projects a face: its landmarks (image coordinates) give the pose and `p`; the image
@@ -243,8 +252,8 @@ impl Model {
         crate::warp::sample_rgb(&self.frame, image, landmarks, &mut g)?;
         let mut appearance = vec![0.0; self.appearance.n_modes()];
         self.appearance.project(&g, &mut appearance);
-        crate::bounds::check_output("appearance parameters", &appearance)?;
-        crate::bounds::check_output("shape parameters", &shape)?;
+        check_output("appearance parameters", &appearance)?;
+        check_output("shape parameters", &shape)?;
         Ok(Params {
             pose,
             shape,

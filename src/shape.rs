@@ -56,9 +56,9 @@ impl ShapeModel {
     pub fn instance(&self, p: &[f32], out: &mut [f32]) -> Result<()> {
         check_len("shape parameters", p, self.n_modes())?;
         check_len("shape buffer", out, self.base.len())?;
-        crate::bounds::check_param_values("shape parameters", p)?;
+        crate::limits::check_param_values("shape parameters", p)?;
         self.instance_unchecked(p, out);
-        crate::bounds::check_output("shape instance", out)
+        crate::limits::check_output("shape instance", out)
     }
 
     /// [`ShapeModel::instance`] without the checks, for hot paths that already validated `p`
@@ -93,7 +93,7 @@ impl ShapeModel {
     /// Returns the pose and writes `p` into `out`.
     pub fn project_image_shape(&self, image_shape: &[f32], out: &mut [f32]) -> Result<Similarity> {
         check_len("landmarks", image_shape, self.base.len())?;
-        crate::bounds::check_landmarks(image_shape)?;
+        crate::limits::check_landmarks(image_shape)?;
         // Pose and parameters jointly by alternating least squares: the pose that places the
         // current instance `s0 + S p` best onto the landmarks, then `p` from the landmarks
         // mapped back through it, until the pose settles. (A pose fitted to `s0` alone is off

@@ -472,9 +472,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
 fn bad_input_throws_and_the_module_keeps_working() {
     // A corrupt model file is a JS Error naming the problem, not a panic.
     for bytes in [&b""[..], &b"not a model at all"[..], &[0u8; 64][..]] {
-        let e = JsModel::from_bytes(bytes)
-            .err()
-            .expect("a corrupt file must fail");
+        let e = JsModel::from_bytes(bytes).expect_err("a corrupt file must fail");
         let m = message(e);
         assert!(m.starts_with("model file:"), "unexpected message {m:?}");
     }

@@ -39,7 +39,7 @@ fn seeds() -> &'static engine::Seeds {
 
 fn load_err(m: &Model) -> String {
     let bytes = facemimic::format::write_model_as(m, facemimic::format::Storage::F32);
-    message(JsModel::from_bytes(&bytes).err().expect("refused"))
+    message(JsModel::from_bytes(&bytes).expect_err("refused"))
 }
 
 #[wasm_bindgen_test]
@@ -117,7 +117,7 @@ fn tracker_over_budget_is_a_js_error_not_an_out_of_memory_trap() {
     parts.shape.variances = vec![1.0; 256];
     let m = Model::new(parts).unwrap();
     let bytes = write_model(&m);
-    let e = message(WasmTracker::new(&bytes).err().expect("refused"));
+    let e = message(WasmTracker::new(&bytes).expect_err("refused"));
     assert!(e.contains("memory budget:"), "{e}");
     let js = JsModel::from_bytes(&bytes).unwrap();
     assert!(WasmTracker::from_model(&js).is_err());

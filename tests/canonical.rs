@@ -6,10 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use facemimic::canonical::{parse_frame, write_frame, CANONICAL_FRAME_TEXT, CANONICAL_LANDMARKS};
 use facemimic::clone::{CloneOptions, Cloner};
 use facemimic::{
-    canonical_frame, io, parse_frame, write_frame, BuildOptions, Builder, Error, FrameChoice,
-    Model, CANONICAL_FINGERPRINT, CANONICAL_FRAME_TEXT, CANONICAL_LANDMARKS,
+    canonical_frame, io, BuildOptions, Builder, Error, FrameChoice, Model, CANONICAL_FINGERPRINT,
 };
 
 fn root() -> &'static Path {

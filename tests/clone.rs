@@ -1,4 +1,4 @@
-//! Expression cloning (issue 3): the eight tests of the issue plus gain, pose, validation and
+//! Expression cloning: the eight tests of the issue plus gain, pose, validation and
 //! reference-expression tests. Every numeric test runs natively (`cargo test`) and under Node
 //! (`cargo test --target wasm32-unknown-unknown`) on small synthetic models built in memory;
 //! the real-data test (GRID) is native only.
@@ -7,10 +7,10 @@ use facemimic::clone::{
     add_residual, apply_gains, constrain, inner_products, map_params, map_shape,
     residual_directions, CloneOptions, Cloner, Method, Pair,
 };
+use facemimic::numerics::synthesise;
 use facemimic::{
-    synthesise, AppearanceModel, BuildOptions, Builder, Error, Image, LandmarkScheme, Model,
-    ModelParts, Params, Reference, ReferenceChoice, ReferenceFrame, ShapeModel, Similarity,
-    TrainingImage,
+    AppearanceModel, BuildOptions, Builder, Error, Image, LandmarkScheme, Model, ModelParts,
+    Params, Reference, ReferenceChoice, ReferenceFrame, ShapeModel, Similarity, TrainingImage,
 };
 use wasm_bindgen_test::wasm_bindgen_test;
 

@@ -7,9 +7,10 @@
 //! test (a deterministic RNG, a 68-point template compiled in with `include_str!`), no files
 //! are read at run time.
 
+use facemimic::numerics::pca;
 use facemimic::tiny_skia::Pixmap;
 use facemimic::{
-    pca, BuildOptions, Builder, Image, Model, ReferenceFrame, Renderer, Similarity, TrainingImage,
+    BuildOptions, Builder, Image, Model, ReferenceFrame, Renderer, Similarity, TrainingImage,
 };
 use wasm_bindgen_test::wasm_bindgen_test;
 
@@ -355,7 +356,8 @@ fn projection_reconstructs_training_faces() {
         );
 
         let mut g = vec![0f32; full.appearance().len()];
-        facemimic::sample_rgb(full.frame(), &image.view().unwrap(), &t.landmarks, &mut g).unwrap();
+        facemimic::numerics::sample_rgb(full.frame(), &image.view().unwrap(), &t.landmarks, &mut g)
+            .unwrap();
         let mut rec = vec![0f32; g.len()];
         full.appearance()
             .instance(&params.appearance, &mut rec)
@@ -390,7 +392,13 @@ fn projection_reconstructs_training_faces() {
                 .zip(&m.shape().base)
                 .map(|(a, b)| ((a - b) as f64).powi(2))
                 .sum::<f64>();
-            facemimic::sample_rgb(m.frame(), &image.view().unwrap(), &t.landmarks, &mut g).unwrap();
+            facemimic::numerics::sample_rgb(
+                m.frame(),
+                &image.view().unwrap(),
+                &t.landmarks,
+                &mut g,
+            )
+            .unwrap();
             app_total += g
                 .iter()
                 .zip(&m.appearance().base)
@@ -599,7 +607,7 @@ fn sample_then_render_round_trip() {
         let mut shape = base.clone();
         Similarity::from_parts(k, rot, 119.6, 131.2).apply_in_place(&mut shape);
         let mut g = vec![0f32; frame.n_pixels() * 3];
-        facemimic::sample_rgb(&frame, &view, &shape, &mut g).unwrap();
+        facemimic::numerics::sample_rgb(&frame, &view, &shape, &mut g).unwrap();
         let (mean, max, count) = render_error(&frame, &g, &shape, &Similarity::IDENTITY, &image);
         println!("synthetic round trip (scale {k}, rotation {rot}): mean abs error {mean:.3}, max {max}, {count} pixels");
         assert!(count > 15_000, "face region has only {count} pixels");

@@ -1,5 +1,5 @@
 #![cfg(not(target_arch = "wasm32"))]
-//! Accuracy tests of the AAM fitter and tracker (issue 5).
+//! Accuracy tests of the AAM fitter and tracker.
 //!
 //! Error measure: mean point-to-point distance between fitted and annotated landmarks divided
 //! by the distance between landmarks 36 and 45 (outer eye corners) of the annotation.

@@ -239,11 +239,11 @@ fn public_helpers_do_not_panic() {
     assert!(m.shape().mode(0).is_some());
     // PCA with ragged samples or non-finite values.
     let samples = vec![vec![1.0, 2.0, 3.0], vec![1.0, 2.0]];
-    assert!(facemimic::pca(&samples, &[0.0, 0.0, 0.0], 0.9, 10).is_err());
+    assert!(facemimic::numerics::pca(&samples, &[0.0, 0.0, 0.0], 0.9, 10).is_err());
     let samples = vec![vec![1.0, f64::NAN], vec![1.0, 2.0]];
-    assert!(facemimic::pca(&samples, &[0.0, 0.0], 0.9, 10).is_err());
+    assert!(facemimic::numerics::pca(&samples, &[0.0, 0.0], 0.9, 10).is_err());
     // Procrustes of nothing.
-    let (a, _) = facemimic::generalised_procrustes(&[], None);
+    let (a, _) = facemimic::numerics::generalised_procrustes(&[], None);
     assert!(a.is_empty());
 }
 
@@ -303,9 +303,7 @@ fn tracker_refuses_a_model_over_its_memory_budget_before_allocating() {
         need > facemimic::bounds::model_budget(bytes),
         "{need} vs {bytes}"
     );
-    let e = Tracker::new(&m, FitOptions::default())
-        .err()
-        .expect("refused");
+    let e = Tracker::new(&m, FitOptions::default()).expect_err("refused");
     assert!(matches!(e, Error::Budget(_)), "{e}");
     // The small seed models track.
     assert!(Tracker::new(&seeds().models[0], FitOptions::default()).is_ok());

@@ -244,7 +244,7 @@ fn spk07_reconstructs_unseen_frames() {
         assert_eq!(n, n2, "same shape and pose, same region");
         // The warp-only floor: the frame's own pixels sampled at its landmarks and rendered
         // back at them (no model in between).
-        facemimic::sample_rgb(
+        facemimic::numerics::sample_rgb(
             model.frame(),
             &t.image.view().unwrap(),
             &t.landmarks,

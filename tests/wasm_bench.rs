@@ -174,7 +174,7 @@ fn core_timings() {
     });
     let mut g = vec![0f32; model.appearance().len()];
     let sample = time(2000.0, || {
-        facemimic::sample_rgb(model.frame(), &view, &probe, &mut g).unwrap()
+        facemimic::numerics::sample_rgb(model.frame(), &view, &probe, &mut g).unwrap()
     });
     let project = time(2000.0, || {
         std::hint::black_box(model.project(&view, &probe).unwrap());

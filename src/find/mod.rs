@@ -1,7 +1,7 @@
 //! Face finding: every face in an image, with a box, a confidence and the 68 iBUG landmarks.
 //!
 //! Two small pretrained nets from face-api.js (MIT; see `data/weights/LICENSE`), run by a
-//! focused implementation of exactly their layers ([`nn`]): the tiny face detector proposes
+//! focused implementation of exactly their layers (`nn.rs`): the tiny face detector proposes
 //! boxes, the 68-point landmark net places the points in each box, and a second landmark pass
 //! on a box made from the first pass's points settles them. See `docs/finding.md` for the
 //! measured rates and why the pipeline is what it is.
@@ -441,3 +441,11 @@ fn nms(boxes: &mut Vec<(BBox, f32)>, iou: f32) {
 
 #[cfg(all(test, not(target_arch = "wasm32")))]
 mod reference;
+
+impl std::fmt::Debug for FaceFinder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FaceFinder")
+            .field("options", &self.options)
+            .finish_non_exhaustive()
+    }
+}

@@ -376,3 +376,13 @@ fn shape_width(shape: &[f32]) -> f32 {
         .fold((f32::MAX, f32::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
     (hi - lo).max(0.0)
 }
+
+impl std::fmt::Debug for Fitter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Fitter")
+            .field("options", &self.options)
+            .field("landmarks", &self.landmarks())
+            .field("params", &self.n_params())
+            .finish_non_exhaustive()
+    }
+}

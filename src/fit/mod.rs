@@ -1,4 +1,4 @@
-//! AAM fitting and tracking (issue 5): inverse compositional fitting of a [`Model`] with the
+//! AAM fitting and tracking: inverse compositional fitting of a [`crate::Model`] with the
 //! global similarity composed with the shape (Matthews & Baker, "Active Appearance Models
 //! Revisited", IJCV 2004), and a [`Tracker`] that follows a face through video.
 //!

@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
-/// Options of the [`Fitter`] and [`Tracker`]. `Default` is tuned for real-time tracking.
+/// Options of the [`super::Fitter`] and [`super::Tracker`]. `Default` is tuned for real-time tracking.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitOptions {
     /// Most project-out iterations per level.
@@ -37,7 +37,7 @@ pub struct FitOptions {
     /// Tracker: a fit whose scale changes by more than this fraction from the previous frame
     /// (or whose rotation by more than 0.5 rad) is a lost face.
     pub max_scale_jump: f32,
-    /// Starts of the coarsest level in a cold fit ([`Fitter::fit`], [`Fitter::fit_params`],
+    /// Starts of the coarsest level in a cold fit ([`super::Fitter::fit`], [`super::Fitter::fit_params`],
     /// the tracker's first frame and re-initialisations), 1 to 7: the given start, then the
     /// start moved by `+-start_offset` of the face width along x, along y, then rotated by
     /// `+-start_offset` radians. The coarse result with the lowest cost (projected-out

@@ -421,3 +421,11 @@ impl Tracker {
         self.frames
     }
 }
+
+impl std::fmt::Debug for Tracker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Tracker")
+            .field("fitter", &self.fitter)
+            .finish_non_exhaustive()
+    }
+}

@@ -21,10 +21,10 @@ mod scanline;
 mod skia;
 mod view;
 
-pub use overlay::{mesh_edges, MeshOverlay};
+pub use overlay::MeshOverlay;
 pub use scanline::Scanline;
 pub use skia::Renderer;
-pub use view::{base_box, canvas_view, fit_view, FACE_FILL};
+pub use view::{base_box, canvas_view, fit_view};
 
 /// Which rasteriser warps the triangles of a piecewise-affine warp into a tiny-skia pixmap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

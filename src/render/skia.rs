@@ -16,7 +16,7 @@ use crate::similarity::Similarity;
 /// buffers and a recycled path. Create once per model (or per frame shape) and reuse: after
 /// the first call, rendering allocates nothing of its own per frame.
 ///
-/// Contract: [`Renderer::draw`] paints exactly the pixels whose centres fall inside the warped
+/// Contract: [`Renderer::warp`] paints exactly the pixels whose centres fall inside the warped
 /// mesh (non-anti-aliased fills share edges exactly, so there are no cracks and no double-painted
 /// seams); pixels outside are left untouched.
 pub struct Renderer {

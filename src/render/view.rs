@@ -22,7 +22,7 @@ pub fn base_box(model: &Model) -> [f32; 4] {
 }
 
 /// The view (image coordinates -> canvas pixels) that centres the box in a `w x h` canvas with
-/// its larger side at [`FACE_FILL`] of the smaller canvas side. Stable for a box and size.
+/// its larger side at `FACE_FILL` (85%) of the smaller canvas side. Stable for a box and size.
 pub fn fit_view(bbox: [f32; 4], w: u32, h: u32) -> Similarity {
     let bw = (bbox[2] - bbox[0]).max(1e-3);
     let bh = (bbox[3] - bbox[1]).max(1e-3);
@@ -40,7 +40,7 @@ pub fn fit_view(bbox: [f32; 4], w: u32, h: u32) -> Similarity {
 }
 
 /// The view with which `model` is drawn into a `width x height` canvas: its base shape at its
-/// mean pose, bounding box centred, the box's larger side at [`FACE_FILL`] of the smaller
+/// mean pose, bounding box centred, the box's larger side at `FACE_FILL` (85%) of the smaller
 /// canvas side. Stable for a model and a canvas size.
 pub fn canvas_view(model: &Model, width: u32, height: u32) -> Similarity {
     fit_view(base_box(model), width, height)

@@ -135,7 +135,7 @@ impl JsCloner {
             .image_shape(&self.source_params, &mut self.shape)
             .map_err(js_err)?;
         // Eq. 2 for the source, cache-blocked (bit-identical to `instance_unchecked`).
-        crate::synthesise(
+        crate::appearance::synthesise(
             &model.appearance().base,
             &model.appearance().modes,
             &self.source_params.appearance,
@@ -579,5 +579,14 @@ impl JsCloner {
                 .map_err(|_| JsError::new("timings: cannot build the result"))?;
         }
         Ok(o.into())
+    }
+}
+
+impl std::fmt::Debug for JsCloner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JsCloner")
+            .field("source", &self.cloner.source().name())
+            .field("targets", &self.cloner.n_targets())
+            .finish_non_exhaustive()
     }
 }

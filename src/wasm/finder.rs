@@ -67,3 +67,11 @@ impl JsFaceFinder {
         Ok(out)
     }
 }
+
+impl std::fmt::Debug for JsFaceFinder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JsFaceFinder")
+            .field("inner", &self.inner)
+            .finish()
+    }
+}

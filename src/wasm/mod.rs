@@ -59,23 +59,11 @@ pub fn version() -> String {
     env!("CARGO_PKG_VERSION").to_string()
 }
 
-#[wasm_bindgen]
-extern "C" {
-    #[wasm_bindgen(js_namespace = console, js_name = error)]
-    fn console_error(message: &str);
-}
-
-/// Installs (once) a panic hook that reports any panic (a bug: the API validates its input)
-/// on the console before the module traps. Called by the constructors.
+/// Installs (once) `console_error_panic_hook`, which reports any panic (a bug: the API
+/// validates its input) with its message and stack on the console before the module traps.
+/// Called by the constructors.
 pub(crate) fn install_panic_hook() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        std::panic::set_hook(Box::new(|info| {
-            console_error(&format!(
-                "facemimic: internal error (please report): {info}"
-            ));
-        }));
-    });
+    console_error_panic_hook::set_once();
 }
 
 #[wasm_bindgen]

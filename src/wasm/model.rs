@@ -299,3 +299,11 @@ pub fn render_mode(
         s.render(model, &ctx, &options)
     })
 }
+
+impl std::fmt::Debug for JsModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JsModel")
+            .field("name", &self.model.name())
+            .finish_non_exhaustive()
+    }
+}

@@ -373,7 +373,7 @@ where
         let bytes: &[u8] = if background.is_opaque() {
             surface.pixmap.data()
         } else {
-            crate::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
+            crate::render::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
             &surface.straight
         };
         match sink {

@@ -147,3 +147,11 @@ impl WasmTracker {
         self.inner.frames()
     }
 }
+
+impl std::fmt::Debug for WasmTracker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WasmTracker")
+            .field("inner", &self.inner)
+            .finish()
+    }
+}
