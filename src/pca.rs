@@ -83,26 +83,28 @@ pub fn pca(
         (vals, dirs)
     };
     let total: f64 = eigvals.iter().sum();
-    let mut modes: Vec<Vec<f64>> = Vec::new();
+    // The leading directions until the kept variance reaches the fraction.
     let mut variances = Vec::new();
     let mut acc = 0.0;
-    for (lam, mut d) in eigvals.into_iter().zip(dirs) {
-        if modes.len() >= max_modes || total <= 0.0 || lam <= total * 1e-9 {
+    for &lam in &eigvals {
+        if variances.len() >= max_modes || total <= 0.0 || lam <= total * 1e-9 {
             break;
         }
-        if acc >= fraction * total && !modes.is_empty() {
+        if acc >= fraction * total && !variances.is_empty() {
             break;
         }
-        // Gram-Schmidt against the kept modes, then normalise.
-        for m in &modes {
-            let dot: f64 = d.iter().zip(m).map(|(a, b)| a * b).sum();
-            d.iter_mut().zip(m).for_each(|(a, b)| *a -= dot * b);
-        }
-        let norm = d.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(norm > 1e-12) {
-            break;
-        }
-        d.iter_mut().for_each(|v| *v /= norm);
+        acc += lam;
+        variances.push(lam as f32);
+    }
+    // Orthonormalised in f64 (the snapshot directions are not normalised); a direction
+    // that vanishes ends the list.
+    let mut modes: Vec<Vec<f64>> = dirs.into_iter().take(variances.len()).collect();
+    let mut none = vec![Vec::new(); modes.len()];
+    let kept = gram_schmidt(&mut modes, &mut none, 1e-12);
+    let prefix = kept.iter().enumerate().take_while(|(i, &k)| *i == k).count();
+    modes.truncate(prefix);
+    variances.truncate(prefix);
+    for d in &mut modes {
         let big = d
             .iter()
             .copied()
@@ -110,9 +112,6 @@ pub fn pca(
         if big < 0.0 {
             d.iter_mut().for_each(|v| *v = -*v);
         }
-        acc += lam;
-        modes.push(d);
-        variances.push(lam as f32);
     }
     Ok(Pca {
         modes: modes
@@ -149,4 +148,49 @@ pub fn variance_shares(variances: &[f32]) -> Vec<f32> {
             }
         })
         .collect()
+}
+
+/// The crate's one Gram-Schmidt: modified Gram-Schmidt (two passes) over `vectors`, keeping those whose residual norm is at
+/// least `rel_tol` of their original norm. Every operation applied to a vector is applied to
+/// its `companions` too (so linear functionals of the vectors, like their gradients, follow).
+/// Returns the indices (into the input) of the kept vectors; kept vectors are orthonormal.
+pub(crate) fn gram_schmidt(
+    vectors: &mut Vec<Vec<f64>>,
+    companions: &mut Vec<Vec<Vec<f64>>>,
+    rel_tol: f64,
+) -> Vec<usize> {
+    let mut kept: Vec<usize> = Vec::new();
+    let mut out_v: Vec<Vec<f64>> = Vec::new();
+    let mut out_c: Vec<Vec<Vec<f64>>> = Vec::new();
+    let vs = std::mem::take(vectors);
+    let cs = std::mem::take(companions);
+    for (idx, (mut v, mut c)) in vs.into_iter().zip(cs).enumerate() {
+        let norm0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !(norm0 > 0.0) || !norm0.is_finite() {
+            continue;
+        }
+        for _pass in 0..2 {
+            for (u, uc) in out_v.iter().zip(&out_c) {
+                let d: f64 = v.iter().zip(u).map(|(a, b)| a * b).sum();
+                v.iter_mut().zip(u).for_each(|(a, b)| *a -= d * b);
+                for (cv, ucv) in c.iter_mut().zip(uc) {
+                    cv.iter_mut().zip(ucv).for_each(|(a, b)| *a -= d * b);
+                }
+            }
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm < rel_tol * norm0 {
+            continue;
+        }
+        v.iter_mut().for_each(|x| *x /= norm);
+        for cv in c.iter_mut() {
+            cv.iter_mut().for_each(|x| *x /= norm);
+        }
+        kept.push(idx);
+        out_v.push(v);
+        out_c.push(c);
+    }
+    *vectors = out_v;
+    *companions = out_c;
+    kept
 }

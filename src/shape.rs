@@ -1,7 +1,7 @@
 //! The shape model (Eq. 1) and generalised Procrustes alignment.
 
 use crate::error::{check_len, Result};
-use crate::similarity::Similarity;
+use crate::similarity::{CentredFit, Similarity};
 
 /// A linear shape model `s = s0 + S p` (the paper's Eq. 1) in model coordinates.
 ///
@@ -147,27 +147,12 @@ fn normalise(shape: &mut [f64]) {
 
 /// Least-squares similarity alignment of `src` onto `dst` in f64 (in place on `src`).
 fn align_to(src: &mut [f64], dst: &[f64]) {
-    let n = (src.len() / 2) as f64;
-    let (mut sx, mut sy, mut dx, mut dy) = (0.0, 0.0, 0.0, 0.0);
-    for (s, d) in src.chunks_exact(2).zip(dst.chunks_exact(2)) {
-        sx += s[0];
-        sy += s[1];
-        dx += d[0];
-        dy += d[1];
-    }
-    let (sx, sy, dx, dy) = (sx / n, sy / n, dx / n, dy / n);
-    let (mut na, mut nb, mut den) = (0.0, 0.0, 0.0);
-    for (s, d) in src.chunks_exact(2).zip(dst.chunks_exact(2)) {
-        let (x, y, u, v) = (s[0] - sx, s[1] - sy, d[0] - dx, d[1] - dy);
-        na += x * u + y * v;
-        nb += x * v - y * u;
-        den += x * x + y * y;
-    }
-    let (a, b) = if den > 0.0 {
-        (na / den, nb / den)
-    } else {
-        (1.0, 0.0)
-    };
+    let CentredFit {
+        a,
+        b,
+        src_mean: [sx, sy],
+        dst_mean: [dx, dy],
+    } = CentredFit::new(src, dst);
     for p in src.chunks_exact_mut(2) {
         let (x, y) = (p[0] - sx, p[1] - sy);
         p[0] = a * x - b * y + dx;

@@ -117,40 +117,63 @@ impl Similarity {
     }
 
     /// The least-squares similarity that maps `src` onto `dst` (both interleaved, same length):
-    /// minimises `sum |T(src_i) - dst_i|^2`. Closed form (Umeyama without reflection).
+    /// minimises `sum |T(src_i) - dst_i|^2`. Closed form (Umeyama without reflection), see
+    /// [`CentredFit`].
     pub fn align(src: &[f32], dst: &[f32]) -> Similarity {
+        let f = CentredFit::new(src, dst);
+        let ([sx, sy], [dx, dy]) = (f.src_mean, f.dst_mean);
+        Similarity {
+            a: f.a as f32,
+            b: f.b as f32,
+            tx: (dx - (f.a * sx - f.b * sy)) as f32,
+            ty: (dy - (f.b * sx + f.a * sy)) as f32,
+        }
+    }
+}
+
+/// The crate's one least-squares similarity fit (Umeyama without reflection), in f64: the
+/// similarity mapping `src` onto `dst` (interleaved points, the shorter length counts) is
+/// `x -> [[a, -b], [b, a]] (x - src_mean) + dst_mean`, with `a = sum <x_c, u_c> / sum |x_c|^2`
+/// and `b = sum (x_c × u_c) / sum |x_c|^2` over the centred points `x_c`, `u_c`. When the
+/// source points coincide, `a = 1, b = 0` (a translation). Kept in this centred form so the
+/// Procrustes alignment can apply it about the centroids.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CentredFit {
+    pub a: f64,
+    pub b: f64,
+    pub src_mean: [f64; 2],
+    pub dst_mean: [f64; 2],
+}
+
+impl CentredFit {
+    pub fn new<T: Copy + Into<f64>>(src: &[T], dst: &[T]) -> CentredFit {
         let n = (src.len().min(dst.len()) / 2).max(1) as f64;
         let (mut sx, mut sy, mut dx, mut dy) = (0f64, 0f64, 0f64, 0f64);
         for (s, d) in src.chunks_exact(2).zip(dst.chunks_exact(2)) {
-            sx += s[0] as f64;
-            sy += s[1] as f64;
-            dx += d[0] as f64;
-            dy += d[1] as f64;
+            sx += s[0].into();
+            sy += s[1].into();
+            dx += d[0].into();
+            dy += d[1].into();
         }
         let (sx, sy, dx, dy) = (sx / n, sy / n, dx / n, dy / n);
         let (mut num_a, mut num_b, mut den) = (0f64, 0f64, 0f64);
         for (s, d) in src.chunks_exact(2).zip(dst.chunks_exact(2)) {
-            let (x, y) = (s[0] as f64 - sx, s[1] as f64 - sy);
-            let (u, v) = (d[0] as f64 - dx, d[1] as f64 - dy);
+            let (x, y) = (s[0].into() - sx, s[1].into() - sy);
+            let (u, v) = (d[0].into() - dx, d[1].into() - dy);
             num_a += x * u + y * v;
             num_b += x * v - y * u;
             den += x * x + y * y;
         }
-        if den <= 0.0 {
-            return Similarity {
-                a: 1.0,
-                b: 0.0,
-                tx: (dx - sx) as f32,
-                ty: (dy - sy) as f32,
-            };
-        }
-        let a = num_a / den;
-        let b = num_b / den;
-        Similarity {
-            a: a as f32,
-            b: b as f32,
-            tx: (dx - (a * sx - b * sy)) as f32,
-            ty: (dy - (b * sx + a * sy)) as f32,
+        let (a, b) = if den > 0.0 {
+            (num_a / den, num_b / den)
+        } else {
+            (1.0, 0.0)
+        };
+        CentredFit {
+            a,
+            b,
+            src_mean: [sx, sy],
+            dst_mean: [dx, dy],
         }
     }
 }

@@ -72,51 +72,6 @@ pub(crate) fn cholesky_solve(l: &[f64], k: usize, b: &mut [f64]) {
     }
 }
 
-/// Modified Gram-Schmidt (two passes) over `vectors`, keeping those whose residual norm is at
-/// least `rel_tol` of their original norm. Every operation applied to a vector is applied to
-/// its `companions` too (so linear functionals of the vectors, like their gradients, follow).
-/// Returns the indices (into the input) of the kept vectors; kept vectors are orthonormal.
-pub(crate) fn gram_schmidt(
-    vectors: &mut Vec<Vec<f64>>,
-    companions: &mut Vec<Vec<Vec<f64>>>,
-    rel_tol: f64,
-) -> Vec<usize> {
-    let mut kept: Vec<usize> = Vec::new();
-    let mut out_v: Vec<Vec<f64>> = Vec::new();
-    let mut out_c: Vec<Vec<Vec<f64>>> = Vec::new();
-    let vs = std::mem::take(vectors);
-    let cs = std::mem::take(companions);
-    for (idx, (mut v, mut c)) in vs.into_iter().zip(cs).enumerate() {
-        let norm0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if !(norm0 > 0.0) || !norm0.is_finite() {
-            continue;
-        }
-        for _pass in 0..2 {
-            for (u, uc) in out_v.iter().zip(&out_c) {
-                let d: f64 = v.iter().zip(u).map(|(a, b)| a * b).sum();
-                v.iter_mut().zip(u).for_each(|(a, b)| *a -= d * b);
-                for (cv, ucv) in c.iter_mut().zip(uc) {
-                    cv.iter_mut().zip(ucv).for_each(|(a, b)| *a -= d * b);
-                }
-            }
-        }
-        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if norm < rel_tol * norm0 {
-            continue;
-        }
-        v.iter_mut().for_each(|x| *x /= norm);
-        for cv in c.iter_mut() {
-            cv.iter_mut().for_each(|x| *x /= norm);
-        }
-        kept.push(idx);
-        out_v.push(v);
-        out_c.push(c);
-    }
-    *vectors = out_v;
-    *companions = out_c;
-    kept
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,7 +5,8 @@
 use crate::error::{Error, Result};
 use crate::model::Model;
 
-use super::linalg::{cholesky, gram_schmidt};
+use super::linalg::cholesky;
+use crate::pca::gram_schmidt;
 
 /// Luminance weights (Rec. 601) used to turn the RGB appearance into grey levels.
 pub(crate) const LUMA: [f32; 3] = [0.299, 0.587, 0.114];
