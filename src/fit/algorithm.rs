@@ -259,7 +259,7 @@ pub(super) fn update(geom: &Geometry, basis: &ShapeBasis, w: &mut Work) -> Step 
     for (j, &c) in w.dc.iter().enumerate() {
         axpy(c as f32, &basis.vectors[j * d..(j + 1) * d], &mut w.delta);
     }
-    geom.compose_inverse(&w.cur, &w.delta, &mut w.scratch);
+    geom.compose_inverse(&w.cur, &w.delta, &w.pose, &mut w.scratch);
     // Project onto the model (`delta` is free again and serves as scratch).
     let Some(pose) = geom.project(&w.scratch, &mut w.p, &mut w.delta, &mut w.next) else {
         return Step::Failed;

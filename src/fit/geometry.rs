@@ -4,6 +4,8 @@
 use crate::model::Model;
 use crate::similarity::Similarity;
 
+use super::precompute::frame_to_base_gradient;
+
 /// Per-model geometry used by the warp composition (Matthews & Baker 2004, section 4.1.1).
 pub(crate) struct Geometry {
     /// Base shape `s0` (model coordinates).
@@ -19,12 +21,21 @@ pub(crate) struct Geometry {
     pub inc_start: Vec<u32>,
     /// Incidence list.
     pub inc: Vec<u32>,
+    /// Per triangle: whether the composition may map vertices through it, i.e. the base shape
+    /// keeps the reference frame's triangle in shape (not folded over, not flattened; see
+    /// `frame_to_base_gradient`). The barycentric coordinates of a point in a nearly flat
+    /// triangle explode, so one such sliver would throw its vertices off.
+    pub usable: Vec<bool>,
 }
 
 impl Geometry {
     pub(crate) fn new(model: &Model) -> Geometry {
         let s0 = model.shape().base.clone();
         let tris = model.frame().triangles().to_vec();
+        let usable = frame_to_base_gradient(model.frame().vertices(), &s0, &tris)
+            .iter()
+            .map(Option::is_some)
+            .collect();
         let n = s0.len() / 2;
         let p = |i: u32| (s0[2 * i as usize], s0[2 * i as usize + 1]);
         let base_inv = tris
@@ -64,6 +75,7 @@ impl Geometry {
             base_inv,
             inc_start: counts,
             inc,
+            usable,
         }
     }
 
@@ -75,21 +87,29 @@ impl Geometry {
     /// Composes the current warp (base mesh -> `current`, image coordinates) with the inverse
     /// of the incremental warp whose base-mesh displacement is `delta` (model coordinates):
     /// each vertex of `s0 - delta` is mapped through the affine maps of the triangles that
-    /// contain it (base triangle -> current triangle) and the results averaged. Writes `out`.
-    pub(crate) fn compose_inverse(&self, current: &[f32], delta: &[f32], out: &mut [f32]) {
+    /// contain it (base triangle -> current triangle) and the results averaged; triangles the
+    /// base shape folds or flattens are left out (see [`Geometry::usable`]). Writes `out`.
+    ///
+    /// A vertex in no usable triangle moves by `delta` mapped through `pose` (the current warp's
+    /// similarity part).
+    pub(crate) fn compose_inverse(
+        &self,
+        current: &[f32],
+        delta: &[f32],
+        pose: &Similarity,
+        out: &mut [f32],
+    ) {
         let n = self.n();
         for v in 0..n {
             let ux = self.s0[2 * v] - delta[2 * v];
             let uy = self.s0[2 * v + 1] - delta[2 * v + 1];
             let (s, e) = (self.inc_start[v] as usize, self.inc_start[v + 1] as usize);
-            if s == e {
-                // A vertex in no triangle: move it with the current warp's translation of it.
-                out[2 * v] = current[2 * v] - delta[2 * v];
-                out[2 * v + 1] = current[2 * v + 1] - delta[2 * v + 1];
-                continue;
-            }
-            let (mut sx, mut sy) = (0f32, 0f32);
+            let (mut sx, mut sy, mut used) = (0f32, 0f32, 0u32);
             for &ti in &self.inc[s..e] {
+                if !self.usable[ti as usize] {
+                    continue;
+                }
+                used += 1;
                 let t = self.tris[ti as usize];
                 let m = self.base_inv[ti as usize];
                 let (a0, a1) = (t[0] as usize, t[1] as usize);
@@ -102,7 +122,14 @@ impl Geometry {
                 sx += cx + beta * (current[2 * a1] - cx) + gamma * (current[2 * a2] - cx);
                 sy += cy + beta * (current[2 * a1 + 1] - cy) + gamma * (current[2 * a2 + 1] - cy);
             }
-            let k = 1.0 / (e - s) as f32;
+            if used == 0 {
+                // In no usable triangle: move by the increment through the pose's linear part.
+                let (dx, dy) = (delta[2 * v], delta[2 * v + 1]);
+                out[2 * v] = current[2 * v] - (pose.a * dx - pose.b * dy);
+                out[2 * v + 1] = current[2 * v + 1] - (pose.b * dx + pose.a * dy);
+                continue;
+            }
+            let k = 1.0 / used as f32;
             out[2 * v] = sx * k;
             out[2 * v + 1] = sy * k;
         }

@@ -216,11 +216,17 @@ impl Level {
         let npx = f.n_pixels();
         let step = step.max(1);
         let tris = f.triangles();
+        // Template gradients are taken on the frame's pixel grid, but the warp is
+        // parameterised on the base shape `s0`: per triangle, the matrix turning a frame-grid
+        // gradient into one in `s0`'s coordinates, or none where `s0` folds or squashes the
+        // frame's triangle (those pixels are left out of the fit; see `frame_to_base_gradient`).
+        let to_base = frame_to_base_gradient(f.vertices(), &model.shape().base, tris);
+        let in_fit = |i: usize| to_base[f.pixels()[i].triangle as usize].is_some();
         let sel: Vec<usize> = f
             .pixels()
             .iter()
             .enumerate()
-            .filter(|(_, p)| p.x as u32 % step == 0 && p.y as u32 % step == 0)
+            .filter(|(i, p)| p.x as u32 % step == 0 && p.y as u32 % step == 0 && in_fit(*i))
             .map(|(i, _)| i)
             .collect();
         let np = sel.len();
@@ -231,11 +237,22 @@ impl Level {
                 basis.k
             )));
         }
+        let kept = (0..npx).filter(|&i| in_fit(i)).count();
+        if 2 * kept < npx {
+            return Err(Error::Params(format!(
+                "the model's base shape folds its reference frame's mesh: only {kept} of {npx} \
+                 frame pixels lie in triangles it keeps in shape"
+            )));
+        }
         let verts: Vec<[u32; 3]> = sel
             .iter()
             .map(|&i| tris[f.pixels()[i].triangle as usize])
             .collect();
         let bary: Vec<[f32; 3]> = sel.iter().map(|&i| f.pixels()[i].bary).collect();
+        let grad_map: Vec<[f64; 4]> = sel
+            .iter()
+            .map(|&i| to_base[f.pixels()[i].triangle as usize].unwrap_or([1.0, 0.0, 0.0, 1.0]))
+            .collect();
 
         // Channel images on the full frame (channel-major): A0 and each RGB mode.
         let app = &model.appearance();
@@ -273,12 +290,12 @@ impl Level {
                 if sigma > 0.0 {
                     blur_grid(&mut grid, w, h, sigma as f64);
                 }
-                for &i in &sel {
+                for (&i, m) in sel.iter().zip(&grad_map) {
                     let p = f.pixels()[i];
                     v.push(grid[p.y as usize * w + p.x as usize]);
                     let (a, b) = grid_gradient(&grid, w, h, p.x as usize, p.y as usize);
-                    gx.push(a);
-                    gy.push(b);
+                    gx.push(m[0] * a + m[1] * b);
+                    gy.push(m[2] * a + m[3] * b);
                 }
             }
             (v, gx, gy)
@@ -388,11 +405,121 @@ impl Level {
     }
 }
 
+/// Largest distortion of a frame triangle by the base shape (ratio of the singular values of
+/// the affine map between them) for which its pixels are fitted.
+pub(crate) const MAX_TRIANGLE_DISTORTION: f64 = 4.0;
+
+/// Per triangle, the matrix `M` (row-major 2x2) that turns a template gradient taken on the
+/// frame's grid into the gradient with respect to the base shape's coordinates,
+/// `grad_s0 T = M grad_frame T`, or `None` where the base shape folds the triangle over or
+/// distorts it by more than [`MAX_TRIANGLE_DISTORTION`].
+///
+/// The fitter's warp is parameterised on the base shape `s0` (the mesh the similarity and shape
+/// modes move; `W(x; 0)` maps a frame pixel to its place on `s0`), while the appearance images
+/// live on the frame's mesh. In a model built in its own frame the two meshes are one (up to a
+/// translation) and `M` is the identity. In the canonical frame, or another model's, they
+/// differ by another face's proportions, and the inverse compositional steepest-descent images
+/// `grad T . dW/dp` (Matthews & Baker 2004, Eq. 31) need the template's gradient in `s0`'s
+/// coordinates: with `L` the linear part of the affine map from the frame triangle to the `s0`
+/// triangle, `grad_s0 T = L^-T grad_frame T`. The frame's Delaunay mesh, made for another face,
+/// can have slivers along the jaw and brows that this face's `s0` folds over or flattens
+/// (`L` singular or reflecting): their gradients mean nothing in `s0`, so their pixels are not
+/// fitted.
+pub(crate) fn frame_to_base_gradient(
+    frame_vertices: &[f32],
+    base: &[f32],
+    tris: &[[u32; 3]],
+) -> Vec<Option<[f64; 4]>> {
+    let edges = |v: &[f32], t: &[u32; 3]| -> [f64; 4] {
+        let p = |i: u32| (v[2 * i as usize] as f64, v[2 * i as usize + 1] as f64);
+        let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+        // Columns b - a and c - a.
+        [b.0 - a.0, c.0 - a.0, b.1 - a.1, c.1 - a.1]
+    };
+    tris.iter()
+        .map(|t| {
+            let f = edges(frame_vertices, t);
+            let s = edges(base, t);
+            let det_s = s[0] * s[3] - s[1] * s[2];
+            let det_f = f[0] * f[3] - f[1] * f[2];
+            // A folded (or flat) triangle: the signs differ (or one is zero).
+            if !(det_s * det_f > 0.0) {
+                return None;
+            }
+            // L^-1 = F S^-1, so M = L^-T = (F S^-1)^T.
+            let s_inv = [s[3] / det_s, -s[1] / det_s, -s[2] / det_s, s[0] / det_s];
+            let fs = [
+                f[0] * s_inv[0] + f[1] * s_inv[2],
+                f[0] * s_inv[1] + f[1] * s_inv[3],
+                f[2] * s_inv[0] + f[3] * s_inv[2],
+                f[2] * s_inv[1] + f[3] * s_inv[3],
+            ];
+            let m = [fs[0], fs[2], fs[1], fs[3]];
+            // Singular values of M: sqrt of the eigenvalues of M^T M.
+            let fro2 = m.iter().map(|v| v * v).sum::<f64>();
+            let det = (m[0] * m[3] - m[1] * m[2]).abs();
+            let disc = (fro2 * fro2 - 4.0 * det * det).max(0.0).sqrt();
+            let (hi, lo) = (
+                (0.5 * (fro2 + disc)).sqrt(),
+                (0.5 * (fro2 - disc)).max(0.0).sqrt(),
+            );
+            if !(hi.is_finite() && hi <= MAX_TRIANGLE_DISTORTION * lo) {
+                return None;
+            }
+            Some(m)
+        })
+        .collect()
+}
+
 /// Adds the prior diagonal plus a tiny ridge (relative to the trace) to a `k x k` matrix.
 pub(crate) fn regularise(h: &mut [f64], prior: &[f64], k: usize) {
     let trace: f64 = (0..k).map(|i| h[i * k + i]).sum::<f64>().abs();
     let ridge = 1e-9 * trace / k as f64 + 1e-12;
     for i in 0..k {
         h[i * k + i] += prior[i] + ridge;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TRI: [f32; 6] = [0.0, 0.0, 10.0, 0.0, 0.0, 10.0];
+
+    #[test]
+    fn gradient_map_is_the_identity_on_the_same_mesh() {
+        let shifted: Vec<f32> = TRI.iter().map(|v| v + 3.0).collect();
+        let m = frame_to_base_gradient(&TRI, &shifted, &[[0, 1, 2]])[0].unwrap();
+        for (a, b) in m.iter().zip([1.0, 0.0, 0.0, 1.0]) {
+            assert!((a - b).abs() < 1e-12, "{m:?}");
+        }
+    }
+
+    #[test]
+    fn gradient_map_is_the_inverse_transpose() {
+        // s0 = L frame with L = [[2, 1], [0, 1]]: a frame gradient g becomes L^-T g.
+        let base = [0.0, 0.0, 20.0, 0.0, 10.0, 10.0];
+        let m = frame_to_base_gradient(&TRI, &base, &[[0, 1, 2]])[0].unwrap();
+        // L^-1 = [[0.5, -0.5], [0, 1]], so L^-T = [[0.5, 0], [-0.5, 1]].
+        for (a, b) in m.iter().zip([0.5, 0.0, -0.5, 1.0]) {
+            assert!((a - b).abs() < 1e-12, "{m:?}");
+        }
+        // A template T(x) = x_frame: along s0, T(y) = (L^-1 y)_x = 0.5 y_x - 0.5 y_y.
+        let g = [1.0, 0.0];
+        let gs = [m[0] * g[0] + m[1] * g[1], m[2] * g[0] + m[3] * g[1]];
+        assert_eq!(gs, [0.5, -0.5]);
+    }
+
+    #[test]
+    fn folded_and_flattened_triangles_are_left_out() {
+        let folded = [0.0, 0.0, 10.0, 0.0, 0.0, -10.0];
+        let flat = [0.0, 0.0, 10.0, 0.0, 20.0, 0.5];
+        let squashed = [0.0, 0.0, 10.0, 0.0, 0.0, 2.0];
+        let tris = [[0, 1, 2]];
+        assert!(frame_to_base_gradient(&TRI, &folded, &tris)[0].is_none());
+        assert!(frame_to_base_gradient(&TRI, &flat, &tris)[0].is_none());
+        assert!(frame_to_base_gradient(&TRI, &squashed, &tris)[0].is_none());
+        let stretched = [0.0, 0.0, 10.0, 0.0, 0.0, 30.0];
+        assert!(frame_to_base_gradient(&TRI, &stretched, &tris)[0].is_some());
     }
 }
