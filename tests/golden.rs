@@ -1,48 +1,88 @@
 #![cfg(not(target_arch = "wasm32"))]
-//! Golden-image test of a render: the spk07 model (built from `data/grid/spk07_pwij3p/
-//! train20.txt`) at a fixed instance (shape mode 1 at +1.5 sigma, mode 2 at -1 sigma,
-//! appearance mode 1 at +1 sigma), posed at the model's mean training pose and scaled 1.5x
-//! about the face centre onto a 200x220 canvas, compared with `tests/golden/spk07_instance.png`.
+//! Golden images, one reference PNG per case in `tests/golden/` (in the manner of tiny-skia's
+//! `tests/integration`): every case renders deterministically and is compared with its PNG.
+//!
+//! The models are built from the GRID frames in the repository, in the canonical frame: spk07
+//! (the source, `data/grid/spk07_pwij3p/train20.txt`) and spk02 (a target,
+//! `data/grid/spk02_brbk7n/train20.txt`).
+//! - `spk07_instance.png`: spk07 at a fixed instance (shape mode 1 at +1.5 sigma, mode 2 at
+//!   -1 sigma, appearance mode 1 at +1 sigma), posed at the model's mean training pose and
+//!   scaled 1.5x about the face centre onto a 200x220 canvas, tiny-skia rasteriser;
+//! - `spk07_instance_scanline.png`: the same with the scanline rasteriser;
+//! - `spk07_instance_mesh.png`: the same as the first with the mesh overlay;
+//! - `clone_substitute.png`, `clone_map.png`, `clone_map_residual.png`: spk07's unseen frame
+//!   `spk07_id2_vcd_swwp2s/000024` (projected with its landmarks) cloned onto spk02 by each
+//!   method (default options otherwise), drawn at spk02's canvas view on 200x220.
 //!
 //! Tolerance: a pixel differs when a channel is off by more than 3 levels (float rounding in
 //! PCA or rasterisation on another CPU may move a value by one or two); at most 0.5% of the
 //! pixels may differ. Regenerate (after an intended change only) with
-//! `FACEMIMIC_BLESS=1 cargo test --release --test golden`, and look at the image.
+//! `FACEMIMIC_BLESS=1 cargo test --release --test golden`, and look at the images.
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
+use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::tiny_skia::{Color, Pixmap};
-use facemimic::{io, BuildOptions, Builder, Renderer, Similarity};
+use facemimic::{
+    canvas_view, io, BuildOptions, Builder, DrawOptions, FaceDrawer, Model, Params, Rasterizer,
+    Renderer, Similarity,
+};
 
 const TOLERANCE: i32 = 3;
 const MAX_DIFFERING_SHARE: f64 = 0.005;
 const SIZE: (u32, u32) = (200, 220);
+const BACKGROUND: [u8; 4] = [32, 32, 36, 255];
 
-fn golden_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/spk07_instance.png")
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The deterministic render (straight RGBA8).
-fn render() -> Vec<u8> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let paths = io::read_list(&root.join("data/grid/spk07_pwij3p/train20.txt")).unwrap();
+fn golden_path(name: &str) -> PathBuf {
+    root().join("tests/golden").join(format!("{name}.png"))
+}
+
+fn build(list: &str, name: &str) -> Model {
+    let paths = io::read_list(&root().join(list)).unwrap();
     let images: Vec<_> = paths
         .iter()
         .map(|p| io::read_training_image(p).unwrap())
         .collect();
-    let model = Builder::new(BuildOptions {
-        name: "spk07".into(),
+    Builder::new(BuildOptions {
+        name: name.into(),
         ..BuildOptions::default()
     })
     .build(&images, None)
-    .unwrap();
+    .unwrap()
+}
+
+fn spk07() -> &'static Model {
+    static M: OnceLock<Model> = OnceLock::new();
+    M.get_or_init(|| build("data/grid/spk07_pwij3p/train20.txt", "spk07"))
+}
+
+fn spk02() -> &'static Model {
+    static M: OnceLock<Model> = OnceLock::new();
+    M.get_or_init(|| build("data/grid/spk02_brbk7n/train20.txt", "spk02"))
+}
+
+fn canvas() -> Pixmap {
+    let mut pixmap = Pixmap::new(SIZE.0, SIZE.1).unwrap();
+    let [r, g, b, a] = BACKGROUND;
+    pixmap.fill(Color::from_rgba8(r, g, b, a));
+    pixmap
+}
+
+/// The fixed spk07 instance and its view: the face centre (the pose's translation) to the
+/// canvas centre, magnified 1.5x.
+fn instance() -> (Params, Similarity) {
+    let model = spk07();
     assert!(model.shape().n_modes() >= 2 && model.appearance().n_modes() >= 1);
     let mut params = model.base_params();
     let (ss, sa) = (model.shape().sigmas(), model.appearance().sigmas());
     params.shape[0] = 1.5 * ss[0];
     params.shape[1] = -ss[1];
     params.appearance[0] = sa[0];
-    // View: the face centre (the pose's translation) to the canvas centre, magnified 1.5x.
     let k = 1.5;
     let (cx, cy) = (params.pose.tx, params.pose.ty);
     let view = Similarity {
@@ -51,29 +91,65 @@ fn render() -> Vec<u8> {
         tx: SIZE.0 as f32 / 2.0 - k * cx,
         ty: SIZE.1 as f32 / 2.0 - k * cy,
     };
-    let mut pixmap = Pixmap::new(SIZE.0, SIZE.1).unwrap();
-    pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
-    let mut renderer = Renderer::new(model.frame()).unwrap();
-    renderer
-        .render(&model, &params, &view, &mut pixmap.as_mut())
+    (params, view)
+}
+
+/// The spk07 instance drawn with `options` (straight RGBA8).
+fn draw_instance(options: DrawOptions) -> Vec<u8> {
+    let model = spk07();
+    let (params, view) = instance();
+    let mut pixmap = canvas();
+    let mut drawer = FaceDrawer::new(model.frame(), options).unwrap();
+    drawer
+        .render(model, &params, &view, &mut pixmap.as_mut())
         .unwrap();
     facemimic::demultiply(&pixmap)
 }
 
-#[test]
-fn render_matches_golden_image() {
-    let got = render();
-    let path = golden_path();
+/// spk07's unseen frame 30 cloned onto spk02 with `method` (straight RGBA8).
+fn draw_clone(method: Method) -> Vec<u8> {
+    let frame = root().join("data/grid/spk07_id2_vcd_swwp2s/000024.jpg");
+    let t = io::read_training_image(&frame).unwrap();
+    let source = spk07();
+    let params = source
+        .project(&t.image.view().unwrap(), &t.landmarks)
+        .unwrap();
+    let target = spk02();
+    let mut cloner = Cloner::new(source.clone()).unwrap();
+    cloner.add_target(target.clone()).unwrap();
+    let options = CloneOptions {
+        method,
+        ..CloneOptions::default()
+    };
+    cloner.clone_frame(&params, &options).unwrap();
+    let view = canvas_view(target, SIZE.0, SIZE.1);
+    let mut pixmap = canvas();
+    let mut drawer = FaceDrawer::new(target.frame(), DrawOptions::default()).unwrap();
+    drawer
+        .draw(
+            target.frame(),
+            cloner.target_appearance(0),
+            cloner.target_shape(0),
+            &view,
+            &mut pixmap.as_mut(),
+        )
+        .unwrap();
+    facemimic::demultiply(&pixmap)
+}
+
+/// Compares `got` with the golden image `name` (or writes it with `FACEMIMIC_BLESS=1`).
+fn check(name: &str, got: &[u8]) {
+    let path = golden_path(name);
     if std::env::var_os("FACEMIMIC_BLESS").is_some_and(|v| v == "1") {
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        io::write_png(&path, SIZE.0, SIZE.1, &got).unwrap();
+        io::write_png(&path, SIZE.0, SIZE.1, got).unwrap();
         println!("wrote {}", path.display());
         return;
     }
     let golden = io::read_image(&path).unwrap_or_else(|e| {
         panic!("{e}: no golden image; create it with FACEMIMIC_BLESS=1 and look at it")
     });
-    assert_eq!((golden.width, golden.height), SIZE, "golden image size");
+    assert_eq!((golden.width, golden.height), SIZE, "{name}: golden image size");
     let (mut differing, mut worst) = (0usize, 0i32);
     let mut background = 0usize;
     for (a, b) in got.chunks_exact(4).zip(golden.data.chunks_exact(4)) {
@@ -87,24 +163,73 @@ fn render_matches_golden_image() {
         if d > TOLERANCE {
             differing += 1;
         }
-        if a == [32, 32, 36, 255] {
+        if a == BACKGROUND {
             background += 1;
         }
     }
     let total = (SIZE.0 * SIZE.1) as usize;
     let share = differing as f64 / total as f64;
     println!(
-        "golden: {differing} of {total} pixels differ by more than {TOLERANCE} (worst {worst})"
+        "{name}: {differing} of {total} pixels differ by more than {TOLERANCE} (worst {worst})"
     );
     assert!(
         share <= MAX_DIFFERING_SHARE,
-        "{differing} pixels ({:.2}%) differ by more than {TOLERANCE} levels (worst {worst})",
+        "{name}: {differing} pixels ({:.2}%) differ by more than {TOLERANCE} levels (worst {worst})",
         share * 100.0
     );
     // The face covers a good part of the canvas (a blank or tiny render is not a match by
     // accident of a blank golden image).
     assert!(
         background < total * 3 / 4,
-        "the render is mostly background ({background} of {total})"
+        "{name}: the render is mostly background ({background} of {total})"
     );
+}
+
+#[test]
+fn render_matches_golden_image() {
+    // Through the tiny-skia backend directly (the drawer's default is the same backend).
+    let model = spk07();
+    let (params, view) = instance();
+    let mut pixmap = canvas();
+    let mut renderer = Renderer::new(model.frame()).unwrap();
+    renderer
+        .render(model, &params, &view, &mut pixmap.as_mut())
+        .unwrap();
+    let got = facemimic::demultiply(&pixmap);
+    assert_eq!(got, draw_instance(DrawOptions::default()));
+    check("spk07_instance", &got);
+}
+
+#[test]
+fn scanline_render_matches_golden_image() {
+    let got = draw_instance(DrawOptions {
+        rasterizer: Rasterizer::Scanline,
+        mesh: false,
+    });
+    check("spk07_instance_scanline", &got);
+}
+
+#[test]
+fn mesh_overlay_matches_golden_image() {
+    let got = draw_instance(DrawOptions {
+        rasterizer: Rasterizer::TinySkia,
+        mesh: true,
+    });
+    assert_ne!(got, draw_instance(DrawOptions::default()), "no mesh drawn");
+    check("spk07_instance_mesh", &got);
+}
+
+#[test]
+fn substitute_clone_matches_golden_image() {
+    check("clone_substitute", &draw_clone(Method::Substitute));
+}
+
+#[test]
+fn map_clone_matches_golden_image() {
+    check("clone_map", &draw_clone(Method::Map));
+}
+
+#[test]
+fn map_residual_clone_matches_golden_image() {
+    check("clone_map_residual", &draw_clone(Method::MapResidual));
 }
