@@ -96,7 +96,8 @@ impl Rng {
             (self.next() % n as u64) as usize
         }
     }
-    fn sym(&mut self) -> f32 {
+    /// Uniform in `[-1, 1)`.
+    pub fn sym(&mut self) -> f32 {
         (self.next() >> 40) as f32 / (1u64 << 23) as f32 - 1.0
     }
     fn chance(&mut self, one_in: usize) -> bool {
@@ -163,26 +164,41 @@ fn float(rng: &mut Rng) -> f32 {
 // ------------------------------------------------------------------------------------------
 // Seeds.
 
+/// `n` face-like landmarks: a Fermat-spiral point set (well spread over an ellipse) under two
+/// smooth deformations (a smile, a squash) and a random similarity: scale `scale` (+-8%), a
+/// small rotation, centre `centre` (+-`jitter` in x and y). Returns the interleaved points and
+/// the centre.
+pub fn face_landmarks(
+    rng: &mut Rng,
+    n: usize,
+    scale: f32,
+    centre: f32,
+    jitter: f32,
+) -> (Vec<f32>, [f32; 2]) {
+    let (smile, squash) = (rng.sym(), rng.sym());
+    let scale = scale * (1.0 + 0.08 * rng.sym());
+    let rot = 0.12 * rng.sym();
+    let (tx, ty) = (centre + jitter * rng.sym(), centre + jitter * rng.sym());
+    let mut landmarks = Vec::with_capacity(2 * n);
+    for i in 0..n {
+        let r = ((i as f32 + 0.5) / n as f32).sqrt();
+        let th = i as f32 * 2.399_963;
+        let (x, y) = (r * th.cos(), 1.2 * r * th.sin());
+        let y = y + 0.15 * smile * x * x;
+        let x = x * (1.0 + 0.1 * squash * y);
+        let (c, s) = (rot.cos(), rot.sin());
+        landmarks.push(scale * (c * x - s * y) + tx);
+        landmarks.push(scale * (s * x + c * y) + ty);
+    }
+    (landmarks, [tx, ty])
+}
+
 /// `count` synthetic face-like training images with `n` landmarks on 64x64 images.
 pub fn training_set(n: usize, count: usize, seed: u64) -> Vec<TrainingImage> {
     let mut rng = Rng(seed);
     (0..count)
         .map(|k| {
-            let (smile, squash) = (rng.sym(), rng.sym());
-            let scale = 20.0 * (1.0 + 0.08 * rng.sym());
-            let rot = 0.12 * rng.sym();
-            let (tx, ty) = (32.0 + 3.0 * rng.sym(), 32.0 + 3.0 * rng.sym());
-            let mut landmarks = Vec::with_capacity(2 * n);
-            for i in 0..n {
-                let r = ((i as f32 + 0.5) / n as f32).sqrt();
-                let th = i as f32 * 2.399_963;
-                let (x, y) = (r * th.cos(), 1.2 * r * th.sin());
-                let y = y + 0.15 * smile * x * x;
-                let x = x * (1.0 + 0.1 * squash * y);
-                let (c, s) = (rot.cos(), rot.sin());
-                landmarks.push(scale * (c * x - s * y) + tx);
-                landmarks.push(scale * (s * x + c * y) + ty);
-            }
+            let (landmarks, _) = face_landmarks(&mut rng, n, 20.0, 32.0, 3.0);
             TrainingImage {
                 name: format!("t{k}"),
                 image: texture(64, 64, rng.sym() * 3.0),

@@ -101,7 +101,11 @@ pub fn pca(
     let mut modes: Vec<Vec<f64>> = dirs.into_iter().take(variances.len()).collect();
     let mut none = vec![Vec::new(); modes.len()];
     let kept = gram_schmidt(&mut modes, &mut none, 1e-12);
-    let prefix = kept.iter().enumerate().take_while(|(i, &k)| *i == k).count();
+    let prefix = kept
+        .iter()
+        .enumerate()
+        .take_while(|(i, &k)| *i == k)
+        .count();
     modes.truncate(prefix);
     variances.truncate(prefix);
     for d in &mut modes {

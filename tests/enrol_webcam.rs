@@ -9,41 +9,12 @@
 //! Skips with a message when ../shared is absent; fails then if the CI variable is set.
 //! `cargo test --release --test enrol_webcam -- --nocapture` prints the figures.
 
-use std::path::{Path, PathBuf};
+mod common;
 
+use common::{frame, shared_data};
+use facemimic::find::landmark_error;
 use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{io, select_varied, BuildOptions, Builder, FaceFinder, Model, TrainingImage};
-
-fn data() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
-    if d.is_dir() {
-        return Some(d);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "{} is missing (CI always has ../shared)",
-        d.display()
-    );
-    eprintln!("SKIPPED: {} is absent", d.display());
-    None
-}
-
-fn frame(dir: &Path, i: usize) -> TrainingImage {
-    io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap()
-}
-
-fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-    let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
-    let n = truth.len() / 2;
-    (0..n)
-        .map(|i| {
-            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                .sqrt()
-        })
-        .sum::<f32>()
-        / n as f32
-        / iod
-}
+use facemimic::{select_varied, BuildOptions, Builder, FaceFinder, Model, TrainingImage};
 
 fn build(name: &str, mut images: Vec<TrainingImage>) -> Model {
     let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
@@ -64,7 +35,7 @@ fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> (f32, u32) {
     let errs: Vec<f32> = test
         .iter()
         .map(|f| {
-            norm_error(
+            landmark_error(
                 &t.track(&f.image.view().unwrap()).unwrap().landmarks,
                 &f.landmarks,
             )
@@ -80,7 +51,9 @@ fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> (f32, u32) {
 #[test]
 #[ignore = "long, opt-in; fails today by a small margin (1.31x; docs/fitting.md)"]
 fn finder_enrolled_model_tracks_unseen_frames() {
-    let Some(dir) = data() else { return };
+    let Some(dir) = shared_data("webcam-dev") else {
+        return;
+    };
     let mut finder = FaceFinder::new().unwrap();
     let mut found = Vec::new();
     let mut dlib = Vec::new();
@@ -92,7 +65,7 @@ fn finder_enrolled_model_tracks_unseen_frames() {
         searched += 1;
         let faces = finder.find(&f.image.view().unwrap());
         if let Some(face) = faces.first().filter(|face| face.score >= 0.5) {
-            finder_err.push(norm_error(&face.landmarks, &f.landmarks));
+            finder_err.push(landmark_error(&face.landmarks, &f.landmarks));
             let mut g = f.clone();
             g.landmarks = face.landmarks.clone();
             found.push(g);

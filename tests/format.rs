@@ -6,7 +6,13 @@
 //! numeric tests also run under wasm (`cargo test --target wasm32-unknown-unknown --test
 //! format`). The allocation-counting test is native only.
 
+#[path = "../fuzz/engine.rs"]
+#[allow(dead_code)]
+mod engine;
+
 use std::sync::OnceLock;
+
+use engine::Rng;
 
 use facemimic::format::{
     crc32, offsets, read_model, read_model_info, write_model, write_model_as, FileInfo,
@@ -19,29 +25,6 @@ use facemimic::{
 // ------------------------------------------------------------------------------------------
 // Synthetic models.
 
-/// xorshift64* (deterministic, no dependency).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    /// Uniform in `[-1, 1)`.
-    fn sym(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 23) as f32 - 1.0
-    }
-    fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next() % n as u64) as usize
-        }
-    }
-}
-
 /// `count` face-like training images with `n` landmarks: a Fermat-spiral point set (well spread
 /// over an ellipse) under a random similarity and two smooth deformations, on 96x96 RGBA images
 /// with a pose-dependent texture.
@@ -49,21 +32,7 @@ fn training_set(n: usize, count: usize, seed: u64, prefix: &str) -> Vec<Training
     let mut rng = Rng(seed);
     (0..count)
         .map(|k| {
-            let (smile, squash) = (rng.sym(), rng.sym());
-            let scale = 30.0 * (1.0 + 0.08 * rng.sym());
-            let rot = 0.12 * rng.sym();
-            let (tx, ty) = (48.0 + 4.0 * rng.sym(), 48.0 + 4.0 * rng.sym());
-            let mut landmarks = Vec::with_capacity(2 * n);
-            for i in 0..n {
-                let r = ((i as f32 + 0.5) / n as f32).sqrt();
-                let th = i as f32 * 2.399_963;
-                let (x, y) = (r * th.cos(), 1.2 * r * th.sin());
-                let y = y + 0.15 * smile * x * x;
-                let x = x * (1.0 + 0.1 * squash * y);
-                let (c, s) = (rot.cos(), rot.sin());
-                landmarks.push(scale * (c * x - s * y) + tx);
-                landmarks.push(scale * (s * x + c * y) + ty);
-            }
+            let (landmarks, [tx, ty]) = engine::face_landmarks(&mut rng, n, 30.0, 48.0, 4.0);
             let (w, h) = (96u32, 96u32);
             let phase = rng.sym() * 3.0;
             let bright = 40.0 * rng.sym();

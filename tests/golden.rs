@@ -149,7 +149,11 @@ fn check(name: &str, got: &[u8]) {
     let golden = io::read_image(&path).unwrap_or_else(|e| {
         panic!("{e}: no golden image; create it with FACEMIMIC_BLESS=1 and look at it")
     });
-    assert_eq!((golden.width, golden.height), SIZE, "{name}: golden image size");
+    assert_eq!(
+        (golden.width, golden.height),
+        SIZE,
+        "{name}: golden image size"
+    );
     let (mut differing, mut worst) = (0usize, 0i32);
     let mut background = 0usize;
     for (a, b) in got.chunks_exact(4).zip(golden.data.chunks_exact(4)) {

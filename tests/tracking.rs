@@ -12,32 +12,18 @@
 //!
 //! Error: mean point-to-point distance / distance between landmarks 36 and 45 of the truth.
 
+mod common;
+
 use std::cell::RefCell;
-use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
+use common::{frame, shared_data};
+use facemimic::find::landmark_error;
 use facemimic::fit::{FitOptions, Tracker};
 use facemimic::{io, Builder, Image, ImageRef, Model, Similarity, TrainingImage};
 
-fn data(dir: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(dir);
-    if d.is_dir() {
-        Some(d)
-    } else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is absent (CI must have ../shared)",
-            d.display()
-        );
-        eprintln!("SKIPPED: {} is absent", d.display());
-        None
-    }
-}
-
 fn model() -> Option<Model> {
-    let list = data("franck-dev")?.join("train20.txt");
+    let list = shared_data("franck-dev")?.join("train20.txt");
     let images: Vec<TrainingImage> = io::read_list(&list)
         .unwrap()
         .iter()
@@ -48,23 +34,8 @@ fn model() -> Option<Model> {
 
 /// Frames `from..to` of franck-dev2 (`from`, `to` are sequence frame numbers 3800-4799).
 fn frames(from: u32, to: u32) -> Vec<TrainingImage> {
-    let d = data("franck-dev2").expect("checked by the caller");
-    (from..to)
-        .map(|i| io::read_training_image(&d.join(format!("{i:06}.jpg"))).unwrap())
-        .collect()
-}
-
-fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-    let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
-    let n = truth.len() / 2;
-    (0..n)
-        .map(|i| {
-            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                .sqrt()
-        })
-        .sum::<f32>()
-        / n as f32
-        / iod
+    let d = shared_data("franck-dev2").expect("checked by the caller");
+    (from..to).map(|i| frame(&d, i as usize)).collect()
 }
 
 /// `image` moved by the similarity `t` (output pixel `x` reads input `t^-1(x)`), black outside.
@@ -155,7 +126,7 @@ fn run(model: &Model, event: &[Frame]) -> Run {
         let r = tracker.track(&f.image.view().unwrap()).unwrap();
         out.lost.push(r.lost);
         out.reacquired.push(r.reacquired);
-        out.errors.push(norm_error(&r.landmarks, &f.score));
+        out.errors.push(landmark_error(&r.landmarks, &f.score));
         out.fit_errors.push(r.error);
     }
     out

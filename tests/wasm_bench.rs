@@ -1,6 +1,9 @@
 //! Timings of the core operations, natively and in wasm under Node, with one harness (a
-//! wasm-bindgen test that also runs natively). It does nothing unless `FACEMIMIC_BENCH` was
-//! set when the test was BUILT (`option_env!`), so that CI does not pay for it:
+//! wasm-bindgen test that also runs natively). As a test (the default) it runs every stage a
+//! few times and asserts what the timings rest on: each stage was timed (finite, positive),
+//! the build and the projection are deterministic, the render paints a face. The timing
+//! windows are long (seconds per stage, the figures) only when `FACEMIMIC_BENCH` was set when
+//! the test was BUILT (`option_env!`), so that CI does not pay for them:
 //!
 //! ```text
 //! FACEMIMIC_BENCH=1 cargo test --release --target wasm32-unknown-unknown --test wasm_bench -- --nocapture
@@ -75,13 +78,22 @@ fn cpu_ms() -> Option<f64> {
     }
 }
 
-/// Runs `f` for at least `min_ms` of wall time (and at least 3 times) after 2 warm-up calls;
-/// returns the mean wall time and CPU time per call in ms.
+/// Whether the timing windows are the figures' (`FACEMIMIC_BENCH` set at build time) or none.
+const BENCH: bool = option_env!("FACEMIMIC_BENCH").is_some();
+
+/// Runs `f` for at least `min_ms` of wall time and at least 3 times, after 2 warm-up calls;
+/// without [`BENCH`], once with no warm-up. Returns the mean wall time and CPU time per call
+/// in ms.
 fn time(min_ms: f64, mut f: impl FnMut()) -> (f64, Option<f64>) {
-    f();
-    f();
+    let (min_ms, min_calls) = if BENCH {
+        f();
+        f();
+        (min_ms, 3)
+    } else {
+        (0.0, 1)
+    };
     let (t0, c0, mut n) = (now_ms(), cpu_ms(), 0u32);
-    while n < 3 || now_ms() - t0 < min_ms {
+    while n < min_calls || now_ms() - t0 < min_ms {
         f();
         n += 1;
     }
@@ -107,9 +119,6 @@ fn image(seed: u32) -> Image {
 
 #[wasm_bindgen_test(unsupported = test)]
 fn core_timings() {
-    if option_env!("FACEMIMIC_BENCH").is_none() {
-        return;
-    }
     let target = if cfg!(target_arch = "wasm32") {
         "wasm32 (Node)"
     } else {
@@ -179,6 +188,25 @@ fn core_timings() {
     let project = time(2000.0, || {
         std::hint::black_box(model.project(&view, &probe).unwrap());
     });
+    // What the timings rest on.
+    assert!(
+        builder.build(&images, None).unwrap() == model,
+        "the build is not deterministic"
+    );
+    assert_eq!(model.project(&view, &probe).unwrap(), params);
+    let [r, g, b, _] = [32u8, 32, 36, 255];
+    let face = pixmap
+        .pixels()
+        .iter()
+        .filter(|p| (p.red(), p.green(), p.blue()) != (r, g, b))
+        .count();
+    // The face covers about the frame's pixels times the pose's scale squared.
+    let expected = model.frame().n_pixels() as f32 * params.pose.scale().powi(2);
+    assert!(
+        face as f32 > 0.5 * expected,
+        "the render painted {face} pixels, about {expected} expected"
+    );
+    assert!(appearance.iter().all(|v| v.is_finite()));
     for (what, ms) in [
         ("build spk07 (20 images)", build),
         ("render 360x288 (synthesis + upload + warp)", render),
@@ -188,6 +216,12 @@ fn core_timings() {
         ("sample_rgb image -> frame", sample),
         ("project (pose, shape, appearance)", project),
     ] {
+        assert!(ms.0.is_finite() && ms.0 >= 0.0, "{what}: wall {} ms", ms.0);
+        assert!(
+            ms.1.is_none_or(|c| c.is_finite() && c >= 0.0),
+            "{what}: cpu {:?}",
+            ms.1
+        );
         let cpu = ms.1.map_or("n/a".to_string(), |c| format!("{c:.3} ms"));
         say(&format!(
             "[{target}] {what}: wall {:.3} ms, cpu {cpu}",
