@@ -53,6 +53,12 @@ mod native {
         if let Ok(t) = std::env::var("FIND_THRESHOLD") {
             opts.score_threshold = t.parse().unwrap();
         }
+        if let Ok(t) = std::env::var("FIND_INPUT") {
+            opts.input_size = t.parse().unwrap();
+        }
+        if let Ok(t) = std::env::var("FIND_QUICK") {
+            opts.quick_input_size = t.parse().unwrap();
+        }
         if let Ok(t) = std::env::var("FIND_DISAGREEMENT") {
             opts.max_disagreement = t.parse().unwrap();
         }

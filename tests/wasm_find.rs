@@ -122,3 +122,57 @@ fn bad_sizes_are_js_errors() {
     let (rgba, w, h) = frame();
     assert_eq!(finder.find(&rgba, w, h).expect("find").length(), 1);
 }
+
+/// A `{x, y, width, height}` object.
+fn js_box(x: f64, y: f64, w: f64, h: f64) -> JsValue {
+    let o = js_sys::Object::new();
+    for (k, v) in [("x", x), ("y", y), ("width", w), ("height", h)] {
+        Reflect::set(&o, &JsValue::from_str(k), &JsValue::from_f64(v)).expect("set");
+    }
+    o.into()
+}
+
+#[wasm_bindgen_test]
+fn landmarks_in_the_found_box_match_the_found_face() {
+    let (rgba, w, h) = frame();
+    let truth = parse_pts(PTS).expect("pts");
+    let mut finder = JsFaceFinder::new().expect("finder");
+    let faces: Array = finder.find(&rgba, w, h).expect("find");
+    let b = get(&faces.get(0), "box");
+    let bx = js_box(
+        num(&b, "x"),
+        num(&b, "y"),
+        num(&b, "width"),
+        num(&b, "height"),
+    );
+    let points = finder
+        .landmarks(&rgba, w, h, bx)
+        .expect("landmarks")
+        .to_vec();
+    assert_eq!(points.len(), 136);
+    let err = facemimic::find::landmark_error(&points, &truth);
+    assert!(err < 0.1, "mean landmark error {err} of the eye distance");
+}
+
+#[wasm_bindgen_test]
+fn landmarks_with_a_bad_box_are_js_errors() {
+    let (rgba, w, h) = frame();
+    let mut finder = JsFaceFinder::new().expect("finder");
+    let e = message(finder.landmarks(&rgba, w, h, JsValue::NULL).unwrap_err());
+    assert!(e.contains("box.x"), "{e}");
+    let e = message(
+        finder
+            .landmarks(&rgba, w, h, js_box(10.0, 10.0, f64::NAN, 50.0))
+            .unwrap_err(),
+    );
+    assert!(e.contains("FaceFinder.landmarks"), "{e}");
+    let e = message(
+        finder
+            .landmarks(&rgba, w, h, js_box(10.0, 10.0, -5.0, 50.0))
+            .unwrap_err(),
+    );
+    assert!(e.contains("invalid face box"), "{e}");
+    assert!(finder
+        .landmarks(&rgba[..100], w, h, js_box(0.0, 0.0, 50.0, 50.0))
+        .is_err());
+}

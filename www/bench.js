@@ -2,7 +2,7 @@
 // with the chosen rasteriser (?raster=, default tiny-skia: the headline) and then the other one.
 // Prints a JSON summary into <pre id="result"> (data-done="1" when finished) for headless runs
 // (tests/e2e/bench.mjs).
-import init, { Model, Cloner, version } from './pkg/facemimic.js';
+import init, { Model, Cloner, FaceFinder, version } from './pkg/facemimic.js';
 
 const MODELS = './models/';
 const W = 360;
@@ -20,6 +20,8 @@ const MESH = q.get('mesh') === '1';
 const RASTERS = ['tiny-skia', 'scanline'];
 const RASTER = q.get('raster') || 'tiny-skia';
 const OTHER = RASTERS.find((r) => r !== RASTER);
+// The face finder's runs (0 skips it): `find` on a 640x480 frame and `landmarks` given its box.
+const FINDER_RUNS = int('finder', 20, 0, 1000);
 
 const $ = (id) => document.getElementById(id);
 const status = (text) => { $('status').textContent = text; };
@@ -50,6 +52,64 @@ function summary(values) {
   const median = s.length % 2 ? s[(s.length - 1) / 2] : 0.5 * (s[s.length / 2 - 1] + s[s.length / 2]);
   const r = (x) => Math.round(x * 1000) / 1000;
   return { mean: r(mean), median: r(median), p95: r(at(0.95)), min: r(s[0]), max: r(s[s.length - 1]) };
+}
+
+// A 640x480 webcam-sized frame: the bundled clip's first frame (spk07, 360x288) scaled 1.5x and
+// centred on black, as in the native benchmark (benches/find.rs, which uses a GRID frame too).
+async function webcamFrame() {
+  const video = document.createElement('video');
+  video.muted = true;
+  video.src = './media/spk07-clip.webm';
+  await new Promise((resolve, reject) => {
+    video.onloadeddata = resolve;
+    video.onerror = () => reject(new Error('media/spk07-clip.webm: cannot decode'));
+  });
+  const c = document.createElement('canvas');
+  c.width = 640;
+  c.height = 480;
+  const ctx = c.getContext('2d', { willReadFrequently: true });
+  ctx.fillStyle = '#000';
+  ctx.fillRect(0, 0, 640, 480);
+  const [w, h] = [video.videoWidth * 1.5, video.videoHeight * 1.5];
+  ctx.drawImage(video, (640 - w) / 2, (480 - h) / 2, w, h);
+  return ctx.getImageData(0, 0, 640, 480);
+}
+
+// The face finder in wasm on one frame: `find` (detector + landmark passes) and `landmarks`
+// (one landmark-net pass given the found box), each run FINDER_RUNS times after one warm-up.
+async function benchFinder() {
+  status(`face finder: ${FINDER_RUNS} runs...`);
+  await new Promise((r) => setTimeout(r, 0));
+  const img = await webcamFrame();
+  const finder = new FaceFinder();
+  try {
+    const first = finder.find(img.data, img.width, img.height);
+    if (first.length === 0) throw new Error('face finder: no face in the benchmark frame');
+    const box = first[0].box;
+    finder.landmarks(img.data, img.width, img.height, box);
+    const find = [];
+    const marks = [];
+    for (let i = 0; i < FINDER_RUNS; i++) {
+      let t = performance.now();
+      finder.find(img.data, img.width, img.height);
+      find.push(performance.now() - t);
+      t = performance.now();
+      finder.landmarks(img.data, img.width, img.height, box);
+      marks.push(performance.now() - t);
+      if (i % 5 === 4) await new Promise((r) => setTimeout(r, 0));
+    }
+    const r = (x) => Math.round(x);
+    return {
+      frame: `${img.width}x${img.height}`,
+      faces: first.length,
+      box: { x: r(box.x), y: r(box.y), width: r(box.width), height: r(box.height) },
+      runs: FINDER_RUNS,
+      findMs: summary(find),
+      landmarksMs: summary(marks),
+    };
+  } finally {
+    finder.free();
+  }
 }
 
 async function main() {
@@ -134,6 +194,7 @@ async function main() {
     }
     for (const m of modes) rasterCompare[m] = summary(samples[m]);
   }
+  const finder = FINDER_RUNS > 0 ? await benchFinder() : null;
   const result = {
     facemimic: version(),
     userAgent: navigator.userAgent,
@@ -160,6 +221,7 @@ async function main() {
       ms: o,
       fps: { fromMean: Math.round(1000 / o.total.mean), fromMedian: Math.round(1000 / o.total.median) },
     },
+    finder,
   };
   const tbody = $('table').querySelector('tbody');
   for (const k of ['map', 'synth', 'raster', 'blit', 'other', 'total']) {
@@ -174,7 +236,9 @@ async function main() {
   $('table').hidden = false;
   status(`${result.faces} faces at ${W}x${H}, ${RASTER}: ${s.total.mean.toFixed(2)} ms per frame (mean), ` +
     `${result.fps.fromMean} fps; median ${s.total.median.toFixed(2)} ms, ${result.fps.fromMedian} fps ` +
-    `(${OTHER}: median ${o.total.median.toFixed(2)} ms, ${result.other.fps.fromMedian} fps)`);
+    `(${OTHER}: median ${o.total.median.toFixed(2)} ms, ${result.other.fps.fromMedian} fps)` +
+    (finder ? `; face finder on ${finder.frame}: find ${finder.findMs.median.toFixed(1)} ms, ` +
+      `landmarks ${finder.landmarksMs.median.toFixed(1)} ms (median)` : ''));
   $('result').textContent = JSON.stringify(result, null, 2);
   $('result').dataset.done = '1';
 }

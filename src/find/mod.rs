@@ -88,6 +88,12 @@ impl BBox {
     }
 }
 
+/// Landmark passes per detector box at most (see [`FaceFinder::find`]).
+const REFINE_PASSES: usize = 3;
+/// The passes stop early when two agree within this share of
+/// [`FindOptions::max_disagreement`].
+const EARLY_AGREEMENT: f32 = 1.0;
+
 /// One face found in an image.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Face {
@@ -105,6 +111,11 @@ pub struct FindOptions {
     /// The detector's input side (a multiple of 32); the image is scaled so its longer side
     /// fits it.
     pub input_size: u32,
+    /// The detector's input side for a first, quicker pass (a multiple of 32; 0 for none): when
+    /// it confirms a face, its faces are the result and the `input_size` pass is skipped. At
+    /// 256 on a 640x480 frame it finds faces down to about 100 px wide; a much smaller face
+    /// beside a larger one is then missed (set 0 to always search at `input_size`).
+    pub quick_input_size: u32,
     /// Detector confidence below which a box is not considered.
     pub score_threshold: f32,
     /// Boxes overlapping a more confident one by more than this IoU are dropped.
@@ -122,6 +133,7 @@ impl Default for FindOptions {
     fn default() -> Self {
         FindOptions {
             input_size: 416,
+            quick_input_size: 256,
             score_threshold: 0.05,
             iou_threshold: 0.4,
             max_faces: 16,
@@ -169,9 +181,13 @@ impl FaceFinder {
         self.options
     }
 
-    /// Sets the options (`input_size` is rounded to a multiple of 32 in 64..=1024).
+    /// Sets the options (`input_size` is rounded to a multiple of 32 in 64..=1024, and
+    /// `quick_input_size` too unless it is 0).
     pub fn set_options(&mut self, mut options: FindOptions) {
         options.input_size = (options.input_size.clamp(64, 1024) / 32) * 32;
+        if options.quick_input_size != 0 {
+            options.quick_input_size = (options.quick_input_size.clamp(64, 1024) / 32) * 32;
+        }
         if !options.score_threshold.is_finite() {
             options.score_threshold = FindOptions::default().score_threshold;
         }
@@ -183,16 +199,37 @@ impl FaceFinder {
 
     /// Every face in `image`, most confident first.
     ///
-    /// The detector proposes boxes down to [`FindOptions::score_threshold`]; on each, the
-    /// landmark net runs three times, each pass on the box of the previous pass's points
-    /// ([`BBox::around_landmarks`]), and a box is kept as a face only if its last two passes
-    /// agree ([`FindOptions::max_disagreement`]): a face's points settle, a non-face's wander.
-    /// The score is the detector's, lowered by the disagreement.
+    /// The detector proposes boxes down to [`FindOptions::score_threshold`], first at
+    /// [`FindOptions::quick_input_size`] and, only when that confirms no face, at
+    /// [`FindOptions::input_size`]. On each box (skipping boxes that overlap a face already
+    /// confirmed) the landmark net runs three times, each pass on the box of the previous
+    /// pass's points ([`BBox::around_landmarks`]), and a box is kept as a face only if its last
+    /// two passes agree ([`FindOptions::max_disagreement`]): a face's points settle, a
+    /// non-face's wander. The score is the detector's, lowered by the disagreement.
     pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
-        self.detect(image);
+        let quick = self.options.quick_input_size;
+        if quick != 0 && quick < self.options.input_size {
+            let faces = self.find_at(image, quick);
+            if !faces.is_empty() {
+                return faces;
+            }
+        }
+        self.find_at(image, self.options.input_size)
+    }
+
+    /// [`find`](Self::find) with the detector at one input side.
+    fn find_at(&mut self, image: &ImageRef, input_size: u32) -> Vec<Face> {
+        self.detect(image, input_size);
         let candidates = std::mem::take(&mut self.candidates);
         let mut faces: Vec<Face> = Vec::with_capacity(candidates.len());
         for &(bbox, score) in candidates.iter().take(self.options.max_candidates) {
+            // A box over a face already confirmed (a second detection of it) costs no passes.
+            if faces
+                .iter()
+                .any(|f| f.bbox.iou(&bbox) > self.options.iou_threshold)
+            {
+                continue;
+            }
             let Some((face, disagreement)) = self.refine(image, bbox, score) else {
                 continue;
             };
@@ -213,20 +250,28 @@ impl FaceFinder {
         faces
     }
 
-    /// Three landmark passes from a detector box; the face and the disagreement of the last two
-    /// passes (mean point distance over the outer-eye-corner distance).
+    /// Landmark passes from a detector box, each on the box of the previous pass's points,
+    /// until two successive passes agree within [`FindOptions::max_disagreement`] (two passes
+    /// when the detector's box was good, three at most); the face (the last pass) and the
+    /// disagreement of the last two passes (mean point distance over the outer-eye-corner
+    /// distance).
     fn refine(&mut self, image: &ImageRef, bbox: BBox, score: f32) -> Option<(Face, f32)> {
         let mut prev = self.landmarks(image, bbox).ok()?;
         let mut cur = vec![0.0; 136];
-        for _ in 0..2 {
+        let mut d = f32::INFINITY;
+        for _ in 0..REFINE_PASSES - 1 {
             let b = BBox::around_landmarks(&prev);
             self.landmarks_into(image, b, &mut cur).ok()?;
+            d = landmark_error(&prev, &cur);
+            if !d.is_finite() {
+                return None;
+            }
             std::mem::swap(&mut prev, &mut cur);
+            if d <= self.options.max_disagreement * EARLY_AGREEMENT {
+                break;
+            }
         }
-        let d = landmark_error(&prev, &cur);
-        if !d.is_finite() {
-            return None;
-        }
+        // `prev` is now the last pass.
         let face = Face {
             bbox: BBox::around_landmarks(&prev),
             score: score
@@ -240,8 +285,8 @@ impl FaceFinder {
 
     /// The detector's boxes and scores (after non-maximum suppression), most confident first,
     /// into `self.candidates`.
-    fn detect(&mut self, image: &ImageRef) {
-        let s = self.options.input_size as usize;
+    fn detect(&mut self, image: &ImageRef, input_size: u32) {
+        let s = input_size as usize;
         let side = image.width().max(image.height()) as f32;
         prepare(
             image,

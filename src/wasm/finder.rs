@@ -4,6 +4,7 @@ use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
 
 use super::install_panic_hook;
+use crate::find::BBox;
 use crate::{FaceFinder, ImageRef};
 
 #[wasm_bindgen(typescript_custom_section)]
@@ -65,6 +66,45 @@ impl JsFaceFinder {
             out.push(&o);
         }
         Ok(out)
+    }
+
+    /// The 68 landmarks of the face inside `box` (`{x, y, width, height}`, image pixels) of a
+    /// straight RGBA frame: one pass of the landmark net, no detection and no check that a face
+    /// is there.
+    #[wasm_bindgen(unchecked_return_type = "Float32Array")]
+    pub fn landmarks(
+        &mut self,
+        rgba: &[u8],
+        width: u32,
+        height: u32,
+        #[wasm_bindgen(
+            js_name = "box",
+            unchecked_param_type = "{ x: number; y: number; width: number; height: number }"
+        )]
+        bbox: JsValue,
+    ) -> Result<Float32Array, JsError> {
+        let img = ImageRef::new(width, height, rgba)
+            .map_err(|e| JsError::new(&format!("FaceFinder.landmarks: {e}")))?;
+        let get = |k: &str| -> Result<f32, JsError> {
+            let v = Reflect::get(&bbox, &JsValue::from_str(k))
+                .ok()
+                .and_then(|v| v.as_f64())
+                .ok_or_else(|| {
+                    JsError::new(&format!("FaceFinder.landmarks: box.{k} must be a number"))
+                })?;
+            Ok(v as f32)
+        };
+        let b = BBox {
+            x: get("x")?,
+            y: get("y")?,
+            width: get("width")?,
+            height: get("height")?,
+        };
+        let points = self
+            .inner
+            .landmarks(&img, b)
+            .map_err(|e| JsError::new(&format!("FaceFinder.landmarks: {e}")))?;
+        Ok(Float32Array::from(points.as_slice()))
     }
 }
 

@@ -1,5 +1,6 @@
 // Runs www/bench.html in headless Chromium and prints its JSON summary (a script, not a test).
 //   node tests/e2e/bench.mjs [--frames N] [--method map] [--mesh] [--raster tiny-skia|scanline]
+//     [--finder RUNS]  (face finder runs on a 640x480 frame; 0 skips)
 // Both rasterisers are measured; --raster picks the headline (default tiny-skia).
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import { serveStatic, launchBrowser, screenshot } from './lib.mjs';
@@ -16,6 +17,7 @@ const query = new URLSearchParams({
   method: opt('method', 'map'),
   mesh: args.includes('--mesh') ? '1' : '0',
   raster: opt('raster', 'tiny-skia'),
+  finder: opt('finder', '20'),
 });
 
 const server = await serveStatic('www');
