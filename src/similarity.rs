@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 /// shape space, centred on the origin) to image coordinates (0-based pixels, pixel centres on
 /// integers). Kept apart from the shape parameters `p`, as the paper's notes require.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(from = "PoseJson", into = "PoseJson")]
+#[serde(try_from = "PoseJson", into = "PoseJson")]
 pub struct Similarity {
     /// `scale * cos(rotation)`.
     pub a: f32,
@@ -108,6 +108,14 @@ impl Similarity {
         }
     }
 
+    /// `target ∘ anchor⁻¹ ∘ self`: this pose moved so that where `anchor` puts a shape,
+    /// `target` puts it, keeping the motion relative to `anchor` exactly (the page re-centres a
+    /// tracked or recorded head on a model's mean placement this way). `None` when `anchor` has
+    /// no inverse.
+    pub fn recentred(&self, anchor: &Similarity, target: &Similarity) -> Option<Similarity> {
+        Some(target.compose(&anchor.inverse()?).compose(self))
+    }
+
     /// True when all four numbers are finite and the scale is non-zero.
     pub fn is_valid(&self) -> bool {
         [self.a, self.b, self.tx, self.ty]
@@ -203,15 +211,82 @@ impl From<Similarity> for PoseJson {
     }
 }
 
-impl From<PoseJson> for Similarity {
-    fn from(p: PoseJson) -> Self {
-        Similarity::from_parts(p.scale, p.rotation, p.tx, p.ty)
+/// A pose read from JSON: the scale must be positive and every value finite (a negative scale
+/// would silently become a half-turn rotation).
+impl TryFrom<PoseJson> for Similarity {
+    type Error = String;
+    fn try_from(p: PoseJson) -> std::result::Result<Self, String> {
+        if !(p.scale.is_finite() && p.scale > 0.0) {
+            return Err(format!(
+                "pose.scale is {}, not a positive finite number",
+                p.scale
+            ));
+        }
+        for (k, v) in [("rotation", p.rotation), ("tx", p.tx), ("ty", p.ty)] {
+            if !v.is_finite() {
+                return Err(format!("pose.{k} is {v}, not a finite number"));
+            }
+        }
+        Ok(Similarity::from_parts(p.scale, p.rotation, p.tx, p.ty))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn recentred_maps_the_anchor_onto_the_target() {
+        let anchor = Similarity::from_parts(1.7, 0.2, 40.0, 25.0);
+        let target = Similarity::from_parts(0.9, -0.05, 180.0, 144.0);
+        // The anchor itself lands on the target...
+        let r = anchor.recentred(&anchor, &target).unwrap();
+        for (a, b) in [
+            (r.a, target.a),
+            (r.b, target.b),
+            (r.tx, target.tx),
+            (r.ty, target.ty),
+        ] {
+            assert!((a - b).abs() < 1e-4, "{r:?} != {target:?}");
+        }
+        // ...and a pose moved from the anchor keeps its motion relative to it: the same point
+        // maps to the same place relative to where the anchor / target map it.
+        let moved = Similarity::from_parts(1.8, 0.25, 45.0, 20.0);
+        let m = moved.recentred(&anchor, &target).unwrap();
+        let rel = anchor.inverse().unwrap().compose(&moved);
+        let rel2 = target.inverse().unwrap().compose(&m);
+        for (a, b) in [
+            (rel.a, rel2.a),
+            (rel.b, rel2.b),
+            (rel.tx, rel2.tx),
+            (rel.ty, rel2.ty),
+        ] {
+            assert!((a - b).abs() < 1e-4, "{rel:?} != {rel2:?}");
+        }
+        let degenerate = Similarity {
+            a: 0.0,
+            b: 0.0,
+            tx: 1.0,
+            ty: 1.0,
+        };
+        assert!(moved.recentred(&degenerate, &target).is_none());
+    }
+
+    #[test]
+    fn json_pose_needs_a_positive_finite_scale() {
+        let ok: Similarity =
+            serde_json::from_str(r#"{"scale":2,"rotation":0.1,"tx":3,"ty":4}"#).unwrap();
+        assert!((ok.scale() - 2.0).abs() < 1e-6);
+        for bad in [
+            r#"{"scale":-1,"rotation":0,"tx":0,"ty":0}"#,
+            r#"{"scale":0,"rotation":0,"tx":0,"ty":0}"#,
+        ] {
+            let e = serde_json::from_str::<Similarity>(bad)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("pose.scale"), "{e}");
+        }
+    }
 
     #[test]
     fn inverse_and_compose() {

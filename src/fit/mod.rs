@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::model::Params;
 
 pub use driver::Fitter;
-pub use options::{FitOptions, LevelSpec};
+pub use options::{FitOptions, LevelSpec, TrackPolicy};
 pub use tracker::{FaceSource, Tracker, MIN_CONTRAST};
 
 /// The result of one fit.

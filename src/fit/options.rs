@@ -180,3 +180,82 @@ pub struct LevelSpec {
     /// smoothed by the same amount in its own pixels (times the pose's scale). 0 = none.
     pub sigma: f32,
 }
+
+/// Tracking policy shared by every front end (the CLI, the npm package, the page): how a frame
+/// is resampled before fitting, and how the tracked parameters are bounded. `Default` is what
+/// the page and the package use.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrackPolicy {
+    /// Tracked appearance parameters are clamped to `+-appearance_limit` standard deviations
+    /// of the model ([`crate::clone::constrain`]): another person's face (a webcam, a dropped
+    /// video) projects far outside a person-specific appearance space, and an unclamped
+    /// projection paints noise on the face it drives; the faces a model was built for stay well
+    /// inside. 0 disables the clamp.
+    pub appearance_limit: f32,
+    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): the resampled frame's longer side is at most this (pixels).
+    pub max_fit_side: u32,
+    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): ...and at least this (pixels).
+    pub min_fit_side: u32,
+    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): a frame is enlarged at most this much.
+    pub max_upscale: f32,
+    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): a face whose size is within `1/native_band..native_band` of the
+    /// model's is fitted at the frame's own resolution (no resampling).
+    pub native_band: f32,
+    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): while tracking, the scale changes only when the wanted one
+    /// differs from the current one by more than this fraction (a face moving to or from the
+    /// camera), so the resampling does not flicker between nearby scales.
+    pub rescale_change: f32,
+}
+
+impl Default for TrackPolicy {
+    fn default() -> Self {
+        TrackPolicy {
+            appearance_limit: 3.0,
+            max_fit_side: 1280,
+            min_fit_side: 160,
+            max_upscale: 2.0,
+            native_band: 1.33,
+            rescale_change: 0.3,
+        }
+    }
+}
+
+impl TrackPolicy {
+    /// Fails with [`Error::Params`] naming the first value out of range.
+    pub fn check(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Params(format!("tracking policy: {m}")));
+        if !(self.appearance_limit.is_finite() && self.appearance_limit >= 0.0) {
+            return bad(format!(
+                "appearance_limit = {} must be finite and non-negative",
+                self.appearance_limit
+            ));
+        }
+        if !(16..=16384).contains(&self.min_fit_side)
+            || !(self.min_fit_side..=16384).contains(&self.max_fit_side)
+        {
+            return bad(format!(
+                "min_fit_side = {}, max_fit_side = {}: 16 <= min <= max <= 16384 expected",
+                self.min_fit_side, self.max_fit_side
+            ));
+        }
+        if !(1.0..=8.0).contains(&self.max_upscale) {
+            return bad(format!(
+                "max_upscale = {} must be in 1..=8",
+                self.max_upscale
+            ));
+        }
+        if !(1.0..=4.0).contains(&self.native_band) {
+            return bad(format!(
+                "native_band = {} must be in 1..=4",
+                self.native_band
+            ));
+        }
+        if !(0.0..=4.0).contains(&self.rescale_change) {
+            return bad(format!(
+                "rescale_change = {} must be in 0..=4",
+                self.rescale_change
+            ));
+        }
+        Ok(())
+    }
+}

@@ -7,7 +7,7 @@ use crate::image::ImageRef;
 use crate::model::Model;
 use crate::similarity::Similarity;
 
-use super::{FitOptions, FitResult, Fitter};
+use super::{FitOptions, FitResult, Fitter, TrackPolicy};
 
 /// A fit whose image contrast under the mesh is below this fraction of the template's (or
 /// above its inverse) is a lost face: see [`Fitter::contrast`].
@@ -80,6 +80,18 @@ pub struct Tracker {
     typical_error: f32,
     /// Size of the frame being tracked.
     frame_size: (f32, f32),
+    /// Policy shared by the front ends (resampling scale, appearance bounds).
+    policy: TrackPolicy,
+    /// The model's appearance standard deviations (for [`TrackPolicy::appearance_limit`]).
+    appearance_sigmas: Vec<f32>,
+    /// Height (pixels) of the model's mean face at its mean pose: the face size the model was
+    /// built at (for [`Tracker::fit_scale`]).
+    model_face_height: f32,
+    /// Faces offered by [`Tracker::offer_faces`], used by the next acquisition.
+    offered: Option<Vec<Vec<f32>>>,
+    /// True when faces are offered from elsewhere ([`Tracker::expect_offers`]): a lost face
+    /// is searched for (offered faces are used) even without a source.
+    offers: bool,
 }
 
 impl Tracker {
@@ -87,6 +99,9 @@ impl Tracker {
     pub fn new(model: &Model, options: FitOptions) -> Result<Tracker> {
         let fitter = Fitter::new(model, options)?;
         let n2 = fitter.landmarks() * 2;
+        let mut mean = vec![0.0; n2];
+        model.image_shape(&model.base_params(), &mut mean)?;
+        let model_face_height = extent(&mean).1.max(1.0);
         Ok(Tracker {
             fitter,
             start: vec![0.0; n2],
@@ -103,7 +118,108 @@ impl Tracker {
             was_lost: false,
             typical_error: 0.0,
             frame_size: (0.0, 0.0),
+            policy: TrackPolicy::default(),
+            appearance_sigmas: model.appearance().sigmas(),
+            model_face_height,
+            offered: None,
+            offers: false,
         })
+    }
+
+    /// The tracking policy (resampling scale, appearance bounds).
+    pub fn policy(&self) -> &TrackPolicy {
+        &self.policy
+    }
+
+    /// Replaces the tracking policy; fails with [`Error::Params`] (and keeps the old one) when
+    /// a value is out of range.
+    pub fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
+        policy.check()?;
+        self.policy = policy;
+        Ok(())
+    }
+
+    /// The scale by which to resample a `width x height` frame before tracking a face
+    /// `face_height` pixels tall in it (resampled pixels per frame pixel), under the
+    /// [`TrackPolicy`]: the fit's cost grows with the face's size in pixels (a face twice the
+    /// model's size costs about 3 times more), so the face is brought to about the size the
+    /// model was built at; a face within [`TrackPolicy::native_band`] of it is fitted at the
+    /// frame's own resolution, the resampled frame's longer side stays within
+    /// `min_fit_side..=max_fit_side`, and it is enlarged at most [`TrackPolicy::max_upscale`]
+    /// times. `current` is the scale in use (0 when there is none): it is kept unless the
+    /// wanted scale differs from it by more than [`TrackPolicy::rescale_change`]. A
+    /// non-finite or non-positive size gives `current` (or 1).
+    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
+        let keep = if current.is_finite() && current > 0.0 {
+            current
+        } else {
+            1.0
+        };
+        let side = width.max(height) as f32;
+        if !(face_height.is_finite() && face_height > 0.0 && side >= 1.0) {
+            return keep;
+        }
+        let p = &self.policy;
+        let want = self.model_face_height / face_height.max(1.0);
+        let want = if want > 1.0 / p.native_band
+            && want < p.native_band
+            && side <= p.max_fit_side as f32
+        {
+            1.0
+        } else {
+            p.max_upscale
+                .min(p.max_fit_side as f32 / side)
+                .min((p.min_fit_side as f32 / side).max(want))
+        };
+        if current.is_finite() && current > 0.0 && (want / current - 1.0).abs() <= p.rescale_change
+        {
+            current
+        } else {
+            want
+        }
+    }
+
+    /// Faces found elsewhere (a face finder on another thread, on a recent frame): landmarks in
+    /// image coordinates, `2n` values each, most confident first. The next acquisition (the
+    /// start of [`Tracker::start_searching`], or a lost face) fits from the one nearest the
+    /// last good position instead of asking the source; they are used once. Fails with
+    /// [`Error::Params`] (keeping none) when a face has the wrong length or non-finite points.
+    pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
+        for f in &faces {
+            check_len("offered face landmarks", f, self.start.len())?;
+            crate::bounds::check_landmarks(f)?;
+        }
+        self.offered = Some(faces);
+        Ok(())
+    }
+
+    /// Whether the tracker is looking for a face (a sequence started with no landmarks, or a
+    /// lost face) and has no offered faces to try: the moment to run a finder on a frame and
+    /// [`Tracker::offer_faces`].
+    pub fn wants_faces(&self) -> bool {
+        self.started && self.searching && self.offers && self.offered.is_none()
+    }
+
+    /// Starts a new sequence with no landmarks, with faces offered from elsewhere
+    /// ([`Tracker::offer_faces`], e.g. a finder running on another thread) and, if the tracker
+    /// has one, from its source. Frames are reported lost until a face is acquired; from then
+    /// on a lost face is first refitted from the last good fit, and acquired again from the
+    /// next faces offered.
+    pub fn start_searching(&mut self) {
+        self.begin(false);
+        self.offers = true;
+        self.searching = true;
+    }
+
+    /// Whether faces will be offered from elsewhere ([`Tracker::offer_faces`]): then a lost
+    /// face is searched for ([`Tracker::wants_faces`] turns true) even without a source, in
+    /// every sequence however it was started. Off by default; [`Tracker::start_searching`]
+    /// turns it on.
+    pub fn expect_offers(&mut self, yes: bool) {
+        self.offers = yes;
+        if !yes {
+            self.offered = None;
+        }
     }
 
     /// The fitter (for its sizes and options).
@@ -158,6 +274,7 @@ impl Tracker {
 
     fn begin(&mut self, cold: bool) {
         self.started = true;
+        self.offered = None;
         self.cold = cold;
         self.searching = false;
         self.was_lost = false;
@@ -195,10 +312,11 @@ impl Tracker {
     /// position (or the most confident one). Returns whether the fit is plausible (then it is
     /// the fitter's result).
     fn acquire(&mut self, frame: &ImageRef<'_>) -> Result<bool> {
-        let Some(source) = self.source.as_mut() else {
-            return Ok(false);
+        let faces = match (self.offered.take(), self.source.as_mut()) {
+            (Some(faces), _) => faces,
+            (None, Some(source)) => source.faces(frame)?,
+            (None, None) => return Ok(false),
         };
-        let faces = source.faces(frame)?;
         for f in &faces {
             check_len("found face landmarks", f, self.start.len())?;
         }
@@ -250,7 +368,10 @@ impl Tracker {
         self.frames += 1;
         self.frame_size = (frame.width() as f32, frame.height() as f32);
         let mut reacquired = false;
-        let ok = if self.searching {
+        // Without a source, a search with nothing offered yet refits from the last good fit
+        // (when there is one), as a tracker without a source does.
+        let can_acquire = self.source.is_some() || self.offered.is_some();
+        let ok = if self.searching && (can_acquire || self.last_good.is_none()) {
             reacquired = self.acquire(frame)?;
             reacquired
         } else {
@@ -282,7 +403,7 @@ impl Tracker {
                     .fit_with(frame, &from, Some(cold_iters), opts.coarse_starts)?;
                 ok = self.plausible(self.fitter.result(), true);
             }
-            if !ok && self.source.is_some() {
+            if !ok && (self.source.is_some() || self.offered.is_some()) {
                 reacquired = self.acquire(frame)?;
                 ok = reacquired;
             }
@@ -292,6 +413,7 @@ impl Tracker {
             self.cold = false;
             self.searching = false;
             let mut r = self.fitter.result().clone();
+            self.bound_appearance(&mut r);
             // A face found again after lost frames (or the first face of an auto start).
             r.reacquired = reacquired && (self.was_lost || self.last_good.is_none());
             if r.reacquired {
@@ -308,7 +430,7 @@ impl Tracker {
             r
         } else {
             self.lost_count += 1;
-            self.searching = self.source.is_some();
+            self.searching = self.source.is_some() || self.offers;
             match &self.last_good {
                 Some(g) => {
                     self.start.copy_from_slice(&g.landmarks);
@@ -323,6 +445,7 @@ impl Tracker {
                     let mut r = self.fitter.result().clone();
                     r.lost = true;
                     r.reacquired = false;
+                    self.bound_appearance(&mut r);
                     r
                 }
             }
@@ -330,6 +453,17 @@ impl Tracker {
         self.was_lost = result.lost;
         self.last = Some(result);
         Ok(self.last.as_ref().expect("just set"))
+    }
+
+    /// Clamps a result's appearance parameters to the policy's `+-appearance_limit` sigmas.
+    fn bound_appearance(&self, r: &mut FitResult) {
+        if self.policy.appearance_limit > 0.0 {
+            crate::clone::constrain(
+                &mut r.params.appearance,
+                &self.appearance_sigmas,
+                self.policy.appearance_limit,
+            );
+        }
     }
 
     /// Whether a fit is plausible (see the type's documentation); `jump` also checks the
@@ -428,4 +562,16 @@ impl std::fmt::Debug for Tracker {
             .field("fitter", &self.fitter)
             .finish_non_exhaustive()
     }
+}
+
+/// Width and height of the bounding box of interleaved points.
+fn extent(points: &[f32]) -> (f32, f32) {
+    let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+    for p in points.chunks_exact(2) {
+        x0 = x0.min(p[0]);
+        x1 = x1.max(p[0]);
+        y0 = y0.min(p[1]);
+        y1 = y1.max(p[1]);
+    }
+    ((x1 - x0).max(0.0), (y1 - y0).max(0.0))
 }

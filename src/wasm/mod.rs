@@ -18,6 +18,7 @@ mod build;
 mod cloner;
 mod finder;
 mod model;
+mod pose;
 mod surface;
 mod tracker;
 
@@ -25,6 +26,7 @@ pub use build::build_model;
 pub use cloner::JsCloner;
 pub use finder::JsFaceFinder;
 pub use model::{render_mode, JsModel};
+pub use pose::recentre_pose;
 pub use tracker::WasmTracker;
 
 /// Converts a library error into a JS `Error` (its message names the problem).

@@ -197,6 +197,17 @@ impl JsModel {
         Ok(out)
     }
 
+    /// Checks parameters against this model: the mode counts, every value finite and within
+    /// the library's bounds, a positive pose scale. Throws an `Error` naming the first problem.
+    #[wasm_bindgen(js_name = checkParams)]
+    pub fn check_params(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
+    ) -> Result<(), JsError> {
+        let params = params_from_js(&params)?;
+        self.model.check_params(&params).map_err(js_err)
+    }
+
     /// The view (a pose: image coordinates -> canvas pixels) used when this model is drawn
     /// into a `width x height` canvas: the face's mean placement centred, its bounding box at
     /// 85% of the smaller side. Use it to overlay landmarks (`x' = scale (cos r x - sin r y) + tx`).

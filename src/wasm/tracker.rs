@@ -6,7 +6,9 @@
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
-use crate::fit::{FitOptions, FitResult, Tracker};
+use js_sys::{Array, Float32Array, Reflect};
+
+use crate::fit::{FitOptions, FitResult, TrackPolicy, Tracker};
 use crate::image::ImageRef;
 use crate::similarity::PoseJson;
 
@@ -43,6 +45,61 @@ fn to_js(r: &FitResult) -> Result<JsValue, JsError> {
     };
     serde_wasm_bindgen::to_value(&v).map_err(|e| JsError::new(&format!("tracker: {e}")))
 }
+
+/// `TrackPolicy` in JS (camelCase).
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct PolicyJs {
+    appearance_limit: f32,
+    max_fit_side: u32,
+    min_fit_side: u32,
+    max_upscale: f32,
+    native_band: f32,
+    rescale_change: f32,
+}
+
+impl From<&TrackPolicy> for PolicyJs {
+    fn from(p: &TrackPolicy) -> Self {
+        PolicyJs {
+            appearance_limit: p.appearance_limit,
+            max_fit_side: p.max_fit_side,
+            min_fit_side: p.min_fit_side,
+            max_upscale: p.max_upscale,
+            native_band: p.native_band,
+            rescale_change: p.rescale_change,
+        }
+    }
+}
+
+/// `setPolicy`'s argument: any subset of the policy's values.
+#[derive(serde::Deserialize)]
+#[serde(rename_all = "camelCase", deny_unknown_fields)]
+struct PolicyPatch {
+    appearance_limit: Option<f32>,
+    max_fit_side: Option<u32>,
+    min_fit_side: Option<u32>,
+    max_upscale: Option<f32>,
+    native_band: Option<f32>,
+    rescale_change: Option<f32>,
+}
+
+#[wasm_bindgen(typescript_custom_section)]
+const TS_POLICY: &'static str = r##"
+/** How a `Tracker` resamples frames and bounds what it reports (`Tracker.policy`). */
+export interface TrackPolicy {
+  /** Reported appearance parameters are clamped to +- this many standard deviations (0: off). */
+  appearanceLimit: number;
+  /** `fitScale`: the resampled frame's longer side is at most this, and at least `minFitSide` (px). */
+  maxFitSide: number;
+  minFitSide: number;
+  /** `fitScale`: a frame is enlarged at most this much. */
+  maxUpscale: number;
+  /** `fitScale`: a face within 1/nativeBand..nativeBand of the model's size is fitted unscaled. */
+  nativeBand: number;
+  /** `fitScale`: the current scale is kept unless the wanted one differs by more than this fraction. */
+  rescaleChange: number;
+}
+"##;
 
 fn err(e: crate::Error) -> JsError {
     JsError::new(&format!("tracker: {e}"))
@@ -120,6 +177,102 @@ impl WasmTracker {
             Some(r) => to_js(r),
             None => Ok(JsValue::NULL),
         }
+    }
+
+    /// Starts a sequence with no landmarks, with faces given by `offerFaces` (e.g. from a
+    /// `FaceFinder` running in a worker, so finding never stalls the page): frames are reported
+    /// `lost` until a face is acquired; from then on a lost face is first refitted from the last
+    /// good fit and acquired again from the next faces offered (`wantsFaces` says when).
+    #[wasm_bindgen(js_name = startSearching)]
+    pub fn start_searching(&mut self) {
+        self.inner.start_searching();
+    }
+
+    /// Whether faces will be offered (`offerFaces`) in every sequence, however it was started:
+    /// then a lost face is searched for (`wantsFaces` turns true). `startSearching` turns it on.
+    #[wasm_bindgen(js_name = expectOffers)]
+    pub fn expect_offers(&mut self, yes: bool) {
+        self.inner.expect_offers(yes);
+    }
+
+    /// Faces found in a recent frame, in this tracker's image coordinates, most confident
+    /// first: `FaceFinder.find`'s result (objects with `landmarks`) or arrays of `2n` values.
+    /// The next acquisition fits from the one nearest the last good position. Throws for a
+    /// wrong number of points or non-finite ones (nothing is kept then).
+    #[wasm_bindgen(js_name = offerFaces)]
+    pub fn offer_faces(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>")]
+        faces: JsValue,
+    ) -> Result<(), JsError> {
+        if !Array::is_array(&faces) {
+            return Err(JsError::new(
+                "tracker: offerFaces expects an array of faces",
+            ));
+        }
+        let key = JsValue::from_str("landmarks");
+        let mut out = Vec::new();
+        for (i, f) in Array::from(&faces).iter().enumerate() {
+            let pts = match Reflect::get(&f, &key) {
+                Ok(v) if !v.is_undefined() && !v.is_null() => v,
+                _ => f,
+            };
+            if !(pts.is_object()
+                && Reflect::has(&pts, &JsValue::from_str("length")).unwrap_or(false))
+            {
+                return Err(JsError::new(&format!(
+                    "tracker: offerFaces: face {i} has no landmarks (an array of 2n numbers expected)"
+                )));
+            }
+            out.push(Float32Array::new(&pts).to_vec());
+        }
+        self.inner.offer_faces(out).map_err(err)
+    }
+
+    /// True while the tracker looks for a face (searching, or lost with offers expected) and
+    /// has no offered faces left to try: the moment to run a finder and `offerFaces`.
+    #[wasm_bindgen(getter, js_name = wantsFaces)]
+    pub fn wants_faces(&self) -> bool {
+        self.inner.wants_faces()
+    }
+
+    /// The scale by which to resample a `width x height` frame before tracking a face
+    /// `faceHeight` pixels tall in it, so the face is about the model's own size (the fit's
+    /// cost grows with the face's size); 1 when it already is. `current` (0 for none) is the
+    /// scale in use: it is kept unless the wanted one differs by more than the policy's
+    /// `rescaleChange`.
+    #[wasm_bindgen(js_name = fitScale)]
+    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
+        self.inner.fit_scale(face_height, width, height, current)
+    }
+
+    /// The tracking policy (`{ appearanceLimit, maxFitSide, minFitSide, maxUpscale, nativeBand,
+    /// rescaleChange }`).
+    #[wasm_bindgen(getter, unchecked_return_type = "TrackPolicy")]
+    pub fn policy(&self) -> Result<JsValue, JsError> {
+        serde_wasm_bindgen::to_value(&PolicyJs::from(self.inner.policy()))
+            .map_err(|e| JsError::new(&format!("tracker: {e}")))
+    }
+
+    /// Changes some of the tracking policy's values (the others keep theirs). Throws, changing
+    /// nothing, for a value out of range.
+    #[wasm_bindgen(js_name = setPolicy)]
+    pub fn set_policy(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "Partial<TrackPolicy>")] policy: JsValue,
+    ) -> Result<(), JsError> {
+        let base = PolicyJs::from(self.inner.policy());
+        let patch: PolicyPatch = serde_wasm_bindgen::from_value(policy)
+            .map_err(|e| JsError::new(&format!("tracker: setPolicy: {e}")))?;
+        let p = TrackPolicy {
+            appearance_limit: patch.appearance_limit.unwrap_or(base.appearance_limit),
+            max_fit_side: patch.max_fit_side.unwrap_or(base.max_fit_side),
+            min_fit_side: patch.min_fit_side.unwrap_or(base.min_fit_side),
+            max_upscale: patch.max_upscale.unwrap_or(base.max_upscale),
+            native_band: patch.native_band.unwrap_or(base.native_band),
+            rescale_change: patch.rescale_change.unwrap_or(base.rescale_change),
+        };
+        self.inner.set_policy(p).map_err(err)
     }
 
     /// Re-initialisations so far (fits judged implausible, refitted from the last good one).

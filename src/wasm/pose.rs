@@ -1,0 +1,28 @@
+//! Pose helpers for JavaScript (the page's re-centring of a tracked or recorded head).
+
+use wasm_bindgen::prelude::*;
+
+use crate::similarity::{PoseJson, Similarity};
+
+fn pose_from_js(what: &str, v: JsValue) -> Result<Similarity, JsError> {
+    serde_wasm_bindgen::from_value(v).map_err(|e| JsError::new(&format!("{what}: {e}")))
+}
+
+/// `target ∘ anchor⁻¹ ∘ pose` (`Similarity::recentred`): `pose` moved so that where `anchor`
+/// places a face, `target` does, keeping the motion relative to `anchor` exactly. Throws for a
+/// pose that is not `{ scale > 0, rotation, tx, ty }` with finite values.
+#[wasm_bindgen(js_name = recentrePose, unchecked_return_type = "Pose")]
+pub fn recentre_pose(
+    #[wasm_bindgen(unchecked_param_type = "Pose")] pose: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "Pose")] anchor: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "Pose")] target: JsValue,
+) -> Result<JsValue, JsError> {
+    let pose = pose_from_js("pose", pose)?;
+    let anchor = pose_from_js("anchor", anchor)?;
+    let target = pose_from_js("target", target)?;
+    let r = pose
+        .recentred(&anchor, &target)
+        .ok_or_else(|| JsError::new("recentrePose: the anchor pose has no inverse"))?;
+    serde_wasm_bindgen::to_value(&PoseJson::from(r))
+        .map_err(|e| JsError::new(&format!("pose: {e}")))
+}

@@ -1,0 +1,265 @@
+#![cfg(not(target_arch = "wasm32"))]
+//! The tracking policy that every front end shares (`fit::Tracker`, `TrackPolicy`): the
+//! resampling scale for a face of a given size, the appearance bounds of what the tracker
+//! reports, and faces offered from elsewhere (a finder running on another thread).
+//!
+//! Model: spk07 built from its 20 training frames (`data/grid/spk07_pwij3p/train20.txt`);
+//! tracked frames: spk07's unseen clip (`data/grid/spk07_id2_vcd_swwp2s`, no frame of it is in
+//! the model) and another speaker (spk02) for the appearance bounds.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use facemimic::fit::{FitOptions, TrackPolicy, Tracker};
+use facemimic::{io, Builder, Image, Model, TrainingImage};
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+fn model() -> &'static Model {
+    static M: OnceLock<Model> = OnceLock::new();
+    M.get_or_init(|| {
+        let paths = io::read_list(&repo("data/grid/spk07_pwij3p/train20.txt")).unwrap();
+        let images: Vec<TrainingImage> = paths
+            .iter()
+            .map(|p| io::read_training_image(p).unwrap())
+            .collect();
+        Builder::default().build(&images, None).unwrap()
+    })
+}
+
+fn frame(clip: &str, i: usize) -> TrainingImage {
+    io::read_training_image(&repo(&format!("data/grid/{clip}/{i:06}.jpg"))).unwrap()
+}
+
+/// A black frame of an image's size.
+fn black_like(img: &Image) -> Image {
+    Image {
+        width: img.width,
+        height: img.height,
+        data: vec![0; img.data.len()],
+    }
+}
+
+const UNSEEN: &str = "spk07_id2_vcd_swwp2s";
+
+/// Height of the model's mean face at its mean pose (pixels).
+fn model_face_height(m: &Model) -> f32 {
+    let mut s = vec![0.0; m.landmarks() * 2];
+    m.image_shape(&m.base_params(), &mut s).unwrap();
+    let ys: Vec<f32> = s.iter().skip(1).step_by(2).copied().collect();
+    ys.iter().copied().fold(f32::MIN, f32::max) - ys.iter().copied().fold(f32::MAX, f32::min)
+}
+
+fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
+    let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
+    let n = truth.len() / 2;
+    (0..n)
+        .map(|i| {
+            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
+                .sqrt()
+        })
+        .sum::<f32>()
+        / n as f32
+        / iod
+}
+
+#[test]
+fn fit_scale_brings_the_face_to_the_model_size_within_the_limits() {
+    let t = Tracker::new(model(), FitOptions::default()).unwrap();
+    let h = model_face_height(model());
+    let p = TrackPolicy::default();
+    // A face of about the model's size is fitted at the frame's own resolution.
+    for f in [0.8, 1.0, 1.3] {
+        assert_eq!(
+            t.fit_scale(h * f, 640, 480, 0.0),
+            1.0,
+            "face {f} x the model's"
+        );
+    }
+    // A face twice the model's size: the frame is halved; half its size: doubled (the most).
+    assert!((t.fit_scale(2.0 * h, 640, 480, 0.0) - 0.5).abs() < 1e-5);
+    assert!((t.fit_scale(0.5 * h, 640, 480, 0.0) - 2.0).abs() < 1e-5);
+    assert_eq!(t.fit_scale(0.1 * h, 640, 480, 0.0), p.max_upscale);
+    // The resampled frame stays within min_fit_side..=max_fit_side.
+    let k = t.fit_scale(0.5 * h, 1000, 800, 0.0);
+    assert!((k * 1000.0 - p.max_fit_side as f32).abs() < 1e-2, "{k}");
+    let k = t.fit_scale(20.0 * h, 640, 480, 0.0);
+    assert!((k * 640.0 - p.min_fit_side as f32).abs() < 1e-2, "{k}");
+    // A frame larger than max_fit_side is resampled even for a face of the model's size.
+    let k = t.fit_scale(h, 2560, 1440, 0.0);
+    assert!((k - 0.5).abs() < 1e-5, "{k}");
+    // Hysteresis: the scale in use is kept unless the wanted one differs by more than 30%.
+    assert_eq!(t.fit_scale(2.2 * h, 640, 480, 0.5), 0.5);
+    assert!((t.fit_scale(3.0 * h, 640, 480, 0.5) - 1.0 / 3.0).abs() < 1e-5);
+    // Nonsense sizes keep the current scale (or 1).
+    assert_eq!(t.fit_scale(f32::NAN, 640, 480, 0.7), 0.7);
+    assert_eq!(t.fit_scale(-3.0, 640, 480, 0.0), 1.0);
+    assert_eq!(t.fit_scale(h, 0, 0, 0.0), 1.0);
+}
+
+#[test]
+fn the_policy_is_checked() {
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    for bad in [
+        TrackPolicy {
+            appearance_limit: f32::NAN,
+            ..TrackPolicy::default()
+        },
+        TrackPolicy {
+            appearance_limit: -1.0,
+            ..TrackPolicy::default()
+        },
+        TrackPolicy {
+            min_fit_side: 2000,
+            ..TrackPolicy::default()
+        },
+        TrackPolicy {
+            max_upscale: 0.5,
+            ..TrackPolicy::default()
+        },
+        TrackPolicy {
+            native_band: 0.9,
+            ..TrackPolicy::default()
+        },
+        TrackPolicy {
+            rescale_change: f32::INFINITY,
+            ..TrackPolicy::default()
+        },
+    ] {
+        let e = t.set_policy(bad.clone()).unwrap_err().to_string();
+        assert!(e.contains("tracking policy"), "{bad:?}: {e}");
+    }
+    assert_eq!(
+        t.policy(),
+        &TrackPolicy::default(),
+        "a refused policy changed the tracker"
+    );
+    let p = TrackPolicy {
+        appearance_limit: 0.0,
+        ..TrackPolicy::default()
+    };
+    t.set_policy(p.clone()).unwrap();
+    assert_eq!(t.policy(), &p);
+}
+
+#[test]
+fn tracked_appearance_stays_within_the_limit_for_another_face() {
+    // spk02 tracked with spk07's model: its appearance projects far outside spk07's space.
+    let other = frame("spk02_brbk7n", 2);
+    let sig = model().appearance().sigmas();
+    let run = |limit: f32| {
+        let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+        t.set_policy(TrackPolicy {
+            appearance_limit: limit,
+            ..TrackPolicy::default()
+        })
+        .unwrap();
+        t.start_from_landmarks(&other.landmarks).unwrap();
+        let r = t.track(&other.image.view().unwrap()).unwrap().clone();
+        r.params
+            .appearance
+            .iter()
+            .zip(&sig)
+            .map(|(l, s)| (l / s).abs())
+            .fold(0.0f32, f32::max)
+    };
+    let unclamped = run(0.0);
+    let clamped = run(3.0);
+    assert!(
+        unclamped > 3.0,
+        "spk02 projects within 3 sigma of spk07 ({unclamped}): no test"
+    );
+    assert!(
+        clamped <= 3.0 + 1e-4,
+        "largest |lambda / sigma| {clamped} > 3"
+    );
+}
+
+#[test]
+fn offered_faces_start_and_recover_a_sequence() {
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    let f0 = frame(UNSEEN, 0);
+    // Nothing started: no faces wanted.
+    assert!(!t.wants_faces());
+    t.start_searching();
+    assert!(t.wants_faces());
+    // No face offered yet: the frame is lost (and no face is claimed).
+    let r = t.track(&f0.image.view().unwrap()).unwrap();
+    assert!(r.lost && !r.reacquired);
+    assert!(t.wants_faces());
+    // Bad offers are refused and keep nothing.
+    assert!(t.offer_faces(vec![vec![1.0; 10]]).is_err());
+    let mut nan = f0.landmarks.clone();
+    nan[3] = f32::NAN;
+    assert!(t.offer_faces(vec![nan]).is_err());
+    assert!(t.wants_faces());
+    // A face offered from a recent frame (frame 0's landmarks, shifted a little as a face
+    // found a few frames earlier would be) starts the sequence on frame 2.
+    let offered: Vec<f32> = f0
+        .landmarks
+        .chunks_exact(2)
+        .flat_map(|p| [p[0] + 3.0, p[1] - 2.0])
+        .collect();
+    // A second face elsewhere in the picture: the most confident (first) is taken when there
+    // is no last position.
+    let elsewhere: Vec<f32> = f0.landmarks.iter().map(|v| v * 0.4).collect();
+    t.offer_faces(vec![offered, elsewhere]).unwrap();
+    assert!(!t.wants_faces());
+    let f2 = frame(UNSEEN, 2);
+    let r = t.track(&f2.image.view().unwrap()).unwrap().clone();
+    assert!(
+        !r.lost && r.reacquired,
+        "not acquired from the offered face"
+    );
+    let e = norm_error(&r.landmarks, &f2.landmarks);
+    assert!(e < 0.06, "acquired fit error {e}");
+    assert!(!t.wants_faces());
+    // A black frame: the face is lost, and faces are wanted again.
+    let black = black_like(&f2.image);
+    let r = t.track(&black.view().unwrap()).unwrap();
+    assert!(r.lost, "a black frame was not lost");
+    assert!(t.wants_faces());
+    // The face is back and offered again: re-acquired at once, the one nearest the last good
+    // position chosen among two.
+    let f5 = frame(UNSEEN, 5);
+    let far: Vec<f32> = f5
+        .landmarks
+        .iter()
+        .enumerate()
+        .map(|(i, v)| if i % 2 == 0 { v + 120.0 } else { *v })
+        .collect();
+    t.offer_faces(vec![far, f5.landmarks.clone()]).unwrap();
+    let r = t.track(&f5.image.view().unwrap()).unwrap().clone();
+    assert!(
+        !r.lost && r.reacquired,
+        "not re-acquired from the offered faces"
+    );
+    assert!(norm_error(&r.landmarks, &f5.landmarks) < 0.06);
+    assert_eq!(t.reacquisitions(), 2);
+    // Tracking then goes on from the fit, with no faces wanted.
+    let f6 = frame(UNSEEN, 6);
+    let r = t.track(&f6.image.view().unwrap()).unwrap();
+    assert!(!r.lost && !r.reacquired);
+    assert!(!t.wants_faces());
+}
+
+#[test]
+fn offers_can_be_expected_in_a_sequence_started_from_landmarks() {
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    let f0 = frame(UNSEEN, 0);
+    t.start_from_landmarks(&f0.landmarks).unwrap();
+    t.expect_offers(true);
+    assert!(!t.track(&f0.image.view().unwrap()).unwrap().lost);
+    assert!(!t.wants_faces());
+    let black = black_like(&f0.image);
+    assert!(t.track(&black.view().unwrap()).unwrap().lost);
+    assert!(
+        t.wants_faces(),
+        "a lost face with offers expected wants faces"
+    );
+    // Without offers expected a lost face wants none (nobody would offer them).
+    t.expect_offers(false);
+    assert!(!t.wants_faces());
+}
