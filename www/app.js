@@ -22,7 +22,7 @@ import {
 } from './js/sources.js';
 import { ModelShelf } from './js/store.js';
 import { Enrolment } from './js/enrol.js';
-import './js/tracking.js'; // registers the video and webcam sources (when the package can track)
+import { isMediaFile } from './js/tracking.js'; // registers the video and webcam sources (when the package can track)
 
 const MODELS = 'models/';
 const METHODS = ['substitute', 'map', 'map-residual'];
@@ -109,7 +109,7 @@ async function main() {
   if (manifest.track) {
     const t = typeof manifest.track === 'string' ? { file: manifest.track, fps: 25 } : manifest.track;
     try {
-      const raw = validateTrack(await fetchJson(MODELS + t.file), app.source.info);
+      const raw = validateTrack(await fetchJson(MODELS + t.file), app.source.model);
       const frames = recentreTrack(raw, app.source.model.baseParams().pose);
       app.track = new TrackSource(frames, t.fps || 25, 'Recorded track');
       app.track.description = t.description || '';
@@ -238,7 +238,15 @@ function buildStage() {
     document.body.classList.remove('dragging');
     if (!e.dataTransfer?.files?.length) return;
     e.preventDefault();
-    loadFiles([...e.dataTransfer.files], { kind: 'add' });
+    const files = [...e.dataTransfer.files];
+    // A video or a photo dropped anywhere is tracked: the faces in it are found and shown.
+    if (files.every(isMediaFile) && availableSources(fm).some((s) => s.kind === 'video-file')) {
+      if (app.active?.kind !== 'video-file') activate('video-file');
+      window.facemimicTracking?.openFile(files[0]);
+      if (files.length > 1) notify('info', `Used ${files[0].name}`, 'one file at a time; the other files were ignored');
+      return;
+    }
+    loadFiles(files, { kind: 'add' });
   });
 }
 

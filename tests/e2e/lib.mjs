@@ -9,6 +9,7 @@
 import http from 'node:http';
 import fs from 'node:fs';
 import fsp from 'node:fs/promises';
+import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import zlib from 'node:zlib';
@@ -281,4 +282,137 @@ export async function faceBox(page, selector, bg, tol = 24) {
     },
     [bg, tol],
   );
+}
+
+/** Read an iBUG `.pts` file (1-based) as 0-based image coordinates `[x0, y0, ...]`. */
+export function readPts(file) {
+  const text = fs.readFileSync(file, 'utf8');
+  const body = text.slice(text.indexOf('{') + 1, text.indexOf('}'));
+  return body
+    .trim()
+    .split(/\s+/)
+    .map((v) => Number(v) - 1);
+}
+
+/**
+ * Frames of a GRID clip folder (`NNNNNN.jpg`, with `000000.pts`) drawn by Chromium into a
+ * `width x height` picture with the face where the webcam guide is (0.95 of its height 0.5 H,
+ * centred, 0.04 H below the middle; www/js/placement.js `placeDefault`), on a dark blue
+ * background. Frames whose index is in `black` (a Set) are all black. Returns the JPEGs
+ * (base64) in order.
+ */
+async function guideFrames({ dir, count, width = 640, height = 480, black = new Set() }) {
+  const browser = await launchBrowser();
+  const frames = await serveStatic(dir);
+  try {
+    const page = await browser.newPage();
+    await page.goto(`${frames.url}000000.jpg`);
+    const v = readPts(path.join(dir, '000000.pts'));
+    const xs = v.filter((_, i) => i % 2 === 0);
+    const ys = v.filter((_, i) => i % 2 === 1);
+    const face = { cx: (Math.min(...xs) + Math.max(...xs)) / 2, cy: (Math.min(...ys) + Math.max(...ys)) / 2, h: Math.max(...ys) - Math.min(...ys) };
+    const scale = (0.5 * height * 0.95) / face.h;
+    const dx = width / 2 - face.cx * scale;
+    const dy = height / 2 + 0.04 * height - face.cy * scale;
+    const n = count ?? fs.readdirSync(dir).filter((f) => /^\d{6}\.jpg$/.test(f)).length;
+    return await page.evaluate(
+      async ({ n, W, H, scale, dx, dy, black }) => {
+        const c = document.createElement('canvas');
+        c.width = W;
+        c.height = H;
+        const g = c.getContext('2d');
+        const out = [];
+        for (let i = 0; i < n; i++) {
+          if (black.includes(i)) {
+            g.fillStyle = '#000';
+            g.fillRect(0, 0, W, H);
+          } else {
+            const img = new Image();
+            img.src = `${String(i).padStart(6, '0')}.jpg`;
+            await img.decode();
+            g.fillStyle = '#203040';
+            g.fillRect(0, 0, W, H);
+            g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
+          }
+          const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.92));
+          const bytes = new Uint8Array(await blob.arrayBuffer());
+          let bin = '';
+          for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
+          out.push(btoa(bin));
+        }
+        return out;
+      },
+      { n, W: width, H: height, scale, dx, dy, black: [...black] },
+    );
+  } finally {
+    await browser.close();
+    await frames.close();
+  }
+}
+
+/**
+ * A fake camera for Chromium (`--use-file-for-fake-video-capture=FILE`): the frames of a GRID
+ * clip folder as a 640x480 MJPEG with the face in the webcam guide, written to the temporary
+ * folder (removed after the test `t`; never committed). Returns the file's path.
+ */
+export async function fakeCameraFile(t, dir, { name = 'camera', black } = {}) {
+  const jpegs = await guideFrames({ dir, black });
+  const file = path.join(os.tmpdir(), `facemimic-${name}-${process.pid}.mjpeg`);
+  fs.writeFileSync(file, Buffer.concat(jpegs.map((b) => Buffer.from(b, 'base64'))));
+  t.after(() => fs.rmSync(file, { force: true }));
+  return file;
+}
+
+/**
+ * A WebM video of a GRID clip folder's frames (the face placed as for `fakeCameraFile`), with
+ * the frames in `black` all black, recorded by Chromium's MediaRecorder in real time at `fps`.
+ * Returns the bytes (a Buffer).
+ */
+export async function makeWebm(dir, { fps = 25, black = new Set(), count } = {}) {
+  const jpegs = await guideFrames({ dir, black, count });
+  const browser = await launchBrowser();
+  const server = await serveStatic(dir);
+  try {
+    const page = await browser.newPage();
+    await page.goto(`${server.url}000000.jpg`);
+    const b64 = await page.evaluate(
+      async ({ jpegs, fps }) => {
+        const imgs = await Promise.all(
+          jpegs.map(async (b) => createImageBitmap(new Blob([Uint8Array.from(atob(b), (c) => c.charCodeAt(0))], { type: 'image/jpeg' }))),
+        );
+        const c = document.createElement('canvas');
+        c.width = imgs[0].width;
+        c.height = imgs[0].height;
+        const g = c.getContext('2d');
+        g.drawImage(imgs[0], 0, 0);
+        const stream = c.captureStream(0);
+        const track = stream.getVideoTracks()[0];
+        const rec = new MediaRecorder(stream, { mimeType: 'video/webm;codecs=vp8', videoBitsPerSecond: 4e6 });
+        const chunks = [];
+        rec.ondataavailable = (e) => e.data.size && chunks.push(e.data);
+        const stopped = new Promise((r) => (rec.onstop = r));
+        rec.start();
+        const t0 = performance.now();
+        for (let i = 0; i < imgs.length; i++) {
+          // Each frame at its time on the recording's clock.
+          const wait = t0 + (i * 1000) / fps - performance.now();
+          if (wait > 0) await new Promise((r) => setTimeout(r, wait));
+          g.drawImage(imgs[i], 0, 0);
+          track.requestFrame();
+        }
+        await new Promise((r) => setTimeout(r, 1000 / fps));
+        rec.stop();
+        await stopped;
+        const bytes = new Uint8Array(await new Blob(chunks, { type: 'video/webm' }).arrayBuffer());
+        let bin = '';
+        for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
+        return btoa(bin);
+      },
+      { jpegs, fps },
+    );
+    return Buffer.from(b64, 'base64');
+  } finally {
+    await browser.close();
+    await server.close();
+  }
 }

@@ -250,7 +250,7 @@ test('the bundled clip plays and is tracked live, driving the source and the tar
   assert.deepEqual(offOrigin, []);
 });
 
-test('a video file is placed with a box, then tracked; a non-video file is refused by name', async (t) => {
+test('a video file is placed with a box, then tracked; a file that is neither video nor image is refused by name', async (t) => {
   const { page, errors } = await openPage(t);
   await chooseSource(page, 'video-file');
   assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'empty');
@@ -267,7 +267,7 @@ test('a video file is placed with a box, then tracked; a non-video file is refus
   const toast = await page.waitForSelector('.toast.error');
   const text = await toast.textContent();
   assert.match(text, /notes\.txt/, `the error does not name the file: ${text}`);
-  assert.match(text, /not a video/, `the error does not say why: ${text}`);
+  assert.match(text, /not a video or an image/, `the error does not say why: ${text}`);
   assert.equal(await page.$$eval('.face-card.target', (c) => c.length), targetsBefore, 'a target was added');
   assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'empty');
 
@@ -282,7 +282,9 @@ test('a video file is placed with a box, then tracked; a non-video file is refus
   });
   assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'empty');
 
-  // A real video through the file picker: shown paused on its first frame with the box.
+  // A real video through the file picker, with Auto-start off (the manual path; auto-starting
+  // is tested below): shown paused on its first frame with the face found and its box.
+  await page.click('.trk-panel label:has-text("Auto-start")');
   await page.setInputFiles('.trk-panel input[type="file"]', CLIP_VIDEO);
   await page.waitForSelector('.trk-panel[data-phase="placing"]', { timeout: 20_000 });
   const paused = await page.$eval('.trk-panel video', (v) => ({ paused: v.paused, time: v.currentTime }));

@@ -10,6 +10,8 @@
 // The tracking work adds video-file and webcam sources (driven by the package's `Tracker`) by
 // calling `registerSource` from its own module; the page lists them only when they are registered.
 
+import { recentrePose } from '../pkg/facemimic.js';
+
 /** Registered source factories, in menu order: kind -> { label, create(ctx) }. */
 const registry = new Map();
 
@@ -59,50 +61,21 @@ function lerpParams(a, b, u, out) {
 }
 
 /**
- * Check that a parsed track is an array of Params matching the model's sizes; throws a message
- * naming the first bad frame.
+ * Check that a parsed track is an array of Params that `model` accepts (the package's
+ * `Model.checkParams`: mode counts, finite values within the library's bounds, a positive pose
+ * scale); throws a message naming the first bad frame.
  */
-export function validateTrack(frames, info) {
+export function validateTrack(frames, model) {
   if (!Array.isArray(frames) || frames.length === 0) throw new Error('the track holds no frames');
   frames.forEach((f, i) => {
-    const where = `frame ${i}`;
-    if (!f || typeof f !== 'object' || !f.pose) throw new Error(`${where}: not a parameter set`);
-    for (const k of ['scale', 'rotation', 'tx', 'ty']) {
-      if (!Number.isFinite(f.pose[k])) throw new Error(`${where}: pose.${k} is not a finite number`);
-    }
-    if (!(f.pose.scale > 0)) throw new Error(`${where}: pose.scale must be positive`);
-    if (!Array.isArray(f.shape) || f.shape.length !== info.shapeModes) {
-      throw new Error(`${where}: ${f.shape?.length ?? 0} shape parameters, the source model has ${info.shapeModes}`);
-    }
-    if (!Array.isArray(f.appearance) || f.appearance.length !== info.appearanceModes) {
-      throw new Error(
-        `${where}: ${f.appearance?.length ?? 0} appearance parameters, the source model has ${info.appearanceModes}`,
-      );
-    }
-    if (!f.shape.every(Number.isFinite) || !f.appearance.every(Number.isFinite)) {
-      throw new Error(`${where}: a parameter is not a finite number`);
+    if (!f || typeof f !== 'object' || !f.pose) throw new Error(`frame ${i}: not a parameter set`);
+    try {
+      model.checkParams(f);
+    } catch (e) {
+      throw new Error(`frame ${i}: ${e instanceof Error ? e.message : e}`);
     }
   });
   return frames;
-}
-
-/** Similarity helpers on the JSON pose form `{ scale, rotation (radians), tx, ty }`. */
-export function compose(A, B) {
-  // (A o B)(x) = A(B(x)) = sA R(rA) (sB R(rB) x + tB) + tA
-  const c = Math.cos(A.rotation);
-  const s = Math.sin(A.rotation);
-  return {
-    scale: A.scale * B.scale,
-    rotation: A.rotation + B.rotation,
-    tx: A.scale * (c * B.tx - s * B.ty) + A.tx,
-    ty: A.scale * (s * B.tx + c * B.ty) + A.ty,
-  };
-}
-export function invert(M) {
-  const c = Math.cos(-M.rotation);
-  const s = Math.sin(-M.rotation);
-  const k = 1 / M.scale;
-  return { scale: k, rotation: -M.rotation, tx: -k * (c * M.tx - s * M.ty), ty: -k * (s * M.tx + c * M.ty) };
 }
 
 /**
@@ -110,7 +83,8 @@ export function invert(M) {
  * `meanPose o trackMean^-1 o pose`, where trackMean is the track's average pose. The head
  * motion within the clip is kept exactly; only where the clip's camera happened to put the head
  * changes, so the source face sits centred in its canvas (and follow-pose moves the targets
- * about their own mean placement). Returns new frames; the input is not modified.
+ * about their own mean placement). The pose maths is the package's (`recentrePose`, the core's
+ * `Similarity::recentred`). Returns new frames; the input is not modified.
  */
 export function recentreTrack(frames, meanPose) {
   const n = frames.length;
@@ -125,8 +99,7 @@ export function recentreTrack(frames, meanPose) {
     ty += f.pose.ty;
   }
   const trackMean = { scale: Math.exp(logScale / n), rotation: rotation / n, tx: tx / n, ty: ty / n };
-  const fix = compose(meanPose, invert(trackMean));
-  return frames.map((f) => ({ ...cloneParams(f), pose: compose(fix, f.pose) }));
+  return frames.map((f) => ({ ...cloneParams(f), pose: recentrePose(f.pose, trackMean, meanPose) }));
 }
 
 /**

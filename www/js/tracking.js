@@ -1,55 +1,40 @@
-// Video sources: the source face driven by live AAM tracking of a video.
+// Video sources: the source face driven by live AAM tracking of a video, a webcam or a photo.
 //
 //   "Video (bundled clip)"  spk07's unseen GRID clip, tracked from its first frame's landmarks
-//   "Video file…"           any video the user drops or picks; they place a box on the face first
-//   "Webcam"                getUserMedia; a face guide to put the face into, then live tracking
+//   "Video file…"           any video or photo the user drops or picks: the faces in it are found
+//                           (the package's FaceFinder, in a worker) and shown in the placement
+//                           step; tracking starts by itself from the face found (several: the
+//                           most confident is selected and the user picks); a box is the fallback
+//   "Webcam"                getUserMedia; tracking starts by itself when a face is found (the
+//                           oval guide and Start are optional)
 //
-// Every new video frame (requestVideoFrameCallback, else an animation frame whose currentTime
-// changed) is drawn into an offscreen canvas, read as RGBA and fitted by the package's `Tracker`
-// (the loaded source model's AAM). The fit's parameters drive the source face (`paramsAt`
-// returns the latest fit, its head placement re-centred on the model's mean pose so the source
-// face stays centred in its card; the head motion is kept). The panel shows the frame with the
-// fitted landmarks drawn over it, the tracking state and its speed.
+// Every new video frame is drawn into the work canvas (www/js/media.js), read as RGBA at the fit
+// scale and fitted by the package's `Tracker` (the loaded source model's AAM). What the tracker
+// decides is the core's: the fit scale for the face's size (`fitScale`), the bounds of the
+// reported appearance, when a fit is a lost face, and which found face to (re-)acquire; the page
+// feeds it faces found off the main thread when it `wantsFaces` (at the start of a search and
+// while the face is lost), shows "face lost" while it is, and recovers without a click.
+// The fit's parameters drive the source face (`paramsAt` returns the latest fit, its head
+// placement re-centred on the model's mean pose with the package's `recentrePose`).
+//
+// This module is the tracking loop and the panel; media.js opens and reads the media,
+// placement.js is the placement step, face-draw.js draws, finder-client.js finds faces.
 //
 // Registered with `available: (wasm) => typeof wasm.Tracker === 'function'`, so the menu offers
 // these sources only with a package that can track. The active source is also reachable as
 // `window.facemimicTracking` (for the console and the end-to-end tests).
 
-import { compose, invert, registerSource } from './sources.js';
+import { registerSource } from './sources.js';
 import { notify, fileError } from './toasts.js';
+import { MediaFeed, CLIP_JSON, loadClipInfo, looksLikeImage, looksLikeVideo, openCamera } from './media.js';
+import { Placement } from './placement.js';
+import { CONTOURS_68, MESH, MESH_LOST, GUIDE, bounds, scaled, drawFrame, drawLandmarks, drawBadge } from './face-draw.js';
+import { findFaces } from './finder-client.js';
 
-const CLIP_JSON = 'media/spk07-clip.json';
-/** The frame shown and placed on is at most this big (longer side, px). */
-const MAX_TRACK_SIDE = 640;
-/**
- * Fitting happens on the frame rescaled so the face is about the model's own size (the fit's
- * cost grows with the face's size in pixels: a face twice the model's size costs ~3x more),
- * within these limits (longer side, px; upscale factor). Faces within -25%..+33% of the model's
- * size are fitted at the video's own resolution.
- */
-const MAX_FIT_SIDE = 1280;
-const MIN_FIT_SIDE = 160;
-const MAX_UPSCALE = 2;
 /** Fit log kept for inspection (entries). */
 const LOG_MAX = 3000;
-/** Webcam: consecutive lost frames after which the guide comes back. */
-const LOST_TO_GUIDE = 40;
-/**
- * Webcam auto-start: a probe fit from the guide counts when its error is below this (measured
- * with the spk07 model: 0.03 on spk07's unseen clip, 0.05-0.11 on the nine other GRID speakers,
- * 0.16 on Chromium's fake camera picture)...
- */
-const AUTO_MAX_ERROR = 0.1;
-/** ...the image under it has a face's contrast (grey standard deviation, 0..1; a wall has ~0.01)... */
-const AUTO_MIN_CONTRAST = 0.05;
-/** ...and this many probes in a row succeed. */
-const AUTO_HITS = 3;
 /** Live sources: time constant (s) with which the head placement re-centres in the source card. */
 const RECENTRE_TAU = 4;
-
-const MESH = 'rgba(120, 255, 200, 0.95)';
-const MESH_LOST = 'rgba(255, 110, 110, 0.95)';
-const GUIDE = 'rgba(124, 196, 255, 0.95)';
 
 // Load the panel's styles with the module (before any panel exists).
 {
@@ -62,83 +47,8 @@ const GUIDE = 'rgba(124, 196, 255, 0.95)';
   }
 }
 
-// ---------------------------------------------------------------------------------------------
-// Geometry
-
-// compose / invert of poses come from sources.js.
 function wrapAngle(a) {
   return Math.atan2(Math.sin(a), Math.cos(a));
-}
-
-/** `pts` times `f`, as a Float32Array. */
-function scaled(pts, f) {
-  const out = new Float32Array(pts.length);
-  for (let i = 0; i < pts.length; i++) out[i] = pts[i] * f;
-  return out;
-}
-
-function bounds(pts) {
-  let x0 = Infinity;
-  let y0 = Infinity;
-  let x1 = -Infinity;
-  let y1 = -Infinity;
-  for (let i = 0; i + 1 < pts.length; i += 2) {
-    x0 = Math.min(x0, pts[i]);
-    x1 = Math.max(x1, pts[i]);
-    y0 = Math.min(y0, pts[i + 1]);
-    y1 = Math.max(y1, pts[i + 1]);
-  }
-  return { x: x0, y: y0, w: x1 - x0, h: y1 - y0 };
-}
-
-/** The 68-point (iBUG / dlib) contours: [first, last, closed]. */
-const CONTOURS_68 = [
-  [0, 16, false], // jaw
-  [17, 21, false], // brows
-  [22, 26, false],
-  [27, 30, false], // nose bridge
-  [31, 35, false], // nostrils
-  [36, 41, true], // eyes
-  [42, 47, true],
-  [48, 59, true], // outer lips
-  [60, 67, true], // inner lips
-];
-
-/**
- * Draw landmarks (`pts` in frame pixels) with `map(x, y) -> [X, Y]` into the canvas: contour
- * lines (68-point scheme) and points. `lw`: line width in canvas pixels.
- */
-function drawLandmarks(ctx, pts, map, colour, lw, { points = true, only = null } = {}) {
-  const n = pts.length / 2;
-  ctx.save();
-  ctx.strokeStyle = colour;
-  ctx.fillStyle = colour;
-  ctx.lineWidth = lw;
-  ctx.lineJoin = 'round';
-  ctx.lineCap = 'round';
-  if (n === 68) {
-    ctx.beginPath();
-    for (const [a, b, closed] of only ?? CONTOURS_68) {
-      for (let i = a; i <= b; i++) {
-        const [X, Y] = map(pts[2 * i], pts[2 * i + 1]);
-        if (i === a) ctx.moveTo(X, Y);
-        else ctx.lineTo(X, Y);
-      }
-      if (closed) ctx.closePath();
-    }
-    ctx.stroke();
-  }
-  if (points || n !== 68) {
-    const r = Math.max(1, lw * 1.1);
-    ctx.beginPath();
-    for (let i = 0; i < n; i++) {
-      const [X, Y] = map(pts[2 * i], pts[2 * i + 1]);
-      ctx.moveTo(X + r, Y);
-      ctx.arc(X, Y, r, 0, Math.PI * 2);
-    }
-    ctx.fill();
-  }
-  ctx.restore();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -181,28 +91,10 @@ function trackerFor(wasm, model) {
   }
   const T = wasm.Tracker;
   const tracker = typeof T.fromModel === 'function' ? T.fromModel(model) : new T(model.toBytes());
+  // Faces are found in a worker and offered: a lost face is searched for in every sequence.
+  tracker.expectOffers(true);
   cachedTracker = { model, tracker };
   return tracker;
-}
-
-/** The clip's description (fetched once). */
-let clipInfo = null;
-async function loadClipInfo() {
-  if (!clipInfo) {
-    clipInfo = (async () => {
-      const r = await fetch(CLIP_JSON);
-      if (!r.ok) throw new Error(`HTTP ${r.status} for ${CLIP_JSON}`);
-      const j = await r.json();
-      if (!j || typeof j.video !== 'string' || !Array.isArray(j.initLandmarks) || !j.initLandmarks.every(Number.isFinite)) {
-        throw new Error(`${CLIP_JSON}: expected { video, fps, initLandmarks: number[] }`);
-      }
-      return j;
-    })();
-    clipInfo.catch(() => {
-      clipInfo = null;
-    });
-  }
-  return clipInfo;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -213,8 +105,10 @@ const TITLES = { clip: 'Bundled clip', file: 'Video file', webcam: 'Webcam' };
 /**
  * A source driven by tracking a video. `mode`: "clip" | "file" | "webcam".
  *
- * Phases: "loading" -> ("empty": file, no video yet) -> "placing" (file: a box on a paused frame;
- * webcam: the guide) -> "tracking" <-> "paused"; "error" when the video or camera fails.
+ * Phases: "loading" -> ("empty": file, nothing yet) -> "placing" (file: the faces found on a
+ * paused frame, or a box; webcam: the guide while a face is looked for) -> "tracking" <->
+ * "paused"; "error" when the video or camera fails. While tracking, `state` is "tracking",
+ * "reinit", "lost" (a face was tracked and is lost) or "searching" (none found yet).
  */
 class VideoSource {
   constructor(mode, ctx) {
@@ -225,42 +119,63 @@ class VideoSource {
     this.wasm = ctx.wasm;
     this.model = typeof ctx.sourceModel === 'function' ? ctx.sourceModel() : ctx.source?.model;
     this.info = typeof ctx.sourceInfo === 'function' ? ctx.sourceInfo() : ctx.source?.info;
+    if (typeof this.wasm.recentrePose !== 'function') throw new Error('this build of the package has no recentrePose');
     this.phase = 'loading';
     this.running = false;
     this.tracker = null;
     this.params = this.initialParams();
     this.meanPose = this.model.baseParams().pose;
-    this.meanShape = this.model.landmarks(this.model.baseParams());
-    const b = bounds(this.meanShape);
-    this.meanBox = b;
-    this.boxAspect = b.h / b.w; // a placement box is the mean shape's bounding box
+    this.media = new MediaFeed();
+    this.video = this.media.video;
+    this.placement = new Placement(this.model.landmarks(this.model.baseParams()));
     this.anchor = null; // pose the mean pose stands for (see mapPose)
-    this.last = null; // last fit result
-    this.state = 'idle'; // tracking | lost | reinit | idle
-    this.lostRun = 0;
+    this.last = null; // last fit result (work coordinates)
+    this.lastGood = null; // last fit that was not lost, this sequence
+    this.state = 'idle'; // tracking | lost | searching | reinit | idle
     this.log = [];
     this.fitTimes = [];
     this.msPerFit = 0;
     this.fits = 0;
     this.loops = 0;
-    this.box = null; // placement box / guide, frame coordinates
-    this.probeHits = 0;
-    this.probe = null;
     this.autoStart = true;
     this.frameNo = 0;
-    this.lastMediaTime = -1;
-    this.objectUrl = null;
-    this.stream = null;
     this.fileName = '';
-    this.k = 1; // work (shown) frame px per video px
     this.kFit = 1; // fitted frame px per video px
-    this.fitCanvas = document.createElement('canvas');
-    this.fitCtx = this.fitCanvas.getContext('2d', { willReadFrequently: true });
-    this.work = document.createElement('canvas');
-    this.workCtx = this.work.getContext('2d', { willReadFrequently: true });
-    this.haveFrame = false;
     this.shownAt = 0;
     this.lastResets = 0;
+    this.seqId = 0; // bumped by every new sequence / placement (stale finder results are dropped)
+    this.finding = false; // the placement step waits for the finder
+    this.findBusy = false; // a finder request is under way
+    this.findLog = []; // { ms, faces } per finder request
+    this.reacquired = 0;
+  }
+
+  // Read-only views used by the panel and the tests.
+  get work() {
+    return this.media.work;
+  }
+  get k() {
+    return this.media.k;
+  }
+  get haveFrame() {
+    return this.media.haveFrame;
+  }
+  get stream() {
+    return this.media.stream;
+  }
+  get box() {
+    return this.placement.box;
+  }
+  /** Setting the box places it by hand (the found face is deselected). */
+  set box(b) {
+    this.placement.box = b;
+    this.placement.selected = -1;
+  }
+  get boxAspect() {
+    return this.placement.aspect;
+  }
+  get faces() {
+    return this.placement.faces;
   }
 
   initialParams() {
@@ -297,15 +212,8 @@ class VideoSource {
   stop() {
     if (!this.running) return;
     this.running = false;
-    this.cancelFrames();
-    if (this.video) {
-      this.video.pause();
-      this.video.removeAttribute('src');
-      this.video.srcObject = null;
-      this.video.load();
-    }
-    if (this.stream) for (const t of this.stream.getTracks()) t.stop();
-    this.stream = null;
+    this.seqId++;
+    this.media.close();
     if (this.objectUrl) URL.revokeObjectURL(this.objectUrl);
     this.objectUrl = null;
     this.resizeObserver?.disconnect();
@@ -319,14 +227,24 @@ class VideoSource {
     return this.params;
   }
 
+  cancelFrames() {
+    this.media.cancelFrames();
+  }
+
+  requestFrames() {
+    if (!this.running) return;
+    this.media.requestFrames((t) => {
+      if (!this.running) return false;
+      this.onVideoFrame(t);
+      return this.running;
+    });
+  }
+
   // --- panel ------------------------------------------------------------------------------------
 
   buildPanel() {
     const id = `trk-${this.mode}`;
-    this.video = el('video', { class: 'trk-video', muted: true, playsInline: true, preload: 'auto', 'aria-hidden': 'true' });
-    this.video.muted = true;
-    this.video.defaultMuted = true;
-    this.video.setAttribute('playsinline', '');
+    this.video.classList.add('trk-video');
     this.canvas = el('canvas', { class: 'trk-canvas', role: 'img', 'aria-label': `${this.label}: video with the fitted face mesh` });
     this.stateEl = el('span', { class: 'trk-state', 'data-state': 'idle', text: 'starting' });
     this.msgEl = el('p', { class: 'trk-msg', role: 'status', 'aria-live': 'polite' });
@@ -344,9 +262,9 @@ class VideoSource {
     this.playBtn = button('Pause', () => this.togglePlay(), { class: 'btn primary', 'aria-keyshortcuts': 'Space', title: 'Pause / play (space)' });
     this.restartBtn = button('Re-start', () => this.restart(), { title: 'Place the face again and start a new sequence' });
     this.startBtn = button('Start tracking', () => this.startTracking(), { class: 'btn primary' });
-    this.chooseBtn = button('Choose a video…', () => this.fileInput.click());
-    this.otherBtn = button('Other video…', () => this.fileInput.click(), { title: 'Track another video file (or drop one on this panel)' });
-    this.fileInput = el('input', { type: 'file', accept: 'video/*,.webm,.mp4,.mov,.m4v,.ogv,.mkv', hidden: true });
+    this.chooseBtn = button('Choose a video or image…', () => this.fileInput.click());
+    this.otherBtn = button('Other file…', () => this.fileInput.click(), { title: 'Track another video, or fit another image (or drop one on this panel)' });
+    this.fileInput = el('input', { type: 'file', accept: 'video/*,image/*,.webm,.mp4,.mov,.m4v,.ogv,.mkv', hidden: true });
     this.fileInput.addEventListener('change', () => {
       const f = this.fileInput.files?.[0];
       this.fileInput.value = '';
@@ -356,21 +274,23 @@ class VideoSource {
     this.meshCheck.addEventListener('change', () => this.draw());
     const meshLabel = el('label', { class: 'check' }, this.meshCheck, el('span', { text: 'Mesh overlay' }));
     const extra = [];
-    if (this.mode === 'webcam') {
-      this.autoCheck = el('input', { type: 'checkbox', checked: true });
+    if (this.mode !== 'clip') {
+      this.autoCheck = el('input', { type: 'checkbox', checked: this.autoStart });
       this.autoCheck.addEventListener('change', () => {
         this.autoStart = this.autoCheck.checked;
-        this.probeHits = 0;
+        if (this.phase === 'placing') this.restart();
       });
-      extra.push(el('label', { class: 'check', title: 'Start by itself once a face fits the guide' }, this.autoCheck, el('span', { text: 'Auto-start' })));
+      extra.push(
+        el('label', { class: 'check', title: 'Start tracking by itself as soon as a face is found' }, this.autoCheck, el('span', { text: 'Auto-start' })),
+      );
     }
 
     this.dropHint = el(
       'div',
       { class: 'trk-drop' },
-      el('p', {}, el('strong', { text: 'Drop a video here' }), el('span', { text: ' or ' })),
+      el('p', {}, el('strong', { text: 'Drop a video or a photo here' }), el('span', { text: ' or ' })),
       this.chooseBtn,
-      el('small', { text: 'Any format the browser plays (WebM, MP4…). It stays on this computer.' }),
+      el('small', { text: 'Any format the browser plays (WebM, MP4, JPEG, PNG…). It stays on this computer.' }),
     );
     this.dropHint.hidden = true;
     // Shown instead of the picture while there is none: waiting for the camera, or an error.
@@ -407,7 +327,7 @@ class VideoSource {
     this.canvas.addEventListener('pointermove', (e) => this.onPointerMove(e));
     this.canvas.addEventListener('pointerup', (e) => this.onPointerUp(e));
     this.canvas.addEventListener('pointercancel', (e) => this.onPointerUp(e));
-    // Video files dropped on the panel (and not elsewhere: the page takes other drops as models).
+    // Video and image files dropped on the panel (and not elsewhere: the page takes other drops as models).
     if (this.mode === 'file') {
       const panel = this.panel;
       panel.addEventListener('dragover', (e) => {
@@ -429,7 +349,7 @@ class VideoSource {
         if ([...e.dataTransfer.files].every((x) => /\.fmm$/i.test(x.name))) return;
         e.preventDefault();
         e.stopPropagation();
-        if (e.dataTransfer.files.length > 1) notify('info', `Used ${f.name}`, 'one video at a time; the other files were ignored');
+        if (e.dataTransfer.files.length > 1) notify('info', `Used ${f.name}`, 'one file at a time; the other files were ignored');
         this.openFile(f);
       });
     }
@@ -476,8 +396,8 @@ class VideoSource {
     const m = this.mode;
     const tracking = phase === 'tracking' || phase === 'paused';
     this.startBtn.hidden = !(phase === 'placing');
-    this.startBtn.textContent = m === 'webcam' ? 'Start' : 'Start tracking';
-    this.playBtn.hidden = !tracking;
+    this.startBtn.textContent = m === 'webcam' ? 'Start' : this.media.still ? 'Fit the face' : 'Start tracking';
+    this.playBtn.hidden = !tracking || Boolean(this.media.still);
     this.restartBtn.hidden = !(tracking || (phase === 'error' && this.haveFrame && !this.streamEnded));
     this.playBtn.textContent = phase === 'paused' ? 'Play' : 'Pause';
     this.dropHint.hidden = !(m === 'file' && (phase === 'empty' || phase === 'error'));
@@ -493,13 +413,13 @@ class VideoSource {
         'aria-label',
         m === 'webcam'
           ? 'Webcam image with the face guide'
-          : 'Video frame with the face box: drag it onto the face, or use the arrow keys to move it, + and − to resize it, Enter to start',
+          : 'Frame with the faces found: click a face (or Tab) to choose it; or drag the box onto the face, or use the arrow keys to move it, + and − to resize it; Enter starts',
       );
     } else this.canvas.setAttribute('aria-label', `${this.label}: video with the fitted face mesh`);
     if (msg !== undefined) this.say(msg);
-    else if (phase === 'empty') this.say('Drop a video file on this panel or choose one; then place the box on the face and start.');
-    else if (phase === 'placing' && m === 'file') this.say('Drag the box onto the face (drag its corner to resize), then start tracking.');
-    else if (phase === 'placing' && m === 'webcam') this.say('Put your face inside the oval and look at the camera; tracking starts when it fits (or press Start).');
+    else if (phase === 'empty') this.say('Drop a video or a photo on this panel or choose one: the faces in it are found, and tracking starts.');
+    else if (phase === 'placing' && m === 'file') this.say(this.placingText());
+    else if (phase === 'placing' && m === 'webcam') this.say(this.placingText());
     else if (phase === 'paused') this.say('Paused.');
     this.showState();
     this.draw();
@@ -511,8 +431,7 @@ class VideoSource {
     this.cancelFrames();
     if (this.mode === 'clip') this.openClip();
     else if (this.mode === 'webcam') {
-      if (this.stream) for (const t of this.stream.getTracks()) t.stop();
-      this.stream = null;
+      this.media.stopStream();
       this.openWebcam();
     }
   }
@@ -527,13 +446,20 @@ class VideoSource {
     let label;
     if (this.phase === 'tracking') {
       s = this.state;
-      label = s === 'lost' ? 'face lost' : s === 'reinit' ? 're-initialised' : 'tracking';
+      label = { lost: 'face lost', searching: 'looking for a face', reinit: 're-initialised', tracking: 'tracking' }[s] || s;
     } else {
       s = this.phase;
       label = {
         loading: 'loading',
         empty: 'no video',
-        placing: this.mode === 'webcam' ? 'looking for a face' : 'place the face',
+        placing:
+          this.mode === 'webcam' || this.finding
+            ? 'looking for a face'
+            : this.placement.face
+              ? this.placement.faces.length > 1
+                ? `${this.placement.faces.length} faces found`
+                : 'face found'
+              : 'place the face',
         paused: 'paused',
         error: 'error',
         idle: 'idle',
@@ -553,6 +479,26 @@ class VideoSource {
     this.panel.dataset.state = 'error';
   }
 
+  /** What the placement step says, from what the finder found. */
+  placingText() {
+    if (this.mode === 'webcam') {
+      return this.autoStart
+        ? 'Looking for your face: look at the camera (the oval is only a guide); tracking starts when it is found, or press Start.'
+        : 'Put your face inside the oval and press Start (Auto-start is off).';
+    }
+    if (this.finding) return 'Looking for faces…';
+    const n = this.placement.faces.length;
+    const start = this.media.still ? 'fit it' : 'start tracking';
+    if (n > 1 && this.placement.face) {
+      return `${n} faces found: the most confident is selected (${this.placement.selected + 1}); click another one (or Tab) to choose it, then ${start}. Dragging places a box by hand.`;
+    }
+    if (n === 1 && this.placement.face) return `A face was found: ${start}, or drag a box to place one by hand.`;
+    if (n > 0) return `Box placed by hand (the faces found are shown faintly): ${start} from it.`;
+    return this.findError
+      ? `The face finder failed (${this.findError}): drag the box onto the face (drag its corner to resize), then ${start}.`
+      : `No face was found on this frame: drag the box onto the face (drag its corner to resize), then ${start}.`;
+  }
+
   // --- opening videos -----------------------------------------------------------------------------
 
   async openClip() {
@@ -562,11 +508,11 @@ class VideoSource {
       this.clip = info;
       this.fps = info.fps || 25;
       this.fileName = info.video;
-      await this.loadVideo(new URL(info.video, new URL(CLIP_JSON, document.baseURI)).href, info.video);
+      await this.media.loadVideo(info.url, info.video);
       if (!this.running) return;
-      if (info.initLandmarks.length !== this.meanShape.length) {
+      if (info.initLandmarks.length !== this.placement.meanShape.length) {
         throw new Error(
-          `the clip has ${info.initLandmarks.length / 2} start landmarks, the source model ${this.meanShape.length / 2}`,
+          `the clip has ${info.initLandmarks.length / 2} start landmarks, the source model ${this.placement.meanShape.length / 2}`,
         );
       }
       this.video.loop = false;
@@ -585,12 +531,12 @@ class VideoSource {
   /** The clip from frame 0: the tracker starts from the clip's first-frame landmarks. */
   async startClipSequence() {
     this.cancelFrames();
-    await this.seek(0);
+    await this.media.seek(0);
     if (!this.running) return;
-    const k = this.grab();
-    const init = this.clip.initLandmarks.map((v) => v * k);
-    this.kFit = this.fitScaleFor(bounds(init).h);
-    this.tracker.startFromLandmarks(scaled(init, this.kFit / k));
+    this.grab();
+    const init = this.clip.initLandmarks;
+    this.kFit = this.tracker.fitScale(bounds(init).h, this.media.width, this.media.height, 0);
+    this.tracker.startFromLandmarks(scaled(init, this.kFit));
     this.beginSequence();
     this.setPhase('tracking', `Tracking spk07's unseen clip (${this.clip.frames ?? '?'} frames at ${this.fps} fps) from its first frame's landmarks.`);
     this.fitCurrent(0);
@@ -607,97 +553,126 @@ class VideoSource {
     }
   }
 
+  /** A dropped or picked file: a video (tracked) or a photo (one face fitted). */
   async openFile(file) {
     if (!this.running) return;
     const name = file.name || 'the file';
-    const looksVideo = (file.type || '').startsWith('video/') || /\.(webm|mp4|m4v|mov|ogv|ogg|mkv)$/i.test(name);
-    if (!looksVideo) {
-      const err = new Error(`not a video file (${file.type || 'unknown type'}); drop a WebM, MP4 or other video the browser plays`);
+    const image = looksLikeImage(file);
+    if (!image && !looksLikeVideo(file)) {
+      const err = new Error(
+        `not a video or an image (${file.type || 'unknown type'}); drop a WebM, MP4 or other video the browser plays, or a JPEG / PNG photo`,
+      );
       fileError(name, err);
       if (!this.haveFrame) this.setPhase('empty', `${name}: ${err.message}`);
       else this.say(`${name}: ${err.message}`);
       return;
     }
     this.cancelFrames();
+    this.seqId++;
     if (this.objectUrl) URL.revokeObjectURL(this.objectUrl);
-    this.objectUrl = URL.createObjectURL(file);
+    this.objectUrl = null;
     this.fileName = name;
-    this.haveFrame = false;
+    this.media.haveFrame = false;
     this.last = null;
+    this.lastGood = null;
+    this.placement.setFaces([]);
     this.setPhase('loading', `Opening ${name}…`);
     try {
-      await this.loadVideo(this.objectUrl, name);
-      if (!this.running) return;
-      this.video.loop = false;
-      if (!this.endedHooked) {
-        this.endedHooked = true;
-        this.video.addEventListener('ended', () => this.onFileEnded());
+      if (image) {
+        await this.media.loadImage(file);
+        this.fps = 0;
+      } else {
+        this.objectUrl = URL.createObjectURL(file);
+        await this.media.loadVideo(this.objectUrl, name);
+        if (!this.running) return;
+        this.video.loop = false;
+        if (!this.endedHooked) {
+          this.endedHooked = true;
+          this.video.addEventListener('ended', () => this.onFileEnded());
+        }
+        this.fps = 30;
+        await this.media.seek(0);
       }
-      this.fps = 30;
-      await this.seek(0);
       if (!this.running) return;
       this.grab();
-      this.placeBox();
-      this.setPhase('placing');
-      this.canvas.focus({ preventScroll: true });
+      await this.enterPlacing();
     } catch (e) {
       if (!this.running) return;
       fileError(name, e);
-      this.haveFrame = false;
-      this.setPhase(this.mode === 'file' ? 'empty' : 'error', `${name}: ${message(e)}`);
+      this.media.haveFrame = false;
+      this.setPhase('empty', `${name}: ${message(e)}`);
       this.panel.dataset.state = 'error';
     }
   }
 
-  async openWebcam() {
-    this.setPhase('loading', 'Asking for the camera…');
-    const md = navigator.mediaDevices;
-    if (!md || typeof md.getUserMedia !== 'function') {
-      this.fail(
-        window.isSecureContext
-          ? 'This browser has no camera access (navigator.mediaDevices is missing)'
-          : 'The camera needs a secure page: open the demo from http://127.0.0.1 or https',
-      );
+  /**
+   * The placement step on the current frame. A file: the faces are found (in the worker) and
+   * shown; with Auto-start, a video with one face starts tracking at once, with several it waits
+   * for the user's pick, with none it plays while the tracker searches; a photo waits for Fit. The webcam: the guide
+   * while the tracker searches the live picture.
+   */
+  async enterPlacing() {
+    const seq = ++this.seqId;
+    this.cancelFrames();
+    if (this.mode === 'file') this.video.pause();
+    this.placement.setFaces([]);
+    this.placement.placeDefault(this.work.width, this.work.height, this.mode === 'webcam', this.lastGood?.landmarks);
+    this.placement.touched = false;
+    this.findError = null;
+    if (this.mode === 'webcam') {
+      this.searchingGuide = false;
+      this.setPhase('placing');
+      this.requestFrames();
       return;
     }
+    this.finding = true;
+    this.setPhase('placing');
+    this.canvas.focus({ preventScroll: true });
+    let faces = [];
+    try {
+      const r = await findFaces(this.media.workImage());
+      faces = r.faces;
+      this.findLog.push({ ms: r.ms, faces: faces.length, placing: true });
+    } catch (e) {
+      this.findError = message(e);
+    }
+    if (seq !== this.seqId || !this.running || this.phase !== 'placing') return;
+    this.finding = false;
+    const byHand = this.placement.touched;
+    this.placement.setFaces(faces, true);
+    if (!faces.length && !byHand) this.placement.placeDefault(this.work.width, this.work.height, false);
+    this.setPhase('placing');
+    // A photo waits for its Fit button; a video starts by itself (unless a box was placed).
+    if (!this.autoStart || this.media.still || byHand) return;
+    if (faces.length === 1) await this.startTracking();
+    else if (!faces.length && !this.findError) await this.startSearch();
+  }
+
+  async openWebcam() {
+    this.setPhase('loading', 'Asking for the camera…');
     let stream;
     try {
-      stream = await md.getUserMedia({
-        video: { width: { ideal: 640 }, height: { ideal: 480 }, facingMode: 'user' },
-        audio: false,
-      });
+      stream = await openCamera();
     } catch (e) {
       if (!this.running) return;
-      const name = e?.name || '';
-      let text;
-      if (name === 'NotAllowedError' || name === 'SecurityError') {
-        text = 'Camera permission was denied. Allow the camera for this page (the icon in the address bar), then press Try again.';
-      } else if (name === 'NotFoundError' || name === 'OverconstrainedError' || name === 'DevicesNotFoundError') {
-        text = 'No camera was found. Connect one, or use the bundled clip or a video file.';
-      } else if (name === 'NotReadableError' || name === 'TrackStartError') {
-        text = 'The camera is busy (another application may be using it).';
-      } else text = `The camera could not be opened: ${message(e)}`;
-      notify('error', 'Webcam unavailable', text);
-      this.fail(text);
+      if (e.cause) notify('error', 'Webcam unavailable', e.message);
+      this.fail(e.message);
       return;
     }
     if (!this.running) {
       for (const t of stream.getTracks()) t.stop();
       return;
     }
-    this.stream = stream;
     this.streamEnded = false;
     this.fileName = stream.getVideoTracks()[0]?.label || 'camera';
     stream.getVideoTracks()[0]?.addEventListener('ended', () => {
-      if (!this.running || this.stream !== stream) return;
+      if (!this.running || this.media.stream !== stream) return;
       this.streamEnded = true;
-      this.haveFrame = false;
+      this.media.haveFrame = false;
       this.fail('The camera stopped sending pictures (unplugged, or access was withdrawn)');
     });
     try {
-      this.video.srcObject = stream;
-      await this.waitFor(this.video, 'loadeddata', 'the camera sent no picture');
-      await this.video.play();
+      await this.media.useStream(stream);
     } catch (e) {
       if (this.running) this.fail('The camera picture could not be shown', e);
       return;
@@ -705,48 +680,11 @@ class VideoSource {
     if (!this.running) return;
     this.fps = stream.getVideoTracks()[0]?.getSettings?.().frameRate || 30;
     this.grab();
-    this.placeBox();
-    this.probeHits = 0;
-    this.setPhase('placing');
-    this.requestFrames();
-  }
-
-  /** Load `src` into the video element; rejects with a reason when it cannot be decoded. */
-  async loadVideo(src, name) {
-    const v = this.video;
-    v.srcObject = null;
-    v.src = src;
-    v.load();
-    await this.waitFor(v, 'loadeddata', `${name}: no video frame could be decoded`);
-    if (!v.videoWidth || !v.videoHeight) throw new Error('the file has no video track');
-  }
-
-  waitFor(target, event, timeoutMessage, ms = 15000) {
-    return new Promise((resolve, reject) => {
-      const v = this.video;
-      const done = (fn, arg) => {
-        clearTimeout(timer);
-        target.removeEventListener(event, onOk);
-        v.removeEventListener('error', onErr);
-        fn(arg);
-      };
-      const onOk = () => done(resolve);
-      const onErr = () => done(reject, new Error(mediaErrorText(v.error)));
-      const timer = setTimeout(() => done(reject, new Error(timeoutMessage)), ms);
-      target.addEventListener(event, onOk);
-      v.addEventListener('error', onErr);
-    });
-  }
-
-  async seek(time) {
-    const v = this.video;
-    if (Math.abs(v.currentTime - time) < 1e-6 && v.readyState >= 2) return;
-    const p = this.waitFor(v, 'seeked', 'the video could not seek');
-    v.currentTime = time;
-    await p;
+    await this.enterPlacing();
   }
 
   async play() {
+    if (this.media.still) return;
     try {
       await this.video.play();
     } catch (e) {
@@ -760,309 +698,112 @@ class VideoSource {
 
   // --- the frame loop -------------------------------------------------------------------------------
 
-  requestFrames() {
-    if (!this.running || this.frameHandle) return;
-    const v = this.video;
-    if (typeof v.requestVideoFrameCallback === 'function') {
-      const cb = (now, meta) => {
-        this.frameHandle = null;
-        if (!this.running) return;
-        this.onVideoFrame(meta.mediaTime);
-        if (this.running && !v.paused && !v.ended) this.requestFrames();
-      };
-      this.frameHandle = { rvfc: v.requestVideoFrameCallback(cb) };
-    } else {
-      const cb = () => {
-        this.frameHandle = null;
-        if (!this.running) return;
-        if (v.currentTime !== this.lastMediaTime) this.onVideoFrame(v.currentTime);
-        if (this.running && !v.paused && !v.ended) this.requestFrames();
-      };
-      this.frameHandle = { raf: requestAnimationFrame(cb) };
-    }
-  }
-
-  cancelFrames() {
-    const h = this.frameHandle;
-    this.frameHandle = null;
-    if (!h) return;
-    if (h.rvfc !== undefined) this.video.cancelVideoFrameCallback?.(h.rvfc);
-    if (h.raf !== undefined) cancelAnimationFrame(h.raf);
-  }
-
   onVideoFrame(mediaTime) {
     if (mediaTime === this.lastMediaTime && this.mode !== 'webcam') return;
     this.lastMediaTime = mediaTime;
     this.grab();
     if (this.phase === 'tracking') this.fitCurrent(mediaTime);
-    else if (this.phase === 'placing' && this.mode === 'webcam') this.probeGuide();
+    else if (this.phase === 'placing' && this.mode === 'webcam') this.searchGuide(mediaTime);
     this.draw();
   }
 
-  /** Draw the current video frame into the work canvas (scaled to at most MAX_TRACK_SIDE). */
+  /** Draw the current frame into the work canvas; returns k (work px per video px). */
   grab() {
-    const v = this.video;
-    const vw = v.videoWidth;
-    const vh = v.videoHeight;
-    if (!vw || !vh) return this.k;
-    const k = Math.min(1, MAX_TRACK_SIDE / Math.max(vw, vh));
-    const w = Math.max(1, Math.round(vw * k));
-    const h = Math.max(1, Math.round(vh * k));
-    if (this.work.width !== w || this.work.height !== h) {
-      this.work.width = w;
-      this.work.height = h;
+    const k = this.media.grab();
+    const { width: w, height: h } = this.work;
+    if (this.canvas && this.arW !== w + h * 1e5) {
+      this.arW = w + h * 1e5;
       this.canvas.style.aspectRatio = `${w} / ${h}`;
       this.canvas.style.setProperty('--ar', String(w / h));
     }
-    this.k = k;
-    this.workCtx.drawImage(v, 0, 0, w, h);
-    this.haveFrame = true;
     return k;
   }
 
   /**
-   * The fit scale (fitted px per video px) for a face `faceH` shown (work) px tall: the face at
-   * about the model's size; the video's own resolution when that is close.
+   * Webcam, placing with Auto-start: the tracker searches the live picture (faces found in the
+   * worker are offered to it; it acquires one when its fit is plausible), and tracking starts
+   * by itself when it does.
    */
-  fitScaleFor(faceH) {
-    const v = this.video;
-    const side = Math.max(v.videoWidth, v.videoHeight) || 1;
-    const kf = this.meanBox.h / Math.max(1, faceH / this.k);
-    if (kf > 0.75 && kf < 1.33 && side <= MAX_FIT_SIDE) return 1;
-    return Math.min(MAX_UPSCALE, MAX_FIT_SIDE / side, Math.max(MIN_FIT_SIDE / side, kf));
-  }
-
-  /** The current frame's RGBA at the fit scale: { data, width, height }. */
-  fitImage() {
-    if (Math.abs(this.kFit - this.k) < 1e-9) {
-      const { width: w, height: h } = this.work;
-      return this.workCtx.getImageData(0, 0, w, h);
+  searchGuide(mediaTime) {
+    this.frameNo++;
+    if (!this.autoStart) return;
+    if (!this.searchingGuide) {
+      this.searchingGuide = true;
+      this.tracker.startSearching();
+      this.kFit = this.k;
+      this.beginSequence(true);
     }
-    const v = this.video;
-    const w = Math.max(1, Math.round(v.videoWidth * this.kFit));
-    const h = Math.max(1, Math.round(v.videoHeight * this.kFit));
-    if (this.fitCanvas.width !== w || this.fitCanvas.height !== h) {
-      this.fitCanvas.width = w;
-      this.fitCanvas.height = h;
+    this.feedFinder();
+    if (this.tracker.wantsFaces) return; // nothing to try yet: no fit on this frame
+    this.fitCurrent(mediaTime);
+    if (this.last && !this.last.lost) {
+      this.searchingGuide = false;
+      this.setPhase('tracking', 'Tracking your face.');
     }
-    this.fitCtx.imageSmoothingQuality = 'medium';
-    this.fitCtx.drawImage(v, 0, 0, w, h);
-    return this.fitCtx.getImageData(0, 0, w, h);
   }
 
-  /** A fit result in work (shown) coordinates. */
-  toWork(r) {
-    const f = this.k / this.kFit;
-    return {
-      ...r,
-      landmarks: scaled(r.landmarks, f),
-      pose: { scale: r.pose.scale * f, rotation: r.pose.rotation, tx: r.pose.tx * f, ty: r.pose.ty * f },
-    };
-  }
-
-  beginSequence() {
-    this.last = null;
-    this.state = 'tracking';
-    this.lostRun = 0;
-    this.seqStartLost = this.tracker.lostCount;
-    this.seqStartResets = this.tracker.resets;
-    this.lastResets = this.tracker.resets;
-    if (this.mode !== 'clip') this.anchor = null; // the clip keeps its first frame's placement
-  }
-
-  /** Fit the frame in the work canvas; update the params, state and stats. */
-  fitCurrent(mediaTime) {
-    const image = this.fitImage();
+  /**
+   * When the tracker wants faces (a search, or a lost face), find them in the current frame in
+   * the worker and offer them (in fit coordinates, at a fit scale for the most confident one).
+   */
+  feedFinder() {
+    if (this.findBusy || !this.tracker.wantsFaces) return;
+    this.findBusy = true;
+    const seq = this.seqId;
+    const k = this.k;
     const t0 = performance.now();
-    let fit;
-    try {
-      fit = this.tracker.track(image.data, image.width, image.height);
-    } catch (e) {
-      this.fail('Tracking failed', e);
-      return;
-    }
-    const t1 = performance.now();
-    const r = this.toWork(fit);
-    const ms = t1 - t0;
-    this.fits++;
-    this.msPerFit = this.fits === 1 ? ms : this.msPerFit + (ms - this.msPerFit) * 0.1;
-    this.fitTimes.push(t1);
-    while (this.fitTimes.length && t1 - this.fitTimes[0] > 1000) this.fitTimes.shift();
-
-    const resets = this.tracker.resets;
-    this.state = r.lost ? 'lost' : resets > this.lastResets ? 'reinit' : 'tracking';
-    this.lastResets = resets;
-    this.last = r;
-    this.lostRun = r.lost ? this.lostRun + 1 : 0;
-    if (!r.lost || !this.params) {
-      this.params = { pose: this.mapPose(r.pose, t1), shape: r.shape, appearance: this.clampAppearance(r.appearance) };
-      this.invalidate();
-    }
-    const frame = this.fps ? Math.round(mediaTime * this.fps) : this.frameNo;
-    this.frameNo++;
-    this.log.push({
-      loop: this.loops,
-      frame,
-      time: mediaTime,
-      error: r.error,
-      iterations: r.iterations,
-      converged: r.converged,
-      lost: r.lost,
-      ms,
-      landmarks: Array.from(scaled(fit.landmarks, 1 / this.kFit)), // video pixels
-    });
-    if (this.log.length > LOG_MAX) this.log.splice(0, this.log.length - LOG_MAX);
-
-    // The face grew or shrank a lot (moving to or from the camera): carry on at a new fit scale.
-    if (!r.lost) {
-      const want = this.fitScaleFor(bounds(r.landmarks).h);
-      if (Math.abs(want / this.kFit - 1) > 0.3) {
+    findFaces(this.media.workImage()).then(
+      ({ faces, ms }) => {
+        this.findBusy = false;
+        this.findLog.push({ ms, faces: faces.length, wall: performance.now() - t0 });
+        if (this.findLog.length > LOG_MAX) this.findLog.shift();
+        if (seq !== this.seqId || !this.running || !faces.length || !this.tracker.wantsFaces) return;
+        const kFit = this.tracker.fitScale(bounds(faces[0].landmarks).h / k, this.media.width, this.media.height, this.kFit);
         try {
-          this.tracker.startFromLandmarks(scaled(fit.landmarks, want / this.kFit));
-          this.kFit = want;
-        } catch {
-          // keep the current scale
+          this.tracker.offerFaces(faces.map((f) => scaled(f.landmarks, kFit / k)));
+          this.kFit = kFit;
+        } catch (e) {
+          this.say(`The faces found could not be used: ${message(e)}`);
         }
-      }
-    }
-
-    if (this.mode === 'webcam' && this.lostRun >= LOST_TO_GUIDE) {
-      this.placeBox();
-      this.probeHits = 0;
-      this.setPhase('placing', 'The face was lost: put it back inside the oval (tracking restarts when it fits, or press Start).');
-      return;
-    }
-    if (r.lost) this.say('Face lost: the tracker keeps re-initialising from the last good fit. Re-start places it again.');
-    else if (this.msgEl.textContent.startsWith('Face lost')) this.say('Tracking.');
-    this.showStats(t1);
-  }
-
-  /**
-   * The fitted pose, re-centred: `meanPose o anchor^-1 o pose`. The anchor is the sequence's first
-   * fitted pose (the clip: its first frame, so the clip's motion is reproduced exactly); for live
-   * video it then follows the head slowly, so a face anywhere in the picture ends up centred.
-   */
-  mapPose(pose, now) {
-    if (!this.anchor) {
-      this.anchor = { ls: Math.log(pose.scale), rotation: pose.rotation, tx: pose.tx, ty: pose.ty, at: now };
-    } else if (this.mode !== 'clip') {
-      const a = this.anchor;
-      const u = 1 - Math.exp(-Math.max(0, now - a.at) / 1000 / RECENTRE_TAU);
-      a.ls += (Math.log(pose.scale) - a.ls) * u;
-      a.rotation += wrapAngle(pose.rotation - a.rotation) * u;
-      a.tx += (pose.tx - a.tx) * u;
-      a.ty += (pose.ty - a.ty) * u;
-      a.at = now;
-    }
-    const a = this.anchor;
-    const fix = compose(this.meanPose, invert({ scale: Math.exp(a.ls), rotation: a.rotation, tx: a.tx, ty: a.ty }));
-    return compose(fix, pose);
-  }
-
-  /**
-   * Appearance parameters limited to +-3 sigma: another person's face (a webcam, a dropped video)
-   * projects far outside the source model's appearance space, and an unclamped projection
-   * paints noise on the source face. Faces the model was built for are well inside the limit.
-   */
-  clampAppearance(lambda) {
-    const sig = this.info.appearanceSigma;
-    for (let i = 0; i < lambda.length; i++) {
-      const lim = 3 * (sig[i] || 0);
-      if (lim > 0) lambda[i] = Math.max(-lim, Math.min(lim, lambda[i]));
-    }
-    return lambda;
-  }
-
-  showStats(now = performance.now()) {
-    if (now - this.shownAt < 200) return;
-    this.shownAt = now;
-    const r = this.last;
-    const set = (k, v) => {
-      if (this.readout[k].textContent !== v) this.readout[k].textContent = v;
-    };
-    set('error', r ? r.error.toFixed(3) : '–');
-    set('iterations', r ? `${r.iterations}${r.converged ? '' : ' (max)'}` : '–');
-    set('fps', String(this.fitTimes.length));
-    set('ms', this.fits ? this.msPerFit.toFixed(1) : '–');
-    set('lost', `${this.tracker.lostCount - (this.seqStartLost ?? 0)} · ${this.tracker.resets - (this.seqStartResets ?? 0)}`);
-    this.readout.ms.parentElement.title = this.fits
-      ? `Time per fit (smoothed): ${this.msPerFit.toFixed(2)} ms, i.e. up to ${Math.round(1000 / Math.max(0.01, this.msPerFit))} fits/s`
-      : '';
-    this.showState();
-  }
-
-  // --- placing the face -----------------------------------------------------------------------------
-
-  /** A starting box: the last fit's box, else centred at half the frame height. */
-  placeBox() {
-    const { width: W, height: H } = this.work;
-    if (this.last && !this.last.lost && this.mode === 'file') {
-      const b = bounds(this.last.landmarks);
-      const h = b.w * this.boxAspect > b.h ? b.w * this.boxAspect : b.h;
-      const w = h / this.boxAspect;
-      this.box = { x: b.x + b.w / 2 - w / 2, y: b.y + b.h / 2 - h / 2, w, h };
-      return;
-    }
-    const h = H * (this.mode === 'webcam' ? 0.5 : 0.45);
-    const w = h / this.boxAspect;
-    this.box = { x: (W - w) / 2, y: (H - h) / 2 + (this.mode === 'webcam' ? H * 0.04 : 0), w, h };
-  }
-
-  /** Webcam: a quick fit from the guide every few frames; a few good ones in a row start tracking. */
-  probeGuide() {
-    if (!this.autoStart || !this.box) return;
-    this.frameNo++;
-    if (this.frameNo % 3 !== 0) return;
-    const b = this.box;
-    let r;
-    try {
-      this.kFit = this.fitScaleFor(b.h);
-      const f = this.kFit / this.k;
-      this.tracker.startFromBox(b.x * f, b.y * f, b.w * f, b.h * f);
-      const image = this.fitImage();
-      r = this.toWork(this.tracker.track(image.data, image.width, image.height));
-    } catch (e) {
-      this.fail('Tracking failed', e);
-      return;
-    }
-    this.probe = r;
-    const fb = bounds(r.landmarks);
-    const inGuide =
-      Math.abs(fb.x + fb.w / 2 - (b.x + b.w / 2)) < b.w * 0.2 &&
-      Math.abs(fb.y + fb.h / 2 - (b.y + b.h / 2)) < b.h * 0.2 &&
-      fb.h > b.h * 0.65 &&
-      fb.h < b.h * 1.45;
-    // Other people's faces project up to ~9 sigma into the source model's appearance modes;
-    // far beyond that is not a face.
-    const sig = this.info.appearanceSigma;
-    const plausible = r.appearance.every((v, i) => !(Math.abs(v) > 12 * (sig[i] || Infinity)));
-    const good =
-      !r.lost && r.error < AUTO_MAX_ERROR && inGuide && plausible && greyContrast(this.workCtx, fb) > AUTO_MIN_CONTRAST;
-    this.probeHits = good ? this.probeHits + 1 : 0;
-    this.readout.error.textContent = r.error.toFixed(3);
-    this.readout.iterations.textContent = String(r.iterations);
-    this.say(
-      good
-        ? `Face found (${this.probeHits}/${AUTO_HITS})… hold still.`
-        : 'Put your face inside the oval and look at the camera; tracking starts when it fits (or press Start).',
+      },
+      (e) => {
+        this.findBusy = false;
+        if (this.running && seq === this.seqId) this.say(`The face finder failed: ${message(e)}`);
+      },
     );
-    if (this.probeHits >= AUTO_HITS) this.startTracking(r.landmarks);
   }
 
-  /** Start tracking from the placement box (or given landmarks) and play. */
+  /** Start tracking from the selected face found, the placement box, or given landmarks (work px). */
   async startTracking(landmarks = null) {
     if (!this.haveFrame || !this.box) return;
+    const face = landmarks ?? this.placement.face?.landmarks ?? null;
+    const W = this.media.width;
+    const H = this.media.height;
     try {
-      this.kFit = this.fitScaleFor(landmarks ? bounds(landmarks).h : this.box.h);
-      const f = this.kFit / this.k;
-      const b = this.box;
-      if (landmarks) this.tracker.startFromLandmarks(scaled(landmarks, f));
-      else this.tracker.startFromBox(b.x * f, b.y * f, b.w * f, b.h * f);
+      if (face) {
+        this.kFit = this.tracker.fitScale(bounds(face).h / this.k, W, H, 0);
+        this.tracker.startFromLandmarks(scaled(face, this.kFit / this.k));
+      } else {
+        const b = this.box;
+        this.kFit = this.tracker.fitScale(b.h / this.k, W, H, 0);
+        const f = this.kFit / this.k;
+        this.tracker.startFromBox(b.x * f, b.y * f, b.w * f, b.h * f);
+      }
     } catch (e) {
       this.say(`Cannot start: ${message(e)}`);
       return;
     }
+    this.seqId++;
+    this.searchingGuide = false;
     this.beginSequence();
+    if (this.media.still) {
+      // A photo: the face is fitted (a few passes on the same picture), and stays.
+      this.setPhase('tracking', `Fitting the face in ${this.fileName}.`);
+      for (let i = 0; i < 3; i++) this.fitCurrent(0);
+      this.setPhase('tracking', this.last && !this.last.lost ? `The face in ${this.fileName} drives the source.` : `The face in ${this.fileName} could not be fitted: Re-start places it again.`);
+      this.draw();
+      return;
+    }
     this.setPhase('tracking', this.mode === 'webcam' ? 'Tracking your face.' : `Tracking ${this.fileName}.`);
     if (this.mode === 'file') {
       this.fitCurrent(this.video.currentTime);
@@ -1073,23 +814,38 @@ class VideoSource {
     } else this.requestFrames();
   }
 
+  /** A video with no face found on its first frame: play it, the tracker looking for a face. */
+  async startSearch() {
+    this.seqId++;
+    this.tracker.startSearching();
+    this.kFit = this.k;
+    this.beginSequence(true);
+    this.seqStart = null;
+    this.setPhase('tracking', `Looking for a face in ${this.fileName}…`);
+    this.fitCurrent(this.video.currentTime);
+    await this.play();
+  }
+
   /** A file played to its end: loop back to where tracking began, from the fit found there. */
   async onFileEnded() {
     if (!this.running || this.mode !== 'file' || this.phase !== 'tracking') return;
     this.loops++;
     const start = this.seqStart;
+    const searched = this.searchStart;
     try {
       this.cancelFrames();
-      await this.seek(start ? start.time : 0);
+      await this.media.seek(start ? start.time : 0);
       if (!this.running || this.phase !== 'tracking') return;
       this.grab();
       if (start) {
-        this.kFit = this.fitScaleFor(bounds(start.landmarks).h);
+        this.kFit = this.tracker.fitScale(bounds(start.landmarks).h / this.k, this.media.width, this.media.height, 0);
         this.tracker.startFromLandmarks(scaled(start.landmarks, this.kFit / this.k));
         this.beginSequence();
         this.fitCurrent(this.video.currentTime);
         this.draw();
         await this.play();
+      } else if (searched) {
+        await this.startSearch();
       } else {
         this.restart();
       }
@@ -1111,11 +867,7 @@ class VideoSource {
     this.cancelFrames();
     if (this.mode === 'file') this.video.pause();
     this.grab();
-    this.placeBox();
-    this.probeHits = 0;
-    this.setPhase('placing');
-    if (this.mode === 'webcam') this.requestFrames();
-    else this.canvas.focus({ preventScroll: true });
+    await this.enterPlacing();
   }
 
   togglePlay() {
@@ -1130,12 +882,139 @@ class VideoSource {
     }
   }
 
-  // --- pointer and keyboard on the frame --------------------------------------------------------
-
-  /** Canvas pixels per frame pixel, and whether the display is mirrored. */
-  viewScale() {
-    return { s: this.canvas.width / Math.max(1, this.work.width), mirror: this.mode === 'webcam' };
+  /** A fit result in work (shown) coordinates. */
+  toWork(r) {
+    const f = this.k / this.kFit;
+    return {
+      ...r,
+      landmarks: scaled(r.landmarks, f),
+      pose: { scale: r.pose.scale * f, rotation: r.pose.rotation, tx: r.pose.tx * f, ty: r.pose.ty * f },
+    };
   }
+
+  /** A new sequence's bookkeeping; `searching`: it starts with no face (startSearching). */
+  beginSequence(searching = false) {
+    this.last = null;
+    this.lastGood = null;
+    this.searchStart = searching;
+    this.state = searching ? 'searching' : 'tracking';
+    this.seqStartLost = this.tracker.lostCount;
+    this.seqStartResets = this.tracker.resets;
+    this.lastResets = this.tracker.resets;
+    if (this.mode !== 'clip') this.anchor = null; // the clip keeps its first frame's placement
+  }
+
+  /** Fit the current frame; update the params, state and stats. */
+  fitCurrent(mediaTime) {
+    const image = this.media.fitImage(this.kFit);
+    const t0 = performance.now();
+    let fit;
+    try {
+      fit = this.tracker.track(image.data, image.width, image.height);
+    } catch (e) {
+      this.fail('Tracking failed', e);
+      return;
+    }
+    const t1 = performance.now();
+    const r = this.toWork(fit);
+    const ms = t1 - t0;
+    this.fits++;
+    this.msPerFit = this.fits === 1 ? ms : this.msPerFit + (ms - this.msPerFit) * 0.1;
+    this.fitTimes.push(t1);
+    while (this.fitTimes.length && t1 - this.fitTimes[0] > 1000) this.fitTimes.shift();
+
+    const resets = this.tracker.resets;
+    const wasLost = this.last?.lost;
+    this.state = r.lost ? (this.lastGood ? 'lost' : this.searchStart ? 'searching' : 'lost') : resets > this.lastResets ? 'reinit' : 'tracking';
+    this.lastResets = resets;
+    this.last = r;
+    if (r.reacquired) this.reacquired++;
+    if (!r.lost) {
+      this.lastGood = r;
+      this.params = { pose: this.mapPose(r.pose, t1), shape: r.shape, appearance: r.appearance };
+      this.invalidate();
+    }
+    const frame = this.fps ? Math.round(mediaTime * this.fps) : this.frameNo;
+    this.frameNo++;
+    this.log.push({
+      loop: this.loops,
+      frame,
+      time: mediaTime,
+      error: r.error,
+      iterations: r.iterations,
+      converged: r.converged,
+      lost: r.lost,
+      reacquired: r.reacquired,
+      ms,
+      landmarks: Array.from(scaled(fit.landmarks, 1 / this.kFit)), // video pixels
+    });
+    if (this.log.length > LOG_MAX) this.log.splice(0, this.log.length - LOG_MAX);
+
+    // The face grew or shrank a lot (moving to or from the camera): carry on at a new fit scale.
+    if (!r.lost && !this.media.still) {
+      const want = this.tracker.fitScale(bounds(fit.landmarks).h / this.kFit, this.media.width, this.media.height, this.kFit);
+      if (want !== this.kFit) {
+        try {
+          this.tracker.startFromLandmarks(scaled(fit.landmarks, want / this.kFit));
+          this.kFit = want;
+        } catch {
+          // keep the current scale
+        }
+      }
+    }
+    // Looking for the face (none yet, or lost): the worker finds faces for the tracker.
+    if (this.tracker.wantsFaces && !this.media.still) this.feedFinder();
+
+    if (this.phase === 'tracking' && !this.media.still) {
+      if (r.lost && this.lastGood === null && this.searchStart) this.say('Looking for a face…');
+      else if (r.lost) this.say('Face lost: looking for it again (it is tracked again as soon as it is found).');
+      else if (r.reacquired) this.say(wasLost && this.log.length > 1 ? 'Face found again: tracking.' : 'Face found: tracking.');
+      else if (/^(Face lost|Looking for a face|Face found)/.test(this.msgEl.textContent)) this.say('Tracking.');
+    }
+    this.showStats(t1);
+  }
+
+  /**
+   * The fitted pose, re-centred on the model's mean pose (`recentrePose(pose, anchor, mean)`).
+   * The anchor is the sequence's first fitted pose (the clip: its first frame, so the clip's
+   * motion is reproduced exactly); for live video it then follows the head slowly, so a face
+   * anywhere in the picture ends up centred.
+   */
+  mapPose(pose, now) {
+    if (!this.anchor) {
+      this.anchor = { ls: Math.log(pose.scale), rotation: pose.rotation, tx: pose.tx, ty: pose.ty, at: now };
+    } else if (this.mode !== 'clip') {
+      const a = this.anchor;
+      const u = 1 - Math.exp(-Math.max(0, now - a.at) / 1000 / RECENTRE_TAU);
+      a.ls += (Math.log(pose.scale) - a.ls) * u;
+      a.rotation += wrapAngle(pose.rotation - a.rotation) * u;
+      a.tx += (pose.tx - a.tx) * u;
+      a.ty += (pose.ty - a.ty) * u;
+      a.at = now;
+    }
+    const a = this.anchor;
+    return this.wasm.recentrePose(pose, { scale: Math.exp(a.ls), rotation: a.rotation, tx: a.tx, ty: a.ty }, this.meanPose);
+  }
+
+  showStats(now = performance.now()) {
+    if (now - this.shownAt < 200) return;
+    this.shownAt = now;
+    const r = this.last;
+    const set = (k, v) => {
+      if (this.readout[k].textContent !== v) this.readout[k].textContent = v;
+    };
+    set('error', r ? r.error.toFixed(3) : '–');
+    set('iterations', r ? `${r.iterations}${r.converged ? '' : ' (max)'}` : '–');
+    set('fps', String(this.fitTimes.length));
+    set('ms', this.fits ? this.msPerFit.toFixed(1) : '–');
+    set('lost', `${this.tracker.lostCount - (this.seqStartLost ?? 0)} · ${this.tracker.resets - (this.seqStartResets ?? 0)}`);
+    this.readout.ms.parentElement.title = this.fits
+      ? `Time per fit (smoothed): ${this.msPerFit.toFixed(2)} ms, i.e. up to ${Math.round(1000 / Math.max(0.01, this.msPerFit))} fits/s`
+      : '';
+    this.showState();
+  }
+
+  // --- pointer and keyboard on the frame --------------------------------------------------------
 
   toFrame(e) {
     const r = this.canvas.getBoundingClientRect();
@@ -1147,66 +1026,37 @@ class VideoSource {
     return { x, y };
   }
 
+  handleSize() {
+    return (14 / this.canvas.getBoundingClientRect().width) * this.work.width;
+  }
+
   onPointerDown(e) {
-    if (this.phase !== 'placing' || this.mode !== 'file' || !this.box) return;
-    const p = this.toFrame(e);
-    const b = this.box;
-    const handle = (14 / this.canvas.getBoundingClientRect().width) * this.work.width;
-    const nearCorner = Math.abs(p.x - (b.x + b.w)) < handle && Math.abs(p.y - (b.y + b.h)) < handle;
-    const inside = p.x >= b.x && p.x <= b.x + b.w && p.y >= b.y && p.y <= b.y + b.h;
-    this.drag = nearCorner
-      ? { kind: 'resize', x0: b.x, y0: b.y }
-      : inside
-        ? { kind: 'move', dx: p.x - b.x, dy: p.y - b.y }
-        : { kind: 'new', x0: p.x, y0: p.y };
+    if (this.phase !== 'placing' || this.mode !== 'file') return;
+    this.placement.pointerDown(this.toFrame(e), this.handleSize());
     this.canvas.setPointerCapture(e.pointerId);
     this.canvas.focus({ preventScroll: true });
     e.preventDefault();
+    this.say(this.placingText());
+    this.draw();
   }
 
   onPointerMove(e) {
     if (this.phase !== 'placing' || this.mode !== 'file') return;
     const p = this.toFrame(e);
-    if (!this.drag) {
-      const b = this.box;
-      if (!b) return;
-      const handle = (14 / this.canvas.getBoundingClientRect().width) * this.work.width;
-      const nearCorner = Math.abs(p.x - (b.x + b.w)) < handle && Math.abs(p.y - (b.y + b.h)) < handle;
-      const inside = p.x >= b.x && p.x <= b.x + b.w && p.y >= b.y && p.y <= b.y + b.h;
-      this.canvas.style.cursor = nearCorner ? 'nwse-resize' : inside ? 'move' : 'crosshair';
+    if (!this.placement.drag) {
+      const h = this.placement.hit(p, this.handleSize());
+      this.canvas.style.cursor = h === 'corner' ? 'nwse-resize' : h === 'inside' ? 'move' : h.startsWith('face:') ? 'pointer' : 'crosshair';
       return;
     }
-    const d = this.drag;
-    const b = this.box;
-    if (d.kind === 'move') {
-      b.x = p.x - d.dx;
-      b.y = p.y - d.dy;
-    } else {
-      const x0 = d.x0;
-      const y0 = d.y0;
-      // Keep the mean shape's aspect: the larger of the two drag extents decides the size.
-      const h = Math.max(8, Math.abs(p.y - y0), Math.abs(p.x - x0) * this.boxAspect);
-      const w = h / this.boxAspect;
-      b.x = p.x >= x0 ? x0 : x0 - w;
-      b.y = p.y >= y0 ? y0 : y0 - h;
-      b.w = w;
-      b.h = h;
+    const wasFace = this.placement.face;
+    if (this.placement.pointerMove(p, this.work.width, this.work.height)) {
+      if (wasFace) this.say(this.placingText());
+      this.draw();
     }
-    this.clampBox();
-    this.draw();
   }
 
   onPointerUp() {
-    this.drag = null;
-  }
-
-  clampBox() {
-    const b = this.box;
-    const { width: W, height: H } = this.work;
-    b.h = Math.min(Math.max(b.h, 8), H * 1.5);
-    b.w = b.h / this.boxAspect;
-    b.x = Math.min(Math.max(b.x, -b.w / 2), W - b.w / 2);
-    b.y = Math.min(Math.max(b.y, -b.h / 2), H - b.h / 2);
+    this.placement.pointerUp();
   }
 
   onKey(e) {
@@ -1216,46 +1066,12 @@ class VideoSource {
       this.startTracking();
       return;
     }
-    if (this.mode !== 'file' || !this.box) return;
-    const b = this.box;
-    const step = (e.shiftKey ? 10 : 2) / this.k;
-    const grow = (f) => {
-      const cx = b.x + b.w / 2;
-      const cy = b.y + b.h / 2;
-      b.h *= f;
-      b.w = b.h / this.boxAspect;
-      b.x = cx - b.w / 2;
-      b.y = cy - b.h / 2;
-    };
-    switch (e.key) {
-      case 'ArrowLeft':
-        b.x -= step;
-        break;
-      case 'ArrowRight':
-        b.x += step;
-        break;
-      case 'ArrowUp':
-        b.y -= step;
-        break;
-      case 'ArrowDown':
-        b.y += step;
-        break;
-      case '+':
-      case '=':
-      case 'PageUp':
-        grow(1.05);
-        break;
-      case '-':
-      case '_':
-      case 'PageDown':
-        grow(1 / 1.05);
-        break;
-      default:
-        return;
+    if (this.mode !== 'file') return;
+    if (this.placement.key(e, (e.shiftKey ? 10 : 2) / this.k, this.work.width, this.work.height)) {
+      e.preventDefault();
+      this.say(this.placingText());
+      this.draw();
     }
-    e.preventDefault();
-    this.clampBox();
-    this.draw();
   }
 
   // --- drawing ------------------------------------------------------------------------------------
@@ -1263,141 +1079,21 @@ class VideoSource {
   draw() {
     const c = this.canvas;
     if (!c || !this.running || c.hidden) return;
-    const dpr = window.devicePixelRatio || 1;
-    const cw = Math.max(1, Math.min(4096, Math.round(c.clientWidth * dpr)));
-    const ch = Math.max(1, Math.min(4096, Math.round(c.clientHeight * dpr)));
-    if (c.width !== cw || c.height !== ch) {
-      c.width = cw;
-      c.height = ch;
-    }
-    const g = c.getContext('2d', { alpha: false });
-    g.fillStyle = '#101114';
-    g.fillRect(0, 0, cw, ch);
-    if (!this.haveFrame) return;
-    const W = this.work.width;
-    const H = this.work.height;
-    const s = Math.min(cw / W, ch / H);
-    const ox = (cw - W * s) / 2;
-    const oy = (ch - H * s) / 2;
-    const mirror = this.mode === 'webcam';
-    g.save();
-    g.imageSmoothingQuality = 'high';
-    if (mirror) {
-      g.translate(cw, 0);
-      g.scale(-1, 1);
-    }
-    g.drawImage(this.work, ox, oy, W * s, H * s);
-    g.restore();
-    const map = mirror ? (x, y) => [cw - (ox + x * s), oy + y * s] : (x, y) => [ox + x * s, oy + y * s];
-    const lw = Math.max(1, 1.25 * dpr);
-
-    if (this.phase === 'placing' && this.box) {
-      this.drawPlacement(g, map, s, lw, dpr);
+    const v = drawFrame(c, this.work, { mirror: this.mode === 'webcam', haveFrame: this.haveFrame });
+    if (!v) return;
+    const { g, map, s, lw, dpr } = v;
+    if (this.phase === 'placing') {
+      this.placement.draw(g, map, s, lw, dpr, { webcam: this.mode === 'webcam', hot: this.tracker?.wantsFaces === false });
+      if (this.finding) drawBadge(g, 'looking for faces…', GUIDE, dpr);
     } else if ((this.phase === 'tracking' || this.phase === 'paused') && this.last && this.meshCheck.checked) {
-      const lost = this.last.lost;
-      drawLandmarks(g, this.last.landmarks, map, lost ? MESH_LOST : MESH, lw);
-      if (lost) {
-        g.save();
-        g.font = `600 ${Math.round(13 * dpr)}px system-ui, sans-serif`;
-        g.fillStyle = 'rgba(16, 17, 20, 0.75)';
-        const text = 'face lost';
-        const tw = g.measureText(text).width;
-        g.fillRect(8 * dpr, 8 * dpr, tw + 16 * dpr, 22 * dpr);
-        g.fillStyle = MESH_LOST;
-        g.textBaseline = 'middle';
-        g.fillText(text, 16 * dpr, 19 * dpr);
-        g.restore();
-      }
+      if (!this.last.lost) drawLandmarks(g, this.last.landmarks, map, MESH, lw);
+      else if (this.lastGood) {
+        // The last good fit, in red: where the face was.
+        drawLandmarks(g, this.lastGood.landmarks, map, MESH_LOST, lw);
+        drawBadge(g, 'face lost', MESH_LOST, dpr);
+      } else drawBadge(g, 'looking for a face', GUIDE, dpr);
     }
   }
-
-  drawPlacement(g, map, s, lw, dpr) {
-    const b = this.box;
-    // The mean shape in the box (as startFromBox will place it).
-    const m = this.meanBox;
-    const k = Math.min(b.w / m.w, b.h / m.h);
-    const cx = b.x + b.w / 2;
-    const cy = b.y + b.h / 2;
-    const mx = m.x + m.w / 2;
-    const my = m.y + m.h / 2;
-    const shapeMap = (x, y) => map(cx + (x - mx) * k, cy + (y - my) * k);
-    if (this.mode === 'webcam') {
-      // The guide: an oval around the face box, the rest of the picture dimmed.
-      const [X, Y] = map(cx, cy - b.h * 0.1);
-      const rx = b.w * 0.62 * s;
-      const ry = b.h * 0.72 * s;
-      g.save();
-      g.fillStyle = 'rgba(10, 11, 14, 0.45)';
-      g.beginPath();
-      g.rect(0, 0, g.canvas.width, g.canvas.height);
-      g.ellipse(X, Y, rx, ry, 0, 0, Math.PI * 2);
-      g.fill('evenodd');
-      g.strokeStyle = this.probeHits > 0 ? MESH : GUIDE;
-      g.lineWidth = lw * 2;
-      g.setLineDash([8 * dpr, 6 * dpr]);
-      g.beginPath();
-      g.ellipse(X, Y, rx, ry, 0, 0, Math.PI * 2);
-      g.stroke();
-      g.restore();
-      drawLandmarks(g, this.meanShape, shapeMap, 'rgba(124, 196, 255, 0.55)', lw, { points: false });
-      return;
-    }
-    const [x0, y0] = map(b.x, b.y);
-    const [x1, y1] = map(b.x + b.w, b.y + b.h);
-    g.save();
-    g.fillStyle = 'rgba(10, 11, 14, 0.35)';
-    g.beginPath();
-    g.rect(0, 0, g.canvas.width, g.canvas.height);
-    g.rect(x0, y0, x1 - x0, y1 - y0);
-    g.fill('evenodd');
-    g.strokeStyle = GUIDE;
-    g.lineWidth = lw * 1.5;
-    g.strokeRect(x0, y0, x1 - x0, y1 - y0);
-    const hs = 9 * dpr;
-    g.fillStyle = GUIDE;
-    g.fillRect(x1 - hs / 2, y1 - hs / 2, hs, hs);
-    g.restore();
-    drawLandmarks(g, this.meanShape, shapeMap, 'rgba(124, 196, 255, 0.8)', lw);
-  }
-}
-
-/** Standard deviation of the grey level (0..1) inside a box of a canvas, on a sparse grid. */
-function greyContrast(ctx, b) {
-  const { width: W, height: H } = ctx.canvas;
-  const x0 = Math.max(0, Math.floor(b.x));
-  const y0 = Math.max(0, Math.floor(b.y));
-  const x1 = Math.min(W, Math.ceil(b.x + b.w));
-  const y1 = Math.min(H, Math.ceil(b.y + b.h));
-  if (x1 - x0 < 4 || y1 - y0 < 4) return 0;
-  const data = ctx.getImageData(x0, y0, x1 - x0, y1 - y0).data;
-  const w = x1 - x0;
-  const step = Math.max(1, Math.floor(Math.min(w, y1 - y0) / 48));
-  let s = 0;
-  let s2 = 0;
-  let n = 0;
-  for (let y = 0; y < y1 - y0; y += step) {
-    for (let x = 0; x < w; x += step) {
-      const i = (y * w + x) * 4;
-      const g = (0.299 * data[i] + 0.587 * data[i + 1] + 0.114 * data[i + 2]) / 255;
-      s += g;
-      s2 += g * g;
-      n++;
-    }
-  }
-  const m = s / n;
-  return Math.sqrt(Math.max(0, s2 / n - m * m));
-}
-
-function mediaErrorText(err) {
-  if (!err) return 'the video could not be loaded';
-  const what =
-    {
-      1: 'loading was aborted',
-      2: 'a network error stopped the download',
-      3: 'the video could not be decoded',
-      4: 'the browser cannot play this format',
-    }[err.code] || 'the video failed';
-  return err.message ? `${what} (${err.message})` : what;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1423,7 +1119,12 @@ function create(mode, ctx) {
 }
 
 registerSource('video-clip', { label: 'Video (bundled clip)', available: canTrack, create: (ctx) => create('clip', ctx) });
-registerSource('video-file', { label: 'Video file…', available: canTrack, create: (ctx) => create('file', ctx) });
+registerSource('video-file', { label: 'Video or photo…', available: canTrack, create: (ctx) => create('file', ctx) });
 registerSource('webcam', { label: 'Webcam', available: canTrack, create: (ctx) => create('webcam', ctx) });
+
+/** Whether a file is one the tracking sources open (a video or an image). */
+export function isMediaFile(file) {
+  return looksLikeVideo(file) || looksLikeImage(file);
+}
 
 export { VideoSource, CONTOURS_68 };
