@@ -8,9 +8,8 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot, fakeCameraFile } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const TRAIN = path.join(ROOT, 'data', 'grid', 'spk07_pwij3p');
@@ -28,52 +27,9 @@ before(async () => {
 
 after(() => server?.close());
 
-/** The unseen clip as a 640x480 MJPEG with the face in the webcam guide (drawn by Chromium). */
-async function faceCamera(t) {
-  const browser = await launchBrowser();
-  const frames = await serveStatic(UNSEEN);
-  try {
-    const page = await browser.newPage();
-    await page.goto(`${frames.url}000000.jpg`);
-    const pts = fs.readFileSync(path.join(UNSEEN, '000000.pts'), 'utf8');
-    const v = pts.slice(pts.indexOf('{') + 1, pts.indexOf('}')).trim().split(/\s+/).map(Number);
-    const xs = v.filter((_, i) => i % 2 === 0);
-    const ys = v.filter((_, i) => i % 2 === 1);
-    const face = { cx: (Math.min(...xs) + Math.max(...xs)) / 2, cy: (Math.min(...ys) + Math.max(...ys)) / 2, h: Math.max(...ys) - Math.min(...ys) };
-    const [W, H] = [640, 480];
-    const scale = (0.5 * H * 0.95) / face.h; // the guide: 0.5 H high, 0.04 H below the middle
-    const dx = W / 2 - face.cx * scale;
-    const dy = H / 2 + 0.04 * H - face.cy * scale;
-    const n = fs.readdirSync(UNSEEN).filter((f) => f.endsWith('.jpg')).length;
-    const jpegs = await page.evaluate(async ({ n, W, H, scale, dx, dy }) => {
-      const c = document.createElement('canvas');
-      c.width = W;
-      c.height = H;
-      const g = c.getContext('2d');
-      const out = [];
-      for (let i = 0; i < n; i++) {
-        const img = new Image();
-        img.src = `${String(i).padStart(6, '0')}.jpg`;
-        await img.decode();
-        g.fillStyle = '#203040';
-        g.fillRect(0, 0, W, H);
-        g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
-        const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.92));
-        const bytes = new Uint8Array(await blob.arrayBuffer());
-        let bin = '';
-        for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
-        out.push(btoa(bin));
-      }
-      return out;
-    }, { n, W, H, scale, dx, dy });
-    const file = path.join(os.tmpdir(), `facemimic-enrol-camera-${process.pid}.mjpeg`);
-    fs.writeFileSync(file, Buffer.concat(jpegs.map((b) => Buffer.from(b, 'base64'))));
-    t.after(() => fs.rmSync(file, { force: true }));
-    return file;
-  } finally {
-    await browser.close();
-    await frames.close();
-  }
+/** The unseen clip as a 640x480 MJPEG with the face in the webcam guide (tests/e2e/lib.mjs). */
+function faceCamera(t) {
+  return fakeCameraFile(t, UNSEEN, { name: 'enrol-camera' });
 }
 
 test('a face created in the page becomes the source, and the webcam tracks it with its own model and drives the targets', async (t) => {

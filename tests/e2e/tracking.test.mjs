@@ -10,7 +10,6 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
 import {
   ROOT,
@@ -21,6 +20,8 @@ import {
   screenshot,
   canvasStats,
   canvasDigest,
+  readPts,
+  fakeCameraFile,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
@@ -95,16 +96,6 @@ function getLog(page, withLandmarks = false) {
       window.facemimicTracking.log.map((l) => ({ ...l, landmarks: withLandmarks ? l.landmarks : undefined })),
     withLandmarks,
   );
-}
-
-/** Read a .pts file (1-based) as 0-based image coordinates [x0, y0, ...]. */
-function readPts(file) {
-  const text = fs.readFileSync(file, 'utf8');
-  const body = text.slice(text.indexOf('{') + 1, text.indexOf('}'));
-  return body
-    .trim()
-    .split(/\s+/)
-    .map((v) => Number(v) - 1);
 }
 
 /** Mean point-to-point distance over the outer-eye-corner distance (landmarks 36 and 45). */
@@ -406,60 +397,13 @@ test('the webcam starts with a face guide (fake camera: no face) and reports its
 });
 
 /**
- * A fake camera with a face: spk07's clip frames (the JPEGs in data/grid), scaled and placed so
- * the face sits in the webcam guide of a 640x480 picture, as an MJPEG file for Chromium's
- * `--use-file-for-fake-video-capture`. Made by the browser itself (canvas -> JPEG); null when the
- * frames are absent.
+ * A fake camera with a face: spk07's clip frames (the JPEGs in data/grid) with the face in the
+ * webcam guide of a 640x480 picture (tests/e2e/lib.mjs `fakeCameraFile`); null when the frames
+ * are absent.
  */
 async function faceCamera(t) {
   if (!fs.existsSync(CLIP_FRAMES)) return null;
-  const frames = await serveStatic(CLIP_FRAMES);
-  t.after(() => frames.close());
-  const context = await browser.newContext();
-  t.after(() => context.close());
-  const page = await context.newPage();
-  await page.goto(`${frames.url}000000.jpg`);
-  const xs = CLIP.initLandmarks.filter((_, i) => i % 2 === 0);
-  const ys = CLIP.initLandmarks.filter((_, i) => i % 2 === 1);
-  const face = {
-    cx: (Math.min(...xs) + Math.max(...xs)) / 2,
-    cy: (Math.min(...ys) + Math.max(...ys)) / 2,
-    h: Math.max(...ys) - Math.min(...ys),
-  };
-  // The guide (www/js/tracking.js placeBox): height 0.5 H, centred, 0.04 H below the middle.
-  const W = 640;
-  const H = 480;
-  const scale = (0.5 * H * 0.95) / face.h;
-  const dx = W / 2 - face.cx * scale;
-  const dy = H / 2 + 0.04 * H - face.cy * scale;
-  const jpegs = await page.evaluate(
-    async ({ n, W, H, scale, dx, dy }) => {
-      const c = document.createElement('canvas');
-      c.width = W;
-      c.height = H;
-      const g = c.getContext('2d');
-      const out = [];
-      for (let i = 0; i < n; i++) {
-        const img = new Image();
-        img.src = `${String(i).padStart(6, '0')}.jpg`;
-        await img.decode();
-        g.fillStyle = '#203040';
-        g.fillRect(0, 0, W, H);
-        g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
-        const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.92));
-        const bytes = new Uint8Array(await blob.arrayBuffer());
-        let bin = '';
-        for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
-        out.push(btoa(bin));
-      }
-      return out;
-    },
-    { n: CLIP.frames, W, H, scale, dx, dy },
-  );
-  const file = path.join(os.tmpdir(), `facemimic-face-camera-${process.pid}.mjpeg`);
-  fs.writeFileSync(file, Buffer.concat(jpegs.map((b) => Buffer.from(b, 'base64'))));
-  t.after(() => fs.rmSync(file, { force: true }));
-  return file;
+  return fakeCameraFile(t, CLIP_FRAMES, { name: 'face-camera' });
 }
 
 test('the webcam auto-starts on a face in the guide and tracks it live', async (t) => {
