@@ -265,9 +265,10 @@ test('black frames are a lost face ("face lost"), and the face is tracked again 
   );
   assert.ok(runs.length >= 2, `lost stretches: ${JSON.stringify(runs)}`);
   for (const r of runs) {
-    // Lost for the blackout (0.6 s) and no longer than 3 frames (0.12 s) after it, within a
-    // frame's timing either way.
-    assert.ok(r.lostFor > 0.4 && r.lostFor <= 0.6 + 0.12 + 0.06, `a lost stretch of ${r.lostFor.toFixed(3)} s for 0.6 s of black frames`);
+    // Lost for the blackout (0.6 s; measured from the first fit that saw it, which a loaded
+    // machine may make a few frames late) and no longer than 3 frames (0.12 s) after it, within
+    // a frame's timing.
+    assert.ok(r.lostFor > 0.2 && r.lostFor <= 0.6 + 0.12 + 0.06, `a lost stretch of ${r.lostFor.toFixed(3)} s for 0.6 s of black frames`);
   }
   assert.ok(states.includes('lost') && states.lastIndexOf('tracking') > states.indexOf('lost'), `states: ${states.join(' > ')}`);
   assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'tracking', 'the source left tracking (a click would be needed)');
