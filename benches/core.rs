@@ -10,7 +10,7 @@ use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use facemimic::tiny_skia::{Color, Pixmap};
-use facemimic::{io, BuildOptions, Builder, Renderer, Similarity};
+use facemimic::{io, BuildOptions, Builder, DrawOptions, FaceDrawer, Similarity};
 
 fn benches(c: &mut Criterion) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk07_pwij3p");
@@ -33,7 +33,7 @@ fn benches(c: &mut Criterion) {
         b.iter(|| black_box(builder.build(black_box(&images), None).unwrap()))
     });
 
-    let mut renderer = Renderer::new(model.frame()).unwrap();
+    let mut renderer = FaceDrawer::new(model.frame(), DrawOptions::default()).unwrap();
     let mut pixmap = Pixmap::new(360, 288).unwrap();
     pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
     c.bench_function("render 360x288 (synthesis + upload + warp)", |b| {

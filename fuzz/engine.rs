@@ -25,7 +25,8 @@ use facemimic::fit::{FitOptions, Tracker};
 use facemimic::format::{read_model, write_model};
 use facemimic::landmarks::{parse_asf, parse_pts, write_pts};
 use facemimic::{
-    BuildOptions, Builder, FrameChoice, Image, Model, Params, Renderer, Similarity, TrainingImage,
+    BuildOptions, Builder, DrawOptions, FaceDrawer, FrameChoice, Image, Model, Params, Similarity,
+    TrainingImage,
 };
 
 // ------------------------------------------------------------------------------------------
@@ -540,7 +541,7 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
     }
     // Render into a small canvas.
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(48, 40).unwrap();
-    if let Ok(mut r) = Renderer::new(m.frame()) {
+    if let Ok(mut r) = FaceDrawer::new(m.frame(), DrawOptions::default()) {
         let _ = r.render(m, &params, &Similarity::IDENTITY, &mut pixmap.as_mut());
         let _ = r.render(m, &base, &Similarity::IDENTITY, &mut pixmap.as_mut());
     }
@@ -766,7 +767,8 @@ impl Fuzzer {
                                 return Err("image_shape gave non-finite landmarks".into());
                             }
                             let mut pixmap = facemimic::tiny_skia::Pixmap::new(32, 32).unwrap();
-                            let mut ren = Renderer::new(m.frame()).map_err(|e| e.to_string())?;
+                            let mut ren = FaceDrawer::new(m.frame(), DrawOptions::default())
+                                .map_err(|e| e.to_string())?;
                             let _ = ren.render(m, p, &Similarity::IDENTITY, &mut pixmap.as_mut());
                             let mut c = Cloner::new(m.clone()).map_err(|e| e.to_string())?;
                             c.add_target(seeds.models[1].clone())

@@ -285,7 +285,8 @@ fn recovers_synthetic_instance() {
     let (w, h) = (400u32, 360u32);
     let mut pixmap = facemimic::tiny_skia::Pixmap::new(w, h).unwrap();
     pixmap.fill(facemimic::tiny_skia::Color::from_rgba8(90, 90, 90, 255));
-    let mut renderer = facemimic::Renderer::new(model.frame()).unwrap();
+    let mut renderer =
+        facemimic::FaceDrawer::new(model.frame(), facemimic::DrawOptions::default()).unwrap();
     renderer
         .render(&model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut())
         .unwrap();

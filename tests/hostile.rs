@@ -14,7 +14,8 @@ use facemimic::clone::{constrain, CloneOptions, Cloner, Method};
 use facemimic::fit::{FitOptions, Tracker};
 use facemimic::format::{read_model, write_model, write_model_checked, FormatError};
 use facemimic::{
-    BuildOptions, Builder, Error, FrameChoice, Model, ModelParts, Params, Renderer, Similarity,
+    BuildOptions, Builder, DrawOptions, Error, FaceDrawer, FrameChoice, Model, ModelParts, Params,
+    Similarity,
 };
 
 fn seeds() -> &'static engine::Seeds {
@@ -209,7 +210,7 @@ fn constrain_is_nan_safe_and_total() {
 #[test]
 fn renderers_refuse_non_finite_appearance() {
     let m = model();
-    let mut r = Renderer::new(m.frame()).unwrap();
+    let mut r = FaceDrawer::new(m.frame(), DrawOptions::default()).unwrap();
     let mut a = m.appearance().base.clone();
     a[3] = f32::NAN;
     assert!(r.upload(m.frame(), &a).is_err());

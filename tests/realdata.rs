@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 
 use facemimic::tiny_skia::Pixmap;
 use facemimic::{
-    io, landmarks, BuildOptions, Builder, Model, Params, Renderer, Similarity, TrainingImage,
+    io, landmarks, BuildOptions, Builder, DrawOptions, FaceDrawer, Model, Params, Similarity,
+    TrainingImage,
 };
 
 fn grid(rel: &str) -> PathBuf {
@@ -52,7 +53,7 @@ fn spk07_model(train: &[TrainingImage], appearance_variance: f64) -> Model {
 /// squared error and absolute error (0..255 levels, per channel) and the pixel count.
 fn render_error(
     model: &Model,
-    renderer: &mut Renderer,
+    renderer: &mut FaceDrawer,
     params: &Params,
     image: &facemimic::Image,
 ) -> (f64, f64, usize) {
@@ -226,7 +227,7 @@ fn spk07_reconstructs_unseen_frames() {
         "{} appearance modes",
         model.appearance().n_modes()
     );
-    let mut renderer = Renderer::new(model.frame()).unwrap();
+    let mut renderer = FaceDrawer::new(model.frame(), DrawOptions::default()).unwrap();
     let mut g = vec![0f32; model.appearance().len()];
     let (mut sq_full, mut sq_mean, mut sq_warp, mut ab_full, mut ab_mean, mut count) =
         (0.0, 0.0, 0.0, 0.0, 0.0, 0usize);
@@ -327,7 +328,7 @@ fn compact_storage_keeps_the_reconstruction() {
     let model = spk07_model(&load(&train_paths), 0.98);
     let unseen = load(&unseen_paths);
     let psnr_of = |m: &Model| {
-        let mut renderer = Renderer::new(m.frame()).unwrap();
+        let mut renderer = FaceDrawer::new(m.frame(), DrawOptions::default()).unwrap();
         let (mut sq, mut count) = (0.0, 0usize);
         for t in &unseen {
             let params = m.project(&t.image.view().unwrap(), &t.landmarks).unwrap();

@@ -16,7 +16,9 @@
 //! docs/core-figures.md.
 
 use facemimic::tiny_skia::{Color, Pixmap};
-use facemimic::{landmarks, BuildOptions, Builder, Image, Renderer, Similarity, TrainingImage};
+use facemimic::{
+    landmarks, BuildOptions, Builder, DrawOptions, FaceDrawer, Image, Similarity, TrainingImage,
+};
 use wasm_bindgen_test::wasm_bindgen_test;
 
 macro_rules! pts {
@@ -152,7 +154,7 @@ fn core_timings() {
     let build = time(3000.0, || {
         std::hint::black_box(builder.build(&images, None).unwrap());
     });
-    let mut renderer = Renderer::new(model.frame()).unwrap();
+    let mut renderer = FaceDrawer::new(model.frame(), DrawOptions::default()).unwrap();
     let mut pixmap = Pixmap::new(360, 288).unwrap();
     pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
     let render = time(2000.0, || {

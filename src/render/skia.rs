@@ -6,15 +6,15 @@ use tiny_skia::{
     FillRule, FilterQuality, Paint, PathBuilder, Pattern, Pixmap, PixmapMut, SpreadMode, Transform,
 };
 
-use super::{instance_into, triangle_affine};
+use super::triangle_affine;
 use crate::error::{check_len, Error, Result};
 use crate::frame::ReferenceFrame;
-use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
-/// Reusable rendering state for one reference frame: the appearance texture, the synthesis
-/// buffers and a recycled path. Create once per model (or per frame shape) and reuse: after
-/// the first call, rendering allocates nothing of its own per frame.
+/// The tiny-skia backend of [`super::FaceDrawer`] for one reference frame: the appearance
+/// texture and a recycled path. Create once per model (or per frame shape) and reuse: after
+/// the first call, it allocates nothing of its own per frame. To draw a model instance, use
+/// [`super::FaceDrawer::render`].
 ///
 /// Contract: [`Renderer::warp`] paints exactly the pixels whose centres fall inside the warped
 /// mesh (non-anti-aliased fills share edges exactly, so there are no cracks and no double-painted
@@ -22,9 +22,6 @@ use crate::similarity::Similarity;
 pub struct Renderer {
     texture: Pixmap,
     frame_fingerprint: u64,
-    appearance: Vec<f32>,
-    /// Instance landmarks in image coordinates (render's scratch).
-    instance: Vec<f32>,
     /// Destination points in target pixels (warp's scratch).
     shape: Vec<f32>,
     path: Option<PathBuilder>,
@@ -47,8 +44,6 @@ impl Renderer {
         Ok(Renderer {
             texture,
             frame_fingerprint: frame.fingerprint(),
-            appearance: vec![0.0; frame.n_pixels() * 3],
-            instance: vec![0.0; frame.vertices().len()],
             shape: vec![0.0; frame.vertices().len()],
             path: Some(PathBuilder::with_capacity(4, 4)),
         })
@@ -163,29 +158,6 @@ impl Renderer {
             self.path = Some(path.clear());
         }
         Ok(())
-    }
-
-    /// Renders a model instance: synthesises the shape (Eq. 1, posed) and appearance (Eq. 2),
-    /// uploads and warps. `view` maps image coordinates to target pixels.
-    pub fn render(
-        &mut self,
-        model: &Model,
-        params: &Params,
-        view: &Similarity,
-        target: &mut PixmapMut<'_>,
-    ) -> Result<()> {
-        model.check_params(params)?;
-        self.check_frame(model.frame())?;
-        // Taking the buffers out of `self` (and back) moves them without allocating.
-        let mut appearance = std::mem::take(&mut self.appearance);
-        let mut instance = std::mem::take(&mut self.instance);
-        instance_into(model, params, &mut appearance, &mut instance);
-        let r = self
-            .upload(model.frame(), &appearance)
-            .and_then(|()| self.warp(model.frame(), &instance, view, target));
-        self.appearance = appearance;
-        self.instance = instance;
-        r
     }
 }
 
