@@ -52,26 +52,44 @@ pub(crate) fn conv3x3(
         for ox in 0..out_hw.1 {
             let o = &mut y.data[(oy * out_hw.1 + ox) * cout..][..cout];
             o.copy_from_slice(bias);
-            for ky in 0..3 {
-                let iy = (oy * stride + ky) as isize - pad as isize;
-                if iy < 0 || iy >= x.h as isize {
-                    continue;
-                }
-                for kx in 0..3 {
-                    let ix = (ox * stride + kx) as isize - pad as isize;
-                    if ix < 0 || ix >= x.w as isize {
-                        continue;
-                    }
-                    let inp = &x.data[(iy as usize * x.w + ix as usize) * cin..][..cin];
-                    let f = &filters[(ky * 3 + kx) * cin * cout..][..cin * cout];
-                    for (ci, &a) in inp.iter().enumerate() {
-                        let fr = &f[ci * cout..][..cout];
-                        for (oo, &ff) in o.iter_mut().zip(fr) {
-                            *oo += a * ff;
-                        }
+            window3x3(x, stride, pad, oy, ox, |k, i| {
+                let inp = &x.data[i * cin..][..cin];
+                let f = &filters[k * cin * cout..][..cin * cout];
+                for (ci, &a) in inp.iter().enumerate() {
+                    let fr = &f[ci * cout..][..cout];
+                    for (oo, &ff) in o.iter_mut().zip(fr) {
+                        *oo += a * ff;
                     }
                 }
+            });
+        }
+    }
+}
+
+/// The taps of the 3x3 window of output pixel `(oy, ox)` that fall inside `x` (stride
+/// `stride`, zero padding `pad` before): calls `tap(k, i)` with `k = ky * 3 + kx` the filter
+/// tap and `i` the input pixel, `ky` then `kx` in increasing order (the order the sums are
+/// made in, so the results do not depend on this helper).
+#[inline(always)]
+fn window3x3(
+    x: &Map,
+    stride: usize,
+    pad: usize,
+    oy: usize,
+    ox: usize,
+    mut tap: impl FnMut(usize, usize),
+) {
+    for ky in 0..3 {
+        let iy = (oy * stride + ky) as isize - pad as isize;
+        if iy < 0 || iy >= x.h as isize {
+            continue;
+        }
+        for kx in 0..3 {
+            let ix = (ox * stride + kx) as isize - pad as isize;
+            if ix < 0 || ix >= x.w as isize {
+                continue;
             }
+            tap(ky * 3 + kx, iy as usize * x.w + ix as usize);
         }
     }
 }
@@ -91,23 +109,13 @@ pub(crate) fn depthwise3x3(
     for oy in 0..out_hw.0 {
         for ox in 0..out_hw.1 {
             let o = &mut y.data[(oy * out_hw.1 + ox) * c..][..c];
-            for ky in 0..3 {
-                let iy = (oy * stride + ky) as isize - pad as isize;
-                if iy < 0 || iy >= x.h as isize {
-                    continue;
+            window3x3(x, stride, pad, oy, ox, |k, i| {
+                let inp = &x.data[i * c..][..c];
+                let f = &filters[k * c..][..c];
+                for ((oo, &a), &ff) in o.iter_mut().zip(inp).zip(f) {
+                    *oo += a * ff;
                 }
-                for kx in 0..3 {
-                    let ix = (ox * stride + kx) as isize - pad as isize;
-                    if ix < 0 || ix >= x.w as isize {
-                        continue;
-                    }
-                    let inp = &x.data[(iy as usize * x.w + ix as usize) * c..][..c];
-                    let f = &filters[(ky * 3 + kx) * c..][..c];
-                    for ((oo, &a), &ff) in o.iter_mut().zip(inp).zip(f) {
-                        *oo += a * ff;
-                    }
-                }
-            }
+            });
         }
     }
 }
