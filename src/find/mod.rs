@@ -368,18 +368,18 @@ fn prepare(
     out: &mut Map,
 ) {
     out.reset(n, n, 3);
-    let (w, h) = (image.width() as usize, image.height() as usize);
-    let data = image.data();
+    let (w, h) = (image.width() as f32, image.height() as f32);
     let step = sq[2] / n as f32;
     let k = (step.ceil() as usize).clamp(1, 4);
     let sub = step / k as f32;
     let r = [
         region[0].max(0.0),
         region[1].max(0.0),
-        region[2].min(w as f32),
-        region[3].min(h as f32),
+        region[2].min(w),
+        region[3].min(h),
     ];
     let inv = 1.0 / (k * k) as f32;
+    let mean = mean.map(|m| m / 255.0);
     for oy in 0..n {
         for ox in 0..n {
             let mut acc = [0.0f32; 3];
@@ -388,33 +388,21 @@ fn prepare(
                 if y < r[1] || y >= r[3] {
                     continue;
                 }
-                let fy = (y - 0.5).clamp(0.0, (h - 1) as f32);
-                let y0 = fy as usize;
-                let y1 = (y0 + 1).min(h - 1);
-                let ty = fy - y0 as f32;
                 for sx in 0..k {
                     let x = sq[0] + ox as f32 * step + (sx as f32 + 0.5) * sub;
                     if x < r[0] || x >= r[2] {
                         continue;
                     }
-                    let fx = (x - 0.5).clamp(0.0, (w - 1) as f32);
-                    let x0 = fx as usize;
-                    let x1 = (x0 + 1).min(w - 1);
-                    let tx = fx - x0 as f32;
-                    let p00 = &data[(y0 * w + x0) * 4..][..3];
-                    let p01 = &data[(y0 * w + x1) * 4..][..3];
-                    let p10 = &data[(y1 * w + x0) * 4..][..3];
-                    let p11 = &data[(y1 * w + x1) * 4..][..3];
-                    for c in 0..3 {
-                        let top = p00[c] as f32 + tx * (p01[c] as f32 - p00[c] as f32);
-                        let bot = p10[c] as f32 + tx * (p11[c] as f32 - p10[c] as f32);
-                        acc[c] += top + ty * (bot - top);
+                    // The crate's bilinear sampler (pixel centres on integers, 0..=1).
+                    let v = image.sample_rgb(x - 0.5, y - 0.5);
+                    for (a, v) in acc.iter_mut().zip(v) {
+                        *a += v;
                     }
                 }
             }
             let o = &mut out.data[(oy * n + ox) * 3..][..3];
             for c in 0..3 {
-                o[c] = (acc[c] * inv - mean[c]) / 255.0;
+                o[c] = acc[c] * inv - mean[c];
             }
         }
     }
