@@ -10,7 +10,8 @@
 //! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/fit.rs`).
 //!
 //! `FIT_OPTIONS='{"refine_iters": 2}'` overrides fields of `FitOptions::default()`;
-//! `FRAME=own` builds in the model's own frame instead of the canonical one.
+//! `FRAME=own` builds in the model's own frame instead of the canonical one;
+//! `SHAPE_VARIANCE`, `APPEARANCE_VARIANCE` set the builder's kept variance fractions.
 //! Error: mean landmark distance / distance of landmarks 36 and 45 (dlib points).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
@@ -59,9 +60,13 @@ mod native {
             Ok("own") => FrameChoice::Own,
             _ => FrameChoice::Canonical,
         };
+        let var = |k: &str| std::env::var(k).ok().map(|v| v.parse::<f64>().unwrap());
+        let d = BuildOptions::default();
         Builder::new(BuildOptions {
             frame,
-            ..BuildOptions::default()
+            shape_variance: var("SHAPE_VARIANCE").unwrap_or(d.shape_variance),
+            appearance_variance: var("APPEARANCE_VARIANCE").unwrap_or(d.appearance_variance),
+            ..d
         })
         .build(&images, None)
         .unwrap()
@@ -109,11 +114,26 @@ mod native {
             t.start_from_landmarks(&seq[0].landmarks).unwrap();
         }
         let mut errs = Vec::new();
+        let mut groups = [0f64; 5];
         let mut iters = 0u64;
         let t0 = Instant::now();
         for f in seq {
             let r = t.track(&f.image.view().unwrap()).unwrap();
             iters += r.iterations as u64;
+            let tr = &f.landmarks;
+            let iod = ((tr[90] - tr[72]).powi(2) + (tr[91] - tr[73]).powi(2)).sqrt();
+            for (g, range) in [0..17, 17..27, 27..36, 36..48, 48..68]
+                .into_iter()
+                .enumerate()
+            {
+                let k = range.len() as f64;
+                for i in range {
+                    let d = ((r.landmarks[2 * i] - tr[2 * i]).powi(2)
+                        + (r.landmarks[2 * i + 1] - tr[2 * i + 1]).powi(2))
+                    .sqrt();
+                    groups[g] += (d / iod) as f64 / k;
+                }
+            }
             errs.push(if r.lost {
                 f32::INFINITY
             } else {
@@ -137,6 +157,15 @@ mod native {
             t.reacquisitions(),
             iters as f64 / errs.len() as f64,
             errs.len() as f64 / secs
+        );
+        let n = errs.len() as f64;
+        println!(
+            "  by group: jaw {:.4}, brows {:.4}, nose {:.4}, eyes {:.4}, mouth {:.4}",
+            groups[0] / n,
+            groups[1] / n,
+            groups[2] / n,
+            groups[3] / n,
+            groups[4] / n
         );
         if std::env::var_os("FIT_EVAL_FRAMES").is_some() {
             for (i, e) in errs.iter().enumerate() {
@@ -227,6 +256,31 @@ mod native {
                     let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
                     let seq = load(&all_frames(&d.join("franck-dev2")));
                     track("franck2", &m, &seq, false);
+                }
+                "franck2-floor" => {
+                    // The shape model's own floor: each frame's dlib landmarks projected onto
+                    // the model (pose and p), and a fit started from them.
+                    let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
+                    let seq = load(&all_frames(&d.join("franck-dev2")));
+                    let mut fitter = Fitter::new(&m, options()).unwrap();
+                    let (mut proj, mut fit) = (0f32, 0f32);
+                    let mut p = vec![0f32; m.shape().n_modes()];
+                    let mut inst = vec![0f32; m.shape().base.len()];
+                    for f in &seq {
+                        let pose = m.shape().project_image_shape(&f.landmarks, &mut p).unwrap();
+                        m.shape().instance(&p, &mut inst).unwrap();
+                        pose.apply_in_place(&mut inst);
+                        proj += norm_error(&inst, &f.landmarks);
+                        let r = fitter.fit(&f.image.view().unwrap(), &f.landmarks).unwrap();
+                        fit += norm_error(&r.landmarks, &f.landmarks);
+                    }
+                    let n = seq.len() as f32;
+                    println!(
+                        "franck2-floor: {} shape modes, projection {:.4}, fit from the truth {:.4}",
+                        p.len(),
+                        proj / n,
+                        fit / n
+                    );
                 }
                 "webcam" | "webcam-auto" => {
                     let w = d.join("webcam-dev");

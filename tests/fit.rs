@@ -264,6 +264,54 @@ fn webcam_canonical_frame_model_tracks_like_own_frame() {
     );
 }
 
+/// Tracking started by the face finder (`fit --init auto`) on a webcam clip, through a hand
+/// that covers the chin from frame 1200.
+///
+/// Split: the model (default build: canonical frame) is built from 20 frames chosen in frames
+/// 0-599 (every 30th, dlib landmarks); tracking is measured on the unseen frames 600-1336, with
+/// no landmarks given: the tracker starts from the face finder's face and re-acquires with it.
+#[test]
+fn webcam_tracks_from_the_face_finder() {
+    let Some(dir) = shared_dir("webcam-dev") else {
+        return;
+    };
+    let frame = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
+    let train: Vec<TrainingImage> = (0..600).step_by(30).map(frame).collect();
+    let model = Builder::default().build(&train, None).unwrap();
+    let mut t = Tracker::new(&model, FitOptions::default()).unwrap();
+    t.set_face_source(Box::new(facemimic::FaceFinder::new().unwrap()));
+    t.start_auto().unwrap();
+    let mut errs = Vec::new();
+    let mut lost_frames = Vec::new();
+    for i in 600..1337 {
+        let f = frame(i);
+        let r = t.track(&f.image.view().unwrap()).unwrap();
+        if r.lost {
+            // A lost frame reports no face: it counts as a failed frame.
+            lost_frames.push(i);
+            errs.push(f32::INFINITY);
+        } else {
+            errs.push(norm_error(&r.landmarks, &f.landmarks));
+        }
+    }
+    let good: Vec<f32> = errs.iter().copied().filter(|e| e.is_finite()).collect();
+    let (mean, max) = summary(&good);
+    let over = errs.iter().filter(|&&e| e > 0.1).count();
+    println!(
+        "webcam-dev 600-1336 from the face finder: mean {mean:.4}, max {max:.4}, {over} frames \
+         above 0.1 (lost included), lost {lost_frames:?}, re-acquisitions {}, resets {}",
+        t.reacquisitions(),
+        t.resets()
+    );
+    assert!(!errs[0].is_infinite(), "no face found on frame 600");
+    assert!(mean <= 0.02, "mean error {mean}");
+    assert!(
+        over * 100 <= errs.len(),
+        "{over} of {} frames above 0.1",
+        errs.len()
+    );
+}
+
 /// Renders the model's own instance (grey-level exactness is not needed: RGB synthesis) into
 /// an image at a known pose and shape, then fits from a perturbed start: the fit must recover
 /// the landmarks to a small fraction of a pixel. This checks the warp Jacobian, the
