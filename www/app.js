@@ -7,6 +7,7 @@
 
 import init, * as fm from './pkg/facemimic.js';
 import { HiDpi, ctx2d } from './js/canvas.js';
+import { dropZone, hasFiles } from './js/drop.js';
 import { notify, fileError } from './js/toasts.js';
 import { Inspector, pct } from './js/inspector.js';
 import { composite, fileName, WebmRecorder, addDownload, webmType } from './js/recorder.js';
@@ -214,7 +215,7 @@ function buildStage() {
   add.id = 'add-card';
   add.innerHTML = '<span class="plus" aria-hidden="true">+</span><span>Add a target</span><small>drop <code>.fmm</code> files here, or click to choose</small>';
   add.addEventListener('click', () => pickFiles({ kind: 'add' }));
-  dropZone(add, () => ({ kind: 'add' }));
+  dropZone(add, (files) => loadFiles(files, { kind: 'add' }));
   faces.append(add);
 
   // Drops anywhere else on the page add targets.
@@ -250,8 +251,16 @@ function buildStage() {
   });
 }
 
-function hasFiles(e) {
-  return [...(e.dataTransfer?.types || [])].includes('Files');
+
+/** A small button showing the SVG path `d`, its action in `data-action`. */
+function iconButton(action, title, d) {
+  const b = document.createElement('button');
+  b.type = 'button';
+  b.className = 'icon-btn';
+  b.dataset.action = action;
+  b.title = title;
+  b.innerHTML = `<svg viewBox="0 0 16 16" aria-hidden="true"><path d="${d}"/></svg>`;
+  return b;
 }
 
 /** A face card: a canvas, a caption with the name, and buttons. role: "source" | "target". */
@@ -265,22 +274,9 @@ function makeCard(role) {
   name.className = 'name';
   const tools = document.createElement('span');
   tools.className = 'tools';
-  const replace = document.createElement('button');
-  replace.type = 'button';
-  replace.className = 'icon-btn';
-  replace.dataset.action = 'replace';
-  replace.title = 'Replace with a model file…';
-  replace.innerHTML = '<svg viewBox="0 0 16 16" aria-hidden="true"><path d="M3 8a5 5 0 0 1 8.5-3.5M13 8a5 5 0 0 1-8.5 3.5M11.5 1.5v3h-3M4.5 14.5v-3h3"/></svg>';
+  const replace = iconButton('replace', 'Replace with a model file…', 'M3 8a5 5 0 0 1 8.5-3.5M13 8a5 5 0 0 1-8.5 3.5M11.5 1.5v3h-3M4.5 14.5v-3h3');
   tools.append(replace);
-  if (role === 'target') {
-    const remove = document.createElement('button');
-    remove.type = 'button';
-    remove.className = 'icon-btn';
-    remove.dataset.action = 'remove';
-    remove.title = 'Remove this target';
-    remove.innerHTML = '<svg viewBox="0 0 16 16" aria-hidden="true"><path d="M4 4l8 8M12 4l-8 8"/></svg>';
-    tools.append(remove);
-  }
+  if (role === 'target') tools.append(iconButton('remove', 'Remove this target', 'M4 4l8 8M12 4l-8 8'));
   cap.append(name, tools);
   el.append(canvas, cap);
   if (role === 'source') {
@@ -294,7 +290,7 @@ function makeCard(role) {
   const slot = () => (role === 'source' ? { kind: 'source' } : { kind: 'replace', entry: entryOf(el) });
   replace.addEventListener('click', () => pickFiles(slot()));
   tools.querySelector('[data-action="remove"]')?.addEventListener('click', () => removeTarget(entryOf(el)));
-  dropZone(el, slot);
+  dropZone(el, (files) => loadFiles(files, slot()));
   // Clicking a face shows its model in the inspector.
   canvas.addEventListener('click', () => {
     const entry = role === 'source' ? app.source : entryOf(el);
@@ -322,25 +318,6 @@ function setCardName(entry) {
   entry.card.dataset.model = entry.name;
 }
 
-function dropZone(el, slot) {
-  el.addEventListener('dragover', (e) => {
-    if (!hasFiles(e)) return;
-    e.preventDefault();
-    e.dataTransfer.dropEffect = 'copy';
-    el.classList.add('drop-hover');
-  });
-  el.addEventListener('dragleave', (e) => {
-    if (!el.contains(e.relatedTarget)) el.classList.remove('drop-hover');
-  });
-  el.addEventListener('drop', (e) => {
-    el.classList.remove('drop-hover');
-    document.body.classList.remove('dragging');
-    if (!e.dataTransfer?.files?.length) return;
-    e.preventDefault();
-    e.stopPropagation();
-    loadFiles([...e.dataTransfer.files], slot());
-  });
-}
 
 // ---------------------------------------------------------------------------------------------
 // Loading models

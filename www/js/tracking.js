@@ -26,6 +26,7 @@
 
 import { registerSource } from './sources.js';
 import { notify, fileError } from './toasts.js';
+import { dropZone } from './drop.js';
 import { MediaFeed, CLIP_JSON, loadClipInfo, looksLikeImage, looksLikeVideo, openCamera } from './media.js';
 import { Placement } from './placement.js';
 import { CONTOURS_68, MESH, MESH_LOST, GUIDE, bounds, scaled, drawFrame, drawLandmarks, drawBadge } from './face-draw.js';
@@ -330,28 +331,15 @@ class VideoSource {
     // Video and image files dropped on the panel (and not elsewhere: the page takes other drops as models).
     if (this.mode === 'file') {
       const panel = this.panel;
-      panel.addEventListener('dragover', (e) => {
-        if (![...(e.dataTransfer?.types || [])].includes('Files')) return;
-        e.preventDefault();
-        e.stopPropagation();
-        e.dataTransfer.dropEffect = 'copy';
-        panel.classList.add('drop-hover');
-      });
-      panel.addEventListener('dragleave', (e) => {
-        if (!panel.contains(e.relatedTarget)) panel.classList.remove('drop-hover');
-      });
-      panel.addEventListener('drop', (e) => {
-        panel.classList.remove('drop-hover');
-        document.body.classList.remove('dragging');
-        const f = e.dataTransfer?.files?.[0];
-        if (!f) return;
-        // Model files dropped here go to the page (which adds them as targets).
-        if ([...e.dataTransfer.files].every((x) => /\.fmm$/i.test(x.name))) return;
-        e.preventDefault();
-        e.stopPropagation();
-        if (e.dataTransfer.files.length > 1) notify('info', `Used ${f.name}`, 'one file at a time; the other files were ignored');
-        this.openFile(f);
-      });
+      // Model files dropped here go on to the page (which adds them as targets).
+      dropZone(
+        panel,
+        (files) => {
+          if (files.length > 1) notify('info', `Used ${files[0].name}`, 'one file at a time; the other files were ignored');
+          this.openFile(files[0]);
+        },
+        { accept: (files) => !files.every((x) => /\.fmm$/i.test(x.name)), isolate: true },
+      );
     }
 
     const anchor = document.querySelector('.stage .transport');
