@@ -263,3 +263,28 @@ fn offers_can_be_expected_in_a_sequence_started_from_landmarks() {
     t.expect_offers(false);
     assert!(!t.wants_faces());
 }
+
+#[test]
+fn an_offered_face_on_a_frame_without_one_is_not_acquired() {
+    // The page's auto-start: faces found by a finder are only a start; the tracker's own checks
+    // (fit error, image contrast under the mesh, shape plausibility) decide. A face offered on
+    // a black frame or on a flat grey one (a finder's false face) is not acquired.
+    let f0 = frame(UNSEEN, 0);
+    let grey = Image {
+        width: f0.image.width,
+        height: f0.image.height,
+        data: vec![128; f0.image.data.len()],
+    };
+    for (what, img) in [("black", black_like(&f0.image)), ("grey", grey)] {
+        let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+        t.start_searching();
+        t.offer_faces(vec![f0.landmarks.clone()]).unwrap();
+        let r = t.track(&img.view().unwrap()).unwrap();
+        assert!(
+            r.lost && !r.reacquired,
+            "a face was acquired on a {what} frame"
+        );
+        assert!(t.wants_faces(), "no more faces wanted after a {what} frame");
+        assert_eq!(t.reacquisitions(), 0);
+    }
+}

@@ -7,6 +7,7 @@ use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
 use js_sys::{Array, Float32Array, Reflect};
+use wasm_bindgen::JsCast;
 
 use crate::fit::{FitOptions, FitResult, TrackPolicy, Tracker};
 use crate::image::ImageRef;
@@ -73,7 +74,7 @@ impl From<&TrackPolicy> for PolicyJs {
 
 /// `setPolicy`'s argument: any subset of the policy's values.
 #[derive(serde::Deserialize)]
-#[serde(rename_all = "camelCase", deny_unknown_fields)]
+#[serde(rename_all = "camelCase")]
 struct PolicyPatch {
     appearance_limit: Option<f32>,
     max_fit_side: Option<u32>,
@@ -261,6 +262,26 @@ impl WasmTracker {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "Partial<TrackPolicy>")] policy: JsValue,
     ) -> Result<(), JsError> {
+        const KEYS: [&str; 6] = [
+            "appearanceLimit",
+            "maxFitSide",
+            "minFitSide",
+            "maxUpscale",
+            "nativeBand",
+            "rescaleChange",
+        ];
+        if !policy.is_object() {
+            return Err(JsError::new("tracker: setPolicy expects an object"));
+        }
+        for k in js_sys::Object::keys(policy.unchecked_ref::<js_sys::Object>()).iter() {
+            let k = k.as_string().unwrap_or_default();
+            if !KEYS.contains(&k.as_str()) {
+                return Err(JsError::new(&format!(
+                    "tracker: setPolicy: unknown value \"{k}\" (known: {})",
+                    KEYS.join(", ")
+                )));
+            }
+        }
         let base = PolicyJs::from(self.inner.policy());
         let patch: PolicyPatch = serde_wasm_bindgen::from_value(policy)
             .map_err(|e| JsError::new(&format!("tracker: setPolicy: {e}")))?;

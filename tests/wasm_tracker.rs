@@ -1,0 +1,159 @@
+#![cfg(target_arch = "wasm32")]
+//! The tracking policy as the npm package exposes it, under Node (wasm-bindgen-test):
+//! `cargo test --target wasm32-unknown-unknown --test wasm_tracker`.
+//!
+//! Model: `tests/data/tiny-v1.fmm` (6 frames of GRID spk07, 68 landmarks, a 28-pixel face).
+//! - `Tracker.fitScale` is the core's `Tracker::fit_scale`; `policy` / `setPolicy` read and
+//!   change the `TrackPolicy`, and refuse values out of range (an `Error`, nothing changed).
+//! - `startSearching` / `wantsFaces` / `offerFaces`: faces from a `FaceFinder`-like result
+//!   (objects with `landmarks`) or plain arrays; wrong lengths or non-finite points throw.
+//! - `recentrePose` is `Similarity::recentred`; `Model.checkParams` is `Model::check_params`
+//!   (a non-positive pose scale is refused by name).
+
+use facemimic::wasm::{recentre_pose, JsModel, WasmTracker};
+use js_sys::{Array, Float32Array, Object, Reflect};
+use wasm_bindgen::prelude::*;
+use wasm_bindgen::JsCast;
+use wasm_bindgen_test::wasm_bindgen_test;
+
+const TINY: &[u8] = include_bytes!("data/tiny-v1.fmm");
+
+fn message(e: JsError) -> String {
+    let v: JsValue = e.into();
+    v.dyn_into::<js_sys::Error>()
+        .map(|e| String::from(e.message()))
+        .unwrap_or_default()
+}
+
+fn get(o: &JsValue, k: &str) -> f64 {
+    Reflect::get(o, &JsValue::from_str(k))
+        .expect(k)
+        .as_f64()
+        .expect(k)
+}
+
+fn obj(pairs: &[(&str, JsValue)]) -> JsValue {
+    let o = Object::new();
+    for (k, v) in pairs {
+        Reflect::set(&o, &JsValue::from_str(k), v).unwrap();
+    }
+    o.into()
+}
+
+fn pose(scale: f64, rotation: f64, tx: f64, ty: f64) -> JsValue {
+    obj(&[
+        ("scale", scale.into()),
+        ("rotation", rotation.into()),
+        ("tx", tx.into()),
+        ("ty", ty.into()),
+    ])
+}
+
+/// The model's mean landmarks and their height.
+fn mean_landmarks(model: &JsModel) -> (Vec<f32>, f32) {
+    let lm = model
+        .landmarks_of(model.base_params().unwrap())
+        .expect("mean landmarks");
+    let ys: Vec<f32> = lm.iter().skip(1).step_by(2).copied().collect();
+    let h =
+        ys.iter().copied().fold(f32::MIN, f32::max) - ys.iter().copied().fold(f32::MAX, f32::min);
+    (lm, h)
+}
+
+#[wasm_bindgen_test]
+fn fit_scale_and_policy() {
+    let model = JsModel::from_bytes(TINY).unwrap();
+    let mut t = WasmTracker::from_model(&model).unwrap();
+    let (_, h) = mean_landmarks(&model);
+    assert_eq!(t.fit_scale(h, 640, 480, 0.0), 1.0);
+    assert!((t.fit_scale(2.0 * h, 640, 480, 0.0) - 0.5).abs() < 1e-5);
+    assert_eq!(
+        t.fit_scale(2.2 * h, 640, 480, 0.5),
+        0.5,
+        "the current scale is kept"
+    );
+    let p = t.policy().unwrap();
+    assert_eq!(get(&p, "appearanceLimit"), 3.0);
+    assert_eq!(get(&p, "maxFitSide"), 1280.0);
+    // A partial change keeps the other values.
+    t.set_policy(obj(&[("maxUpscale", 1.5.into())])).unwrap();
+    let p = t.policy().unwrap();
+    assert_eq!(get(&p, "maxUpscale"), 1.5);
+    assert_eq!(get(&p, "appearanceLimit"), 3.0);
+    assert!((t.fit_scale(0.25 * h, 640, 480, 0.0) - 1.5).abs() < 1e-5);
+    // Out of range, unknown or mistyped: an Error, nothing changed.
+    for bad in [
+        obj(&[("appearanceLimit", (-1.0).into())]),
+        obj(&[("minFitSide", 1.0.into())]),
+        obj(&[("rescale", 0.1.into())]),
+        obj(&[("nativeBand", "wide".into())]),
+    ] {
+        let e = message(t.set_policy(bad).unwrap_err());
+        assert!(
+            e.contains("setPolicy") || e.contains("tracking policy"),
+            "{e}"
+        );
+    }
+    assert_eq!(get(&t.policy().unwrap(), "maxUpscale"), 1.5);
+}
+
+#[wasm_bindgen_test]
+fn offered_faces() {
+    let model = JsModel::from_bytes(TINY).unwrap();
+    let mut t = WasmTracker::new(TINY).unwrap();
+    assert!(!t.wants_faces());
+    t.start_searching();
+    assert!(t.wants_faces());
+    let (lm, _) = mean_landmarks(&model);
+    // Not an array, a face without landmarks, a wrong length, a NaN: Errors, nothing kept.
+    assert!(message(t.offer_faces(JsValue::from(3)).unwrap_err()).contains("array"));
+    let no_landmarks: JsValue = Array::of1(&obj(&[("score", 0.9.into())])).into();
+    assert!(message(t.offer_faces(no_landmarks).unwrap_err()).contains("face 0"));
+    let short: JsValue = Array::of1(&Float32Array::from(&lm[..10]).into()).into();
+    assert!(message(t.offer_faces(short).unwrap_err()).contains("offered face landmarks"));
+    let mut nan = lm.clone();
+    nan[5] = f32::NAN;
+    let nan: JsValue = Array::of1(&Float32Array::from(nan.as_slice()).into()).into();
+    assert!(!message(t.offer_faces(nan).unwrap_err()).is_empty());
+    assert!(t.wants_faces(), "a refused offer was kept");
+    // A FaceFinder-like result is accepted: no more faces wanted until it is used.
+    let face = obj(&[
+        ("score", 0.9.into()),
+        ("landmarks", Float32Array::from(lm.as_slice()).into()),
+    ]);
+    t.offer_faces(Array::of1(&face).into()).unwrap();
+    assert!(!t.wants_faces());
+    // Plain number arrays too.
+    let plain: Array = lm.iter().map(|v| JsValue::from(*v)).collect();
+    t.offer_faces(Array::of1(&plain).into()).unwrap();
+}
+
+#[wasm_bindgen_test]
+fn recentre_pose_and_check_params() {
+    let anchor = pose(1.7, 0.2, 40.0, 25.0);
+    let target = pose(0.9, -0.05, 180.0, 144.0);
+    let r = recentre_pose(anchor.clone(), anchor.clone(), target).unwrap();
+    assert!((get(&r, "scale") - 0.9).abs() < 1e-5);
+    assert!((get(&r, "rotation") + 0.05).abs() < 1e-5);
+    assert!((get(&r, "tx") - 180.0).abs() < 1e-3);
+    let e = message(
+        recentre_pose(pose(-1.0, 0.0, 0.0, 0.0), anchor, pose(1.0, 0.0, 0.0, 0.0)).unwrap_err(),
+    );
+    assert!(e.contains("pose.scale"), "{e}");
+
+    let model = JsModel::from_bytes(TINY).unwrap();
+    let p = model.base_params().unwrap();
+    model.check_params(p.clone()).unwrap();
+    Reflect::set(&p, &JsValue::from_str("pose"), &pose(-2.0, 0.0, 1.0, 1.0)).unwrap();
+    let e = message(model.check_params(p).unwrap_err());
+    assert!(e.contains("pose.scale"), "{e}");
+    let short = model.base_params().unwrap();
+    Reflect::set(
+        &short,
+        &JsValue::from_str("shape"),
+        &Array::of1(&0.5.into()),
+    )
+    .unwrap();
+    let e = message(model.check_params(short).unwrap_err());
+    assert!(e.contains("shape"), "{e}");
+}
