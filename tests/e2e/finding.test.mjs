@@ -248,7 +248,10 @@ test('black frames are a lost face ("face lost"), and the face is tracked again 
     null,
     { timeout: 60_000 },
   );
-  const log = await page.evaluate(() => window.facemimicTracking.log.map(({ time, lost, reacquired }) => ({ time, lost, reacquired })));
+  const log = await page.evaluate(() => window.facemimicTracking.log.map(({ time, lost, reacquired, ms }) => ({ time, lost, reacquired, ms })));
+  const med = (a) => (a.length ? a.sort((x, y) => x - y)[a.length >> 1] : NaN);
+  const msLost = med(log.filter((l) => l.lost).map((l) => l.ms));
+  const msTracked = med(log.filter((l) => !l.lost).map((l) => l.ms));
   const states = await page.evaluate(() => window.__states);
   // Lost stretches (media time from the first lost fit to the next good one).
   const runs = [];
@@ -261,7 +264,7 @@ test('black frames are a lost face ("face lost"), and the face is tracked again 
   }
   console.log(
     `# black frames on the camera: ${log.length} fits, lost stretches ${runs.map((r) => `${r.lostFor.toFixed(2)} s${r.reacquired ? ' (re-acquired from the finder)' : ''}`).join(', ')} ` +
-      `for 0.6 s of black each; states ${states.join(' > ')}`,
+      `for 0.6 s of black each; ms per fit median ${msTracked.toFixed(1)} tracked, ${msLost.toFixed(1)} lost; states ${states.join(' > ')}`,
   );
   assert.ok(runs.length >= 2, `lost stretches: ${JSON.stringify(runs)}`);
   for (const r of runs) {
