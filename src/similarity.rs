@@ -125,8 +125,8 @@ impl Similarity {
     }
 
     /// The least-squares similarity that maps `src` onto `dst` (both interleaved, same length):
-    /// minimises `sum |T(src_i) - dst_i|^2`. Closed form (Umeyama without reflection), see
-    /// [`CentredFit`].
+    /// minimises `sum |T(src_i) - dst_i|^2`. Closed form (Umeyama without reflection; the
+    /// crate's one similarity fit, `CentredFit`, also used by the Procrustes alignment).
     pub fn align(src: &[f32], dst: &[f32]) -> Similarity {
         let f = CentredFit::new(src, dst);
         let ([sx, sy], [dx, dy]) = (f.src_mean, f.dst_mean);
