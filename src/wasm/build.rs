@@ -28,8 +28,10 @@ const TS_BUILD: &'static str = r##"
 /** One training frame: straight (not premultiplied) RGBA pixels, row-major. */
 export interface BuildFrame {
   rgba: Uint8Array | Uint8ClampedArray; width: number; height: number;
-  /** This frame's 68 landmarks (136 numbers, 0-based image pixels, x0, y0, x1, y1, ...). */
-  landmarks?: ArrayLike<number>;
+  /** This frame's 68 landmarks (136 numbers, 0-based image pixels, x0, y0, x1, y1, ...).
+   *  Without them the face finder places them (the most confident face, if its score reaches
+   *  `minScore`; otherwise the frame is skipped and reported in the progress). */
+  landmarks?: ArrayLike<number> | null;
 }
 /** What `buildModel` builds from. */
 export interface BuildModelOptions {
@@ -50,10 +52,21 @@ export interface BuildModelOptions {
   refine?: number;
   /** Fractions of the variance kept (default 0.98 each). */
   shapeVariance?: number; appearanceVariance?: number;
+  /** The face finder's confidence (0..1) a face needs to be used, for frames given without
+   *  landmarks (default 0.5). */
+  minScore?: number;
+  /** Fewest frames with a face to build from (default 2, at least 2); fewer throws, naming the
+   *  frames skipped. */
+  minFrames?: number;
 }
-/** Build progress: `done` of `total` steps; return `false` to cancel (the build then throws
- *  an Error whose message is "cancelled" and makes nothing). */
-export type BuildProgressCallback = (progress: { done: number; total: number }) => boolean | void;
+/** Build progress. `stage` "landmarks": the face finder has searched `done` of the `total`
+ *  frames given without landmarks, `skipped` lists the indices (into `frames`) of those where it
+ *  found no confident face so far. `stage` "model": `done` of `total` build steps. Return
+ *  `false` to cancel (the build then throws an Error whose message is "cancelled" and makes
+ *  nothing). */
+export type BuildProgressCallback = (progress: {
+  stage: "landmarks" | "model"; done: number; total: number; skipped: number[];
+}) => boolean | void;
 "##;
 
 fn get(obj: &JsValue, key: &str) -> Result<JsValue, JsError> {
@@ -121,10 +134,12 @@ fn dim(obj: &JsValue, key: &str, what: &str) -> Result<u32, JsError> {
     }
 }
 
-/// Builds a person-specific model from RGBA frames with landmarks, in the canonical reference
-/// frame (so it clones with every other model), optionally keeping `select` varied frames.
-/// `onProgress` is called after each step and may return `false` to cancel. Throws an `Error`
-/// naming the problem (missing landmarks, wrong sizes, too few frames, cancelled).
+/// Builds a person-specific model from RGBA frames, in the canonical reference frame (so it
+/// clones with every other model), optionally keeping `select` varied frames. Frames given
+/// without landmarks get the face finder's (most confident face, score >= `minScore`); frames
+/// where it finds none are skipped and listed in the progress reports. `onProgress` is called
+/// after each frame searched and each build step and may return `false` to cancel. Throws an
+/// `Error` naming the problem (wrong sizes, too few frames with a face, cancelled).
 #[wasm_bindgen(js_name = buildModel)]
 pub fn build_model(
     options: BuildModelOptionsArg,
@@ -173,7 +188,39 @@ pub fn build_model(
         return Err(JsError::new("buildModel: 'name' is longer than 256 bytes"));
     }
 
-    let mut images = Vec::with_capacity(frames.length() as usize);
+    let callback: Option<js_sys::Function> = match on_progress {
+        None => None,
+        Some(f) => {
+            let v: JsValue = f.into();
+            if v.is_undefined() || v.is_null() {
+                None
+            } else {
+                Some(v.dyn_into::<js_sys::Function>().map_err(|v| {
+                    JsError::new(&format!(
+                        "buildModel: onProgress must be a function, got {}",
+                        describe(&v)
+                    ))
+                })?)
+            }
+        }
+    };
+    let min_score = match number(&options, "minScore", "'minScore'")? {
+        None => DEFAULT_MIN_SCORE,
+        Some(s) if (0.0..=1.0).contains(&s) => s as f32,
+        Some(_) => return Err(JsError::new("buildModel: 'minScore' must be in 0..=1")),
+    };
+    let min_frames = match number(&options, "minFrames", "'minFrames'")? {
+        None => 2,
+        Some(n) if n >= 2.0 && n.fract() == 0.0 && n <= 1e6 => n as usize,
+        Some(_) => {
+            return Err(JsError::new(
+                "buildModel: 'minFrames' must be a whole number of at least 2",
+            ))
+        }
+    };
+
+    // The frames, with the landmarks given (or None: the finder places them).
+    let mut given: Vec<(Image, Option<Vec<f32>>)> = Vec::with_capacity(frames.length() as usize);
     for (i, f) in frames.iter().enumerate() {
         let what = format!("frames[{i}]");
         if !f.is_object() {
@@ -195,30 +242,28 @@ pub fn build_model(
             Some(a) => a.get(i as u32),
             None => get(&f, "landmarks")?,
         };
-        if lm.is_undefined() || lm.is_null() {
-            return Err(JsError::new(&format!(
-                "buildModel: {what} has no landmarks (give frames[i].landmarks or options.landmarks)"
-            )));
-        }
-        let landmarks = points(&lm, &format!("buildModel: landmarks of {what}"))?;
-        images.push(TrainingImage {
-            name: format!("frame{i}"),
-            image: Image {
+        let landmarks = if lm.is_undefined() || lm.is_null() {
+            None
+        } else {
+            Some(points(&lm, &format!("buildModel: landmarks of {what}"))?)
+        };
+        given.push((
+            Image {
                 width,
                 height,
                 data,
             },
             landmarks,
-        });
+        ));
     }
-    if images.len() < 2 {
+    if given.len() < 2 {
         return Err(JsError::new(&format!(
             "buildModel: {} frame(s); at least 2 are needed (15-20 varied ones recommended)",
-            images.len()
+            given.len()
         )));
     }
 
-    // The reference, as an index into the frames given (before selection).
+    // The reference, as an index into the frames given (before skipping and selection).
     let reference = get(&options, "reference")?;
     let reference_index = if reference.is_undefined()
         || reference.is_null()
@@ -227,31 +272,133 @@ pub fn build_model(
         None
     } else {
         match reference.as_f64() {
-            Some(x) if x >= 0.0 && x.fract() == 0.0 && (x as usize) < images.len() => {
+            Some(x) if x >= 0.0 && x.fract() == 0.0 && (x as usize) < given.len() => {
                 Some(x as usize)
             }
             _ => {
                 return Err(JsError::new(&format!(
                     "buildModel: 'reference' must be \"mean\" or a frame index below {}, got {}",
-                    images.len(),
+                    given.len(),
                     describe(&reference)
                 )))
             }
         }
     };
-
-    if let Some(n) = number(&options, "select", "'select'")? {
-        if !(n >= 2.0 && n.fract() == 0.0) {
+    let select = match number(&options, "select", "'select'")? {
+        None => None,
+        Some(n) if n >= 2.0 && n.fract() == 0.0 => Some(n as usize),
+        Some(_) => {
             return Err(JsError::new(
                 "buildModel: 'select' must be a whole number of at least 2",
-            ));
+            ))
         }
+    };
+    let rounds = match number(&options, "refine", "'refine'")? {
+        None => 0,
+        Some(r) if (0.0..=3.0).contains(&r) && r.fract() == 0.0 => r as usize,
+        Some(_) => {
+            return Err(JsError::new(
+                "buildModel: 'refine' must be a whole number of rounds in 0..=3",
+            ))
+        }
+    };
+
+    let thrown = std::cell::RefCell::new(None::<JsValue>);
+    let report = |stage: &str, done: usize, total: usize, skipped: &[usize]| -> bool {
+        let Some(f) = &callback else { return true };
+        if thrown.borrow().is_some() {
+            return false;
+        }
+        let arg = js_sys::Object::new();
+        let _ = js_sys::Reflect::set(&arg, &"stage".into(), &stage.into());
+        let _ = js_sys::Reflect::set(&arg, &"done".into(), &(done as f64).into());
+        let _ = js_sys::Reflect::set(&arg, &"total".into(), &(total as f64).into());
+        let list: js_sys::Array = skipped.iter().map(|&i| JsValue::from(i as f64)).collect();
+        let _ = js_sys::Reflect::set(&arg, &"skipped".into(), &list);
+        match f.call1(&JsValue::NULL, &arg) {
+            Ok(r) => r.as_bool() != Some(false),
+            Err(e) => {
+                *thrown.borrow_mut() = Some(e);
+                false
+            }
+        }
+    };
+    let thrown_err =
+        |t: &JsValue| JsError::new(&format!("buildModel: onProgress threw: {}", describe(t)));
+
+    // Landmarks from the face finder where none were given; frames without a confident face
+    // are skipped.
+    let to_find = given.iter().filter(|g| g.1.is_none()).count();
+    let mut skipped: Vec<usize> = Vec::new();
+    let mut images: Vec<TrainingImage> = Vec::with_capacity(given.len());
+    let mut index_of: Vec<usize> = Vec::with_capacity(given.len()); // images[k] is frames[index_of[k]]
+    let mut searched = 0;
+    for (i, (image, landmarks)) in given.into_iter().enumerate() {
+        let landmarks = match landmarks {
+            Some(l) => Some(l),
+            None => {
+                let found = with_finder(|finder| {
+                    let view = image
+                        .view()
+                        .map_err(|e| JsError::new(&format!("buildModel: frames[{i}]: {e}")))?;
+                    Ok(finder
+                        .find(&view)
+                        .into_iter()
+                        .next()
+                        .filter(|f| f.score >= min_score)
+                        .map(|f| f.landmarks))
+                })?;
+                searched += 1;
+                if found.is_none() {
+                    skipped.push(i);
+                }
+                if !report("landmarks", searched, to_find, &skipped) {
+                    return Err(match thrown.borrow().as_ref() {
+                        Some(t) => thrown_err(t),
+                        None => JsError::new("cancelled"),
+                    });
+                }
+                found
+            }
+        };
+        if let Some(landmarks) = landmarks {
+            images.push(TrainingImage {
+                name: format!("frame{i}"),
+                image,
+                landmarks,
+            });
+            index_of.push(i);
+        }
+    }
+    if let Some(r) = reference_index {
+        if skipped.contains(&r) {
+            return Err(JsError::new(&format!(
+                "buildModel: the reference, frames[{r}], has no confident face"
+            )));
+        }
+    }
+    let needed = min_frames.max(2);
+    if images.len() < needed {
+        return Err(JsError::new(&format!(
+            "buildModel: a face in {} of {} frames, at least {needed} are needed{}",
+            images.len(),
+            index_of.len() + skipped.len(),
+            if skipped.is_empty() {
+                String::new()
+            } else {
+                format!("; no confident face in frames {}", list_indices(&skipped))
+            }
+        )));
+    }
+
+    if let Some(n) = select {
         let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
-        let mut keep = crate::select_varied(&shapes, n as usize).map_err(build_err)?;
+        let mut keep = crate::select_varied(&shapes, n).map_err(build_err)?;
         if let Some(r) = reference_index {
-            if !keep.contains(&r) {
+            let k = index_of.iter().position(|&i| i == r).unwrap_or(0);
+            if !keep.contains(&k) {
                 keep.pop();
-                keep.push(r);
+                keep.push(k);
             }
         }
         keep.sort_unstable();
@@ -273,55 +420,51 @@ pub fn build_model(
     if let Some(v) = number(&options, "appearanceVariance", "'appearanceVariance'")? {
         o.appearance_variance = v;
     }
-    let callback: Option<js_sys::Function> = match on_progress {
-        None => None,
-        Some(f) => {
-            let v: JsValue = f.into();
-            if v.is_undefined() || v.is_null() {
-                None
-            } else {
-                Some(v.dyn_into::<js_sys::Function>().map_err(|v| {
-                    JsError::new(&format!(
-                        "buildModel: onProgress must be a function, got {}",
-                        describe(&v)
-                    ))
-                })?)
-            }
-        }
-    };
-    let rounds = match number(&options, "refine", "'refine'")? {
-        None => 0,
-        Some(r) if (0.0..=3.0).contains(&r) && r.fract() == 0.0 => r as usize,
-        Some(_) => {
-            return Err(JsError::new(
-                "buildModel: 'refine' must be a whole number of rounds in 0..=3",
-            ))
-        }
-    };
-    let mut thrown: Option<JsValue> = None;
     let model = Builder::new(o).build_refined(&images, None, rounds, &mut |p| {
-        let Some(f) = &callback else { return true };
-        let arg = js_sys::Object::new();
-        let _ = js_sys::Reflect::set(&arg, &"done".into(), &(p.done as f64).into());
-        let _ = js_sys::Reflect::set(&arg, &"total".into(), &(p.total as f64).into());
-        match f.call1(&JsValue::NULL, &arg) {
-            Ok(r) => r.as_bool() != Some(false),
-            Err(e) => {
-                thrown = Some(e);
-                false
-            }
-        }
+        report("model", p.done, p.total, &skipped)
     });
     match model {
         Ok(m) => Ok(JsModel::from(m)),
-        Err(e) => match thrown {
-            Some(t) => Err(JsError::new(&format!(
-                "buildModel: onProgress threw: {}",
-                describe(&t)
-            ))),
+        Err(e) => match thrown.take() {
+            Some(t) => Err(thrown_err(&t)),
             None => Err(build_err(e)),
         },
     }
+}
+
+/// The face finder's default confidence for a face to be used.
+const DEFAULT_MIN_SCORE: f32 = 0.5;
+
+thread_local! {
+    /// One face finder per thread (worker), made on first use: its nets and buffers are reused.
+    static FINDER: std::cell::RefCell<Option<crate::FaceFinder>> = const { std::cell::RefCell::new(None) };
+}
+
+fn with_finder<T>(
+    f: impl FnOnce(&mut crate::FaceFinder) -> Result<T, JsError>,
+) -> Result<T, JsError> {
+    FINDER.with(|cell| {
+        let mut slot = cell.borrow_mut();
+        if slot.is_none() {
+            *slot = Some(
+                crate::FaceFinder::new()
+                    .map_err(|e| JsError::new(&format!("buildModel: face finder: {e}")))?,
+            );
+        }
+        match slot.as_mut() {
+            Some(finder) => f(finder),
+            None => Err(JsError::new("buildModel: face finder unavailable")),
+        }
+    })
+}
+
+/// "0, 3, 7" (at most 12, then "and N more").
+fn list_indices(v: &[usize]) -> String {
+    let mut s: Vec<String> = v.iter().take(12).map(|i| i.to_string()).collect();
+    if v.len() > 12 {
+        s.push(format!("and {} more", v.len() - 12));
+    }
+    s.join(", ")
 }
 
 fn build_err(e: crate::Error) -> JsError {

@@ -182,11 +182,23 @@ test('selection, cancelling and bad input', async () => {
   m.free();
   // cancelled half way
   assert.throws(() => fm.buildModel(base(), (p) => p.done < 4), /^Error: cancelled$/);
+  // ... also while the finder searches frames given without landmarks; progress names the stage
+  // and the frames skipped so far.
+  const seen = [];
+  assert.throws(() => fm.buildModel({ ...base(), frames: base().frames.map((f, i) => ({ ...f, landmarks: i < 5 ? f.landmarks : null })) }, (p) => {
+    seen.push(`${p.stage} ${p.done}/${p.total} [${p.skipped}]`);
+    return p.done < 2;
+  }), /^Error: cancelled$/);
+  assert.deepEqual(seen, ['landmarks 1/5 [5]', 'landmarks 2/5 [5,6]']);
   // bad input: clear messages, and the module keeps working afterwards
   const cases = [
     [{ ...base(), frames: [] }, /at least 2/],
     [{ ...base(), frames: base().frames.slice(0, 1) }, /at least 2/],
-    [{ ...base(), frames: base().frames.map((f) => ({ ...f, landmarks: undefined })) }, /no landmarks/],
+    // No landmarks: the face finder looks for faces; these textured frames have none.
+    [{ ...base(), frames: base().frames.map((f) => ({ ...f, landmarks: undefined })) }, /a face in 0 of 10 frames, at least 2 are needed; no confident face in frames 0, 1, 2, 3/],
+    [{ ...base(), frames: base().frames.map((f, i) => ({ ...f, landmarks: i < 3 ? f.landmarks : undefined })), minFrames: 8 }, /a face in 3 of 10 frames, at least 8 are needed; no confident face in frames 3, 4/],
+    [{ ...base(), minScore: 2 }, /minScore/],
+    [{ ...base(), minFrames: 1 }, /minFrames/],
     [{ ...base(), frames: base().frames.map((f, i) => (i === 3 ? { ...f, width: 100 } : f)) }, /frames\[3\]\.rgba has/],
     [{ ...base(), frames: base().frames.map((f, i) => (i === 2 ? { ...f, landmarks: f.landmarks.slice(0, 10) } : f)) }, /landmarks/],
     [{ ...base(), frames: base().frames.map((f, i) => (i === 2 ? { ...f, landmarks: f.landmarks.map(() => NaN) } : f)) }, /non-finite/],

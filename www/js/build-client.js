@@ -1,13 +1,24 @@
 // The page's side of www/js/build-worker.js: build a model in a worker, with progress and
-// cancelling. One worker per build; it is terminated when the build ends or is cancelled.
+// cancelling (one worker per build, terminated when the build ends or is cancelled), and find
+// faces in sampled frames in a long-lived worker (FinderWorker).
 
 let nextId = 1;
+const WORKER_URL = new URL('./build-worker.js', import.meta.url);
+
+function startWorker() {
+  try {
+    return new Worker(WORKER_URL, { type: 'module' });
+  } catch (e) {
+    throw new Error(`cannot start a worker: ${e.message || e}`);
+  }
+}
 
 /**
  * Builds a model off the main thread. `options` as for the package's buildModel (frames with
- * rgba buffers: they are transferred to the worker and unusable here afterwards). Resolves to
- * { bytes, info, ms }; rejects with an Error (its message names the problem; "cancelled" when
- * `signal` aborted it).
+ * rgba buffers: they are transferred to the worker and unusable here afterwards; frames without
+ * landmarks get the face finder's). `onProgress(done, total, stage, skipped)`. Resolves to
+ * { bytes, info, skipped, ms } (`skipped`: indices of frames without a confident face); rejects
+ * with an Error (its message names the problem; "cancelled" when `signal` aborted it).
  */
 export function buildInWorker(options, { onProgress, signal } = {}) {
   return new Promise((resolve, reject) => {
@@ -17,9 +28,9 @@ export function buildInWorker(options, { onProgress, signal } = {}) {
     }
     let worker;
     try {
-      worker = new Worker(new URL('./build-worker.js', import.meta.url), { type: 'module' });
+      worker = startWorker();
     } catch (e) {
-      reject(new Error(`cannot start a build worker: ${e.message || e}`));
+      reject(e);
       return;
     }
     const id = nextId++;
@@ -35,10 +46,10 @@ export function buildInWorker(options, { onProgress, signal } = {}) {
     worker.onmessage = (e) => {
       const m = e.data;
       if (m.id !== id) return;
-      if (m.type === 'progress') onProgress?.(m.done, m.total);
+      if (m.type === 'progress') onProgress?.(m.done, m.total, m.stage, m.skipped);
       else if (m.type === 'done') {
         finish();
-        resolve({ bytes: new Uint8Array(m.bytes), info: m.info, ms: m.ms });
+        resolve({ bytes: new Uint8Array(m.bytes), info: m.info, skipped: m.skipped, ms: m.ms });
       } else if (m.type === 'error') {
         finish();
         reject(new Error(m.message));
@@ -52,4 +63,53 @@ export function buildInWorker(options, { onProgress, signal } = {}) {
     for (const f of options.frames || []) if (f?.rgba?.buffer instanceof ArrayBuffer) transfer.push(f.rgba.buffer);
     worker.postMessage({ id, options }, [...new Set(transfer)]);
   });
+}
+
+/**
+ * The face finder in a worker of its own, for sampling frames while the page keeps drawing.
+ * `find(frame)` sends a copy of the frame's pixels and resolves to the most confident face
+ * ({ landmarks, score, box }) or null; `busy` says a search is under way (callers sample only
+ * when it is not, so frames never queue up). `close()` ends the worker.
+ */
+export class FinderWorker {
+  constructor(minScore = 0.5) {
+    this.minScore = minScore;
+    this.worker = startWorker();
+    this.pending = new Map();
+    this.busy = false;
+    this.failed = null;
+    this.worker.onmessage = (e) => {
+      const m = e.data;
+      const p = this.pending.get(m.id);
+      if (!p) return;
+      this.pending.delete(m.id);
+      this.busy = this.pending.size > 0;
+      if (m.type === 'found') p.resolve(m.face);
+      else p.reject(new Error(m.message));
+    };
+    this.worker.onerror = (e) => {
+      this.failed = new Error(`the face finder worker failed: ${e.message || 'script error'}`);
+      for (const p of this.pending.values()) p.reject(this.failed);
+      this.pending.clear();
+      this.busy = false;
+    };
+  }
+
+  find(frame) {
+    if (this.failed) return Promise.reject(this.failed);
+    return new Promise((resolve, reject) => {
+      const id = nextId++;
+      this.pending.set(id, { resolve, reject });
+      this.busy = true;
+      const rgba = frame.rgba.slice();
+      this.worker.postMessage({ id, find: { rgba, width: frame.width, height: frame.height }, minScore: this.minScore }, [rgba.buffer]);
+    });
+  }
+
+  close() {
+    this.worker.terminate();
+    for (const p of this.pending.values()) p.reject(new Error('cancelled'));
+    this.pending.clear();
+    this.busy = false;
+  }
 }

@@ -1,14 +1,15 @@
 // "Create a face": enrolment of a person's model in the page, from photos, a video file or the
 // webcam. Frames are read as RGBA; each frame's 68 landmarks come from a `.pts` file dropped with
-// a photo, else from the package's face finder (`FaceFinder`, when the package has one); frames
-// whose face was not found confidently are skipped. Out of the frames kept, about 20 varied ones
+// a photo, else from the package's face finder, run in a worker (build-client.js FinderWorker) so
+// the page keeps drawing while frames are sampled; frames whose face was not found confidently
+// are skipped and counted. Out of the frames kept, about 20 varied ones
 // are chosen (farthest-point sampling of the aligned shapes, `selectVaried`; the coverage of the
 // expression space is shown while sampling), the model is built in a Web Worker
 // (build-client.js) with a progress bar and a Cancel button, kept in this browser (store.js) and
 // shown in the inspector; then "Use as source", "Add as target" and "Download .fmm".
 // Nothing is stored until the build has finished: a cancelled or failed build leaves nothing.
 
-import { buildInWorker } from './build-client.js';
+import { buildInWorker, FinderWorker } from './build-client.js';
 import { download, safeName } from './store.js';
 
 const WANT = 20; // frames a model is built from
@@ -16,8 +17,10 @@ const MIN_FRAMES = 8; // fewer usable frames than this is an error
 const MAX_CANDIDATES = 60; // sampled frames kept in memory (pruned to the most varied)
 const MAX_SIDE = 640; // frames are scaled down to this longer side
 const MIN_SCORE = 0.5; // finder confidence to keep a face
-const SAMPLE_MS = 150; // live sampling interval
+const SAMPLE_MS = 100; // live sampling: the next frame is taken this long after a search ends
+const VIDEO_SAMPLES = 120; // frames searched in a dropped video (evenly spaced)
 const GUIDE = 'Talk, smile, open your mouth wide, raise your eyebrows, look a little left and right.';
+const PROMPTS = ['Talk', 'Smile', 'Open your mouth wide', 'Raise your eyebrows', 'Look a little left', 'Look a little right', 'Frown', 'Talk again'];
 
 /** Reads a .pts (iBUG, 1-based) into 0-based points. */
 function parsePts(text) {
@@ -76,6 +79,7 @@ export class Enrolment {
       status: $('p', { className: 'enrol-status', role: 'status' }),
       coverage: $('meter', { min: 0, max: 1, value: 0, className: 'enrol-coverage' }),
       name: $('input', { type: 'text', value: 'My face', maxLength: 80, className: 'enrol-name' }),
+      refine: $('input', { type: 'checkbox', className: 'enrol-refine' }),
       build: $('button', { type: 'button', className: 'btn primary', textContent: 'Build', disabled: true }),
       cancel: $('button', { type: 'button', className: 'btn', textContent: 'Cancel' }),
       progress: $('progress', { max: 1, value: 0, hidden: true, className: 'enrol-progress' }),
@@ -94,7 +98,11 @@ export class Enrolment {
     e.file.addEventListener('change', () => this.addFiles([...e.file.files]));
     e.build.addEventListener('click', () => this.build());
     e.cancel.addEventListener('click', () => this.cancel());
-    d.addEventListener('close', () => this.stopCapture());
+    d.addEventListener('close', () => {
+      this.stopCapture();
+      this.finder?.close();
+      this.finder = null;
+    });
     d.addEventListener('dragover', (ev) => {
       ev.preventDefault();
       ev.stopPropagation();
@@ -124,6 +132,7 @@ export class Enrolment {
       e.strip,
       e.status,
       $('div', { className: 'row' }, $('label', { textContent: 'Name' }), e.name),
+      $('label', { className: 'row hint', title: 'Fits the new model to its own frames and rebuilds it from the fitted landmarks. Measured on a webcam clip, it tracks unseen frames worse, so it is off by default.' }, e.refine, ' Refine (slower; measured to track worse)'),
       e.progress,
       $('div', { className: 'row buttons' }, e.build, e.cancel),
       e.done,
@@ -149,22 +158,16 @@ export class Enrolment {
     this.update('Choose the webcam, or drop photos or a video.');
   }
 
-  /** The package's face finder, created on first use; null when the package has none. */
+  /** The face finder's worker, started on first use. */
   getFinder() {
-    if (this.finder === null && typeof this.page.fm.FaceFinder === 'function') {
-      this.finder = new this.page.fm.FaceFinder();
-    }
+    if (!this.finder || this.finder.failed) this.finder = new FinderWorker(MIN_SCORE);
     return this.finder;
   }
 
-  /** Landmarks of the most confident face in a frame, or null (no finder, no confident face). */
-  findFace(frame) {
-    const finder = this.getFinder();
-    if (!finder) return null;
-    const faces = finder.find(frame.rgba, frame.width, frame.height);
-    const best = faces[0];
-    if (!best || !(best.score >= MIN_SCORE)) return null;
-    return Float32Array.from(best.landmarks);
+  /** Landmarks of the most confident face in a frame (found in the worker), or null. */
+  async findFace(frame) {
+    const face = await this.getFinder().find(frame);
+    return face ? Float32Array.from(face.landmarks) : null;
   }
 
   /** Adds a frame with its landmarks, pruning to the most varied when there are too many. */
@@ -189,8 +192,8 @@ export class Enrolment {
     this.drawStrip();
     this.els.coverage.value = cover;
     this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(WANT, n)} frames that would be used`;
-    this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < MIN_FRAMES ? ` (at least ${MIN_FRAMES} are needed)` : ''}.`;
-    this.els.build.disabled = n < MIN_FRAMES || this.abort !== null;
+    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < MIN_FRAMES ? ` (at least ${MIN_FRAMES} are needed)` : ''}.`;
+    this.els.build.disabled = n < MIN_FRAMES || this.abort !== null || this.intake > 0;
     this.els.cancel.textContent = this.abort ? 'Cancel' : 'Close';
   }
 
@@ -230,7 +233,19 @@ export class Enrolment {
     this.els.strip.replaceChildren(...thumbs);
   }
 
+  /** Photos (with or without .pts files) and videos: faces found in the worker, one at a time;
+   *  Build waits until every file has been looked at. */
   async addFiles(files) {
+    this.intake = (this.intake || 0) + 1;
+    try {
+      await this.readFiles(files);
+    } finally {
+      this.intake--;
+      this.update();
+    }
+  }
+
+  async readFiles(files) {
     const pts = new Map();
     for (const f of files) if (/\.pts$/i.test(f.name)) pts.set(f.name.replace(/\.pts$/i, ''), f);
     const images = files.filter((f) => f.type.startsWith('image/'));
@@ -246,9 +261,10 @@ export class Enrolment {
         if (p) {
           frame.landmarks = parsePts(await p.text()).map((v) => v * frame.scale);
         } else {
-          frame.landmarks = this.findFace(frame);
+          this.update(`Looking for the face in ${f.name}…`);
+          frame.landmarks = await this.findFace(frame);
           if (!frame.landmarks) {
-            problems.push(`${f.name}: ${this.getFinder() ? 'no face found' : 'no .pts file beside it (this build of the package has no face finder)'}`);
+            problems.push(`${f.name}: no face found`);
             continue;
           }
         }
@@ -259,53 +275,83 @@ export class Enrolment {
       this.update();
     }
     for (const v of videos) await this.sampleVideoFile(v);
-    if (problems.length) this.page.notify('error', `${problems.length} file(s) not used`, problems.slice(0, 4).join('; '));
+    if (problems.length) {
+      this.page.notify('error', `${problems.length} file(s) not used`, problems.slice(0, 4).join('; '));
+      this.problems = problems;
+    }
     if (!images.length && !videos.length) this.page.notify('error', 'Nothing to use', 'drop photos (with or without .pts files) or a video');
     this.update();
   }
 
+  /** Searches VIDEO_SAMPLES evenly spaced frames of a video file (seeking, so the whole video
+   *  is covered whatever the finder's speed). */
   async sampleVideoFile(file) {
-    if (!this.getFinder()) {
-      this.page.notify('error', `${file.name}: not used`, 'finding faces in a video needs the face finder, which this build of the package lacks');
-      return;
-    }
     const url = URL.createObjectURL(file);
     const v = this.els.video;
     v.hidden = false;
+    v.srcObject = null;
     v.src = url;
+    const session = (this.session = (this.session || 0) + 1);
     try {
-      await v.play();
-      await new Promise((resolve) => {
-        const step = () => {
-          if (v.ended || !this.dialog.open) return resolve();
-          this.sampleFrom(v);
-          setTimeout(step, SAMPLE_MS);
-        };
-        step();
+      await new Promise((resolve, reject) => {
+        v.onloadeddata = resolve;
+        v.onerror = () => reject(new Error(v.error?.message || 'the browser cannot decode it'));
       });
+      const duration = Number.isFinite(v.duration) ? v.duration : 0;
+      const n = Math.max(1, Math.min(VIDEO_SAMPLES, Math.round(duration * 10)));
+      for (let k = 0; k < n && this.dialog.open && this.session === session; k++) {
+        v.currentTime = ((k + 0.5) / n) * duration;
+        await new Promise((resolve) => { v.onseeked = resolve; });
+        this.update(`Looking for faces in ${file.name}: frame ${k + 1} of ${n}…`);
+        await this.sampleFrom(v);
+      }
     } catch (e) {
       this.page.notify('error', `${file.name}: cannot be played`, e.message || String(e));
     } finally {
-      v.pause();
+      v.onloadeddata = v.onerror = v.onseeked = null;
+      v.removeAttribute('src');
+      v.load();
       v.hidden = true;
       URL.revokeObjectURL(url);
     }
   }
 
-  sampleFrom(video) {
+  /** Grabs the video's current frame and keeps it if the finder places a face confidently. */
+  async sampleFrom(video) {
     if (!video.videoWidth) return;
-    this.seen++;
+    const session = this.session;
     const frame = grab(video, video.videoWidth, video.videoHeight);
-    frame.landmarks = this.findFace(frame);
+    try {
+      frame.landmarks = await this.findFace(frame);
+    } catch (e) {
+      if (e.message !== 'cancelled' && this.session === session) this.update(`The face finder failed: ${e.message}`);
+      return;
+    }
+    if (this.session !== session) return; // the capture ended meanwhile
+    this.seen++;
     if (frame.landmarks) this.addCandidate(frame);
     this.update();
   }
 
+  /** Live sampling: one frame at a time, the next as soon as the finder is free again. */
+  sampleLive(video) {
+    const session = this.session;
+    const step = async () => {
+      if (!this.stream || this.session !== session) return;
+      await this.sampleFrom(video);
+      if (this.stream && this.session === session) this.timer = setTimeout(step, SAMPLE_MS);
+    };
+    this.timer = setTimeout(step, SAMPLE_MS);
+    let k = 0;
+    const prompt = () => {
+      this.els.guide.textContent = `${GUIDE} Now: ${PROMPTS[k++ % PROMPTS.length].toLowerCase()}.`;
+    };
+    prompt();
+    this.promptTimer = setInterval(prompt, 2500);
+  }
+
   async startWebcam() {
-    if (!this.getFinder()) {
-      this.update('The webcam needs the face finder to place the landmarks, which this build of the package lacks; use photos with .pts files.');
-      return;
-    }
+    this.stopCapture();
     const md = navigator.mediaDevices;
     if (!md?.getUserMedia) {
       this.update('This browser gives the page no camera (a secure page, http://127.0.0.1 or https, is needed).');
@@ -319,9 +365,10 @@ export class Enrolment {
       return;
     }
     const v = this.els.video;
+    v.removeAttribute('src');
     v.srcObject = this.stream;
     v.hidden = false;
-    this.els.guide.textContent = GUIDE;
+    this.session = (this.session || 0) + 1;
     for (const track of this.stream.getVideoTracks()) {
       track.addEventListener('ended', () => {
         if (this.stream) {
@@ -331,16 +378,20 @@ export class Enrolment {
       });
     }
     await v.play().catch(() => {});
-    this.timer = setInterval(() => this.sampleFrom(v), SAMPLE_MS);
+    this.update('Sampling the webcam…');
+    this.sampleLive(v);
   }
 
   stopCapture() {
-    clearInterval(this.timer);
-    this.timer = null;
+    clearTimeout(this.timer);
+    clearInterval(this.promptTimer);
+    this.timer = this.promptTimer = null;
+    this.session = (this.session || 0) + 1;
     if (this.stream) for (const t of this.stream.getTracks()) t.stop();
     this.stream = null;
     this.els.video.srcObject = null;
     this.els.video.hidden = true;
+    if (this.els.guide.textContent.startsWith(GUIDE)) this.els.guide.textContent = '';
   }
 
   async build() {
@@ -362,10 +413,14 @@ export class Enrolment {
     p.value = 0;
     this.update(`Building ${name} from ${frames.length} frames…`);
     const t0 = performance.now();
+    const refine = this.els.refine.checked ? 1 : 0;
     try {
-      const r = await buildInWorker({ frames, name }, {
+      const r = await buildInWorker({ frames, name, refine, minFrames: Math.min(MIN_FRAMES, frames.length) }, {
         signal: this.abort.signal,
-        onProgress: (done, total) => { p.value = done / total; },
+        onProgress: (done, total, stage) => {
+          p.value = done / total;
+          this.els.status.textContent = `Building ${name} from ${frames.length} frames: ${stage === 'landmarks' ? 'landmarks' : 'model'} ${done} of ${total}…`;
+        },
       });
       this.result = { bytes: r.bytes, name };
       await this.page.shelf.keep(r.bytes, name, 'built');

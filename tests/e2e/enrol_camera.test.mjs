@@ -1,0 +1,354 @@
+// "Create a face" from a webcam, in headless Chromium with a fake camera playing webcam-dev
+// frames 0-599 (research data, read from ../shared and never committed; the camera file is made
+// by the test in the temporary folder: the frames scaled into a 640x480 picture, as MJPEG, which
+// Chromium's --use-file-for-fake-video-capture plays like a .y4m):
+// - enrolment: the face finder (in a worker) keeps the confidently placed frames, coverage is
+//   shown, ~20 varied frames are built in the build worker while the page keeps drawing; the
+//   model is stored, survives a reload, becomes the source, and the webcam source tracks with it
+//   and drives every target (no accuracy is claimed here: the camera plays the frames the model
+//   was built from; tracking accuracy on unseen frames is tests/enrol_webcam.rs's);
+// - bad input: no face in the frames (Chromium's own fake picture), too few usable frames, the
+//   camera refused, the camera stopping, a build cancelled half way: a clear message and nothing
+//   stored; the build worker's buildModel without landmarks skips frames without a face and
+//   refuses to build from too few.
+// Skips with a message when ../shared is absent; fails then if CI is set.
+//   node --test tests/e2e/enrol_camera.test.mjs   (after scripts/build-wasm.sh and scripts/build-models.sh)
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot } from './lib.mjs';
+
+const WWW = path.join(ROOT, 'www');
+const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
+const CAMERA = ['--autoplay-policy=no-user-gesture-required', '--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream'];
+const HAVE_DATA = fs.existsSync(DATA);
+if (!HAVE_DATA) {
+  assert.ok(!process.env.CI, `${DATA} is missing (CI always has ../shared)`);
+  console.log(`# SKIPPED: ${DATA} is absent (research data, never committed)`);
+}
+
+let server;
+let camera;
+
+before(async () => {
+  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
+  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
+  assert.ok(fs.existsSync(path.join(WWW, 'models', 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  server = await serveStatic(WWW);
+  if (HAVE_DATA) camera = await makeCamera();
+});
+
+after(() => {
+  server?.close();
+  if (camera) fs.rmSync(camera, { force: true });
+});
+
+/** webcam-dev frames 0-599 as a 640x480 MJPEG (drawn and encoded by Chromium), the face scaled
+ *  and placed where the page's webcam guide expects it (from the frames' mean landmark box). */
+async function makeCamera() {
+  const N = 600;
+  let [x0, x1, y0, y1] = [0, 0, 0, 0];
+  for (let i = 0; i < N; i += 20) {
+    const pts = fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.pts`), 'utf8');
+    const v = pts.slice(pts.indexOf('{') + 1, pts.indexOf('}')).trim().split(/\s+/).map(Number);
+    const xs = v.filter((_, k) => k % 2 === 0);
+    const ys = v.filter((_, k) => k % 2 === 1);
+    x0 += Math.min(...xs) / 30; x1 += Math.max(...xs) / 30;
+    y0 += Math.min(...ys) / 30; y1 += Math.max(...ys) / 30;
+  }
+  const [W, H] = [640, 480];
+  const scale = (0.5 * H * 0.95) / (y1 - y0); // the guide: 0.5 H high, 0.04 H below the middle
+  const dx = W / 2 - ((x0 + x1) / 2) * scale;
+  const dy = H / 2 + 0.04 * H - ((y0 + y1) / 2) * scale;
+  const browser = await launchBrowser();
+  const frames = await serveStatic(DATA);
+  try {
+    const page = await browser.newPage();
+    await page.goto(`${frames.url}000000.jpg`);
+    const file = path.join(os.tmpdir(), `facemimic-enrol-webcam-${process.pid}.mjpeg`);
+    const out = fs.openSync(file, 'w');
+    for (let start = 0; start < N; start += 100) {
+      const jpegs = await page.evaluate(async ({ start, n, W, H, scale, dx, dy }) => {
+        const c = document.createElement('canvas');
+        c.width = W;
+        c.height = H;
+        const g = c.getContext('2d');
+        const res = [];
+        for (let i = start; i < start + n; i++) {
+          const img = new Image();
+          img.src = `${String(i).padStart(6, '0')}.jpg`;
+          await img.decode();
+          g.fillStyle = '#303030';
+          g.fillRect(0, 0, W, H);
+          g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
+          const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.9));
+          const bytes = new Uint8Array(await blob.arrayBuffer());
+          let bin = '';
+          for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
+          res.push(btoa(bin));
+        }
+        return res;
+      }, { start, n: Math.min(100, N - start), W, H, scale, dx, dy });
+      for (const b of jpegs) fs.writeSync(out, Buffer.from(b, 'base64'));
+    }
+    fs.closeSync(out);
+    return file;
+  } finally {
+    await browser.close();
+    await frames.close();
+  }
+}
+
+async function open(t, browser, { permissions, init } = {}) {
+  const context = await browser.newContext({ viewport: { width: 1440, height: 1400 }, permissions });
+  t.after(() => context.close().catch(() => {}));
+  const page = await context.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('request', (r) => {
+    const u = r.url();
+    if (!u.startsWith(server.url) && !u.startsWith('blob:') && !u.startsWith('data:')) errors.push(`request off the origin: ${u}`);
+  });
+  if (init) await page.addInitScript(init);
+  await page.goto(server.url);
+  await ready(page);
+  return { page, errors };
+}
+
+async function ready(page) {
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
+  await page.waitForSelector('body[data-shelf="ready"]', { timeout: 30_000 });
+}
+
+const status = (page) => page.textContent('#enrol .enrol-status');
+const shelf = (page) => page.$$eval('.shelf-item', (els) => els.map((e) => ({
+  name: e.querySelector('.shelf-name').textContent,
+  damaged: e.classList.contains('damaged'),
+})));
+const shelfButton = (page, name, label) =>
+  page.locator('.shelf-item', { has: page.locator('.shelf-name', { hasText: name }) }).getByRole('button', { name: label, exact: true });
+
+async function openEnrol(page) {
+  await page.click('#create-face');
+  await page.waitForSelector('dialog#enrol[open]');
+}
+
+/** Longest gap between animation frames while `fn` runs (the page must keep drawing). */
+async function longestFrameGap(page, fn) {
+  await page.evaluate(() => {
+    window.__gaps = { last: performance.now(), max: 0, on: true };
+    const tick = (t) => {
+      const g = window.__gaps;
+      g.max = Math.max(g.max, t - g.last);
+      g.last = t;
+      if (g.on) requestAnimationFrame(tick);
+    };
+    requestAnimationFrame(tick);
+  });
+  await fn();
+  return page.evaluate(() => {
+    window.__gaps.on = false;
+    return window.__gaps.max;
+  });
+}
+
+test('enrolment from the webcam: stored, survives a reload, becomes the source and drives the targets', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
+  const browser = await launchBrowser([...CAMERA, `--use-file-for-fake-video-capture=${camera}`]);
+  t.after(() => browser.close());
+  const { page, errors } = await open(t, browser);
+  await openEnrol(page);
+  await page.fill('#enrol .enrol-name', 'Webcam man');
+
+  // Sampling: the guide is shown, confident faces are kept, coverage rises; the page draws on.
+  const t0 = Date.now();
+  const gap = await longestFrameGap(page, async () => {
+    await page.getByRole('button', { name: 'Webcam', exact: true }).click();
+    await page.waitForFunction(() => /smile/i.test(document.querySelector('#enrol .enrol-guide').textContent));
+    await page.waitForFunction(() => window.facemimicEnrol.candidates.length >= 24, null, { timeout: 180_000 });
+  });
+  const sampled = await page.evaluate(() => ({ kept: window.facemimicEnrol.candidates.length, seen: window.facemimicEnrol.seen }));
+  const coverage = await page.$eval('#enrol meter', (m) => m.value);
+  console.log(`# sampling: ${sampled.kept} faces kept of ${sampled.seen} frames searched in ${((Date.now() - t0) / 1000).toFixed(1)} s; coverage ${coverage.toFixed(2)}; longest frame gap ${gap.toFixed(0)} ms`);
+  assert.ok(coverage > 0.5 && coverage <= 1, `coverage ${coverage}`);
+  assert.ok(gap < 500, `the page stopped drawing for ${gap} ms while sampling`);
+  assert.equal(await page.$$eval('#enrol .enrol-strip canvas', (c) => c.length), 20, '20 frames chosen');
+  await screenshot(page, 'enrol-webcam-sampling', { fullPage: false });
+
+  // Build (stops the camera); progress, then kept and shown.
+  const buildGap = await longestFrameGap(page, async () => {
+    await page.click('#enrol .btn.primary');
+    await page.waitForFunction(() => /^Built Webcam man/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 120_000 });
+  });
+  console.log(`# ${await status(page)} (longest frame gap while building ${buildGap.toFixed(0)} ms)`);
+  assert.ok(buildGap < 500, `the page stopped drawing for ${buildGap} ms while building`);
+  assert.deepEqual(await shelf(page), [{ name: 'Webcam man', damaged: false }]);
+  assert.equal(await page.evaluate(() => window.facemimicEnrol.stream), null, 'the camera is released');
+  await screenshot(page, 'enrol-webcam-built', { fullPage: false });
+  await page.keyboard.press('Escape');
+
+  // Survives a reload; becomes the source from the shelf.
+  await page.reload();
+  await ready(page);
+  assert.deepEqual(await shelf(page), [{ name: 'Webcam man', damaged: false }]);
+  await shelfButton(page, 'Webcam man', 'Source').click();
+  await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Webcam man'));
+
+  // The webcam source tracks with the enrolled model and drives every target.
+  await page.selectOption('#source-kind', 'webcam');
+  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout: 60_000 });
+  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
+  const log = await page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+  const lost = log.filter((l) => l.lost).length;
+  console.log(`# tracking with the enrolled model: ${log.length} fits, ${lost} lost, fit error mean ${(log.reduce((s, l) => s + l.error, 0) / log.length).toFixed(4)}`);
+  assert.ok(lost <= log.length / 4, `${lost} of ${log.length} frames lost`);
+  assert.ok((await page.textContent('.face-card.source')).includes('Webcam man'));
+  const targets = await page.$$eval('.face-card.target canvas.face', (c) => c.length);
+  assert.ok(targets >= 1);
+  const digests = [];
+  for (let i = 0; i < targets; i++) digests.push(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`));
+  await page.waitForTimeout(1000);
+  for (let i = 0; i < targets; i++) {
+    assert.notEqual(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`), digests[i], `target ${i} does not move`);
+  }
+  await screenshot(page, 'enrol-webcam-drives-targets', { fullPage: false });
+  assert.deepEqual(errors, []);
+});
+
+test('enrolment bad input: no face, too few frames, camera refused or stopping, build cancelled; nothing stored', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
+  // Chromium's own fake camera: a moving test pattern, no face.
+  {
+    const browser = await launchBrowser(CAMERA);
+    t.after(() => browser.close());
+    const { page, errors } = await open(t, browser);
+    await openEnrol(page);
+    await page.getByRole('button', { name: 'Webcam', exact: true }).click();
+    await page.waitForFunction(() => window.facemimicEnrol.seen >= 4, null, { timeout: 60_000 });
+    assert.match(await status(page), /^0 usable faces out of \d+ frames \(at least 8 are needed\)/);
+    assert.equal(await page.isDisabled('#enrol .btn.primary'), true);
+
+    // The camera stops (unplugged, or stopped by the system): said, and the capture ends.
+    await page.evaluate(() => window.facemimicEnrol.stream.getVideoTracks()[0].dispatchEvent(new Event('ended')));
+    await page.waitForFunction(() => /camera stopped/.test(document.querySelector('#enrol .enrol-status').textContent));
+    assert.match(await status(page), /The camera stopped\. 0 usable face\(s\) were kept\.$/);
+    assert.equal(await page.evaluate(() => window.facemimicEnrol.stream), null);
+
+    // buildModel without landmarks in the worker: frames without a face are skipped and named,
+    // too few is an error.
+    const msg = await page.evaluate(async () => {
+      const { buildInWorker } = await import('./js/build-client.js');
+      const blank = () => ({ rgba: new Uint8Array(64 * 48 * 4).fill(128), width: 64, height: 48 });
+      try {
+        await buildInWorker({ frames: [blank(), blank(), blank()], name: 'nobody', minFrames: 2 });
+        return 'built';
+      } catch (e) {
+        return e.message;
+      }
+    });
+    assert.equal(msg, 'buildModel: a face in 0 of 3 frames, at least 2 are needed; no confident face in frames 0, 1, 2');
+
+    // Too few usable photos (no .pts files: the finder places them).
+    const photos = [0, 150, 300].map((i) => path.join(DATA, `${String(i).padStart(6, '0')}.jpg`));
+    await page.setInputFiles('#enrol input[type="file"]', photos);
+    await page.waitForFunction(() => /^3 usable faces/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 60_000 });
+    assert.match(await status(page), /at least 8 are needed/);
+    assert.equal(await page.isDisabled('#enrol .btn.primary'), true);
+    assert.deepEqual(await shelf(page), []);
+    assert.deepEqual(errors, []);
+  }
+
+  // The camera refused (permission denied): explained, nothing else breaks.
+  {
+    const browser = await launchBrowser(['--use-fake-device-for-media-stream']);
+    t.after(() => browser.close());
+    const { page, errors } = await open(t, browser, {
+      permissions: [],
+      init: `navigator.mediaDevices.getUserMedia = () => Promise.reject(new DOMException('denied', 'NotAllowedError'));`,
+    });
+    await openEnrol(page);
+    await page.getByRole('button', { name: 'Webcam', exact: true }).click();
+    await page.waitForFunction(() => /permission was denied/.test(document.querySelector('#enrol .enrol-status').textContent));
+    assert.equal(await page.evaluate(() => window.facemimicEnrol.stream), null);
+    assert.deepEqual(errors, []);
+  }
+
+  // A build cancelled from the dialog stores nothing (half way through the finder's stage:
+  // the next test).
+  {
+    const browser = await launchBrowser(CAMERA);
+    t.after(() => browser.close());
+    const { page, errors } = await open(t, browser);
+    await openEnrol(page);
+    const photos = Array.from({ length: 12 }, (_, k) => path.join(DATA, `${String(k * 50).padStart(6, '0')}.jpg`));
+    await page.setInputFiles('#enrol input[type="file"]', photos);
+    await page.waitForFunction(() => /^\d+ usable faces out of 12 frames/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 120_000 });
+    assert.ok(await page.evaluate(() => window.facemimicEnrol.candidates.length) >= 8);
+    // Cancelled from the dialog while the build worker runs (its wasm held back, so the build is
+    // surely not over when Cancel is pressed: a 20-frame build takes well under a second).
+    await page.route('**/facemimic_bg.wasm', async (route) => {
+      await new Promise((r) => setTimeout(r, 1500));
+      await route.continue().catch(() => {}); // the cancelled worker is gone by then
+    });
+    await page.click('#enrol .btn.primary');
+    await page.getByRole('button', { name: 'Cancel' }).click();
+    await page.waitForFunction(() => /cancelled; nothing was kept/.test(document.querySelector('#enrol .enrol-status').textContent));
+    await page.waitForTimeout(500);
+    assert.deepEqual(await shelf(page), []);
+    await page.reload();
+    await ready(page);
+    assert.deepEqual(await shelf(page), []);
+    assert.deepEqual(errors, []);
+  }
+});
+
+test('buildModel without landmarks in the page\'s worker: the finder places them, a frame without a face is skipped and named, cancelling half way stops it', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
+  const browser = await launchBrowser();
+  t.after(() => browser.close());
+  const { page, errors } = await open(t, browser);
+  const jpegs = Array.from({ length: 20 }, (_, k) => fs.readFileSync(path.join(DATA, `${String(k * 30).padStart(6, '0')}.jpg`)).toString('base64'));
+  const r = await page.evaluate(async (jpegs) => {
+    const { buildInWorker } = await import('./js/build-client.js');
+    const fm = window.facemimicEnrol.page.fm;
+    const frames = [];
+    for (const b64 of jpegs) {
+      const bmp = await createImageBitmap(new Blob([Uint8Array.from(atob(b64), (c) => c.charCodeAt(0))], { type: 'image/jpeg' }));
+      const c = new OffscreenCanvas(bmp.width, bmp.height);
+      c.getContext('2d').drawImage(bmp, 0, 0);
+      frames.push({ rgba: new Uint8Array(c.getContext('2d').getImageData(0, 0, bmp.width, bmp.height).data.buffer), width: bmp.width, height: bmp.height });
+    }
+    frames.splice(7, 0, { rgba: new Uint8Array(400 * 300 * 4).fill(90), width: 400, height: 300 }); // no face
+    const copy = () => frames.map((f) => ({ ...f, rgba: f.rgba.slice() }));
+    const stages = new Set();
+    const t0 = performance.now();
+    const auto = await buildInWorker({ frames: copy(), name: 'auto' }, { onProgress: (d, n, stage) => stages.add(stage) });
+    const ms = performance.now() - t0;
+    // The same frames with the finder's landmarks found here and given: the same model.
+    const finder = new fm.FaceFinder();
+    const landmarks = frames.map((f) => {
+      const best = finder.find(f.rgba, f.width, f.height)[0];
+      return best && best.score >= 0.5 ? best.landmarks : null;
+    });
+    finder.free();
+    const kept = copy().filter((_, i) => landmarks[i]);
+    const given = await buildInWorker({ frames: kept, landmarks: landmarks.filter(Boolean), name: 'auto' });
+    const same = auto.bytes.length === given.bytes.length && auto.bytes.every((b, i) => b === given.bytes[i]);
+    // Cancelled half way through the finder's stage: rejected, nothing comes back.
+    const ctl = new AbortController();
+    let lastDone = 0;
+    const cancelled = await buildInWorker({ frames: copy(), name: 'x' }, {
+      signal: ctl.signal,
+      onProgress: (done, n, stage) => { lastDone = done; if (stage === 'landmarks' && done >= 5) ctl.abort(); },
+    }).then(() => 'built', (e) => e.message);
+    return { skipped: auto.skipped, stages: [...stages], ms, same, usable: landmarks.filter(Boolean).length, cancelled, lastDone, shapeModes: auto.info.shapeModes };
+  }, jpegs);
+  console.log(`# buildModel from 21 frames (one without a face) with the finder's landmarks, in the worker: ${r.ms.toFixed(0)} ms; skipped ${JSON.stringify(r.skipped)}; ${r.shapeModes} shape modes`);
+  assert.ok(r.skipped.includes(7), `the blank frame is reported: ${r.skipped}`);
+  assert.equal(21 - r.skipped.length, r.usable, 'the frames skipped are those where the finder finds no confident face');
+  assert.ok(r.usable >= 10, `${r.usable} usable frames`);
+  assert.deepEqual(r.stages, ['landmarks', 'model']);
+  assert.ok(r.same, 'building with the finder inside gives the model built from the same landmarks given');
+  assert.equal(r.cancelled, 'cancelled');
+  assert.ok(r.lastDone >= 5 && r.lastDone < 21, `cancelled at ${r.lastDone}`);
+  assert.deepEqual(errors, []);
+});
