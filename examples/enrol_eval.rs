@@ -15,21 +15,8 @@ use facemimic::find::BBox;
 use facemimic::fit::{FitOptions, Tracker};
 use facemimic::{
     io, select_varied, BuildOptions, Builder, FaceFinder, FrameChoice, Image, Model, TrainingImage,
+    MIRROR_68,
 };
-
-/// iBUG 68 index of each point's mirror image.
-const MIRROR: [usize; 68] = [
-    16, 15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0, // jaw
-    26, 25, 24, 23, 22, 21, 20, 19, 18, 17, // brows
-    27, 28, 29, 30, // nose bridge
-    35, 34, 33, 32, 31, // nostrils
-    45, 44, 43, 42, 47, 46, // right eye -> left eye
-    39, 38, 37, 36, 41, 40, // left eye -> right eye
-    54, 53, 52, 51, 50, 49, 48, // outer upper lip
-    59, 58, 57, 56, 55, // outer lower lip
-    64, 63, 62, 61, 60, // inner upper lip
-    67, 66, 65, // inner lower lip
-];
 
 const GROUPS: [(&str, std::ops::Range<usize>); 7] = [
     ("jaw", 0..17),
@@ -78,7 +65,7 @@ fn mirrored(img: &Image) -> Image {
 
 /// Finder landmarks averaged over jittered boxes on the image and on its mirror; the mean and
 /// the passes' spread (mean distance of the passes to their mean, over the eye distance).
-fn averaged(finder: &mut FaceFinder, img: &Image, first: &[f32]) -> (Vec<f32>, f32) {
+fn averaged(finder: &mut FaceFinder, img: &Image, first: &[f32], boxes: usize) -> (Vec<f32>, f32) {
     let mirror = mirrored(img);
     let w = img.width as f32;
     let b = BBox::around_landmarks(first);
@@ -91,7 +78,10 @@ fn averaged(finder: &mut FaceFinder, img: &Image, first: &[f32]) -> (Vec<f32>, f
         (0.0, -0.04, 1.0),
         (0.0, 0.0, 1.06),
         (0.0, 0.0, 0.94),
-    ] {
+    ]
+    .into_iter()
+    .take(boxes)
+    {
         let bb = BBox {
             x: b.x + dx * b.width - 0.5 * (s - 1.0) * b.width,
             y: b.y + dy * b.height - 0.5 * (s - 1.0) * b.height,
@@ -106,7 +96,7 @@ fn averaged(finder: &mut FaceFinder, img: &Image, first: &[f32]) -> (Vec<f32>, f
         let m = finder.landmarks(&mirror.view().unwrap(), mb).unwrap();
         let mut un = vec![0.0; 136];
         for i in 0..68 {
-            let j = MIRROR[i];
+            let j = MIRROR_68[i];
             un[2 * i] = w - 1.0 - m[2 * j];
             un[2 * i + 1] = m[2 * j + 1];
         }
@@ -164,6 +154,10 @@ fn groups(per_point: &[f32]) -> String {
         .join(", ")
 }
 
+/// A frame with a face: (the frame with dlib's landmarks, the finder's, its score, the averaged
+/// landmarks, the passes' spread).
+type Found = (TrainingImage, Vec<f32>, f32, Vec<f32>, f32);
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let own = args.iter().any(|a| a == "--own");
@@ -173,6 +167,12 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .map(|s| s.parse().unwrap())
         .unwrap_or(5);
+    let boxes: usize = args
+        .iter()
+        .position(|a| a == "--boxes")
+        .and_then(|i| args.get(i + 1))
+        .map(|s| s.parse().unwrap())
+        .unwrap_or(1);
     let frame = if own {
         FrameChoice::Own
     } else {
@@ -185,12 +185,12 @@ fn main() {
 
     let mut dlib = Vec::new();
     // (dlib frame, finder landmarks, finder score, averaged landmarks, spread)
-    let mut found: Vec<(TrainingImage, Vec<f32>, f32, Vec<f32>, f32)> = Vec::new();
+    let mut found: Vec<Found> = Vec::new();
     for i in (0..600).step_by(step) {
         let f = read(i);
         let faces = finder.find(&f.image.view().unwrap());
         if let Some(face) = faces.first() {
-            let (avg, spread) = averaged(&mut finder, &f.image, &face.landmarks);
+            let (avg, spread) = averaged(&mut finder, &f.image, &face.landmarks, boxes);
             found.push((f.clone(), face.landmarks.clone(), face.score, avg, spread));
         }
         dlib.push(f);
@@ -202,8 +202,7 @@ fn main() {
         t0.elapsed().as_secs_f32()
     );
     let confident: Vec<_> = found.iter().filter(|f| f.2 >= 0.5).collect();
-    let per = |sel: &dyn Fn(&(TrainingImage, Vec<f32>, f32, Vec<f32>, f32)) -> &Vec<f32>,
-               set: &[&(TrainingImage, Vec<f32>, f32, Vec<f32>, f32)]| {
+    let per = |sel: &dyn Fn(&Found) -> &Vec<f32>, set: &[&Found]| {
         let mut pp = vec![0.0f32; 68];
         for f in set {
             for (p, e) in pp.iter_mut().zip(point_errors(sel(f), &f.0.landmarks)) {
@@ -218,7 +217,7 @@ fn main() {
         groups(&per(&|f| &f.1, &confident))
     );
     println!(
-        "averaged (7 boxes x image + mirror):               {}",
+        "averaged ({boxes} boxes x image + mirror):               {}",
         groups(&per(&|f| &f.3, &confident))
     );
     let spreads: Vec<f32> = confident.iter().map(|f| f.4).collect();
@@ -257,7 +256,7 @@ fn main() {
         .expect("a face in frame 600")
         .landmarks
         .clone();
-    let with = |set: &[&(TrainingImage, Vec<f32>, f32, Vec<f32>, f32)], which: u8| {
+    let with = |set: &[&Found], which: u8| {
         set.iter()
             .map(|f| {
                 let mut t = f.0.clone();
@@ -279,9 +278,16 @@ fn main() {
         ("dlib, the confident frames (control)", with(&confident, 0)),
         ("finder, confident", with(&confident, 1)),
         ("finder, every face found", with(&all, 1)),
-        ("finder, score >= 0.3", with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 1)),
+        (
+            "finder, score >= 0.3",
+            with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 1),
+        ),
         ("finder averaged, confident", with(&confident, 2)),
         ("finder averaged, every face found", with(&all, 2)),
+        (
+            "finder averaged, score >= 0.3",
+            with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 2),
+        ),
         (
             "finder averaged, confident, 25% highest spread dropped",
             with(&low_spread, 2),
@@ -292,8 +298,9 @@ fn main() {
         if own { "own" } else { "canonical" }
     );
     for (k, (name, set)) in runs.into_iter().enumerate() {
-        if k == 6 {
-            // The same, refined once (fit to its own frames, rebuilt from the fitted landmarks).
+        if k == 5 {
+            // "finder averaged, confident", refined once (fit to its own frames, rebuilt from the
+            // fitted landmarks).
             let shapes: Vec<&[f32]> = set.iter().map(|t| t.landmarks.as_slice()).collect();
             let chosen: Vec<TrainingImage> = select_varied(&shapes, 20)
                 .unwrap()
@@ -309,9 +316,9 @@ fn main() {
             let (e, pp, resets) = track(&m, &test, &init);
             println!(
                 "{:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
-                "  ... refined once",
+                "finder averaged, confident, refined once",
                 set.len(),
-                m.shape.n_modes(),
+                m.shape().n_modes(),
                 groups(&pp)
             );
         }
@@ -320,7 +327,7 @@ fn main() {
         println!(
             "{name:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
             set.len(),
-            m.shape.n_modes(),
+            m.shape().n_modes(),
             groups(&pp)
         );
     }

@@ -33,6 +33,7 @@ pub mod bounds;
 mod builder;
 pub mod canonical;
 pub mod clone;
+mod enrol;
 mod error;
 mod filter;
 pub mod find;
@@ -61,6 +62,7 @@ pub use builder::{
     BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
 };
 pub use canonical::{canonical_frame, CANONICAL_FINGERPRINT};
+pub use enrol::{EnrolFace, EnrolFinder, MIRROR_68};
 pub use error::{Error, FormatError, Result};
 pub use find::{BBox, Face, FaceFinder, FindOptions};
 pub use frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};

@@ -1,10 +1,11 @@
 #![cfg(not(target_arch = "wasm32"))]
 //! Enrolment without landmark files on webcam-dev (research data, read from ../shared, never
-//! committed): a model built from frames 0-599 with the face finder's landmarks (every 5th
-//! frame searched, confident faces kept, 20 varied ones chosen by farthest-point sampling of the
-//! aligned shapes) against a model built from 20 frames of the same part chosen the same way with
-//! the dlib landmarks; both tracked over the unseen frames 600-1336, started from the finder's
-//! landmarks on frame 600 (no landmark file used to start). Error = mean landmark distance /
+//! committed): a model built from frames 0-599 with the enrolment finder's landmarks
+//! ([`EnrolFinder`]: every 5th frame searched, the finder's points averaged with a pass on the
+//! mirrored image, faces of any score kept, 20 varied ones chosen by farthest-point sampling of
+//! the aligned shapes) against a model built from 20 frames of the same part chosen the same way
+//! with the dlib landmarks; both tracked over the unseen frames 600-1336, started from the
+//! finder's landmarks on frame 600 (no landmark file used to start). Error = mean landmark distance /
 //! outer-eye-corner distance against the dlib landmarks.
 //! Skips with a message when ../shared is absent; fails then if the CI variable is set.
 //! `cargo test --release --test enrol_webcam -- --nocapture` prints the figures.
@@ -14,7 +15,7 @@ mod common;
 use common::{frame, shared_data};
 use facemimic::find::landmark_error;
 use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{select_varied, BuildOptions, Builder, FaceFinder, Model, TrainingImage};
+use facemimic::{select_varied, BuildOptions, Builder, EnrolFinder, Model, TrainingImage};
 
 fn build(name: &str, mut images: Vec<TrainingImage>) -> Model {
     let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
@@ -44,32 +45,30 @@ fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> (f32, u32) {
     (errs.iter().sum::<f32>() / errs.len() as f32, t.resets())
 }
 
-/// Long (about 35 s in release: 120 finder searches, five models tracked over 737 frames), so
+/// Long (about 30 s in release: 120 finder searches, two models tracked over 737 frames), so
 /// opt-in: `cargo test --release --test enrol_webcam -- --ignored --nocapture`. It FAILS today:
-/// the finder-enrolled model tracks at 0.0387 against 0.0296, 1.31x (docs/fitting.md,
-/// "Enrolment with the face finder's landmarks"); kept so the gap is measured, not hidden.
+/// the enrolled model tracks at 0.0322 against the dlib model's 0.0141 (2.3x); the finder's
+/// points differ from dlib's by a per-person bias that the error against dlib counts
+/// (docs/fitting.md, "Enrolment with the face finder's landmarks"). Kept so the gap is measured.
 #[test]
-#[ignore = "long, opt-in; fails today by a small margin (1.31x; docs/fitting.md)"]
+#[ignore = "long, opt-in; fails today: 0.0322 vs 0.0141, 2.3x (docs/fitting.md)"]
 fn finder_enrolled_model_tracks_unseen_frames() {
     let Some(dir) = shared_data("webcam-dev") else {
         return;
     };
-    let mut finder = FaceFinder::new().unwrap();
+    let mut finder = EnrolFinder::new(1).unwrap();
     let mut found = Vec::new();
     let mut dlib = Vec::new();
     let mut finder_err = Vec::new();
     let mut searched = 0;
-    let mut same_frames_dlib = Vec::new();
     for i in (0..600).step_by(5) {
         let f = frame(&dir, i);
         searched += 1;
-        let faces = finder.find(&f.image.view().unwrap());
-        if let Some(face) = faces.first().filter(|face| face.score >= 0.5) {
+        if let Some(face) = finder.find(&f.image.view().unwrap(), 0.0).unwrap() {
             finder_err.push(landmark_error(&face.landmarks, &f.landmarks));
             let mut g = f.clone();
-            g.landmarks = face.landmarks.clone();
+            g.landmarks = face.landmarks;
             found.push(g);
-            same_frames_dlib.push(f.clone());
         }
         dlib.push(f);
     }
@@ -77,31 +76,11 @@ fn finder_enrolled_model_tracks_unseen_frames() {
     let reference = build("dlib20", dlib);
     let test: Vec<TrainingImage> = (600..=1336).map(|i| frame(&dir, i)).collect();
     let init = finder
+        .finder()
         .find(&test[0].image.view().unwrap())
         .first()
         .map(|f| f.landmarks.clone())
         .expect("a face in frame 600");
-    {
-        let control = build("control", same_frames_dlib.clone());
-        let (e, r) = track(&control, &test, &init);
-        println!(
-            "control, dlib landmarks on the frames the finder found: {e:.4} ({r} resets), {} shape modes",
-            control.shape().n_modes()
-        );
-    }
-    for rounds in [1usize, 2] {
-        let shapes: Vec<&[f32]> = found.iter().map(|t| t.landmarks.as_slice()).collect();
-        let chosen: Vec<TrainingImage> = select_varied(&shapes, 20)
-            .unwrap()
-            .iter()
-            .map(|&i| found[i].clone())
-            .collect();
-        let m = Builder::new(BuildOptions::default())
-            .build_refined(&chosen, None, rounds, &mut |_| true)
-            .unwrap();
-        let (e, r) = track(&m, &test, &init);
-        println!("finder-enrolled and refined {rounds}x: {e:.4} ({r} resets)");
-    }
     let (e_enrolled, r1) = track(&enrolled, &test, &init);
     let (e_dlib, r2) = track(&reference, &test, &init);
     println!(
@@ -116,5 +95,9 @@ fn finder_enrolled_model_tracks_unseen_frames() {
     assert!(
         e_enrolled <= 1.3 * e_dlib,
         "the finder-enrolled model tracks at {e_enrolled}, more than 1.3x the dlib model's {e_dlib}"
+    );
+    assert!(
+        e_enrolled <= 0.03,
+        "the finder-enrolled model tracks at {e_enrolled}, above 0.03"
     );
 }

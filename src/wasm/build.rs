@@ -11,7 +11,8 @@ use super::install_panic_hook;
 use super::model::JsModel;
 use super::surface::describe;
 use crate::builder::{BuildOptions, Builder, ReferenceChoice, TrainingImage};
-use crate::image::Image;
+use crate::image::{Image, ImageRef};
+use crate::EnrolFinder;
 
 #[wasm_bindgen]
 extern "C" {
@@ -30,7 +31,8 @@ export interface BuildFrame {
   rgba: Uint8Array | Uint8ClampedArray; width: number; height: number;
   /** This frame's 68 landmarks (136 numbers, 0-based image pixels, x0, y0, x1, y1, ...).
    *  Without them the face finder places them (the most confident face, if its score reaches
-   *  `minScore`; otherwise the frame is skipped and reported in the progress). */
+   *  `minScore`, its points averaged with a pass on the mirrored image, as `enrolFace`;
+   *  otherwise the frame is skipped and reported in the progress). */
   landmarks?: ArrayLike<number> | null;
 }
 /** What `buildModel` builds from. */
@@ -52,8 +54,8 @@ export interface BuildModelOptions {
   refine?: number;
   /** Fractions of the variance kept (default 0.98 each). */
   shapeVariance?: number; appearanceVariance?: number;
-  /** The face finder's confidence (0..1) a face needs to be used, for frames given without
-   *  landmarks (default 0.5). */
+  /** The face finder's score (0..1) a face needs to be used, for frames given without
+   *  landmarks (default 0: every face the finder accepts). */
   minScore?: number;
   /** Fewest frames with a face to build from (default 2, at least 2); fewer throws, naming the
    *  frames skipped. */
@@ -64,6 +66,15 @@ export interface BuildModelOptions {
  *  found no confident face so far. `stage` "model": `done` of `total` build steps. Return
  *  `false` to cancel (the build then throws an Error whose message is "cancelled" and makes
  *  nothing). */
+/** A face found by `enrolFace`. */
+export interface EnrolFace {
+  /** The 68 landmarks, averaged over the passes (0-based image pixels, x0, y0, x1, y1, ...). */
+  landmarks: Float32Array;
+  /** The finder's confidence, 0..1. */
+  score: number;
+  /** How much the passes disagreed (mean point distance to their average / eye distance). */
+  spread: number;
+}
 export type BuildProgressCallback = (progress: {
   stage: "landmarks" | "model"; done: number; total: number; skipped: number[];
 }) => boolean | void;
@@ -136,7 +147,8 @@ fn dim(obj: &JsValue, key: &str, what: &str) -> Result<u32, JsError> {
 
 /// Builds a person-specific model from RGBA frames, in the canonical reference frame (so it
 /// clones with every other model), optionally keeping `select` varied frames. Frames given
-/// without landmarks get the face finder's (most confident face, score >= `minScore`); frames
+/// without landmarks get the face finder's (most confident face, averaged with a pass on the
+/// mirrored image, score >= `minScore`); frames
 /// where it finds none are skipped and listed in the progress reports. `onProgress` is called
 /// after each frame searched and each build step and may return `false` to cancel. Throws an
 /// `Error` naming the problem (wrong sizes, too few frames with a face, cancelled).
@@ -341,12 +353,10 @@ pub fn build_model(
                     let view = image
                         .view()
                         .map_err(|e| JsError::new(&format!("buildModel: frames[{i}]: {e}")))?;
-                    Ok(finder
-                        .find(&view)
-                        .into_iter()
-                        .next()
-                        .filter(|f| f.score >= min_score)
-                        .map(|f| f.landmarks))
+                    finder
+                        .find(&view, min_score)
+                        .map(|f| f.map(|f| f.landmarks))
+                        .map_err(|e| JsError::new(&format!("buildModel: frames[{i}]: {e}")))
                 })?;
                 searched += 1;
                 if found.is_none() {
@@ -432,23 +442,28 @@ pub fn build_model(
     }
 }
 
-/// The face finder's default confidence for a face to be used.
-const DEFAULT_MIN_SCORE: f32 = 0.5;
+/// The finder's score a face needs by default: none beyond the finder's own acceptance (its
+/// landmark passes must agree; no false faces on 90 images without one, docs/finding.md). On
+/// webcam-dev, models from every face found tracked better than from faces scoring 0.3 or 0.5
+/// (docs/fitting.md, "Enrolment with the face finder's landmarks").
+const DEFAULT_MIN_SCORE: f32 = 0.0;
+
+/// Boxes the enrolment finder averages (each on the image and its mirror; docs/fitting.md).
+const ENROL_BOXES: usize = 1;
 
 thread_local! {
-    /// One face finder per thread (worker), made on first use: its nets and buffers are reused.
-    static FINDER: std::cell::RefCell<Option<crate::FaceFinder>> = const { std::cell::RefCell::new(None) };
+    /// One enrolment finder per thread (worker), made on first use: its nets and buffers are
+    /// reused.
+    static FINDER: std::cell::RefCell<Option<EnrolFinder>> = const { std::cell::RefCell::new(None) };
 }
 
-fn with_finder<T>(
-    f: impl FnOnce(&mut crate::FaceFinder) -> Result<T, JsError>,
-) -> Result<T, JsError> {
+fn with_finder<T>(f: impl FnOnce(&mut EnrolFinder) -> Result<T, JsError>) -> Result<T, JsError> {
     FINDER.with(|cell| {
         let mut slot = cell.borrow_mut();
         if slot.is_none() {
             *slot = Some(
-                crate::FaceFinder::new()
-                    .map_err(|e| JsError::new(&format!("buildModel: face finder: {e}")))?,
+                EnrolFinder::new(ENROL_BOXES)
+                    .map_err(|e| JsError::new(&format!("face finder: {e}")))?,
             );
         }
         match slot.as_mut() {
@@ -498,4 +513,45 @@ pub fn shape_coverage_js(
     let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
     let chosen: Vec<usize> = chosen.into_iter().map(|i| i as usize).collect();
     crate::coverage(&refs, &chosen).map_err(|e| JsError::new(&format!("shapeCoverage: {e}")))
+}
+
+/// The face to enrol in one RGBA frame: the finder's most confident face if its score reaches
+/// `minScore` (default 0: every face the finder accepts), its landmarks averaged over passes on the image and its mirror
+/// (the same landmarks `buildModel` uses for frames given without any); `null` when there is
+/// none. Returns `{ landmarks, score, spread }`.
+#[wasm_bindgen(js_name = enrolFace, unchecked_return_type = "EnrolFace | null")]
+pub fn enrol_face(
+    #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] rgba: &[u8],
+    width: u32,
+    height: u32,
+    min_score: Option<f32>,
+) -> Result<JsValue, JsError> {
+    install_panic_hook();
+    let min_score = match min_score {
+        None => DEFAULT_MIN_SCORE,
+        Some(s) if (0.0..=1.0).contains(&s) => s,
+        Some(_) => return Err(JsError::new("enrolFace: minScore must be in 0..=1")),
+    };
+    let img =
+        ImageRef::new(width, height, rgba).map_err(|e| JsError::new(&format!("enrolFace: {e}")))?;
+    let face = with_finder(|f| {
+        f.find(&img, min_score)
+            .map_err(|e| JsError::new(&format!("enrolFace: {e}")))
+    })?;
+    let Some(face) = face else {
+        return Ok(JsValue::NULL);
+    };
+    let o = js_sys::Object::new();
+    let set = |k: &str, v: &JsValue| {
+        js_sys::Reflect::set(&o, &JsValue::from_str(k), v)
+            .map(|_| ())
+            .map_err(|_| JsError::new("enrolFace: cannot build the result"))
+    };
+    set(
+        "landmarks",
+        &js_sys::Float32Array::from(face.landmarks.as_slice()).into(),
+    )?;
+    set("score", &face.score.into())?;
+    set("spread", &face.spread.into())?;
+    Ok(o.into())
 }

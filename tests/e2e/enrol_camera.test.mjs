@@ -135,22 +135,25 @@ async function openEnrol(page) {
   await page.waitForSelector('dialog#enrol[open]');
 }
 
-/** Longest gap between animation frames while `fn` runs (the page must keep drawing). */
-async function longestFrameGap(page, fn) {
+/** Animation frames while `fn` runs (the page must keep drawing): { fps, gap } with gap the
+ *  longest time between two. */
+async function frameRate(page, fn) {
   await page.evaluate(() => {
-    window.__gaps = { last: performance.now(), max: 0, on: true };
+    window.__gaps = { t0: performance.now(), last: performance.now(), max: 0, n: 0, on: true };
     const tick = (t) => {
       const g = window.__gaps;
       g.max = Math.max(g.max, t - g.last);
       g.last = t;
+      g.n++;
       if (g.on) requestAnimationFrame(tick);
     };
     requestAnimationFrame(tick);
   });
   await fn();
   return page.evaluate(() => {
-    window.__gaps.on = false;
-    return window.__gaps.max;
+    const g = window.__gaps;
+    g.on = false;
+    return { fps: (1000 * g.n) / (performance.now() - g.t0), gap: g.max };
   });
 }
 
@@ -163,26 +166,30 @@ test('enrolment from the webcam: stored, survives a reload, becomes the source a
 
   // Sampling: the guide is shown, confident faces are kept, coverage rises; the page draws on.
   const t0 = Date.now();
-  const gap = await longestFrameGap(page, async () => {
+  const during = await frameRate(page, async () => {
     await page.getByRole('button', { name: 'Webcam', exact: true }).click();
     await page.waitForFunction(() => /smile/i.test(document.querySelector('#enrol .enrol-guide').textContent));
     await page.waitForFunction(() => window.facemimicEnrol.candidates.length >= 24, null, { timeout: 180_000 });
   });
   const sampled = await page.evaluate(() => ({ kept: window.facemimicEnrol.candidates.length, seen: window.facemimicEnrol.seen }));
   const coverage = await page.$eval('#enrol meter', (m) => m.value);
-  console.log(`# sampling: ${sampled.kept} faces kept of ${sampled.seen} frames searched in ${((Date.now() - t0) / 1000).toFixed(1)} s; coverage ${coverage.toFixed(2)}; longest frame gap ${gap.toFixed(0)} ms`);
+  const secs = (Date.now() - t0) / 1000;
+  console.log(`# sampling: ${sampled.kept} faces kept of ${sampled.seen} frames searched in ${secs.toFixed(1)} s (${((1000 * secs) / sampled.seen).toFixed(0)} ms a search, in the worker); coverage ${coverage.toFixed(2)}; page ${during.fps.toFixed(1)} fps meanwhile, longest frame gap ${during.gap.toFixed(0)} ms`);
   assert.ok(coverage > 0.5 && coverage <= 1, `coverage ${coverage}`);
-  assert.ok(gap < 500, `the page stopped drawing for ${gap} ms while sampling`);
+  // Searching on the main thread would leave about one frame per search (under 2 fps here);
+  // the bounds leave room for a loaded machine.
+  assert.ok(during.fps > 5, `the page drew ${during.fps.toFixed(1)} fps while sampling`);
+  assert.ok(during.gap < 1500, `the page stopped drawing for ${during.gap} ms while sampling`);
   assert.equal(await page.$$eval('#enrol .enrol-strip canvas', (c) => c.length), 20, '20 frames chosen');
   await screenshot(page, 'enrol-webcam-sampling', { fullPage: false });
 
   // Build (stops the camera); progress, then kept and shown.
-  const buildGap = await longestFrameGap(page, async () => {
+  const building = await frameRate(page, async () => {
     await page.click('#enrol .btn.primary');
     await page.waitForFunction(() => /^Built Webcam man/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 120_000 });
   });
-  console.log(`# ${await status(page)} (longest frame gap while building ${buildGap.toFixed(0)} ms)`);
-  assert.ok(buildGap < 500, `the page stopped drawing for ${buildGap} ms while building`);
+  console.log(`# ${await status(page)} (page ${building.fps.toFixed(1)} fps meanwhile, longest frame gap ${building.gap.toFixed(0)} ms)`);
+  assert.ok(building.gap < 1500, `the page stopped drawing for ${building.gap} ms while building`);
   assert.deepEqual(await shelf(page), [{ name: 'Webcam man', damaged: false }]);
   assert.equal(await page.evaluate(() => window.facemimicEnrol.stream), null, 'the camera is released');
   await screenshot(page, 'enrol-webcam-built', { fullPage: false });
@@ -323,13 +330,8 @@ test('buildModel without landmarks in the page\'s worker: the finder places them
     const t0 = performance.now();
     const auto = await buildInWorker({ frames: copy(), name: 'auto' }, { onProgress: (d, n, stage) => stages.add(stage) });
     const ms = performance.now() - t0;
-    // The same frames with the finder's landmarks found here and given: the same model.
-    const finder = new fm.FaceFinder();
-    const landmarks = frames.map((f) => {
-      const best = finder.find(f.rgba, f.width, f.height)[0];
-      return best && best.score >= 0.5 ? best.landmarks : null;
-    });
-    finder.free();
+    // The same frames with the enrolment finder's landmarks found here and given: the same model.
+    const landmarks = frames.map((f) => fm.enrolFace(f.rgba, f.width, f.height)?.landmarks ?? null);
     const kept = copy().filter((_, i) => landmarks[i]);
     const given = await buildInWorker({ frames: kept, landmarks: landmarks.filter(Boolean), name: 'auto' });
     const same = auto.bytes.length === given.bytes.length && auto.bytes.every((b, i) => b === given.bytes[i]);

@@ -68,11 +68,11 @@ export function buildInWorker(options, { onProgress, signal } = {}) {
 /**
  * The face finder in a worker of its own, for sampling frames while the page keeps drawing.
  * `find(frame)` sends a copy of the frame's pixels and resolves to the most confident face
- * ({ landmarks, score, box }) or null; `busy` says a search is under way (callers sample only
+ * ({ landmarks, score, spread }, as the package's enrolFace) or null; `busy` says a search is under way (callers sample only
  * when it is not, so frames never queue up). `close()` ends the worker.
  */
 export class FinderWorker {
-  constructor(minScore = 0.5) {
+  constructor(minScore = 0) {
     this.minScore = minScore;
     this.worker = startWorker();
     this.pending = new Map();

@@ -5,12 +5,11 @@
 // Messages out: for a build, { id, type: "progress", stage, done, total, skipped } then either
 // { id, type: "done", bytes, info, skipped, ms } (the .fmm file, transferred) or
 // { id, type: "error", message }; for a search, { id, type: "found", face: { landmarks, score,
-// box } | null, ms } or { id, type: "error", message }.
+// spread } | null, ms } or { id, type: "error", message }.
 // Cancelling a build is terminating the worker: a model only ever leaves the worker complete.
 import init, * as fm from '../pkg/facemimic.js';
 
 const ready = init();
-let finder = null;
 
 self.onmessage = async (e) => {
   const { id, options, find, minScore } = e.data || {};
@@ -18,9 +17,9 @@ self.onmessage = async (e) => {
     await ready;
     const t0 = performance.now();
     if (find) {
-      finder ??= new fm.FaceFinder();
-      const best = finder.find(find.rgba, find.width, find.height)[0];
-      const face = best && best.score >= (minScore ?? 0.5) ? { landmarks: best.landmarks, score: best.score, box: best.box } : null;
+      // The landmarks buildModel would place itself (the finder's, averaged with the mirror).
+      const f = fm.enrolFace(find.rgba, find.width, find.height, minScore ?? 0);
+      const face = f ? { landmarks: f.landmarks, score: f.score, spread: f.spread } : null;
       self.postMessage({ id, type: 'found', face, ms: performance.now() - t0 });
       return;
     }

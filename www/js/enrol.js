@@ -16,7 +16,7 @@ const WANT = 20; // frames a model is built from
 const MIN_FRAMES = 8; // fewer usable frames than this is an error
 const MAX_CANDIDATES = 60; // sampled frames kept in memory (pruned to the most varied)
 const MAX_SIDE = 640; // frames are scaled down to this longer side
-const MIN_SCORE = 0.5; // finder confidence to keep a face
+const MIN_SCORE = 0; // finder score to keep a face: any face it accepts (see buildModel's minScore)
 const SAMPLE_MS = 100; // live sampling: the next frame is taken this long after a search ends
 const VIDEO_SAMPLES = 120; // frames searched in a dropped video (evenly spaced)
 const GUIDE = 'Talk, smile, open your mouth wide, raise your eyebrows, look a little left and right.';
@@ -184,12 +184,13 @@ export class Enrolment {
   update(text) {
     const n = this.candidates.length;
     let cover = 0;
+    let pick = [];
     if (n >= 2) {
       const shapes = this.candidates.map((c) => c.landmarks);
-      const pick = this.page.fm.selectVaried(shapes, Math.min(WANT, n));
+      pick = this.page.fm.selectVaried(shapes, Math.min(WANT, n));
       cover = this.page.fm.shapeCoverage(shapes, pick);
     }
-    this.drawStrip();
+    this.drawStrip([...pick].sort((a, b) => a - b));
     this.els.coverage.value = cover;
     this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(WANT, n)} frames that would be used`;
     if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < MIN_FRAMES ? ` (at least ${MIN_FRAMES} are needed)` : ''}.`;
@@ -198,9 +199,7 @@ export class Enrolment {
   }
 
   /** Thumbnails of the frames a build would use, with their landmarks (redrawn when they change). */
-  drawStrip() {
-    const n = this.candidates.length;
-    const pick = n >= 2 ? [...this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.min(WANT, n))].sort((a, b) => a - b) : [];
+  drawStrip(pick) {
     const key = pick.map((i) => this.candidates[i].id).join(',');
     if (key === this.stripKey) return;
     this.stripKey = key;
@@ -220,10 +219,13 @@ export class Enrolment {
       canvas.width = H;
       canvas.height = H;
       const g = canvas.getContext('2d');
-      const img = new ImageData(new Uint8ClampedArray(c.rgba.buffer, c.rgba.byteOffset, c.rgba.length), c.width, c.height);
-      const src = new OffscreenCanvas(c.width, c.height);
-      src.getContext('2d').putImageData(img, 0, 0);
-      g.drawImage(src, cx - side / 2, cy - side / 2, side, side, 0, 0, H, H);
+      if (!c.thumb) {
+        // The frame once as a canvas (drawn again only if the crop changes: never).
+        const img = new ImageData(new Uint8ClampedArray(c.rgba.buffer, c.rgba.byteOffset, c.rgba.length), c.width, c.height);
+        c.thumb = new OffscreenCanvas(c.width, c.height);
+        c.thumb.getContext('2d').putImageData(img, 0, 0);
+      }
+      g.drawImage(c.thumb, cx - side / 2, cy - side / 2, side, side, 0, 0, H, H);
       g.fillStyle = '#7cc4ff';
       for (let j = 0; j < c.landmarks.length; j += 2) {
         g.fillRect((c.landmarks[j] - cx + side / 2) * k - 0.5, (c.landmarks[j + 1] - cy + side / 2) * k - 0.5, 1.2, 1.2);

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use facemimic::{
-    io, BuildOptions, Builder, FaceFinder, FrameChoice, ReferenceChoice, Result, TrainingImage,
+    io, BuildOptions, Builder, EnrolFinder, FrameChoice, ReferenceChoice, Result, TrainingImage,
 };
 
 #[derive(clap::Args)]
@@ -129,12 +129,12 @@ pub fn run(a: Args) -> Result<()> {
 /// The training images with the finder's landmarks; images without a face are skipped with a
 /// note. Fewer than two faces is an error (nothing is written).
 fn find_faces(paths: &[PathBuf]) -> Result<Vec<TrainingImage>> {
-    let mut finder = FaceFinder::new()?;
+    // The finder's points averaged with a pass on the mirrored image, as the page's enrolment.
+    let mut finder = EnrolFinder::new(1)?;
     let mut out = Vec::new();
     for p in paths {
         let image = io::read_image(p)?;
-        let faces = finder.find(&image.view()?);
-        let Some(face) = faces.into_iter().next() else {
+        let Some(face) = finder.find(&image.view()?, 0.0)? else {
             eprintln!("facemimic: no face found in {}, skipped", p.display());
             continue;
         };
