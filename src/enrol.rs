@@ -59,6 +59,15 @@ pub struct EnrolFinder {
     passes: Vec<f32>,
 }
 
+impl std::fmt::Debug for EnrolFinder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EnrolFinder")
+            .field("finder", &self.finder)
+            .field("boxes", &self.boxes)
+            .finish_non_exhaustive()
+    }
+}
+
 impl EnrolFinder {
     /// A finder with the shipped weights, averaging `boxes` (1..=7) boxes, each on the image and
     /// on its mirror.

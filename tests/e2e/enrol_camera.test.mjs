@@ -354,3 +354,58 @@ test('buildModel without landmarks in the page\'s worker: the finder places them
   assert.ok(r.lastDone >= 5 && r.lastDone < 21, `cancelled at ${r.lastDone}`);
   assert.deepEqual(errors, []);
 });
+
+test('enrolment from a dropped video: evenly spaced frames searched, faces kept, ready to build', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
+  const browser = await launchBrowser();
+  t.after(() => browser.close());
+  // A 3 s WebM of webcam-dev frames 0-74 (25 fps), recorded by Chromium from a canvas.
+  const frames = await serveStatic(DATA);
+  t.after(() => frames.close());
+  const maker = await browser.newPage();
+  await maker.goto(`${frames.url}000000.jpg`);
+  const webm = await maker.evaluate(async () => {
+    const c = document.createElement('canvas');
+    c.width = 400;
+    c.height = 300;
+    const g = c.getContext('2d');
+    const imgs = [];
+    for (let i = 0; i < 75; i++) {
+      const img = new Image();
+      img.src = `${String(i).padStart(6, '0')}.jpg`;
+      await img.decode();
+      imgs.push(img);
+    }
+    g.drawImage(imgs[0], 0, 0);
+    const rec = new MediaRecorder(c.captureStream(25), { mimeType: 'video/webm' });
+    const chunks = [];
+    rec.ondataavailable = (e) => chunks.push(e.data);
+    const done = new Promise((r) => { rec.onstop = r; });
+    rec.start();
+    for (const img of imgs) {
+      g.drawImage(img, 0, 0);
+      await new Promise((r) => setTimeout(r, 40));
+    }
+    rec.stop();
+    await done;
+    const bytes = new Uint8Array(await new Blob(chunks).arrayBuffer());
+    let bin = '';
+    for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
+    return btoa(bin);
+  });
+  await maker.close();
+  const file = path.join(os.tmpdir(), `facemimic-enrol-video-${process.pid}.webm`);
+  fs.writeFileSync(file, Buffer.from(webm, 'base64'));
+  t.after(() => fs.rmSync(file, { force: true }));
+
+  const { page, errors } = await open(t, browser);
+  await openEnrol(page);
+  await page.setInputFiles('#enrol input[type="file"]', file);
+  await page.waitForFunction(() => /^\d+ usable faces out of \d+ frames/.test(document.querySelector('#enrol .enrol-status').textContent) && !window.facemimicEnrol.intake, null, { timeout: 120_000 });
+  const s = await page.evaluate(() => ({ kept: window.facemimicEnrol.candidates.length, seen: window.facemimicEnrol.seen }));
+  console.log(`# dropped video: ${await status(page)}`);
+  assert.ok(s.seen >= 25 && s.seen <= 31, `${s.seen} frames searched in a 3 s video`);
+  assert.ok(s.kept >= 20, `${s.kept} faces kept`);
+  assert.equal(await page.isDisabled('#enrol .btn.primary'), false, 'ready to build');
+  assert.equal(await page.$$eval('#enrol .enrol-strip canvas', (c) => c.length), 20);
+  assert.deepEqual(errors, []);
+});

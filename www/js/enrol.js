@@ -299,7 +299,13 @@ export class Enrolment {
         v.onloadeddata = resolve;
         v.onerror = () => reject(new Error(v.error?.message || 'the browser cannot decode it'));
       });
+      if (!Number.isFinite(v.duration)) {
+        // Recorded WebM often declares no duration: seeking past the end makes the browser find it.
+        v.currentTime = 1e101;
+        await new Promise((resolve) => { v.onseeked = resolve; });
+      }
       const duration = Number.isFinite(v.duration) ? v.duration : 0;
+      if (!(duration > 0)) throw new Error('the video has no length');
       const n = Math.max(1, Math.min(VIDEO_SAMPLES, Math.round(duration * 10)));
       for (let k = 0; k < n && this.dialog.open && this.session === session; k++) {
         v.currentTime = ((k + 0.5) / n) * duration;
