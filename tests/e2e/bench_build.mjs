@@ -2,7 +2,9 @@
 // GRID spk02's 20 training frames (360x288, decoded by the browser), (a) without landmarks: the
 // face finder places them inside buildModel, (b) with the .pts landmarks given. Prints the time
 // inside the worker (buildModel + toBytes) and from the page's request to the bytes back, per
-// run, and the medians, as JSON; also the longest gap between the page's animation frames.
+// run (each in a fresh worker, as the page does; one run first to warm the caches), and the
+// medians, as JSON; also the longest gap between the page's animation frames (while
+// the builds run in the worker) and the finder's time per frame (FaceFinder.find, enrolFace).
 //   node tests/e2e/bench_build.mjs [--runs 5]
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import fs from 'node:fs';
@@ -61,13 +63,26 @@ try {
         const res = await buildInWorker(opts);
         const total = performance.now() - t0;
         if (res.skipped.length) throw new Error(`frames skipped: ${res.skipped}`);
-        if (r > 0) rows.push({ worker: res.ms, total }); // run 0 warms the cache (wasm compile)
+        if (r > 0) rows.push({ worker: res.ms, total }); // run 0 warms the HTTP and code caches
       }
       const med = (k) => rows.map((x) => x[k]).sort((a, b) => a - b)[rows.length >> 1];
       out[label] = { runs: rows.map((x) => [Math.round(x.worker), Math.round(x.total)]), medianWorkerMs: Math.round(med('worker')), medianTotalMs: Math.round(med('total')) };
     }
     on = false;
     out.longestFrameGapMs = Math.round(gap);
+    // Where the time goes: the finder alone (FaceFinder.find) and the enrolment finder
+    // (enrolFace: find + the mirror pass), per frame, on this thread.
+    const fm = await import('./pkg/facemimic.js');
+    const finder = new fm.FaceFinder();
+    const per = (fn) => {
+      fn(decoded[0]);
+      const t0 = performance.now();
+      for (const f of decoded) fn(f);
+      return Math.round((performance.now() - t0) / decoded.length);
+    };
+    out.findMsPerFrame = per((f) => finder.find(f.rgba, f.width, f.height));
+    out.enrolFaceMsPerFrame = per((f) => fm.enrolFace(f.rgba, f.width, f.height));
+    finder.free();
     out.frames = `${decoded.length} x ${decoded[0].width}x${decoded[0].height}`;
     out.hardwareConcurrency = navigator.hardwareConcurrency;
     return out;
