@@ -1,7 +1,7 @@
 // "Create a face" from a webcam, in headless Chromium with a fake camera playing webcam-dev
 // frames 0-599 (research data, read from ../shared and never committed; the camera file is made
-// by the test in the temporary folder: the frames scaled into a 640x480 picture, as MJPEG, which
-// Chromium's --use-file-for-fake-video-capture plays like a .y4m):
+// by the test in the temporary folder with lib.mjs fakeCameraFile: the frames scaled into a
+// 640x480 picture, as MJPEG, which Chromium's --use-file-for-fake-video-capture plays like a .y4m):
 // - enrolment: the face finder (in a worker) keeps the confidently placed frames, coverage is
 //   shown, ~20 varied frames are built in the build worker while the page keeps drawing; the
 //   model is stored, survives a reload, becomes the source, and the webcam source tracks with it
@@ -18,7 +18,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot, fakeCameraFile } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -30,76 +30,15 @@ if (!HAVE_DATA) {
 }
 
 let server;
-let camera;
 
 before(async () => {
   assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
   assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
   assert.ok(fs.existsSync(path.join(WWW, 'models', 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
   server = await serveStatic(WWW);
-  if (HAVE_DATA) camera = await makeCamera();
 });
 
-after(() => {
-  server?.close();
-  if (camera) fs.rmSync(camera, { force: true });
-});
-
-/** webcam-dev frames 0-599 as a 640x480 MJPEG (drawn and encoded by Chromium), the face scaled
- *  and placed where the page's webcam guide expects it (from the frames' mean landmark box). */
-async function makeCamera() {
-  const N = 600;
-  let [x0, x1, y0, y1] = [0, 0, 0, 0];
-  for (let i = 0; i < N; i += 20) {
-    const pts = fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.pts`), 'utf8');
-    const v = pts.slice(pts.indexOf('{') + 1, pts.indexOf('}')).trim().split(/\s+/).map(Number);
-    const xs = v.filter((_, k) => k % 2 === 0);
-    const ys = v.filter((_, k) => k % 2 === 1);
-    x0 += Math.min(...xs) / 30; x1 += Math.max(...xs) / 30;
-    y0 += Math.min(...ys) / 30; y1 += Math.max(...ys) / 30;
-  }
-  const [W, H] = [640, 480];
-  const scale = (0.5 * H * 0.95) / (y1 - y0); // the guide: 0.5 H high, 0.04 H below the middle
-  const dx = W / 2 - ((x0 + x1) / 2) * scale;
-  const dy = H / 2 + 0.04 * H - ((y0 + y1) / 2) * scale;
-  const browser = await launchBrowser();
-  const frames = await serveStatic(DATA);
-  try {
-    const page = await browser.newPage();
-    await page.goto(`${frames.url}000000.jpg`);
-    const file = path.join(os.tmpdir(), `facemimic-enrol-webcam-${process.pid}.mjpeg`);
-    const out = fs.openSync(file, 'w');
-    for (let start = 0; start < N; start += 100) {
-      const jpegs = await page.evaluate(async ({ start, n, W, H, scale, dx, dy }) => {
-        const c = document.createElement('canvas');
-        c.width = W;
-        c.height = H;
-        const g = c.getContext('2d');
-        const res = [];
-        for (let i = start; i < start + n; i++) {
-          const img = new Image();
-          img.src = `${String(i).padStart(6, '0')}.jpg`;
-          await img.decode();
-          g.fillStyle = '#303030';
-          g.fillRect(0, 0, W, H);
-          g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
-          const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.9));
-          const bytes = new Uint8Array(await blob.arrayBuffer());
-          let bin = '';
-          for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
-          res.push(btoa(bin));
-        }
-        return res;
-      }, { start, n: Math.min(100, N - start), W, H, scale, dx, dy });
-      for (const b of jpegs) fs.writeSync(out, Buffer.from(b, 'base64'));
-    }
-    fs.closeSync(out);
-    return file;
-  } finally {
-    await browser.close();
-    await frames.close();
-  }
-}
+after(() => server?.close());
 
 async function open(t, browser, { permissions, init } = {}) {
   const context = await browser.newContext({ viewport: { width: 1440, height: 1400 }, permissions });
@@ -158,6 +97,8 @@ async function frameRate(page, fn) {
 }
 
 test('enrolment from the webcam: stored, survives a reload, becomes the source and drives the targets', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
+  // webcam-dev frames 0-599, the face placed in the webcam guide (lib.mjs).
+  const camera = await fakeCameraFile(t, DATA, { name: 'enrol-webcam', count: 600 });
   const browser = await launchBrowser([...CAMERA, `--use-file-for-fake-video-capture=${camera}`]);
   t.after(() => browser.close());
   const { page, errors } = await open(t, browser);

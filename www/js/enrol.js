@@ -11,6 +11,7 @@
 
 import { buildInWorker, FinderWorker } from './build-client.js';
 import { download, safeName } from './store.js';
+import { openCamera } from './media.js';
 
 const WANT = 20; // frames a model is built from
 const MIN_FRAMES = 8; // fewer usable frames than this is an error
@@ -360,16 +361,11 @@ export class Enrolment {
 
   async startWebcam() {
     this.stopCapture();
-    const md = navigator.mediaDevices;
-    if (!md?.getUserMedia) {
-      this.update('This browser gives the page no camera (a secure page, http://127.0.0.1 or https, is needed).');
-      return;
-    }
     try {
-      this.stream = await md.getUserMedia({ video: { width: { ideal: 640 }, height: { ideal: 480 }, facingMode: 'user' }, audio: false });
+      this.stream = await openCamera();
     } catch (e) {
-      const denied = e?.name === 'NotAllowedError' || e?.name === 'SecurityError';
-      this.update(denied ? 'Camera permission was denied: allow the camera for this page, then press Webcam again.' : `The camera could not be opened (${e?.message || e?.name || e}).`);
+      // openCamera (media.js) says what happened and what to do; here "Try again" is "Webcam".
+      this.update(e.message.replace('press Try again', 'press Webcam again'));
       return;
     }
     const v = this.els.video;
