@@ -11,7 +11,7 @@
 
 import { buildInWorker, FinderWorker } from './build-client.js';
 import { download, safeName } from './store.js';
-import { openCamera } from './media.js';
+import { openCamera, looksLikeImage, looksLikeVideo } from './media.js';
 
 const WANT = 20; // frames a model is built from
 const MIN_FRAMES = 8; // fewer usable frames than this is an error
@@ -251,8 +251,8 @@ export class Enrolment {
   async readFiles(files) {
     const pts = new Map();
     for (const f of files) if (/\.pts$/i.test(f.name)) pts.set(f.name.replace(/\.pts$/i, ''), f);
-    const images = files.filter((f) => f.type.startsWith('image/'));
-    const videos = files.filter((f) => f.type.startsWith('video/'));
+    const images = files.filter(looksLikeImage);
+    const videos = files.filter((f) => !looksLikeImage(f) && looksLikeVideo(f));
     const problems = [];
     for (const f of images) {
       this.seen++;
@@ -278,10 +278,7 @@ export class Enrolment {
       this.update();
     }
     for (const v of videos) await this.sampleVideoFile(v);
-    if (problems.length) {
-      this.page.notify('error', `${problems.length} file(s) not used`, problems.slice(0, 4).join('; '));
-      this.problems = problems;
-    }
+    if (problems.length) this.page.notify('error', `${problems.length} file(s) not used`, problems.slice(0, 4).join('; '));
     if (!images.length && !videos.length) this.page.notify('error', 'Nothing to use', 'drop photos (with or without .pts files) or a video');
     this.update();
   }
