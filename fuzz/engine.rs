@@ -135,7 +135,7 @@ const FLOATS: [f32; 24] = [
 ];
 
 /// Interesting integers (header fields).
-const INTS: [u32; 16] = [
+pub const INTS: [u32; 16] = [
     0,
     1,
     2,
