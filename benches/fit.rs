@@ -2,9 +2,15 @@
 //!
 //! - `fit/track/grid-spk07`: the spk07 model (built from `train20.txt`) tracking the 75 frames
 //!   of the unseen GRID clip (one criterion iteration = one frame, in sequence).
-//! - `fit/track/franck`: the franck-dev model tracking its first 200 frames (skipped with a
-//!   message when `../shared/data/franck-dev` is absent).
+//! - `fit/track/franck2`: the model built from `franck-dev/train20.txt` tracking the first 300
+//!   frames of the unseen `franck-dev2` (head turns; skipped with a message when
+//!   `../shared/data` is absent).
 //! - `fit/precompute/*`: `Fitter::new` (the per-model precomputation).
+//! - `fit/reacquire/*`: what one re-acquisition costs: the face finder on the frame plus the cold
+//!   fit from the face found (three coarse starts, 3x the iterations), i.e. `Tracker::start_auto`
+//!   then one `track` (franck-dev2 frame 0 with the franck model; webcam-dev frame 600 with a
+//!   model from its frames 0, 30, ..., 570); `*-finder-only` times the finder alone, so the
+//!   cold fit is the difference.
 //!
 //! Run: `cargo bench --bench fit`. Each tracking benchmark also prints the model sizes.
 
@@ -12,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use facemimic::fit::{FitOptions, Fitter, Tracker};
-use facemimic::{io, Builder, Image, Model, TrainingImage};
+use facemimic::{io, Builder, FaceFinder, Image, Model, TrainingImage};
 
 fn build(list: &Path) -> Model {
     let paths = io::read_list(list).expect("list");
@@ -92,14 +98,49 @@ fn benches(c: &mut Criterion) {
     let grid = build(&root.join("data/grid/spk07_pwij3p/train20.txt"));
     let seq = frames(&root.join("data/grid/spk07_id2_vcd_swwp2s"), 75);
     bench_track(c, "grid-spk07", &grid, &seq);
-    let franck = root.join("../shared/data/franck-dev");
-    if franck.join("train20.txt").is_file() {
-        let model = build(&franck.join("train20.txt"));
-        let seq = frames(&franck, 200);
-        bench_track(c, "franck", &model, &seq);
+    let shared = root.join("../shared/data");
+    if shared.join("franck-dev/train20.txt").is_file() {
+        let model = build(&shared.join("franck-dev/train20.txt"));
+        let seq = frames(&shared.join("franck-dev2"), 300);
+        bench_track(c, "franck2", &model, &seq);
+        bench_reacquire(c, "franck2", &model, &seq[0].0);
+        let webcam = shared.join("webcam-dev");
+        let train: Vec<TrainingImage> = (0..600)
+            .step_by(30)
+            .map(|i| io::read_training_image(&webcam.join(format!("{i:06}.jpg"))).expect("frame"))
+            .collect();
+        let model = Builder::default().build(&train, None).expect("model");
+        let frame = io::read_training_image(&webcam.join("000600.jpg")).expect("frame");
+        bench_reacquire(c, "webcam", &model, &frame.image);
     } else {
-        println!("skipping franck: {} is absent", franck.display());
+        println!(
+            "skipping franck2 and webcam: {} is absent",
+            shared.display()
+        );
     }
+}
+
+/// One re-acquisition: the face finder, then the cold fit from the face it found.
+fn bench_reacquire(c: &mut Criterion, name: &str, model: &Model, image: &Image) {
+    let mut tracker = Tracker::new(model, FitOptions::default()).expect("tracker");
+    tracker.set_face_source(Box::new(FaceFinder::new().expect("finder")));
+    let view = image.view().expect("view");
+    let mut group = c.benchmark_group("fit/reacquire");
+    group.sample_size(20);
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            tracker.start_auto().expect("auto");
+            let r = tracker.track(&view).expect("track");
+            assert!(r.reacquired, "no face found");
+            r.error
+        })
+    });
+    // Its first part alone: the face finder on the frame.
+    let mut finder = FaceFinder::new().expect("finder");
+    group.bench_function(format!("{name}-finder-only"), |b| {
+        b.iter(|| finder.find(&view).len())
+    });
+    group.finish();
 }
 
 criterion_group!(fit, benches);

@@ -4,7 +4,7 @@
 //! - `grid`: spk07 from `spk07_pwij3p/train20.txt`, the unseen clip `spk07_id2_vcd_swwp2s`
 //!   (75 frames) from its first frame's landmarks;
 //! - `franck2`: from `franck-dev/train20.txt`, all 1000 frames of `franck-dev2` from the first
-//!   frame's landmarks;
+//!   frame's landmarks; `franck2-auto`: the same started (and re-acquired) by the face finder;
 //! - `webcam`: from webcam-dev frames 0, 30, ..., 570, frames 600-1336 from frame 600's
 //!   landmarks; `webcam-auto`: the same started (and re-acquired) by the face finder;
 //! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/fit.rs`).
@@ -252,10 +252,10 @@ mod native {
                     let seq = load(&all_frames(&repo("data/grid/spk07_id2_vcd_swwp2s")));
                     track("grid", &m, &seq, false);
                 }
-                "franck2" => {
+                "franck2" | "franck2-auto" => {
                     let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
                     let seq = load(&all_frames(&d.join("franck-dev2")));
-                    track("franck2", &m, &seq, false);
+                    track(&set, &m, &seq, set == "franck2-auto");
                 }
                 "franck2-floor" => {
                     // The shape model's own floor: each frame's dlib landmarks projected onto
