@@ -1,7 +1,8 @@
 // "Create a face" from a webcam, in headless Chromium with a fake camera playing webcam-dev
 // frames 0-599 (research data, read from ../shared and never committed; the camera file is made
-// by the test in the temporary folder with lib.mjs fakeCameraFile: the frames scaled into a
-// 640x480 picture, as MJPEG, which Chromium's --use-file-for-fake-video-capture plays like a .y4m):
+// by the test in the temporary folder: the 400x300 JPEGs one after another, an MJPEG stream,
+// which Chromium's --use-file-for-fake-video-capture plays like a .y4m; the page finds the face
+// wherever it is, so no re-framing into the webcam guide is needed):
 // - enrolment: the face finder (in a worker) keeps the confidently placed frames, coverage is
 //   shown, ~20 varied frames are built in the build worker while the page keeps drawing; the
 //   model is stored, survives a reload, becomes the source, and the webcam source tracks with it
@@ -18,7 +19,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot, fakeCameraFile } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -97,8 +98,10 @@ async function frameRate(page, fn) {
 }
 
 test('enrolment from the webcam: stored, survives a reload, becomes the source and drives the targets', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
-  // webcam-dev frames 0-599, the face placed in the webcam guide (lib.mjs).
-  const camera = await fakeCameraFile(t, DATA, { name: 'enrol-webcam', count: 600 });
+  // webcam-dev frames 0-599 as they are (400x300 JPEGs, one after another: an MJPEG stream).
+  const camera = path.join(os.tmpdir(), `facemimic-enrol-webcam-${process.pid}.mjpeg`);
+  fs.writeFileSync(camera, Buffer.concat(Array.from({ length: 600 }, (_, i) => fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.jpg`)))));
+  t.after(() => fs.rmSync(camera, { force: true }));
   const browser = await launchBrowser([...CAMERA, `--use-file-for-fake-video-capture=${camera}`]);
   t.after(() => browser.close());
   const { page, errors } = await open(t, browser);

@@ -351,13 +351,12 @@ async function guideFrames({ dir, count, width = 640, height = 480, black = new 
 }
 
 /**
- * A fake camera for Chromium (`--use-file-for-fake-video-capture=FILE`): the frames of a clip
- * folder (the first `count`, default all) as a 640x480 MJPEG with the face in the webcam guide,
- * written to the temporary folder (removed after the test `t`; never committed). Returns the
- * file's path.
+ * A fake camera for Chromium (`--use-file-for-fake-video-capture=FILE`): the frames of a GRID
+ * clip folder as a 640x480 MJPEG with the face in the webcam guide, written to the temporary
+ * folder (removed after the test `t`; never committed). Returns the file's path.
  */
-export async function fakeCameraFile(t, dir, { name = 'camera', black, count } = {}) {
-  const jpegs = await guideFrames({ dir, black, count });
+export async function fakeCameraFile(t, dir, { name = 'camera', black } = {}) {
+  const jpegs = await guideFrames({ dir, black });
   const file = path.join(os.tmpdir(), `facemimic-${name}-${process.pid}.mjpeg`);
   fs.writeFileSync(file, Buffer.concat(jpegs.map((b) => Buffer.from(b, 'base64'))));
   t.after(() => fs.rmSync(file, { force: true }));
