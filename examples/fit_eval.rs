@@ -7,7 +7,11 @@
 //!   frame's landmarks; `franck2-auto`: the same started (and re-acquired) by the face finder;
 //! - `webcam`: from webcam-dev frames 0, 30, ..., 570, frames 600-1336 from frame 600's
 //!   landmarks; `webcam-auto`: the same started (and re-acquired) by the face finder;
-//! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/fit.rs`).
+//! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/fit.rs`);
+//! - `franck2-floor`: the shape model's floor (dlib landmarks projected onto it) and fits
+//!   started from each frame's dlib landmarks;
+//! - `dump-franck2`: writes the franck model and franck-dev2 frames 3800-4099 as raw RGBA into
+//!   `$FIT_EVAL_DUMP` (default `target/fit-bench`) for `scripts/fit-bench-wasm.cjs`.
 //!
 //! `FIT_OPTIONS='{"refine_iters": 2}'` overrides fields of `FitOptions::default()`;
 //! `FRAME=own` builds in the model's own frame instead of the canonical one;
@@ -256,6 +260,30 @@ mod native {
                     let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
                     let seq = load(&all_frames(&d.join("franck-dev2")));
                     track(&set, &m, &seq, set == "franck2-auto");
+                }
+                "dump-franck2" => {
+                    // For the wasm benchmark (scripts/fit-bench-wasm.cjs): the franck model and
+                    // franck-dev2 frames 3800-4099 as raw RGBA, frame 3800's landmarks.
+                    let out = PathBuf::from(
+                        std::env::var("FIT_EVAL_DUMP").unwrap_or("target/fit-bench".into()),
+                    );
+                    std::fs::create_dir_all(&out).unwrap();
+                    let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
+                    std::fs::write(out.join("model.fmm"), facemimic::format::write_model(&m))
+                        .unwrap();
+                    for i in 3800..4100 {
+                        let f = io::read_training_image(&d.join(format!("franck-dev2/{i:06}.jpg")))
+                            .unwrap();
+                        let [w, h] = [f.image.width, f.image.height];
+                        std::fs::write(out.join(format!("{i}.rgba")), &f.image.data).unwrap();
+                        if i == 3800 {
+                            let s: Vec<String> =
+                                f.landmarks.iter().map(|v| v.to_string()).collect();
+                            std::fs::write(out.join("init.txt"), s.join(" ")).unwrap();
+                            std::fs::write(out.join("size.txt"), format!("{w} {h}")).unwrap();
+                        }
+                    }
+                    println!("dump-franck2: model and 300 frames in {}", out.display());
                 }
                 "franck2-floor" => {
                     // The shape model's own floor: each frame's dlib landmarks projected onto
