@@ -6,6 +6,7 @@
 //! on a box made from the first pass's points settles them. See `docs/finding.md` for the
 //! measured rates and why the pipeline is what it is.
 
+mod calibration;
 mod nets;
 mod nn;
 mod weights;
@@ -154,6 +155,9 @@ pub struct FaceFinder {
     grid: Map,
     raw: [f32; 136],
     candidates: Vec<(BBox, f32)>,
+    /// Whether results are moved onto the dlib convention (`calibration`); off only to
+    /// measure the offsets.
+    calibrate: bool,
 }
 
 impl FaceFinder {
@@ -173,6 +177,7 @@ impl FaceFinder {
             grid: Map::default(),
             raw: [0.0; 136],
             candidates: Vec::new(),
+            calibrate: true,
         })
     }
 
@@ -242,6 +247,10 @@ impl FaceFinder {
             {
                 continue;
             }
+            let mut face = face;
+            if self.calibrate {
+                calibration::apply(&mut face.landmarks);
+            }
             faces.push(face);
         }
         faces.sort_by(|a, b| b.score.total_cmp(&a.score));
@@ -256,12 +265,13 @@ impl FaceFinder {
     /// disagreement of the last two passes (mean point distance over the outer-eye-corner
     /// distance).
     fn refine(&mut self, image: &ImageRef, bbox: BBox, score: f32) -> Option<(Face, f32)> {
-        let mut prev = self.landmarks(image, bbox).ok()?;
+        let mut prev = vec![0.0; 136];
+        self.net_landmarks_into(image, bbox, &mut prev).ok()?;
         let mut cur = vec![0.0; 136];
         let mut d = f32::INFINITY;
         for _ in 0..REFINE_PASSES - 1 {
             let b = BBox::around_landmarks(&prev);
-            self.landmarks_into(image, b, &mut cur).ok()?;
+            self.net_landmarks_into(image, b, &mut cur).ok()?;
             d = landmark_error(&prev, &cur);
             if !d.is_finite() {
                 return None;
@@ -308,7 +318,8 @@ impl FaceFinder {
     }
 
     /// The 68 landmarks of the face in `bbox` (interleaved, image pixels): the landmark net on
-    /// the square around `bbox`.
+    /// the square around `bbox`, its points moved onto the dlib convention by the mean offsets
+    /// measured on GRID (see `src/find/calibration.rs`), as are those of [`find`](Self::find).
     pub fn landmarks(&mut self, image: &ImageRef, bbox: BBox) -> Result<Vec<f32>> {
         let mut out = vec![0.0; 136];
         self.landmarks_into(image, bbox, &mut out)?;
@@ -317,6 +328,16 @@ impl FaceFinder {
 
     /// [`landmarks`](Self::landmarks) into a caller's buffer of 136 values.
     pub fn landmarks_into(&mut self, image: &ImageRef, bbox: BBox, out: &mut [f32]) -> Result<()> {
+        self.net_landmarks_into(image, bbox, out)?;
+        if self.calibrate {
+            calibration::apply(out);
+        }
+        Ok(())
+    }
+
+    /// The landmark net's own points for the face in `bbox` (before the convention offsets of
+    /// `calibration`): what the passes of [`find`](Self::find) compare.
+    fn net_landmarks_into(&mut self, image: &ImageRef, bbox: BBox, out: &mut [f32]) -> Result<()> {
         if out.len() != 136 {
             return Err(Error::Landmarks(format!(
                 "{} values, expected 136",
