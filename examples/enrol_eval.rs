@@ -8,328 +8,343 @@
 //! passes disagree most dropped. `--own` builds in the model's own frame, else the canonical one.
 //!
 //!   cargo run --release --example enrol_eval -- [--own] [--step 5]
+#![cfg_attr(target_arch = "wasm32", no_main)]
 
-use std::path::{Path, PathBuf};
-
-use facemimic::find::BBox;
-use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{
-    io, select_varied, BuildOptions, Builder, FaceFinder, FrameChoice, Image, Model, TrainingImage,
-    MIRROR_68,
-};
-
-const GROUPS: [(&str, std::ops::Range<usize>); 7] = [
-    ("jaw", 0..17),
-    ("brows", 17..27),
-    ("nose", 27..36),
-    ("eyes", 36..48),
-    ("outer lips", 48..60),
-    ("inner lips", 60..68),
-    ("all", 0..68),
-];
-
-fn iod(t: &[f32]) -> f32 {
-    ((t[90] - t[72]).powi(2) + (t[91] - t[73]).powi(2)).sqrt()
-}
-
-fn point_errors(fit: &[f32], truth: &[f32]) -> Vec<f32> {
-    let d = iod(truth);
-    (0..68)
-        .map(|i| {
-            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                .sqrt()
-                / d
-        })
-        .collect()
-}
-
-fn mean(v: &[f32]) -> f32 {
-    v.iter().sum::<f32>() / v.len().max(1) as f32
-}
-
-fn mirrored(img: &Image) -> Image {
-    let (w, h) = (img.width as usize, img.height as usize);
-    let mut data = vec![0u8; img.data.len()];
-    for y in 0..h {
-        for x in 0..w {
-            let (s, d) = (4 * (y * w + x), 4 * (y * w + (w - 1 - x)));
-            data[d..d + 4].copy_from_slice(&img.data[s..s + 4]);
-        }
-    }
-    Image {
-        width: img.width,
-        height: img.height,
-        data,
-    }
-}
-
-/// Finder landmarks averaged over jittered boxes on the image and on its mirror; the mean and
-/// the passes' spread (mean distance of the passes to their mean, over the eye distance).
-fn averaged(finder: &mut FaceFinder, img: &Image, first: &[f32], boxes: usize) -> (Vec<f32>, f32) {
-    let mirror = mirrored(img);
-    let w = img.width as f32;
-    let b = BBox::around_landmarks(first);
-    let mut passes: Vec<Vec<f32>> = Vec::new();
-    for (dx, dy, s) in [
-        (0.0, 0.0, 1.0),
-        (0.04, 0.0, 1.0),
-        (-0.04, 0.0, 1.0),
-        (0.0, 0.04, 1.0),
-        (0.0, -0.04, 1.0),
-        (0.0, 0.0, 1.06),
-        (0.0, 0.0, 0.94),
-    ]
-    .into_iter()
-    .take(boxes)
-    {
-        let bb = BBox {
-            x: b.x + dx * b.width - 0.5 * (s - 1.0) * b.width,
-            y: b.y + dy * b.height - 0.5 * (s - 1.0) * b.height,
-            width: b.width * s,
-            height: b.height * s,
-        };
-        passes.push(finder.landmarks(&img.view().unwrap(), bb).unwrap());
-        let mb = BBox {
-            x: w - bb.x - bb.width,
-            ..bb
-        };
-        let m = finder.landmarks(&mirror.view().unwrap(), mb).unwrap();
-        let mut un = vec![0.0; 136];
-        for i in 0..68 {
-            let j = MIRROR_68[i];
-            un[2 * i] = w - 1.0 - m[2 * j];
-            un[2 * i + 1] = m[2 * j + 1];
-        }
-        passes.push(un);
-    }
-    let mut avg = vec![0.0f32; 136];
-    for p in &passes {
-        for (a, v) in avg.iter_mut().zip(p) {
-            *a += v / passes.len() as f32;
-        }
-    }
-    let spread = mean(
-        &passes
-            .iter()
-            .map(|p| mean(&point_errors(p, &avg)))
-            .collect::<Vec<_>>(),
-    );
-    (avg, spread)
-}
-
-fn build(images: &[TrainingImage], frame: FrameChoice) -> Model {
-    let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
-    let mut keep = select_varied(&shapes, 20).unwrap();
-    keep.sort_unstable();
-    let chosen: Vec<TrainingImage> = keep.iter().map(|&i| images[i].clone()).collect();
-    Builder::new(BuildOptions {
-        frame,
-        ..BuildOptions::default()
-    })
-    .build(&chosen, None)
-    .unwrap()
-}
-
-fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> (f32, Vec<f32>, u32) {
-    let mut t = Tracker::new(model, FitOptions::default()).unwrap();
-    t.start_from_landmarks(init).unwrap();
-    let mut per_point = vec![0.0f32; 68];
-    let mut errs = Vec::new();
-    for f in test {
-        let r = t.track(&f.image.view().unwrap()).unwrap();
-        let e = point_errors(&r.landmarks, &f.landmarks);
-        for (p, v) in per_point.iter_mut().zip(&e) {
-            *p += v / test.len() as f32;
-        }
-        errs.push(mean(&e));
-    }
-    (mean(&errs), per_point, t.resets())
-}
-
-fn groups(per_point: &[f32]) -> String {
-    GROUPS
-        .iter()
-        .map(|(n, r)| format!("{n} {:.4}", mean(&per_point[r.clone()])))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// A frame with a face: (the frame with dlib's landmarks, the finder's, its score, the averaged
-/// landmarks, the passes' spread).
-type Found = (TrainingImage, Vec<f32>, f32, Vec<f32>, f32);
-
+#[cfg(not(target_arch = "wasm32"))]
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let own = args.iter().any(|a| a == "--own");
-    let step: usize = args
-        .iter()
-        .position(|a| a == "--step")
-        .and_then(|i| args.get(i + 1))
-        .map(|s| s.parse().unwrap())
-        .unwrap_or(5);
-    let boxes: usize = args
-        .iter()
-        .position(|a| a == "--boxes")
-        .and_then(|i| args.get(i + 1))
-        .map(|s| s.parse().unwrap())
-        .unwrap_or(1);
-    let frame = if own {
-        FrameChoice::Own
-    } else {
-        FrameChoice::Canonical
-    };
-    let dir: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
-    let read = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
-    let mut finder = FaceFinder::new().unwrap();
-    let t0 = std::time::Instant::now();
+    native::main()
+}
 
-    let mut dlib = Vec::new();
-    // (dlib frame, finder landmarks, finder score, averaged landmarks, spread)
-    let mut found: Vec<Found> = Vec::new();
-    for i in (0..600).step_by(step) {
-        let f = read(i);
-        let faces = finder.find(&f.image.view().unwrap());
-        if let Some(face) = faces.first() {
-            let (avg, spread) = averaged(&mut finder, &f.image, &face.landmarks, boxes);
-            found.push((f.clone(), face.landmarks.clone(), face.score, avg, spread));
-        }
-        dlib.push(f);
+/// Native only: the example reads files.
+#[cfg(not(target_arch = "wasm32"))]
+mod native {
+    use std::path::{Path, PathBuf};
+
+    use facemimic::find::BBox;
+    use facemimic::fit::{FitOptions, Tracker};
+    use facemimic::{
+        io, select_varied, BuildOptions, Builder, FaceFinder, FrameChoice, Image, Model,
+        TrainingImage, MIRROR_68,
+    };
+
+    const GROUPS: [(&str, std::ops::Range<usize>); 7] = [
+        ("jaw", 0..17),
+        ("brows", 17..27),
+        ("nose", 27..36),
+        ("eyes", 36..48),
+        ("outer lips", 48..60),
+        ("inner lips", 60..68),
+        ("all", 0..68),
+    ];
+
+    fn iod(t: &[f32]) -> f32 {
+        ((t[90] - t[72]).powi(2) + (t[91] - t[73]).powi(2)).sqrt()
     }
-    println!(
-        "searched {} frames of 0-599 (every {step}th), faces on {} ({:.1} s)",
-        dlib.len(),
-        found.len(),
-        t0.elapsed().as_secs_f32()
-    );
-    let confident: Vec<_> = found.iter().filter(|f| f.2 >= 0.5).collect();
-    let per = |sel: &dyn Fn(&Found) -> &Vec<f32>, set: &[&Found]| {
-        let mut pp = vec![0.0f32; 68];
-        for f in set {
-            for (p, e) in pp.iter_mut().zip(point_errors(sel(f), &f.0.landmarks)) {
-                *p += e / set.len() as f32;
+
+    fn point_errors(fit: &[f32], truth: &[f32]) -> Vec<f32> {
+        let d = iod(truth);
+        (0..68)
+            .map(|i| {
+                ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
+                    .sqrt()
+                    / d
+            })
+            .collect()
+    }
+
+    fn mean(v: &[f32]) -> f32 {
+        v.iter().sum::<f32>() / v.len().max(1) as f32
+    }
+
+    fn mirrored(img: &Image) -> Image {
+        let (w, h) = (img.width as usize, img.height as usize);
+        let mut data = vec![0u8; img.data.len()];
+        for y in 0..h {
+            for x in 0..w {
+                let (s, d) = (4 * (y * w + x), 4 * (y * w + (w - 1 - x)));
+                data[d..d + 4].copy_from_slice(&img.data[s..s + 4]);
             }
         }
-        pp
-    };
-    println!(
-        "finder error on the {} confident faces (score >= 0.5): {}",
-        confident.len(),
-        groups(&per(&|f| &f.1, &confident))
-    );
-    println!(
-        "averaged ({boxes} boxes x image + mirror):               {}",
-        groups(&per(&|f| &f.3, &confident))
-    );
-    let spreads: Vec<f32> = confident.iter().map(|f| f.4).collect();
-    let errs: Vec<f32> = confident
-        .iter()
-        .map(|f| mean(&point_errors(&f.3, &f.0.landmarks)))
-        .collect();
-    // Correlation of spread and error (does the spread predict a bad frame?).
-    let (ms, me) = (mean(&spreads), mean(&errs));
-    let cov: f32 = spreads
-        .iter()
-        .zip(&errs)
-        .map(|(s, e)| (s - ms) * (e - me))
-        .sum();
-    let vs: f32 = spreads.iter().map(|s| (s - ms).powi(2)).sum();
-    let ve: f32 = errs.iter().map(|e| (e - me).powi(2)).sum();
-    let mut scores: Vec<f32> = found.iter().map(|f| f.2).collect();
-    scores.sort_by(f32::total_cmp);
-    println!(
-        "finder scores: min {:.2}, quartiles {:.2} {:.2} {:.2}, max {:.2}",
-        scores[0],
-        scores[scores.len() / 4],
-        scores[scores.len() / 2],
-        scores[3 * scores.len() / 4],
-        scores[scores.len() - 1]
-    );
-    println!(
-        "pass spread mean {ms:.4}; correlation of spread and averaged error {:.2}",
-        cov / (vs * ve).sqrt()
-    );
+        Image {
+            width: img.width,
+            height: img.height,
+            data,
+        }
+    }
 
-    let test: Vec<TrainingImage> = (600..=1336).map(read).collect();
-    let init = finder
-        .find(&test[0].image.view().unwrap())
-        .first()
-        .expect("a face in frame 600")
-        .landmarks
-        .clone();
-    let with = |set: &[&Found], which: u8| {
-        set.iter()
-            .map(|f| {
-                let mut t = f.0.clone();
-                match which {
-                    1 => t.landmarks = f.1.clone(),
-                    2 => t.landmarks = f.3.clone(),
-                    _ => {}
-                }
-                t
-            })
-            .collect::<Vec<_>>()
-    };
-    let all: Vec<_> = found.iter().collect();
-    let mut sorted = confident.clone();
-    sorted.sort_by(|a, b| a.4.total_cmp(&b.4));
-    let low_spread: Vec<_> = sorted[..sorted.len() * 3 / 4].to_vec();
-    let runs: Vec<(&str, Vec<TrainingImage>)> = vec![
-        ("dlib, every searched frame", dlib.clone()),
-        ("dlib, the confident frames (control)", with(&confident, 0)),
-        ("finder, confident", with(&confident, 1)),
-        ("finder, every face found", with(&all, 1)),
-        (
-            "finder, score >= 0.3",
-            with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 1),
-        ),
-        ("finder averaged, confident", with(&confident, 2)),
-        ("finder averaged, every face found", with(&all, 2)),
-        (
-            "finder averaged, score >= 0.3",
-            with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 2),
-        ),
-        (
-            "finder averaged, confident, 25% highest spread dropped",
-            with(&low_spread, 2),
-        ),
-    ];
-    println!(
-        "frame: {}; tracking 600-1336 from the finder's frame-600 landmarks",
-        if own { "own" } else { "canonical" }
-    );
-    for (k, (name, set)) in runs.into_iter().enumerate() {
-        if k == 5 {
-            // "finder averaged, confident", refined once (fit to its own frames, rebuilt from the
-            // fitted landmarks).
-            let shapes: Vec<&[f32]> = set.iter().map(|t| t.landmarks.as_slice()).collect();
-            let chosen: Vec<TrainingImage> = select_varied(&shapes, 20)
-                .unwrap()
+    /// Finder landmarks averaged over jittered boxes on the image and on its mirror; the mean and
+    /// the passes' spread (mean distance of the passes to their mean, over the eye distance).
+    fn averaged(
+        finder: &mut FaceFinder,
+        img: &Image,
+        first: &[f32],
+        boxes: usize,
+    ) -> (Vec<f32>, f32) {
+        let mirror = mirrored(img);
+        let w = img.width as f32;
+        let b = BBox::around_landmarks(first);
+        let mut passes: Vec<Vec<f32>> = Vec::new();
+        for (dx, dy, s) in [
+            (0.0, 0.0, 1.0),
+            (0.04, 0.0, 1.0),
+            (-0.04, 0.0, 1.0),
+            (0.0, 0.04, 1.0),
+            (0.0, -0.04, 1.0),
+            (0.0, 0.0, 1.06),
+            (0.0, 0.0, 0.94),
+        ]
+        .into_iter()
+        .take(boxes)
+        {
+            let bb = BBox {
+                x: b.x + dx * b.width - 0.5 * (s - 1.0) * b.width,
+                y: b.y + dy * b.height - 0.5 * (s - 1.0) * b.height,
+                width: b.width * s,
+                height: b.height * s,
+            };
+            passes.push(finder.landmarks(&img.view().unwrap(), bb).unwrap());
+            let mb = BBox {
+                x: w - bb.x - bb.width,
+                ..bb
+            };
+            let m = finder.landmarks(&mirror.view().unwrap(), mb).unwrap();
+            let mut un = vec![0.0; 136];
+            for i in 0..68 {
+                let j = MIRROR_68[i];
+                un[2 * i] = w - 1.0 - m[2 * j];
+                un[2 * i + 1] = m[2 * j + 1];
+            }
+            passes.push(un);
+        }
+        let mut avg = vec![0.0f32; 136];
+        for p in &passes {
+            for (a, v) in avg.iter_mut().zip(p) {
+                *a += v / passes.len() as f32;
+            }
+        }
+        let spread = mean(
+            &passes
                 .iter()
-                .map(|&i| set[i].clone())
-                .collect();
-            let m = Builder::new(BuildOptions {
-                frame,
-                ..BuildOptions::default()
-            })
-            .build_refined(&chosen, None, 1, &mut |_| true)
-            .unwrap();
+                .map(|p| mean(&point_errors(p, &avg)))
+                .collect::<Vec<_>>(),
+        );
+        (avg, spread)
+    }
+
+    fn build(images: &[TrainingImage], frame: FrameChoice) -> Model {
+        let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+        let mut keep = select_varied(&shapes, 20).unwrap();
+        keep.sort_unstable();
+        let chosen: Vec<TrainingImage> = keep.iter().map(|&i| images[i].clone()).collect();
+        Builder::new(BuildOptions {
+            frame,
+            ..BuildOptions::default()
+        })
+        .build(&chosen, None)
+        .unwrap()
+    }
+
+    fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> (f32, Vec<f32>, u32) {
+        let mut t = Tracker::new(model, FitOptions::default()).unwrap();
+        t.start_from_landmarks(init).unwrap();
+        let mut per_point = vec![0.0f32; 68];
+        let mut errs = Vec::new();
+        for f in test {
+            let r = t.track(&f.image.view().unwrap()).unwrap();
+            let e = point_errors(&r.landmarks, &f.landmarks);
+            for (p, v) in per_point.iter_mut().zip(&e) {
+                *p += v / test.len() as f32;
+            }
+            errs.push(mean(&e));
+        }
+        (mean(&errs), per_point, t.resets())
+    }
+
+    fn groups(per_point: &[f32]) -> String {
+        GROUPS
+            .iter()
+            .map(|(n, r)| format!("{n} {:.4}", mean(&per_point[r.clone()])))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// A frame with a face: (the frame with dlib's landmarks, the finder's, its score, the averaged
+    /// landmarks, the passes' spread).
+    type Found = (TrainingImage, Vec<f32>, f32, Vec<f32>, f32);
+
+    pub(crate) fn main() {
+        let args: Vec<String> = std::env::args().collect();
+        let own = args.iter().any(|a| a == "--own");
+        let step: usize = args
+            .iter()
+            .position(|a| a == "--step")
+            .and_then(|i| args.get(i + 1))
+            .map(|s| s.parse().unwrap())
+            .unwrap_or(5);
+        let boxes: usize = args
+            .iter()
+            .position(|a| a == "--boxes")
+            .and_then(|i| args.get(i + 1))
+            .map(|s| s.parse().unwrap())
+            .unwrap_or(1);
+        let frame = if own {
+            FrameChoice::Own
+        } else {
+            FrameChoice::Canonical
+        };
+        let dir: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
+        let read = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
+        let mut finder = FaceFinder::new().unwrap();
+        let t0 = std::time::Instant::now();
+
+        let mut dlib = Vec::new();
+        // (dlib frame, finder landmarks, finder score, averaged landmarks, spread)
+        let mut found: Vec<Found> = Vec::new();
+        for i in (0..600).step_by(step) {
+            let f = read(i);
+            let faces = finder.find(&f.image.view().unwrap());
+            if let Some(face) = faces.first() {
+                let (avg, spread) = averaged(&mut finder, &f.image, &face.landmarks, boxes);
+                found.push((f.clone(), face.landmarks.clone(), face.score, avg, spread));
+            }
+            dlib.push(f);
+        }
+        println!(
+            "searched {} frames of 0-599 (every {step}th), faces on {} ({:.1} s)",
+            dlib.len(),
+            found.len(),
+            t0.elapsed().as_secs_f32()
+        );
+        let confident: Vec<_> = found.iter().filter(|f| f.2 >= 0.5).collect();
+        let per = |sel: &dyn Fn(&Found) -> &Vec<f32>, set: &[&Found]| {
+            let mut pp = vec![0.0f32; 68];
+            for f in set {
+                for (p, e) in pp.iter_mut().zip(point_errors(sel(f), &f.0.landmarks)) {
+                    *p += e / set.len() as f32;
+                }
+            }
+            pp
+        };
+        println!(
+            "finder error on the {} confident faces (score >= 0.5): {}",
+            confident.len(),
+            groups(&per(&|f| &f.1, &confident))
+        );
+        println!(
+            "averaged ({boxes} boxes x image + mirror):               {}",
+            groups(&per(&|f| &f.3, &confident))
+        );
+        let spreads: Vec<f32> = confident.iter().map(|f| f.4).collect();
+        let errs: Vec<f32> = confident
+            .iter()
+            .map(|f| mean(&point_errors(&f.3, &f.0.landmarks)))
+            .collect();
+        // Correlation of spread and error (does the spread predict a bad frame?).
+        let (ms, me) = (mean(&spreads), mean(&errs));
+        let cov: f32 = spreads
+            .iter()
+            .zip(&errs)
+            .map(|(s, e)| (s - ms) * (e - me))
+            .sum();
+        let vs: f32 = spreads.iter().map(|s| (s - ms).powi(2)).sum();
+        let ve: f32 = errs.iter().map(|e| (e - me).powi(2)).sum();
+        let mut scores: Vec<f32> = found.iter().map(|f| f.2).collect();
+        scores.sort_by(f32::total_cmp);
+        println!(
+            "finder scores: min {:.2}, quartiles {:.2} {:.2} {:.2}, max {:.2}",
+            scores[0],
+            scores[scores.len() / 4],
+            scores[scores.len() / 2],
+            scores[3 * scores.len() / 4],
+            scores[scores.len() - 1]
+        );
+        println!(
+            "pass spread mean {ms:.4}; correlation of spread and averaged error {:.2}",
+            cov / (vs * ve).sqrt()
+        );
+
+        let test: Vec<TrainingImage> = (600..=1336).map(read).collect();
+        let init = finder
+            .find(&test[0].image.view().unwrap())
+            .first()
+            .expect("a face in frame 600")
+            .landmarks
+            .clone();
+        let with = |set: &[&Found], which: u8| {
+            set.iter()
+                .map(|f| {
+                    let mut t = f.0.clone();
+                    match which {
+                        1 => t.landmarks = f.1.clone(),
+                        2 => t.landmarks = f.3.clone(),
+                        _ => {}
+                    }
+                    t
+                })
+                .collect::<Vec<_>>()
+        };
+        let all: Vec<_> = found.iter().collect();
+        let mut sorted = confident.clone();
+        sorted.sort_by(|a, b| a.4.total_cmp(&b.4));
+        let low_spread: Vec<_> = sorted[..sorted.len() * 3 / 4].to_vec();
+        let runs: Vec<(&str, Vec<TrainingImage>)> = vec![
+            ("dlib, every searched frame", dlib.clone()),
+            ("dlib, the confident frames (control)", with(&confident, 0)),
+            ("finder, confident", with(&confident, 1)),
+            ("finder, every face found", with(&all, 1)),
+            (
+                "finder, score >= 0.3",
+                with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 1),
+            ),
+            ("finder averaged, confident", with(&confident, 2)),
+            ("finder averaged, every face found", with(&all, 2)),
+            (
+                "finder averaged, score >= 0.3",
+                with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 2),
+            ),
+            (
+                "finder averaged, confident, 25% highest spread dropped",
+                with(&low_spread, 2),
+            ),
+        ];
+        println!(
+            "frame: {}; tracking 600-1336 from the finder's frame-600 landmarks",
+            if own { "own" } else { "canonical" }
+        );
+        for (k, (name, set)) in runs.into_iter().enumerate() {
+            if k == 5 {
+                // "finder averaged, confident", refined once (fit to its own frames, rebuilt from the
+                // fitted landmarks).
+                let shapes: Vec<&[f32]> = set.iter().map(|t| t.landmarks.as_slice()).collect();
+                let chosen: Vec<TrainingImage> = select_varied(&shapes, 20)
+                    .unwrap()
+                    .iter()
+                    .map(|&i| set[i].clone())
+                    .collect();
+                let m = Builder::new(BuildOptions {
+                    frame,
+                    ..BuildOptions::default()
+                })
+                .build_refined(&chosen, None, 1, &mut |_| true)
+                .unwrap();
+                let (e, pp, resets) = track(&m, &test, &init);
+                println!(
+                    "{:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
+                    "finder averaged, confident, refined once",
+                    set.len(),
+                    m.shape().n_modes(),
+                    groups(&pp)
+                );
+            }
+            let m = build(&set, frame);
             let (e, pp, resets) = track(&m, &test, &init);
             println!(
-                "{:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
-                "finder averaged, confident, refined once",
+                "{name:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
                 set.len(),
                 m.shape().n_modes(),
                 groups(&pp)
             );
         }
-        let m = build(&set, frame);
-        let (e, pp, resets) = track(&m, &test, &init);
-        println!(
-            "{name:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
-            set.len(),
-            m.shape().n_modes(),
-            groups(&pp)
-        );
+        println!("total {:.1} s", t0.elapsed().as_secs_f32());
     }
-    println!("total {:.1} s", t0.elapsed().as_secs_f32());
 }

@@ -582,3 +582,21 @@ fn fit_starts_from_the_face_finder() {
         assert!(err < 0.08, "{}: error {err}", v[0]);
     }
 }
+
+#[test]
+fn a_reader_that_goes_away_is_not_an_error() {
+    // `facemimic inspect M.fmm | head -c 1`: the reader closes the pipe before the JSON is
+    // written; the command ends quietly with success instead of an "internal error".
+    let mut child = Command::new(env!("CARGO_BIN_EXE_facemimic"))
+        .arg("inspect")
+        .arg(spk07_model())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn facemimic");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}: {err}", out.status);
+    assert!(err.is_empty(), "stderr: {err}");
+}

@@ -125,7 +125,7 @@ pub fn run(a: Args) -> Result<()> {
         serde_json::to_string(cloner.target_params(0)).map_err(|e| Error::Io(e.to_string()))?;
     match &a.out_params {
         Some(p) => write(p, &format!("{json}\n"))?,
-        None if a.out.is_none() && a.out_pts.is_none() => println!("{json}"),
+        None if a.out.is_none() && a.out_pts.is_none() => crate::print_line(&json)?,
         None => {}
     }
     Ok(())

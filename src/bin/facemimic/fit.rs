@@ -127,7 +127,7 @@ pub fn run(a: Args) -> Result<()> {
     let frames = results.len();
     let iters = results.iter().map(|r| r.iterations as f64).sum::<f64>() / frames.max(1) as f64;
     let converged = results.iter().filter(|r| r.converged).count();
-    println!(
+    crate::print_line(&format!(
         "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
          {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions -> {}",
         frames as f64 / secs.max(1e-9),
@@ -136,6 +136,5 @@ pub fn run(a: Args) -> Result<()> {
         tracker.lost_count(),
         tracker.reacquisitions(),
         a.out.display()
-    );
-    Ok(())
+    ))
 }

@@ -36,6 +36,5 @@ pub fn run(a: Args) -> Result<()> {
         "image_height": m.image_size()[1],
         "mean_pose": m.mean_pose(),
     });
-    println!("{json}");
-    Ok(())
+    crate::print_line(&json.to_string())
 }

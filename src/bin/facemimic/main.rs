@@ -15,6 +15,20 @@ mod project;
 #[cfg(not(target_arch = "wasm32"))]
 mod render;
 
+/// Writes `text` and a newline to standard output. A reader that has gone away (`facemimic
+/// inspect M.fmm | head`) is not an error: there is no one left to tell.
+#[cfg(not(target_arch = "wasm32"))]
+pub(crate) fn print_line(text: &str) -> facemimic::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(facemimic::Error::Io(format!("standard output: {e}")))
+        }
+        _ => Ok(()),
+    }
+}
+
 #[cfg(not(target_arch = "wasm32"))]
 mod cli {
     use clap::{Parser, Subcommand};

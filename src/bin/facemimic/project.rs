@@ -20,9 +20,7 @@ pub fn run(a: Args) -> Result<()> {
     let params = model
         .project(&t.image.view()?, &t.landmarks)
         .map_err(|e| e.with_context(&a.image.display().to_string()))?;
-    println!(
-        "{}",
-        serde_json::to_string(&params).map_err(|e| facemimic::Error::Io(e.to_string()))?
-    );
-    Ok(())
+    crate::print_line(
+        &serde_json::to_string(&params).map_err(|e| facemimic::Error::Io(e.to_string()))?,
+    )
 }
