@@ -51,7 +51,7 @@ pub(crate) fn apply(points: &mut [f32]) {
 
 /// The mean of `truth - raw` over pairs of 68-point shapes, each difference expressed in its
 /// raw shape's face frame: the table [`apply`] adds. Degenerate shapes are skipped.
-#[cfg(test)]
+#[cfg(all(test, not(target_arch = "wasm32")))]
 fn offsets(pairs: &[(Vec<f32>, Vec<f32>)]) -> Vec<f32> {
     let mut sum = vec![0f64; 136];
     let mut n = 0usize;
