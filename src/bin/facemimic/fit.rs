@@ -5,7 +5,40 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{io, Error, FaceFinder, Result};
+use facemimic::{io, Error, FaceFinder, Image, Result, Similarity};
+
+/// The height of the landmarks' bounding box (pixels).
+fn face_height(points: &[f32]) -> f32 {
+    let ys = points.iter().skip(1).step_by(2);
+    let (lo, hi) = ys.fold((f32::MAX, f32::MIN), |(lo, hi), &y| (lo.min(y), hi.max(y)));
+    hi - lo
+}
+
+/// `points` in a copy of the frame resampled by `k` (pixel centres on integers, the
+/// resampled pixels covering the same picture).
+fn scaled(points: &[f32], k: f32) -> Vec<f32> {
+    points.iter().map(|v| (v + 0.5) * k - 0.5).collect()
+}
+
+/// `img` resampled by `k` (bilinear, as the page's canvas does).
+fn resample(img: &Image, k: f32) -> Result<Image> {
+    let (w, h) = (
+        ((img.width as f32 * k).round() as u32).max(1),
+        ((img.height as f32 * k).round() as u32).max(1),
+    );
+    let src = image::ImageBuffer::<image::Rgba<u8>, &[u8]>::from_raw(
+        img.width,
+        img.height,
+        &img.data[..],
+    )
+    .ok_or_else(|| Error::Image(format!("{}x{}: short pixel buffer", img.width, img.height)))?;
+    let out = image::imageops::resize(&src, w, h, image::imageops::FilterType::Triangle);
+    Ok(Image {
+        width: w,
+        height: h,
+        data: out.into_raw(),
+    })
+}
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -51,6 +84,10 @@ pub fn run(a: Args) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     let first = &images[0];
     let mut tracker = Tracker::new(&model, options)?;
+    // The fit scale (resampled pixels per frame pixel), chosen by the tracker's policy for the
+    // face's size as the page and the npm package choose it: large faces are fitted in a
+    // smaller copy of the frame, at about the size the model was built at.
+    let mut k = 1.0f32;
     if a.init.as_os_str() == "auto" {
         if model.landmarks() != 68 {
             return Err(Error::Params(format!(
@@ -62,18 +99,45 @@ pub fn run(a: Args) -> Result<()> {
         tracker.start_auto()?;
     } else {
         let init = io::read_landmarks(&a.init, first.width, first.height)?;
+        k = tracker.fit_scale(face_height(&init), first.width, first.height, 0.0);
         tracker
-            .start_from_landmarks(&init)
+            .start_from_landmarks(&scaled(&init, k))
             .map_err(|e| e.with_context(&a.init.display().to_string()))?;
     }
 
     let mut results = Vec::with_capacity(images.len());
+    let mut resampled = None;
     let t0 = Instant::now();
     for (img, path) in images.iter().zip(&a.frames) {
-        let r = tracker
-            .track(&img.view()?)
-            .map_err(|e| e.with_context(&path.display().to_string()))?;
-        results.push(r.clone());
+        let context = |e: Error| e.with_context(&path.display().to_string());
+        let view = if k == 1.0 {
+            img.view()?
+        } else {
+            resampled
+                .insert(resample(img, k).map_err(context)?)
+                .view()?
+        };
+        let r = tracker.track(&view).map_err(context)?;
+        // Back to frame pixels.
+        let mut out = r.clone();
+        if k != 1.0 {
+            out.landmarks = scaled(&r.landmarks, 1.0 / k);
+            let p = r.params.pose;
+            out.params.pose =
+                Similarity::from_parts(p.scale() / k, p.rotation(), p.tx / k, p.ty / k);
+        }
+        // The face grew or shrank a lot: carry on at a new scale.
+        if !r.lost {
+            let want = tracker.fit_scale(face_height(&out.landmarks), img.width, img.height, k);
+            if want != k
+                && tracker
+                    .start_from_landmarks(&scaled(&out.landmarks, want))
+                    .is_ok()
+            {
+                k = want;
+            }
+        }
+        results.push(out);
     }
     let secs = t0.elapsed().as_secs_f64();
 
