@@ -52,13 +52,17 @@ pub enum FrameChoice {
 pub struct BuildOptions {
     /// A short name stored in the model.
     pub name: String,
-    /// Fraction of shape variance kept (default 0.98).
+    /// Fraction of shape variance kept (default 0.99; see [`BuildOptions::max_shape_modes`]).
     pub shape_variance: f64,
     /// Fraction of appearance variance kept (default 0.98).
     pub appearance_variance: f64,
     /// Width of the base face in frame pixels when the model has its own frame (default 150).
     pub face_width: f32,
-    /// Most shape modes kept.
+    /// Most shape modes kept (default 12). With the 15-20 training images of a person-specific
+    /// model, the modes past about a dozen describe a few images each and are poorly estimated:
+    /// kept, they let the fitter's appearance-aware steps push them far off (GRID spk07 at 99%
+    /// of the variance, 15 modes: a reset per frame with a weak shape prior). Measured in
+    /// docs/fitting.md ("Towards franck-dev2 <= 0.016").
     pub max_shape_modes: usize,
     /// Most appearance modes kept.
     pub max_appearance_modes: usize,
@@ -72,10 +76,10 @@ impl Default for BuildOptions {
     fn default() -> Self {
         BuildOptions {
             name: String::from("model"),
-            shape_variance: 0.98,
+            shape_variance: 0.99,
             appearance_variance: 0.98,
             face_width: 150.0,
-            max_shape_modes: 64,
+            max_shape_modes: 12,
             max_appearance_modes: 64,
             reference: ReferenceChoice::Mean,
             frame: FrameChoice::Canonical,

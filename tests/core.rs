@@ -129,6 +129,8 @@ fn build(images: &[TrainingImage], shape_variance: f64, appearance_variance: f64
         face_width: 60.0,
         // These tests check the builder's own Procrustes gauge and scale.
         frame: facemimic::FrameChoice::Own,
+        // ...and its variance fractions, so no cap on the number of modes.
+        max_shape_modes: 64,
         ..BuildOptions::default()
     })
     .build(images, None)

@@ -165,15 +165,18 @@ fn tracked_appearance_stays_within_the_limit_for_another_face() {
             .map(|(l, s)| (l / s).abs())
             .fold(0.0f32, f32::max)
     };
+    // A limit the unclamped fit exceeds (2.6 sigma with the default fitter; 3 sigma is the
+    // policy's default limit).
+    const LIMIT: f32 = 2.0;
     let unclamped = run(0.0);
-    let clamped = run(3.0);
+    let clamped = run(LIMIT);
     assert!(
-        unclamped > 3.0,
-        "spk02 projects within 3 sigma of spk07 ({unclamped}): no test"
+        unclamped > LIMIT,
+        "spk02 projects within {LIMIT} sigma of spk07 ({unclamped}): no test"
     );
     assert!(
-        clamped <= 3.0 + 1e-4,
-        "largest |lambda / sigma| {clamped} > 3"
+        clamped <= LIMIT + 1e-4,
+        "largest |lambda / sigma| {clamped} > {LIMIT}"
     );
 }
 

@@ -86,7 +86,7 @@ impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
             max_iters: 10,
-            refine_iters: 0,
+            refine_iters: 2,
             levels: vec![
                 LevelSpec {
                     step: 4,
@@ -102,7 +102,7 @@ impl Default for FitOptions {
                 },
             ],
             tolerance: 0.05,
-            shape_prior: 3e-5,
+            shape_prior: 1e-5,
             gain_bias: true,
             channels: 1,
             appearance: true,

@@ -52,7 +52,7 @@ export interface BuildModelOptions {
    *  frames and rebuild from the fitted landmarks. Measured to halve finder-like landmark noise
    *  but to track unseen frames worse (docs/fitting.md), hence off by default. */
   refine?: number;
-  /** Fractions of the variance kept (default 0.98 each). */
+  /** Fractions of the variance kept (default 0.99 of the shape, at most 12 modes, and 0.98 of the appearance). */
   shapeVariance?: number; appearanceVariance?: number;
   /** The face finder's score (0..1) a face needs to be used, for frames given without
    *  landmarks (default 0: every face the finder accepts). */

@@ -18,8 +18,8 @@ pub struct Args {
     /// model clones only with models built in its frame).
     #[arg(long)]
     own_frame: bool,
-    /// Fraction of shape variance to keep.
-    #[arg(long, default_value_t = 0.98, value_name = "F")]
+    /// Fraction of shape variance to keep (at most 12 shape modes are kept).
+    #[arg(long, default_value_t = 0.99, value_name = "F")]
     shape_variance: f64,
     /// Fraction of appearance variance to keep.
     #[arg(long, default_value_t = 0.98, value_name = "F")]

@@ -193,7 +193,8 @@ pub fn run(a: Args) -> Result<()> {
     let converged = results.iter().filter(|r| r.converged).count();
     crate::print_line(&format!(
         "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
-         {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions -> {}",
+         {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
+         fit scale {k:.3} -> {}",
         frames as f64 / secs.max(1e-9),
         1e3 * secs / frames.max(1) as f64,
         tracker.resets(),
