@@ -47,11 +47,13 @@ fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> (f32, u32) {
 
 /// Long (about 30 s in release: 120 finder searches, two models tracked over 737 frames), so
 /// opt-in: `cargo test --release --test enrol_webcam -- --ignored --nocapture`. It FAILS today:
-/// the enrolled model tracks at 0.0238 against the dlib model's 0.0141 (1.69x); the finder's
+/// its assertions pass (0.0238 against the dlib model's 0.0260), but only because the dlib
+/// model of the farthest-point frames, at the builder's default 99% of the shape variance,
+/// loses the chin under the hand; built at 98% it tracks at 0.0126 (1.89x). The finder's
 /// points differ from dlib's by a per-person offset that the error against dlib counts
 /// (docs/fitting.md, "Enrolment with the face finder's landmarks"). Kept so the gap is measured.
 #[test]
-#[ignore = "opt-in; fails today: 0.0238 vs 0.0141, 1.69x (docs/fitting.md)"]
+#[ignore = "opt-in; the 1.3x target is met only against a weakened reference (docs/fitting.md)"]
 fn finder_enrolled_model_tracks_unseen_frames() {
     let Some(dir) = shared_data("webcam-dev") else {
         return;
