@@ -129,6 +129,32 @@ pub fn read_list(list: &Path) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
+/// Every annotated image under `dir` (searched recursively): the `.jpg`, `.jpeg` and `.png`
+/// files with a `.pts` file of the same stem beside them, sorted by path. The shared data sets
+/// and `data/grid` are laid out this way.
+pub fn annotated_images(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let entries =
+            std::fs::read_dir(&d).map_err(|e| Error::Io(format!("{}: {e}", d.display())))?;
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p
+                .extension()
+                .is_some_and(|x| x == "jpg" || x == "jpeg" || x == "png")
+                && p.with_extension("pts").is_file()
+            {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
 /// Writes a tiny-skia pixmap (premultiplied) as a PNG file (straight alpha).
 pub fn write_pixmap(path: &Path, pixmap: &tiny_skia::Pixmap) -> Result<()> {
     let rgba = crate::render::demultiply(pixmap);

@@ -29,21 +29,7 @@ fn shared() -> Option<PathBuf> {
 }
 
 fn frames(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "jpg") && p.with_extension("pts").exists()
-            {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
+    io::annotated_images(dir).unwrap()
 }
 
 #[test]
