@@ -159,7 +159,16 @@ fn landmarks_with_a_bad_box_are_js_errors() {
     let (rgba, w, h) = frame();
     let mut finder = JsFaceFinder::new().expect("finder");
     let e = message(finder.landmarks(&rgba, w, h, JsValue::NULL).unwrap_err());
-    assert!(e.contains("box.x"), "{e}");
+    assert!(e.contains("FaceFinder.landmarks: box must be"), "{e}");
+    // A box without its height.
+    let partial = js_box(1.0, 2.0, 50.0, 50.0);
+    Reflect::delete_property(
+        partial.unchecked_ref::<js_sys::Object>(),
+        &JsValue::from_str("height"),
+    )
+    .unwrap();
+    let e = message(finder.landmarks(&rgba, w, h, partial).unwrap_err());
+    assert!(e.contains("height"), "{e}");
     let e = message(
         finder
             .landmarks(&rgba, w, h, js_box(10.0, 10.0, f64::NAN, 50.0))

@@ -39,11 +39,16 @@ fn face_frame(points: &[f32]) -> Option<([f32; 2], f32, f32, f32)> {
 /// Adds the convention offsets ([`OFFSETS`], in the face's frame) to 68 points in place; a
 /// degenerate shape is left as it is.
 pub(crate) fn apply(points: &mut [f32]) {
+    apply_table(points, &OFFSETS);
+}
+
+/// [`apply`] with another table of offsets (the held-out measurements).
+fn apply_table(points: &mut [f32], offsets: &[f32]) {
     debug_assert_eq!(points.len(), 136);
     let Some((_, r, c, s)) = face_frame(points) else {
         return;
     };
-    for (p, o) in points.chunks_exact_mut(2).zip(OFFSETS.chunks_exact(2)) {
+    for (p, o) in points.chunks_exact_mut(2).zip(offsets.chunks_exact(2)) {
         p[0] += r * (c * o[0] - s * o[1]);
         p[1] += r * (s * o[0] + c * o[1]);
     }
@@ -195,11 +200,7 @@ mod tests {
             for (_, r, t) in pairs {
                 let mut p = r.clone();
                 if let Some(o) = table {
-                    let (_, rad, c, s) = face_frame(&p).unwrap();
-                    for (q, o) in p.chunks_exact_mut(2).zip(o.chunks_exact(2)) {
-                        q[0] += rad * (c * o[0] - s * o[1]);
-                        q[1] += rad * (s * o[0] + c * o[1]);
-                    }
+                    apply_table(&mut p, o);
                 }
                 sum += landmark_error(&p, t);
             }

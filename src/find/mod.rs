@@ -22,7 +22,7 @@ pub const DETECTOR_WEIGHTS: &[u8] = include_bytes!("../../data/weights/tiny_face
 pub const LANDMARK_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_landmark_68.fmw");
 
 /// An axis-aligned box in image pixels.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BBox {
     /// Left edge.
     pub x: f32,

@@ -85,21 +85,11 @@ impl JsFaceFinder {
     ) -> Result<Float32Array, JsError> {
         let img = ImageRef::new(width, height, rgba)
             .map_err(|e| JsError::new(&format!("FaceFinder.landmarks: {e}")))?;
-        let get = |k: &str| -> Result<f32, JsError> {
-            let v = Reflect::get(&bbox, &JsValue::from_str(k))
-                .ok()
-                .and_then(|v| v.as_f64())
-                .ok_or_else(|| {
-                    JsError::new(&format!("FaceFinder.landmarks: box.{k} must be a number"))
-                })?;
-            Ok(v as f32)
-        };
-        let b = BBox {
-            x: get("x")?,
-            y: get("y")?,
-            width: get("width")?,
-            height: get("height")?,
-        };
+        let b: BBox = serde_wasm_bindgen::from_value(bbox).map_err(|e| {
+            JsError::new(&format!(
+                "FaceFinder.landmarks: box must be {{x, y, width, height}} in numbers: {e}"
+            ))
+        })?;
         let points = self
             .inner
             .landmarks(&img, b)
