@@ -20,11 +20,9 @@ fn main() {
 mod native {
     use std::path::{Path, PathBuf};
 
-    use facemimic::find::BBox;
     use facemimic::fit::{FitOptions, Tracker};
     use facemimic::{
-        io, select_varied, BuildOptions, Builder, FaceFinder, FrameChoice, Image, Model,
-        TrainingImage, MIRROR_68,
+        io, select_varied, BuildOptions, Builder, EnrolFinder, FrameChoice, Model, TrainingImage,
     };
 
     const GROUPS: [(&str, std::ops::Range<usize>); 7] = [
@@ -54,81 +52,6 @@ mod native {
 
     fn mean(v: &[f32]) -> f32 {
         v.iter().sum::<f32>() / v.len().max(1) as f32
-    }
-
-    fn mirrored(img: &Image) -> Image {
-        let (w, h) = (img.width as usize, img.height as usize);
-        let mut data = vec![0u8; img.data.len()];
-        for y in 0..h {
-            for x in 0..w {
-                let (s, d) = (4 * (y * w + x), 4 * (y * w + (w - 1 - x)));
-                data[d..d + 4].copy_from_slice(&img.data[s..s + 4]);
-            }
-        }
-        Image {
-            width: img.width,
-            height: img.height,
-            data,
-        }
-    }
-
-    /// Finder landmarks averaged over jittered boxes on the image and on its mirror; the mean and
-    /// the passes' spread (mean distance of the passes to their mean, over the eye distance).
-    fn averaged(
-        finder: &mut FaceFinder,
-        img: &Image,
-        first: &[f32],
-        boxes: usize,
-    ) -> (Vec<f32>, f32) {
-        let mirror = mirrored(img);
-        let w = img.width as f32;
-        let b = BBox::around_landmarks(first);
-        let mut passes: Vec<Vec<f32>> = Vec::new();
-        for (dx, dy, s) in [
-            (0.0, 0.0, 1.0),
-            (0.04, 0.0, 1.0),
-            (-0.04, 0.0, 1.0),
-            (0.0, 0.04, 1.0),
-            (0.0, -0.04, 1.0),
-            (0.0, 0.0, 1.06),
-            (0.0, 0.0, 0.94),
-        ]
-        .into_iter()
-        .take(boxes)
-        {
-            let bb = BBox {
-                x: b.x + dx * b.width - 0.5 * (s - 1.0) * b.width,
-                y: b.y + dy * b.height - 0.5 * (s - 1.0) * b.height,
-                width: b.width * s,
-                height: b.height * s,
-            };
-            passes.push(finder.landmarks(&img.view().unwrap(), bb).unwrap());
-            let mb = BBox {
-                x: w - bb.x - bb.width,
-                ..bb
-            };
-            let m = finder.landmarks(&mirror.view().unwrap(), mb).unwrap();
-            let mut un = vec![0.0; 136];
-            for i in 0..68 {
-                let j = MIRROR_68[i];
-                un[2 * i] = w - 1.0 - m[2 * j];
-                un[2 * i + 1] = m[2 * j + 1];
-            }
-            passes.push(un);
-        }
-        let mut avg = vec![0.0f32; 136];
-        for p in &passes {
-            for (a, v) in avg.iter_mut().zip(p) {
-                *a += v / passes.len() as f32;
-            }
-        }
-        let spread = mean(
-            &passes
-                .iter()
-                .map(|p| mean(&point_errors(p, &avg)))
-                .collect::<Vec<_>>(),
-        );
-        (avg, spread)
     }
 
     fn build(images: &[TrainingImage], frame: FrameChoice) -> Model {
@@ -194,7 +117,7 @@ mod native {
         };
         let dir: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
         let read = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
-        let mut finder = FaceFinder::new().unwrap();
+        let mut enrol = EnrolFinder::new(boxes).unwrap();
         let t0 = std::time::Instant::now();
 
         let mut dlib = Vec::new();
@@ -202,10 +125,18 @@ mod native {
         let mut found: Vec<Found> = Vec::new();
         for i in (0..600).step_by(step) {
             let f = read(i);
-            let faces = finder.find(&f.image.view().unwrap());
+            let view = f.image.view().unwrap();
+            let faces = enrol.finder().find(&view);
             if let Some(face) = faces.first() {
-                let (avg, spread) = averaged(&mut finder, &f.image, &face.landmarks, boxes);
-                found.push((f.clone(), face.landmarks.clone(), face.score, avg, spread));
+                if let Some(avg) = enrol.average(&view, face).unwrap() {
+                    found.push((
+                        f.clone(),
+                        face.landmarks.clone(),
+                        face.score,
+                        avg.landmarks,
+                        avg.spread,
+                    ));
+                }
             }
             dlib.push(f);
         }
@@ -264,7 +195,8 @@ mod native {
         );
 
         let test: Vec<TrainingImage> = (600..=1336).map(read).collect();
-        let init = finder
+        let init = enrol
+            .finder()
             .find(&test[0].image.view().unwrap())
             .first()
             .expect("a face in frame 600")
