@@ -91,9 +91,6 @@ impl BBox {
 
 /// Landmark passes per detector box at most (see [`FaceFinder::find`]).
 const REFINE_PASSES: usize = 3;
-/// The passes stop early when two agree within this share of
-/// [`FindOptions::max_disagreement`].
-const EARLY_AGREEMENT: f32 = 1.0;
 
 /// One face found in an image.
 #[derive(Clone, Debug, PartialEq)]
@@ -154,6 +151,8 @@ pub struct FaceFinder {
     input: Map,
     grid: Map,
     raw: [f32; 136],
+    /// The scratch landmark pass of `refine`.
+    pass: Vec<f32>,
     candidates: Vec<(BBox, f32)>,
     /// Whether results are moved onto the dlib convention (`calibration`); off only to
     /// measure the offsets.
@@ -176,6 +175,7 @@ impl FaceFinder {
             input: Map::default(),
             grid: Map::default(),
             raw: [0.0; 136],
+            pass: Vec::new(),
             candidates: Vec::new(),
             calibrate: true,
         })
@@ -265,23 +265,15 @@ impl FaceFinder {
     /// disagreement of the last two passes (mean point distance over the outer-eye-corner
     /// distance).
     fn refine(&mut self, image: &ImageRef, bbox: BBox, score: f32) -> Option<(Face, f32)> {
+        // `prev` becomes the face's landmarks (the result); `cur` is the finder's scratch pass,
+        // kept between calls, so nothing else is allocated.
         let mut prev = vec![0.0; 136];
         self.net_landmarks_into(image, bbox, &mut prev).ok()?;
-        let mut cur = vec![0.0; 136];
-        let mut d = f32::INFINITY;
-        for _ in 0..REFINE_PASSES - 1 {
-            let b = BBox::around_landmarks(&prev);
-            self.net_landmarks_into(image, b, &mut cur).ok()?;
-            d = landmark_error(&prev, &cur);
-            if !d.is_finite() {
-                return None;
-            }
-            std::mem::swap(&mut prev, &mut cur);
-            if d <= self.options.max_disagreement * EARLY_AGREEMENT {
-                break;
-            }
-        }
-        // `prev` is now the last pass.
+        let mut cur = std::mem::take(&mut self.pass);
+        cur.resize(136, 0.0);
+        let d = self.settle(image, &mut prev, &mut cur);
+        self.pass = cur;
+        let d = d?;
         let face = Face {
             bbox: BBox::around_landmarks(&prev),
             score: score
@@ -291,6 +283,27 @@ impl FaceFinder {
             landmarks: prev,
         };
         Some((face, d))
+    }
+
+    /// Landmark passes after `prev` (the first), each on the box of the previous pass's points,
+    /// until two successive passes agree within [`FindOptions::max_disagreement`] or
+    /// [`REFINE_PASSES`] have run; leaves the last pass in `prev` and returns the disagreement
+    /// of the last two (`None` on a failed or non-finite pass).
+    fn settle(&mut self, image: &ImageRef, prev: &mut [f32], cur: &mut [f32]) -> Option<f32> {
+        let mut d = f32::INFINITY;
+        for _ in 0..REFINE_PASSES - 1 {
+            let b = BBox::around_landmarks(prev);
+            self.net_landmarks_into(image, b, cur).ok()?;
+            d = landmark_error(prev, cur);
+            if !d.is_finite() {
+                return None;
+            }
+            prev.copy_from_slice(cur);
+            if d <= self.options.max_disagreement {
+                break;
+            }
+        }
+        Some(d)
     }
 
     /// The detector's boxes and scores (after non-maximum suppression), most confident first,
