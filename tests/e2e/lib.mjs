@@ -53,12 +53,6 @@ const MIME = {
   '.fmm': 'application/octet-stream',
 };
 
-/**
- * Serve a directory (relative to the repo root, or absolute) on 127.0.0.1 at a free port.
- * GET/HEAD only; paths are confined to the directory; `/` and directories serve `index.html`.
- * Returns `{ url, port, requests, close }`; `requests` lists every path asked for (so a test can
- * check that nothing outside the origin was wanted).
- */
 /** File types served gzip-compressed (text and wasm; not models or media). */
 const GZIP_TYPES = new Set(['.html', '.js', '.mjs', '.css', '.json', '.wasm', '.svg', '.txt']);
 const gzipCache = new Map();
@@ -73,8 +67,16 @@ async function gzipped(file, st) {
   return body;
 }
 
-export async function serveStatic(dir) {
-  const base = path.resolve(ROOT, dir);
+/**
+ * Serve a directory (relative to the repo root, or absolute) on 127.0.0.1 at a free port.
+ * GET/HEAD only; paths are confined to the directory; `/` and directories serve `index.html`.
+ * `mounts` maps URL prefixes to other directories served on the same origin, e.g.
+ * `{ '/research/webcam-dev/': '/abs/path' }` (research data read where it lies, never copied).
+ * Returns `{ url, port, requests, close }`; `requests` lists every path asked for (so a test can
+ * check that nothing outside the origin was wanted).
+ */
+export async function serveStatic(dir, { mounts = {} } = {}) {
+  const roots = Object.entries(mounts).map(([prefix, d]) => [prefix.endsWith('/') ? prefix : `${prefix}/`, path.resolve(ROOT, d)]);
   const requests = [];
   const server = http.createServer(async (req, res) => {
     try {
@@ -84,7 +86,10 @@ export async function serveStatic(dir) {
         res.writeHead(405).end();
         return;
       }
-      let file = path.join(base, decodeURIComponent(url.pathname));
+      const mount = roots.find(([prefix]) => url.pathname.startsWith(prefix));
+      const base = mount ? mount[1] : path.resolve(ROOT, dir);
+      const rel = mount ? url.pathname.slice(mount[0].length - 1) : url.pathname;
+      let file = path.join(base, decodeURIComponent(rel));
       if (file !== base && !file.startsWith(base + path.sep)) {
         res.writeHead(403).end();
         return;
