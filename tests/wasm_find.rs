@@ -185,3 +185,35 @@ fn landmarks_with_a_bad_box_are_js_errors() {
         .landmarks(&rgba[..100], w, h, js_box(0.0, 0.0, 50.0, 50.0))
         .is_err());
 }
+
+/// `FaceFinder.enrol` is the free `enrolFace` run by the finder object (one finder for a page's
+/// worker): the same face on the GRID frame, `null` on a flat image, bad input a JS error.
+#[wasm_bindgen_test]
+fn enrol_is_enrol_face_with_this_finder() {
+    let (rgba, w, h) = frame();
+    let mut finder = JsFaceFinder::new().expect("finder");
+    let a = finder.enrol(&rgba, w, h, None).expect("enrol");
+    let b = facemimic::wasm::enrol_face(&rgba, w, h, None).expect("enrolFace");
+    let la = Float32Array::from(get(&a, "landmarks")).to_vec();
+    let lb = Float32Array::from(get(&b, "landmarks")).to_vec();
+    assert_eq!(la.len(), 136);
+    assert_eq!(la, lb, "the same landmarks as enrolFace");
+    assert_eq!(num(&a, "score"), num(&b, "score"));
+    assert_eq!(num(&a, "spread"), num(&b, "spread"));
+    // The most confident face only when it scores at least minScore.
+    assert!(finder
+        .enrol(&rgba, w, h, Some(1.0))
+        .expect("enrol")
+        .is_null());
+    let flat = vec![128u8; (w * h * 4) as usize];
+    assert!(finder.enrol(&flat, w, h, None).expect("enrol").is_null());
+    let e = message(finder.enrol(&rgba, w, h, Some(2.0)).unwrap_err());
+    assert!(
+        e.contains("FaceFinder.enrol") && e.contains("minScore"),
+        "{e}"
+    );
+    let e = message(finder.enrol(&rgba[..64], w, h, None).unwrap_err());
+    assert!(e.contains("FaceFinder.enrol"), "{e}");
+    // find still works on the same object.
+    assert_eq!(finder.find(&rgba, w, h).expect("find").length(), 1);
+}

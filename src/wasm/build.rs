@@ -449,7 +449,7 @@ pub fn build_model(
 const DEFAULT_MIN_SCORE: f32 = 0.0;
 
 /// Boxes the enrolment finder averages (each on the image and its mirror; docs/fitting.md).
-const ENROL_BOXES: usize = 1;
+pub(super) const ENROL_BOXES: usize = 1;
 
 thread_local! {
     /// One enrolment finder per thread (worker), made on first use: its nets and buffers are
@@ -527,17 +527,29 @@ pub fn enrol_face(
     min_score: Option<f32>,
 ) -> Result<JsValue, JsError> {
     install_panic_hook();
+    with_finder(|f| enrol_with(f, "enrolFace", rgba, width, height, min_score))
+}
+
+/// `enrolFace` with a given finder (`FaceFinder.enrol` passes its own, so one page worker holds
+/// one finder for both uses); `what` names the caller in errors.
+pub(super) fn enrol_with(
+    finder: &mut EnrolFinder,
+    what: &str,
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    min_score: Option<f32>,
+) -> Result<JsValue, JsError> {
     let min_score = match min_score {
         None => DEFAULT_MIN_SCORE,
         Some(s) if (0.0..=1.0).contains(&s) => s,
-        Some(_) => return Err(JsError::new("enrolFace: minScore must be in 0..=1")),
+        Some(_) => return Err(JsError::new(&format!("{what}: minScore must be in 0..=1"))),
     };
     let img =
-        ImageRef::new(width, height, rgba).map_err(|e| JsError::new(&format!("enrolFace: {e}")))?;
-    let face = with_finder(|f| {
-        f.find(&img, min_score)
-            .map_err(|e| JsError::new(&format!("enrolFace: {e}")))
-    })?;
+        ImageRef::new(width, height, rgba).map_err(|e| JsError::new(&format!("{what}: {e}")))?;
+    let face = finder
+        .find(&img, min_score)
+        .map_err(|e| JsError::new(&format!("{what}: {e}")))?;
     let Some(face) = face else {
         return Ok(JsValue::NULL);
     };
@@ -545,7 +557,7 @@ pub fn enrol_face(
     let set = |k: &str, v: &JsValue| {
         js_sys::Reflect::set(&o, &JsValue::from_str(k), v)
             .map(|_| ())
-            .map_err(|_| JsError::new("enrolFace: cannot build the result"))
+            .map_err(|_| JsError::new(&format!("{what}: cannot build the result")))
     };
     set(
         "landmarks",

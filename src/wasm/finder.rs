@@ -5,7 +5,7 @@ use wasm_bindgen::prelude::*;
 
 use super::install_panic_hook;
 use crate::find::BBox;
-use crate::{FaceFinder, ImageRef};
+use crate::{EnrolFinder, ImageRef};
 
 #[wasm_bindgen(typescript_custom_section)]
 const TS_FIND: &'static str = r##"
@@ -21,9 +21,11 @@ export interface FoundFace {
 "##;
 
 /// Finds faces (face-api.js's tiny detector and 68-point landmark net, embedded weights).
+/// Holds one finder for `find`, `landmarks` and `enrol` (a page's worker serves both tracking
+/// and enrolment with one copy of the nets).
 #[wasm_bindgen(js_name = FaceFinder)]
 pub struct JsFaceFinder {
-    inner: FaceFinder,
+    inner: EnrolFinder,
 }
 
 fn set(o: &Object, k: &str, v: &JsValue) -> Result<(), JsError> {
@@ -38,7 +40,7 @@ impl JsFaceFinder {
     #[wasm_bindgen(constructor)]
     pub fn new() -> Result<JsFaceFinder, JsError> {
         install_panic_hook();
-        FaceFinder::new()
+        EnrolFinder::new(super::build::ENROL_BOXES)
             .map(|inner| JsFaceFinder { inner })
             .map_err(|e| JsError::new(&format!("FaceFinder: {e}")))
     }
@@ -49,7 +51,7 @@ impl JsFaceFinder {
         let img = ImageRef::new(width, height, rgba)
             .map_err(|e| JsError::new(&format!("FaceFinder.find: {e}")))?;
         let out = Array::new();
-        for f in self.inner.find(&img) {
+        for f in self.inner.finder().find(&img) {
             let o = Object::new();
             let b = Object::new();
             set(&b, "x", &f.bbox.x.into())?;
@@ -92,9 +94,31 @@ impl JsFaceFinder {
         })?;
         let points = self
             .inner
+            .finder()
             .landmarks(&img, b)
             .map_err(|e| JsError::new(&format!("FaceFinder.landmarks: {e}")))?;
         Ok(Float32Array::from(points.as_slice()))
+    }
+
+    /// The face `buildModel` would use in a straight RGBA frame, as the free `enrolFace` returns
+    /// it (the most confident face scoring at least `minScore`, default 0, its points averaged
+    /// with a pass on the mirrored image; `null` when there is none), with this finder.
+    #[wasm_bindgen(unchecked_return_type = "EnrolFace | null")]
+    pub fn enrol(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] rgba: &[u8],
+        width: u32,
+        height: u32,
+        #[wasm_bindgen(js_name = "minScore")] min_score: Option<f32>,
+    ) -> Result<JsValue, JsError> {
+        super::build::enrol_with(
+            &mut self.inner,
+            "FaceFinder.enrol",
+            rgba,
+            width,
+            height,
+            min_score,
+        )
     }
 }
 

@@ -22,7 +22,7 @@ mod pose;
 mod surface;
 mod tracker;
 
-pub use build::build_model;
+pub use build::{build_model, enrol_face};
 pub use cloner::JsCloner;
 pub use finder::JsFaceFinder;
 pub use model::{render_mode, JsModel};

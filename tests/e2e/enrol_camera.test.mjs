@@ -314,9 +314,12 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
   await page.keyboard.press('Escape');
 
   // Survives a reload; becomes the source from the shelf.
+  const workers = []; // the workers this page (since the reload) started, by script
+  page.on('worker', (w) => workers.push(new URL(w.url()).pathname));
   await page.reload();
   await ready(page);
   assert.deepEqual(await shelf(page), [{ name: 'Webcam man', damaged: false }]);
+  workers.length = 0;
 
   // Accuracy on the unseen frames 600-1336: the stored model against the dlib-landmark model,
   // measured with the source on the sliders (the page idle: its drawing would pace the loop).
@@ -352,6 +355,20 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
     assert.notEqual(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`), digests[i], `target ${i} does not move`);
   }
   await screenshot(page, 'enrol-webcam-drives-targets', { fullPage: false });
+
+  // Enrolling again while the webcam source tracks: both find faces with the page's one finder
+  // worker, and both go on (tracking keeps fitting while frames are sampled).
+  const fitsBefore = await page.evaluate(() => window.facemimicTracking.fits);
+  await openEnrol(page);
+  await page.getByRole('button', { name: 'Webcam', exact: true }).click();
+  await page.waitForFunction(() => window.facemimicEnrol.candidates.length >= 4, null, { timeout: 60_000 });
+  const fitsDuring = (await page.evaluate(() => window.facemimicTracking.fits)) - fitsBefore;
+  const finders = workers.filter((u) => u.endsWith('/finder-worker.js')).length;
+  console.log(`# while enrolling: ${fitsDuring} fits tracked; workers started since the reload: ${workers.join(', ')}`);
+  assert.equal(finders, 1, `one face-finder worker for tracking and enrolment (${workers.join(', ')})`);
+  assert.ok(!workers.some((u) => u.endsWith('/build-worker.js')), 'no build worker before a build');
+  assert.ok(fitsDuring >= 10, `the webcam source fitted ${fitsDuring} frames while the enrolment sampled`);
+  await page.keyboard.press('Escape');
   assert.deepEqual(errors, []);
 });
 

@@ -1,6 +1,6 @@
 // The page's side of www/js/build-worker.js: build a model in a worker, with progress and
-// cancelling (one worker per build, terminated when the build ends or is cancelled), and find
-// faces in sampled frames in a long-lived worker (FinderWorker).
+// cancelling (one worker per build, terminated when the build ends or is cancelled). Faces in
+// sampled frames are found by the page's finder worker (finder-client.js).
 
 let nextId = 1;
 const WORKER_URL = new URL('./build-worker.js', import.meta.url);
@@ -63,53 +63,4 @@ export function buildInWorker(options, { onProgress, signal } = {}) {
     for (const f of options.frames || []) if (f?.rgba?.buffer instanceof ArrayBuffer) transfer.push(f.rgba.buffer);
     worker.postMessage({ id, options }, [...new Set(transfer)]);
   });
-}
-
-/**
- * The face finder in a worker of its own, for sampling frames while the page keeps drawing.
- * `find(frame)` sends a copy of the frame's pixels and resolves to the most confident face
- * ({ landmarks, score, spread }, as the package's enrolFace) or null; `busy` says a search is under way (callers sample only
- * when it is not, so frames never queue up). `close()` ends the worker.
- */
-export class FinderWorker {
-  constructor(minScore = 0) {
-    this.minScore = minScore;
-    this.worker = startWorker();
-    this.pending = new Map();
-    this.busy = false;
-    this.failed = null;
-    this.worker.onmessage = (e) => {
-      const m = e.data;
-      const p = this.pending.get(m.id);
-      if (!p) return;
-      this.pending.delete(m.id);
-      this.busy = this.pending.size > 0;
-      if (m.type === 'found') p.resolve(m.face);
-      else p.reject(new Error(m.message));
-    };
-    this.worker.onerror = (e) => {
-      this.failed = new Error(`the face finder worker failed: ${e.message || 'script error'}`);
-      for (const p of this.pending.values()) p.reject(this.failed);
-      this.pending.clear();
-      this.busy = false;
-    };
-  }
-
-  find(frame) {
-    if (this.failed) return Promise.reject(this.failed);
-    return new Promise((resolve, reject) => {
-      const id = nextId++;
-      this.pending.set(id, { resolve, reject });
-      this.busy = true;
-      const rgba = frame.rgba.slice();
-      this.worker.postMessage({ id, find: { rgba, width: frame.width, height: frame.height }, minScore: this.minScore }, [rgba.buffer]);
-    });
-  }
-
-  close() {
-    this.worker.terminate();
-    for (const p of this.pending.values()) p.reject(new Error('cancelled'));
-    this.pending.clear();
-    this.busy = false;
-  }
 }

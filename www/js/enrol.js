@@ -1,7 +1,8 @@
 // "Create a face": enrolment of a person's model in the page, from photos, a video file or the
 // webcam. Frames are read as RGBA; each frame's 68 landmarks come from a `.pts` file dropped with
-// a photo, else from the package's face finder, run in a worker (build-client.js FinderWorker) so
-// the page keeps drawing while frames are sampled; frames whose face was not found confidently
+// a photo, else from the package's face finder, run in the page's finder worker (finder-client.js
+// `enrolFace`, the worker the tracking sources use too) so the page keeps drawing while frames
+// are sampled; frames whose face was not found confidently
 // are skipped and counted. Out of the frames kept, about 20 varied ones
 // are chosen (farthest-point sampling of the aligned shapes, `selectVaried`; the coverage of the
 // expression space is shown while sampling), the model is built in a Web Worker
@@ -9,7 +10,8 @@
 // shown in the inspector; then "Use as source", "Add as target" and "Download .fmm".
 // Nothing is stored until the build has finished: a cancelled or failed build leaves nothing.
 
-import { buildInWorker, FinderWorker } from './build-client.js';
+import { buildInWorker } from './build-client.js';
+import { enrolFace } from './finder-client.js';
 import { download, safeName } from './store.js';
 import { openCamera, looksLikeImage, looksLikeVideo } from './media.js';
 
@@ -51,7 +53,6 @@ export class Enrolment {
     this.page = page;
     this.candidates = []; // { rgba, width, height, landmarks }
     this.seen = 0;
-    this.finder = null;
     this.stream = null;
     this.timer = null;
     this.abort = null;
@@ -99,11 +100,9 @@ export class Enrolment {
     e.file.addEventListener('change', () => this.addFiles([...e.file.files]));
     e.build.addEventListener('click', () => this.build());
     e.cancel.addEventListener('click', () => this.cancel());
-    d.addEventListener('close', () => {
-      this.stopCapture();
-      this.finder?.close();
-      this.finder = null;
-    });
+    // Closing ends the capture; a search under way finishes in the worker and is dropped
+    // (sampleFrom checks the session).
+    d.addEventListener('close', () => this.stopCapture());
     d.addEventListener('dragover', (ev) => {
       ev.preventDefault();
       ev.stopPropagation();
@@ -159,15 +158,9 @@ export class Enrolment {
     this.update('Choose the webcam, or drop photos or a video.');
   }
 
-  /** The face finder's worker, started on first use. */
-  getFinder() {
-    if (!this.finder || this.finder.failed) this.finder = new FinderWorker(MIN_SCORE);
-    return this.finder;
-  }
-
-  /** Landmarks of the most confident face in a frame (found in the worker), or null. */
+  /** Landmarks of the most confident face in a frame (found in the page's finder worker), or null. */
   async findFace(frame) {
-    const face = await this.getFinder().find(frame);
+    const face = await enrolFace(frame, MIN_SCORE);
     return face ? Float32Array.from(face.landmarks) : null;
   }
 

@@ -1,7 +1,11 @@
-// A Web Worker running the package's FaceFinder, so finding faces (a few hundred milliseconds
-// for a 640x480 frame) never stalls the page's drawing. Messages in: { id, data (RGBA
-// ArrayBuffer, transferred), width, height }. Messages out: { id, faces: [{ box, score,
-// landmarks (Float32Array, transferred) }], ms } or { id, error }.
+// The page's one face-finder Web Worker (one copy of the finder's nets and of the wasm), serving
+// both the tracking sources and the enrolment, so finding faces (tens to hundreds of
+// milliseconds a frame) never stalls the page's drawing. Messages in: { id, kind: "find" |
+// "enrol", data (RGBA ArrayBuffer, transferred), width, height, minScore? }. Messages out:
+//   find:  { id, faces: [{ box, score, landmarks (Float32Array, transferred) }], ms }
+//   enrol: { id, face: { landmarks, score, spread } | null, ms }   (the package's FaceFinder.enrol:
+//          the face buildModel would use, its points averaged with a pass on the mirror)
+//   or { id, error }.
 import init, { FaceFinder } from '../pkg/facemimic.js';
 
 let finder = null;
@@ -10,11 +14,18 @@ const ready = init().then(() => {
 });
 
 self.onmessage = async (e) => {
-  const { id, data, width, height } = e.data || {};
+  const { id, kind, data, width, height, minScore } = e.data || {};
   try {
     await ready;
+    const rgba = new Uint8Array(data);
     const t0 = performance.now();
-    const found = finder.find(new Uint8Array(data), width, height);
+    if (kind === 'enrol') {
+      const f = finder.enrol(rgba, width, height, minScore ?? 0);
+      const face = f ? { landmarks: f.landmarks, score: f.score, spread: f.spread } : null;
+      self.postMessage({ id, face, ms: performance.now() - t0 }, face ? [face.landmarks.buffer] : []);
+      return;
+    }
+    const found = finder.find(rgba, width, height);
     const ms = performance.now() - t0;
     const faces = found.map((f) => ({ box: { ...f.box }, score: f.score, landmarks: f.landmarks }));
     self.postMessage({ id, faces, ms }, faces.map((f) => f.landmarks.buffer));
