@@ -72,14 +72,8 @@ pub struct Params {
 /// bounds of the file format ([`crate::bounds`]) are checked when a model is read or written.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
-    name: String,
-    scheme: LandmarkScheme,
-    shape: ShapeModel,
-    appearance: AppearanceModel,
-    frame: ReferenceFrame,
-    reference: Reference,
-    mean_pose: Similarity,
-    image_size: [u32; 2],
+    /// The parts, checked by [`Model::new`].
+    parts: ModelParts,
 }
 
 /// Everything a [`Model`] is made of, with public fields: build one, then check it with
@@ -117,109 +111,85 @@ impl Model {
                 parts.name
             )));
         }
-        let ModelParts {
-            name,
-            scheme,
-            shape,
-            appearance,
-            frame,
-            reference,
-            mean_pose,
-            image_size,
-        } = parts;
-        Ok(Model {
-            name,
-            scheme,
-            shape,
-            appearance,
-            frame,
-            reference,
-            mean_pose,
-            image_size,
-        })
+        Ok(Model { parts })
     }
 
     /// Takes the model apart (to change a part and check it again with [`Model::new`]).
     pub fn into_parts(self) -> ModelParts {
-        ModelParts {
-            name: self.name,
-            scheme: self.scheme,
-            shape: self.shape,
-            appearance: self.appearance,
-            frame: self.frame,
-            reference: self.reference,
-            mean_pose: self.mean_pose,
-            image_size: self.image_size,
-        }
+        self.parts
     }
 
     /// A short name (for people; e.g. "spk07").
     pub fn name(&self) -> &str {
-        &self.name
+        &self.parts.name
     }
 
     /// Renames the model (any text; the file format limits its length when it is written).
     pub fn set_name(&mut self, name: impl Into<String>) {
-        self.name = name.into();
+        self.parts.name = name.into();
     }
 
     /// The landmark layout.
     pub fn scheme(&self) -> LandmarkScheme {
-        self.scheme
+        self.parts.scheme
     }
 
     /// The shape model (Eq. 1), in model coordinates.
     pub fn shape(&self) -> &ShapeModel {
-        &self.shape
+        &self.parts.shape
     }
 
     /// The appearance model (Eq. 2) over the frame's pixels.
     pub fn appearance(&self) -> &AppearanceModel {
-        &self.appearance
+        &self.parts.appearance
     }
 
     /// The reference frame (mesh, pixel grid, barycentrics).
     pub fn frame(&self) -> &ReferenceFrame {
-        &self.frame
+        &self.parts.frame
     }
 
     /// Which face the bases show.
     pub fn reference(&self) -> &Reference {
-        &self.reference
+        &self.parts.reference
     }
 
     /// The average pose of the training faces in their images.
     pub fn mean_pose(&self) -> Similarity {
-        self.mean_pose
+        self.parts.mean_pose
     }
 
     /// The size of the training images `[width, height]`.
     pub fn image_size(&self) -> [u32; 2] {
-        self.image_size
+        self.parts.image_size
     }
 
     /// Number of landmarks.
     pub fn landmarks(&self) -> usize {
-        self.shape.landmarks()
+        self.parts.shape.landmarks()
     }
 
     /// The parameters of the base face at the average training pose.
     pub fn base_params(&self) -> Params {
         Params {
-            pose: self.mean_pose,
-            shape: vec![0.0; self.shape.n_modes()],
-            appearance: vec![0.0; self.appearance.n_modes()],
+            pose: self.parts.mean_pose,
+            shape: vec![0.0; self.parts.shape.n_modes()],
+            appearance: vec![0.0; self.parts.appearance.n_modes()],
         }
     }
 
     /// Checks that `params` fits this model: lengths, finite values within
     /// [`crate::bounds::MAX_PARAM`], a pose within the pose bounds (see [`crate::bounds`]).
     pub fn check_params(&self, params: &Params) -> Result<()> {
-        check_len("shape parameters", &params.shape, self.shape.n_modes())?;
+        check_len(
+            "shape parameters",
+            &params.shape,
+            self.parts.shape.n_modes(),
+        )?;
         check_len(
             "appearance parameters",
             &params.appearance,
-            self.appearance.n_modes(),
+            self.parts.appearance.n_modes(),
         )?;
         check_param_values("shape parameters", &params.shape)?;
         check_param_values("appearance parameters", &params.appearance)?;
@@ -229,8 +199,8 @@ impl Model {
     /// The instance's landmarks in image coordinates: `pose(s0 + S p)` into `out` (`2n`).
     pub fn image_shape(&self, params: &Params, out: &mut [f32]) -> Result<()> {
         self.check_params(params)?;
-        check_len("shape buffer", out, self.shape.base.len())?;
-        self.shape.instance_unchecked(&params.shape, out);
+        check_len("shape buffer", out, self.parts.shape.base.len())?;
+        self.parts.shape.instance_unchecked(&params.shape, out);
         params.pose.apply_in_place(out);
         check_output("instance landmarks", out)
     }
@@ -238,20 +208,23 @@ impl Model {
     /// Projects a face: its landmarks (image coordinates) give the pose and `p`; the image
     /// sampled at the landmarks into the frame gives `lambda`.
     pub fn project(&self, image: &ImageRef<'_>, landmarks: &[f32]) -> Result<Params> {
-        if landmarks.len() != self.shape.base.len() {
+        if landmarks.len() != self.parts.shape.base.len() {
             return Err(Error::Landmarks(format!(
                 "{} points given, the model '{}' has {} landmarks",
                 landmarks.len() / 2,
-                self.name,
+                self.parts.name,
                 self.landmarks()
             )));
         }
-        let mut shape = vec![0.0; self.shape.n_modes()];
-        let pose = self.shape.project_image_shape(landmarks, &mut shape)?;
-        let mut g = vec![0.0; self.appearance.len()];
-        crate::warp::sample_rgb(&self.frame, image, landmarks, &mut g)?;
-        let mut appearance = vec![0.0; self.appearance.n_modes()];
-        self.appearance.project(&g, &mut appearance);
+        let mut shape = vec![0.0; self.parts.shape.n_modes()];
+        let pose = self
+            .parts
+            .shape
+            .project_image_shape(landmarks, &mut shape)?;
+        let mut g = vec![0.0; self.parts.appearance.len()];
+        crate::warp::sample_rgb(&self.parts.frame, image, landmarks, &mut g)?;
+        let mut appearance = vec![0.0; self.parts.appearance.n_modes()];
+        self.parts.appearance.project(&g, &mut appearance);
         check_output("appearance parameters", &appearance)?;
         check_output("shape parameters", &shape)?;
         Ok(Params {
@@ -264,32 +237,32 @@ impl Model {
     /// Fails with [`Error::Incompatible`] unless `other` uses the same landmark scheme and the
     /// same reference frame (same pixels), naming what differs.
     pub fn check_compatible(&self, other: &Model) -> Result<()> {
-        if self.scheme != other.scheme {
+        if self.parts.scheme != other.parts.scheme {
             return Err(Error::Incompatible(format!(
                 "'{}' has {} landmarks ({:?}), '{}' has {} ({:?})",
-                self.name,
+                self.parts.name,
                 self.landmarks(),
-                self.scheme,
-                other.name,
+                self.parts.scheme,
+                other.parts.name,
                 other.landmarks(),
-                other.scheme
+                other.parts.scheme
             )));
         }
-        if self.frame != other.frame {
+        if self.parts.frame != other.parts.frame {
             return Err(Error::Incompatible(format!(
                 "'{}' and '{}' use different reference frames (fingerprints {:016x} and {:016x}, \
                  {}x{} with {} pixels and {}x{} with {} pixels); build one in the other's frame \
                  with `facemimic build --frame`",
-                self.name,
-                other.name,
-                self.frame.fingerprint(),
-                other.frame.fingerprint(),
-                self.frame.width(),
-                self.frame.height(),
-                self.frame.n_pixels(),
-                other.frame.width(),
-                other.frame.height(),
-                other.frame.n_pixels()
+                self.parts.name,
+                other.parts.name,
+                self.parts.frame.fingerprint(),
+                other.parts.frame.fingerprint(),
+                self.parts.frame.width(),
+                self.parts.frame.height(),
+                self.parts.frame.n_pixels(),
+                other.parts.frame.width(),
+                other.parts.frame.height(),
+                other.parts.frame.n_pixels()
             )));
         }
         Ok(())
