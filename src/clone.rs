@@ -472,7 +472,24 @@ struct Step<'a> {
     options: &'a CloneOptions,
 }
 
-impl Step<'_> {
+impl<'a> Step<'a> {
+    /// The step of one source frame (`source` its parameters) prepared in `prepared`.
+    fn of(
+        model: &'a Model,
+        prepared: &'a Prepared,
+        source: &'a Params,
+        options: &'a CloneOptions,
+    ) -> Step<'a> {
+        Step {
+            source: model,
+            source_mean_inverse: &prepared.source_mean_inverse,
+            source_pose: &source.pose,
+            p: &prepared.shape,
+            lambda: &prepared.appearance,
+            options,
+        }
+    }
+
     /// Clones the step onto one target (`model`, `pair`) into `out`; `acc` is shape scratch.
     /// Fails with [`Error::Overflow`] naming an output that is not finite.
     fn clone_onto(
@@ -559,13 +576,23 @@ impl Step<'_> {
 #[derive(Clone, Debug)]
 pub struct Cloner {
     source: Model,
-    source_mean_inverse: Similarity,
     source_shape_sigmas: Vec<f32>,
     source_appearance_sigmas: Vec<f32>,
     targets: Vec<Target>,
-    gained_shape: Vec<f32>,
-    gained_appearance: Vec<f32>,
+    scratch: Prepared,
     acc: Vec<f64>,
+}
+
+/// The source's side of a frame, written by `Cloner::prepare` and read by every target's
+/// [`Step`]: kept apart from the targets and the shape scratch so both can be borrowed at once.
+#[derive(Clone, Debug)]
+struct Prepared {
+    /// The inverse of the source's mean pose.
+    source_mean_inverse: Similarity,
+    /// The gained (and, for `substitute`, constrained) source shape parameters.
+    shape: Vec<f32>,
+    /// The gained (and constrained) source appearance parameters.
+    appearance: Vec<f32>,
 }
 
 impl Cloner {
@@ -576,12 +603,14 @@ impl Cloner {
             .inverse()
             .ok_or_else(|| Error::Incompatible("the source's mean pose is degenerate".into()))?;
         Ok(Cloner {
-            source_mean_inverse: inv,
             source_shape_sigmas: source.shape().sigmas(),
             source_appearance_sigmas: source.appearance().sigmas(),
             targets: Vec::new(),
-            gained_shape: vec![0.0; source.shape().n_modes()],
-            gained_appearance: vec![0.0; source.appearance().n_modes()],
+            scratch: Prepared {
+                source_mean_inverse: inv,
+                shape: vec![0.0; source.shape().n_modes()],
+                appearance: vec![0.0; source.appearance().n_modes()],
+            },
             acc: vec![0.0; source.shape().base.len()],
             source,
         })
@@ -673,14 +702,7 @@ impl Cloner {
     /// coordinates, [`Cloner::target_appearance`] the appearance on the frame pixels.
     pub fn clone_frame(&mut self, source: &Params, options: &CloneOptions) -> Result<()> {
         self.prepare(source, options, 0..self.targets.len())?;
-        let step = Step {
-            source: &self.source,
-            source_mean_inverse: &self.source_mean_inverse,
-            source_pose: &source.pose,
-            p: &self.gained_shape,
-            lambda: &self.gained_appearance,
-            options,
-        };
+        let step = Step::of(&self.source, &self.scratch, source, options);
         for t in &mut self.targets {
             step.clone_onto(&t.model, &t.pair, &mut t.out, &mut self.acc)?;
         }
@@ -713,14 +735,7 @@ impl Cloner {
             )));
         }
         self.prepare(source, options, index..index + 1)?;
-        let step = Step {
-            source: &self.source,
-            source_mean_inverse: &self.source_mean_inverse,
-            source_pose: &source.pose,
-            p: &self.gained_shape,
-            lambda: &self.gained_appearance,
-            options,
-        };
+        let step = Step::of(&self.source, &self.scratch, source, options);
         let t = &self.targets[index];
         step.clone_onto(&t.model, &t.pair, out, &mut self.acc)
     }
@@ -743,7 +758,7 @@ impl Cloner {
         options.validate(&self.source)?;
         for t in &self.targets[targets] {
             let pose = target_pose(
-                &self.source_mean_inverse,
+                &self.scratch.source_mean_inverse,
                 &source.pose,
                 &t.model.mean_pose(),
                 options.follow_pose,
@@ -762,19 +777,19 @@ impl Cloner {
             &source.shape,
             options.gain,
             &options.shape_gains,
-            &mut self.gained_shape,
+            &mut self.scratch.shape,
         );
         apply_gains(
             &source.appearance,
             options.gain,
             &options.appearance_gains,
-            &mut self.gained_appearance,
+            &mut self.scratch.appearance,
         );
         if options.method == Method::Substitute {
             if let Some(k) = options.clamp {
-                constrain(&mut self.gained_shape, &self.source_shape_sigmas, k);
+                constrain(&mut self.scratch.shape, &self.source_shape_sigmas, k);
                 constrain(
-                    &mut self.gained_appearance,
+                    &mut self.scratch.appearance,
                     &self.source_appearance_sigmas,
                     k,
                 );
