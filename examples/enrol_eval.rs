@@ -20,6 +20,7 @@ fn main() {
 mod native {
     use std::path::{Path, PathBuf};
 
+    use facemimic::find::{add_face_offsets, mean_face_offsets};
     use facemimic::fit::{FitOptions, Tracker};
     use facemimic::{
         io, select_varied, BuildOptions, Builder, EnrolFinder, FrameChoice, Model, TrainingImage,
@@ -219,7 +220,39 @@ mod native {
         let mut sorted = confident.clone();
         sorted.sort_by(|a, b| a.4.total_cmp(&b.4));
         let low_spread: Vec<_> = sorted[..sorted.len() * 3 / 4].to_vec();
+        // An oracle: the averaged landmarks with this person's own mean offset from dlib (over
+        // the enrolment frames, in each face's frame) removed: what enrolment would give if the
+        // finder followed dlib's convention on this face.
+        let own_offset = mean_face_offsets(found.iter().map(|f| (&f.3[..], &f.0.landmarks[..])));
+        let oracle: Vec<TrainingImage> = found
+            .iter()
+            .map(|f| {
+                let mut t = f.0.clone();
+                t.landmarks = f.3.clone();
+                add_face_offsets(&mut t.landmarks, &own_offset);
+                t
+            })
+            .collect();
+        println!(
+            "averaged, every face, own offset removed (oracle):  {}",
+            groups(&{
+                let mut pp = vec![0.0f32; 68];
+                for (t, f) in oracle.iter().zip(&found) {
+                    for (p, e) in pp
+                        .iter_mut()
+                        .zip(point_errors(&t.landmarks, &f.0.landmarks))
+                    {
+                        *p += e / found.len() as f32;
+                    }
+                }
+                pp
+            })
+        );
         let runs: Vec<(&str, Vec<TrainingImage>)> = vec![
+            (
+                "finder averaged, every face, own offset removed (oracle)",
+                oracle,
+            ),
             ("dlib, every searched frame", dlib.clone()),
             ("dlib, the confident frames (control)", with(&confident, 0)),
             ("finder, confident", with(&confident, 1)),

@@ -39,39 +39,69 @@ fn face_frame(points: &[f32]) -> Option<([f32; 2], f32, f32, f32)> {
 /// Adds the convention offsets ([`OFFSETS`], in the face's frame) to 68 points in place; a
 /// degenerate shape is left as it is.
 pub(crate) fn apply(points: &mut [f32]) {
-    apply_table(points, &OFFSETS);
+    add_face_offsets(points, &OFFSETS);
 }
 
-/// [`apply`] with another table of offsets (the held-out measurements).
-fn apply_table(points: &mut [f32], offsets: &[f32]) {
-    debug_assert_eq!(points.len(), 136);
+/// How another placement of the same 68 points differs from `points`: `other - points` per
+/// point, expressed in the face frame of `points` (centred on their centroid, in units of their
+/// RMS radius, rotated so the outer eye corners 36-45 are level), interleaved `x0, y0, ...`.
+/// This is what the finder's calibration averages over faces (its table is the mean of these
+/// for the net's points against dlib's), and what [`add_face_offsets`] adds back.
+///
+/// Requires two shapes of 68 points (136 values); `None` when they are not, or when `points`
+/// is degenerate (not finite, all in one place, or the eye corners coincide).
+pub fn face_offsets(points: &[f32], other: &[f32]) -> Option<Vec<f32>> {
+    if points.len() != 136 || other.len() != 136 {
+        return None;
+    }
+    let (_, r, c, s) = face_frame(points)?;
+    let out: Vec<f32> = points
+        .chunks_exact(2)
+        .zip(other.chunks_exact(2))
+        .flat_map(|(p, o)| {
+            let (dx, dy) = (o[0] - p[0], o[1] - p[1]);
+            [(c * dx + s * dy) / r, (-s * dx + c * dy) / r]
+        })
+        .collect();
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+/// Adds `offsets` (in the face frame of `points`, as [`face_offsets`] gives them) to the 68
+/// `points` in place. Returns `false`, leaving `points` unchanged, when the lengths are not
+/// 136 or `points` is degenerate.
+pub fn add_face_offsets(points: &mut [f32], offsets: &[f32]) -> bool {
+    if points.len() != 136 || offsets.len() != 136 {
+        return false;
+    }
     let Some((_, r, c, s)) = face_frame(points) else {
-        return;
+        return false;
     };
     for (p, o) in points.chunks_exact_mut(2).zip(offsets.chunks_exact(2)) {
         p[0] += r * (c * o[0] - s * o[1]);
         p[1] += r * (s * o[0] + c * o[1]);
     }
+    true
 }
 
-/// The mean of `truth - raw` over pairs of 68-point shapes, each difference expressed in its
-/// raw shape's face frame: the table [`apply`] adds. Degenerate shapes are skipped.
-#[cfg(all(test, not(target_arch = "wasm32")))]
-fn offsets(pairs: &[(Vec<f32>, Vec<f32>)]) -> Vec<f32> {
+/// The mean of [`face_offsets`] over pairs `(points, other)` (degenerate pairs skipped; zeros
+/// when none is left): one placement's mean offset from another, e.g. the table [`apply`] adds
+/// (the net's points against dlib's), or one person's own offset.
+pub fn mean_face_offsets<'a>(pairs: impl IntoIterator<Item = (&'a [f32], &'a [f32])>) -> Vec<f32> {
     let mut sum = vec![0f64; 136];
     let mut n = 0usize;
-    for (raw, truth) in pairs {
-        let Some((_, r, c, s)) = face_frame(raw) else {
-            continue;
-        };
-        for i in 0..68 {
-            let (dx, dy) = (truth[2 * i] - raw[2 * i], truth[2 * i + 1] - raw[2 * i + 1]);
-            sum[2 * i] += ((c * dx + s * dy) / r) as f64;
-            sum[2 * i + 1] += ((-s * dx + c * dy) / r) as f64;
+    for o in pairs.into_iter().filter_map(|(p, t)| face_offsets(p, t)) {
+        for (a, v) in sum.iter_mut().zip(o) {
+            *a += v as f64;
         }
         n += 1;
     }
     sum.iter().map(|v| (v / n.max(1) as f64) as f32).collect()
+}
+
+/// [`mean_face_offsets`] over owned pairs (the table's tests).
+#[cfg(all(test, not(target_arch = "wasm32")))]
+fn offsets(pairs: &[(Vec<f32>, Vec<f32>)]) -> Vec<f32> {
+    mean_face_offsets(pairs.iter().map(|(r, t)| (r.as_slice(), t.as_slice())))
 }
 
 #[cfg(all(test, not(target_arch = "wasm32")))]
@@ -177,6 +207,48 @@ mod tests {
         assert!(flat.iter().all(|&v| v == 5.0));
     }
 
+    #[test]
+    fn face_offsets_round_trip_and_refuse_bad_shapes() {
+        // A face-like ring of 68 points, tilted, and another placement of it.
+        let points: Vec<f32> = (0..68)
+            .flat_map(|i| {
+                let a = i as f32 * 0.37;
+                [
+                    100.0 + 40.0 * a.cos() + 0.2 * i as f32,
+                    80.0 + 50.0 * a.sin(),
+                ]
+            })
+            .collect();
+        let other: Vec<f32> = points
+            .iter()
+            .enumerate()
+            .map(|(k, v)| v + (k % 7) as f32 * 0.5 - 1.0)
+            .collect();
+        let o = face_offsets(&points, &other).unwrap();
+        let mut back = points.clone();
+        assert!(add_face_offsets(&mut back, &o));
+        for (a, b) in back.iter().zip(&other) {
+            assert!((a - b).abs() < 1e-3, "{a} against {b}");
+        }
+        // The mean over two pairs of the same offset is that offset.
+        let m = mean_face_offsets([(&points[..], &other[..]), (&points[..], &other[..])]);
+        assert!(m.iter().zip(&o).all(|(a, b)| (a - b).abs() < 1e-6));
+        // Wrong lengths and degenerate shapes: nothing, and nothing changed.
+        assert!(face_offsets(&points[..134], &other[..134]).is_none());
+        assert!(face_offsets(&vec![5.0; 136], &other).is_none());
+        let mut flat = vec![5.0f32; 136];
+        assert!(!add_face_offsets(&mut flat, &o));
+        assert!(flat.iter().all(|&v| v == 5.0));
+        let mut nan = points.clone();
+        nan[3] = f32::NAN;
+        assert!(face_offsets(&nan, &other).is_none());
+        assert!(!add_face_offsets(&mut back, &o[..10]));
+        // No shape at all: zeros.
+        assert!(mean_face_offsets(std::iter::empty())
+            .iter()
+            .all(|&v| v == 0.0));
+    }
+
     /// On the shared GRID frames (825, ../shared), split by speaker: offsets from speakers
     /// 1-5 measured on 6-10 and the other way round; and the committed table on the other
     /// shared clips. Prints the figures of docs/finding.md and checks the offsets help.
@@ -200,7 +272,7 @@ mod tests {
             for (_, r, t) in pairs {
                 let mut p = r.clone();
                 if let Some(o) = table {
-                    apply_table(&mut p, o);
+                    add_face_offsets(&mut p, o);
                 }
                 sum += landmark_error(&p, t);
             }

@@ -11,6 +11,8 @@ mod nets;
 mod nn;
 mod weights;
 
+pub use calibration::{add_face_offsets, face_offsets, mean_face_offsets};
+
 use crate::error::{Error, Result};
 use crate::image::ImageRef;
 use nets::{Detector, LandmarkNet, Scratch, ANCHORS, DETECTOR_MEAN, LANDMARK_INPUT, LANDMARK_MEAN};
