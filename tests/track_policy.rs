@@ -291,3 +291,43 @@ fn an_offered_face_on_a_frame_without_one_is_not_acquired() {
         assert_eq!(t.reacquisitions(), 0);
     }
 }
+
+/// While a lost face waits for offered faces (the page's finder worker searching), a frame costs
+/// one ordinary fit from the last good fit, not the harder retry: no re-initialisation is
+/// counted on those frames; the first lost frame still retries; the face coming back where it
+/// was is tracked again without any offer.
+#[test]
+fn a_lost_face_awaiting_offers_is_refitted_without_retries() {
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    let f0 = frame(UNSEEN, 0);
+    t.start_from_landmarks(&f0.landmarks).unwrap();
+    t.expect_offers(true);
+    assert!(!t.track(&f0.image.view().unwrap()).unwrap().lost);
+    let black = black_like(&f0.image);
+    let resets = t.resets();
+    assert!(t.track(&black.view().unwrap()).unwrap().lost);
+    assert_eq!(t.resets(), resets + 1, "the first lost frame retries");
+    for _ in 0..5 {
+        assert!(t.track(&black.view().unwrap()).unwrap().lost);
+        assert!(t.wants_faces());
+    }
+    assert_eq!(
+        t.resets(),
+        resets + 1,
+        "frames lost while offers are awaited were retried"
+    );
+    // The face is back where it was, nothing offered: tracked again at once.
+    let f1 = frame(UNSEEN, 1);
+    let r = t.track(&f1.image.view().unwrap()).unwrap().clone();
+    assert!(!r.lost, "the face back in place was not tracked again");
+    assert!(norm_error(&r.landmarks, &f1.landmarks) < 0.06);
+    assert!(!t.wants_faces());
+    // Without offers expected, a lost face is retried on every frame (as before).
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    t.start_from_landmarks(&f0.landmarks).unwrap();
+    assert!(!t.track(&f0.image.view().unwrap()).unwrap().lost);
+    for _ in 0..3 {
+        assert!(t.track(&black.view().unwrap()).unwrap().lost);
+    }
+    assert_eq!(t.resets(), 3);
+}

@@ -1,8 +1,10 @@
 // facemimic in-browser benchmark: the whole frame (source + N targets at 360x288) split by stage,
 // with the chosen rasteriser (?raster=, default tiny-skia: the headline) and then the other one.
+// Then tracking: the time per fit of the bundled clip with the source model, and what a lost
+// frame costs while the page's finder worker searches (see benchTracking).
 // Prints a JSON summary into <pre id="result"> (data-done="1" when finished) for headless runs
 // (tests/e2e/bench.mjs).
-import init, { Model, Cloner, FaceFinder, version } from './pkg/facemimic.js';
+import init, { Model, Cloner, FaceFinder, Tracker, version } from './pkg/facemimic.js';
 
 const MODELS = './models/';
 const W = 360;
@@ -22,6 +24,10 @@ const RASTER = q.get('raster') || 'tiny-skia';
 const OTHER = RASTERS.find((r) => r !== RASTER);
 // The face finder's runs (0 skips it): `find` on a 640x480 frame and `landmarks` given its box.
 const FINDER_RUNS = int('finder', 20, 0, 1000);
+// Passes over the bundled clip for the tracking figures (0 skips them).
+const TRACK_PASSES = int('track', 6, 0, 1000);
+// Frames without a face in each pass of the lost-frame run (the face gone while a search runs).
+const LOST_FRAMES = int('lost', 12, 1, 1000);
 
 const $ = (id) => document.getElementById(id);
 const status = (text) => { $('status').textContent = text; };
@@ -112,6 +118,164 @@ async function benchFinder() {
   }
 }
 
+/** The bundled clip's frames (spk07, 360x288) as ImageData at `k` fitted px per video px, and its
+ *  description (first frame's landmarks, fps). */
+async function clipFrames(fit) {
+  const info = await (await fetchOk('./media/spk07-clip.json')).json();
+  const video = document.createElement('video');
+  video.muted = true;
+  video.src = `./media/${info.video}`;
+  await new Promise((resolve, reject) => {
+    video.onloadeddata = resolve;
+    video.onerror = () => reject(new Error(`media/${info.video}: cannot decode`));
+  });
+  const init = Float32Array.from(info.initLandmarks);
+  let y0 = Infinity;
+  let y1 = -Infinity;
+  for (let i = 1; i < init.length; i += 2) {
+    y0 = Math.min(y0, init[i]);
+    y1 = Math.max(y1, init[i]);
+  }
+  // The fit scale the page's clip source uses (tracking.js openClip).
+  const k = fit.fitScale(y1 - y0, video.videoWidth, video.videoHeight, 0);
+  const c = document.createElement('canvas');
+  c.width = Math.max(1, Math.round(video.videoWidth * k));
+  c.height = Math.max(1, Math.round(video.videoHeight * k));
+  const ctx = c.getContext('2d', { willReadFrequently: true });
+  ctx.imageSmoothingQuality = 'medium';
+  const frames = [];
+  for (let i = 0; i < info.frames; i++) {
+    video.currentTime = (i + 0.5) / info.fps;
+    await new Promise((r) => { video.onseeked = r; });
+    ctx.drawImage(video, 0, 0, c.width, c.height);
+    frames.push(ctx.getImageData(0, 0, c.width, c.height));
+  }
+  return { frames, init: init.map((v) => v * k), k };
+}
+
+// Tracking as the page's sources do (`Tracker` with faces offered by the finder worker,
+// `expectOffers(true)`), on the bundled clip at the page's fit scale:
+// - tracked: TRACK_PASSES passes over the clip, each started from its first frame's landmarks
+//   (the first, cold fit of a pass not counted): ms per `track()` call;
+// - lost: 2 x TRACK_PASSES passes each track frames 0-29, then LOST_FRAMES frames where the face
+//   is gone (black frames, or the face covered by a random texture, alternately; the tracker wants
+//   faces and the page's worker is searching, nothing offered yet), then the clip again from
+//   frame 30 (the face back where it was, still nothing offered): ms per lost frame against the
+//   tracked frames of the same passes, and the frames until the face is tracked again without
+//   the finder's help.
+async function benchTracking(source) {
+  status(`tracking: decoding the clip...`);
+  const fit = Tracker.fromModel(source);
+  try {
+    fit.expectOffers(true);
+    const { frames, init, k } = await clipFrames(fit);
+    const { width, height } = frames[0];
+    const black = new ImageData(width, height);
+    for (let i = 3; i < black.data.length; i += 4) black.data[i] = 255;
+    // The face covered (a hand, an object): the clip's frames with the face's box, 30% larger,
+    // painted over with a coarse random texture (the same in every run).
+    let seed = 1;
+    const rnd = () => ((seed = (Math.imul(seed, 1103515245) + 12345) >>> 0) >>> 16) & 255;
+    let [x0, y0, x1, y1] = [Infinity, Infinity, -Infinity, -Infinity];
+    for (let i = 0; i < init.length; i += 2) {
+      x0 = Math.min(x0, init[i]);
+      x1 = Math.max(x1, init[i]);
+      y0 = Math.min(y0, init[i + 1]);
+      y1 = Math.max(y1, init[i + 1]);
+    }
+    const [cx, cy, hw, hh] = [(x0 + x1) / 2, (y0 + y1) / 2, 0.65 * (x1 - x0), 0.65 * (y1 - y0)];
+    const covered = frames.map((f) => {
+      const c = new OffscreenCanvas(width, height);
+      const g = c.getContext('2d', { willReadFrequently: true });
+      g.putImageData(f, 0, 0);
+      for (let y = Math.round(cy - hh); y < cy + hh; y += 6) {
+        for (let x = Math.round(cx - hw); x < cx + hw; x += 6) {
+          g.fillStyle = `rgb(${rnd()},${rnd()},${rnd()})`;
+          g.fillRect(x, y, 6, 6);
+        }
+      }
+      return g.getImageData(0, 0, width, height);
+    });
+    const track = (im) => {
+      const t = performance.now();
+      const r = fit.track(im.data, im.width, im.height);
+      return [performance.now() - t, r];
+    };
+    status(`tracking: ${TRACK_PASSES} passes over the clip...`);
+    await new Promise((r) => setTimeout(r, 0));
+    const tracked = [];
+    let lostTracking = 0;
+    let iterations = 0;
+    for (let p = 0; p < TRACK_PASSES; p++) {
+      fit.startFromLandmarks(init);
+      track(frames[0]);
+      for (let i = 1; i < frames.length; i++) {
+        const [ms, r] = track(frames[i]);
+        tracked.push(ms);
+        iterations += r.iterations;
+        if (r.lost) lostTracking++;
+      }
+      await new Promise((r) => setTimeout(r, 0));
+    }
+    status(`tracking: lost frames...`);
+    await new Promise((r) => setTimeout(r, 0));
+    const lost = { black: [], covered: [] };
+    const around = []; // the tracked frames of the same passes (same machine load)
+    const back = []; // frames from the face's return to its first tracked frame
+    let wanted = 0;
+    let notLost = 0;
+    for (let p = 0; p < 2 * TRACK_PASSES; p++) {
+      const kind = p % 2 ? 'covered' : 'black';
+      fit.startFromLandmarks(init);
+      track(frames[0]);
+      for (let i = 1; i < 30; i++) around.push(track(frames[i])[0]);
+      for (let i = 0; i < LOST_FRAMES; i++) {
+        const [ms, r] = track(kind === 'black' ? black : covered[(30 + i) % frames.length]);
+        if (!r.lost) {
+          notLost++;
+          continue;
+        }
+        lost[kind].push(ms);
+        if (fit.wantsFaces) wanted++;
+      }
+      let found = -1;
+      for (let i = 30; i < frames.length; i++) {
+        const [ms, r] = track(frames[i]);
+        if (!r.lost) {
+          if (found < 0) found = i - 30;
+          around.push(ms);
+        }
+      }
+      back.push(found);
+      await new Promise((r) => setTimeout(r, 0));
+    }
+    const t = summary(tracked);
+    const all = [...lost.black, ...lost.covered];
+    const l = summary(all);
+    const a = summary(around);
+    return {
+      clip: `${frames.length} frames at ${width}x${height} (fit scale ${k.toFixed(3)})`,
+      passes: TRACK_PASSES,
+      trackedMs: t,
+      fitsPerSecond: Math.round(1000 / t.median),
+      iterationsPerFit: Math.round((10 * iterations) / tracked.length) / 10,
+      lostWhileTracking: lostTracking,
+      lostFrames: LOST_FRAMES,
+      lostMs: l,
+      lostBlackMs: summary(lost.black),
+      lostCoveredMs: summary(lost.covered),
+      notLost,
+      trackedAroundMs: a,
+      lostOverTracked: Math.round((100 * l.mean) / a.mean) / 100,
+      lostOverTrackedMedian: Math.round((100 * l.median) / a.median) / 100,
+      wantsFacesWhileLost: wanted / all.length,
+      framesToTrackAgain: back,
+    };
+  } finally {
+    fit.free();
+  }
+}
+
 async function main() {
   await init();
   const manifest = await (await fetchOk(MODELS + 'manifest.json')).json();
@@ -195,6 +359,7 @@ async function main() {
     for (const m of modes) rasterCompare[m] = summary(samples[m]);
   }
   const finder = FINDER_RUNS > 0 ? await benchFinder() : null;
+  const tracking = TRACK_PASSES > 0 ? await benchTracking(source) : null;
   const result = {
     facemimic: version(),
     userAgent: navigator.userAgent,
@@ -222,6 +387,7 @@ async function main() {
       fps: { fromMean: Math.round(1000 / o.total.mean), fromMedian: Math.round(1000 / o.total.median) },
     },
     finder,
+    tracking,
   };
   const tbody = $('table').querySelector('tbody');
   for (const k of ['map', 'synth', 'raster', 'blit', 'other', 'total']) {
@@ -238,7 +404,9 @@ async function main() {
     `${result.fps.fromMean} fps; median ${s.total.median.toFixed(2)} ms, ${result.fps.fromMedian} fps ` +
     `(${OTHER}: median ${o.total.median.toFixed(2)} ms, ${result.other.fps.fromMedian} fps)` +
     (finder ? `; face finder on ${finder.frame}: find ${finder.findMs.median.toFixed(1)} ms, ` +
-      `landmarks ${finder.landmarksMs.median.toFixed(1)} ms (median)` : ''));
+      `landmarks ${finder.landmarksMs.median.toFixed(1)} ms (median)` : '') +
+    (tracking ? `; tracking: ${tracking.trackedMs.median.toFixed(2)} ms a fit, a lost frame ` +
+      `${tracking.lostMs.median.toFixed(2)} ms (medians; means: ${tracking.lostOverTracked}x)` : ''));
   $('result').textContent = JSON.stringify(result, null, 2);
   $('result').dataset.done = '1';
 }

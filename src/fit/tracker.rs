@@ -55,7 +55,9 @@ impl FaceSource for crate::find::FaceFinder {
 /// face on this frame); without a source the next frame starts from the last good fit again,
 /// with one it asks the source again on every frame until a face is found and fits
 /// (`reacquired = true` on that frame). [`Tracker::start_auto`] starts a sequence that way,
-/// from no landmarks at all.
+/// from no landmarks at all. With faces offered from elsewhere instead
+/// ([`Tracker::expect_offers`]), a lost face is searched for with the faces offered; until
+/// they come, each frame gets only the ordinary fit from the last good fit (no retry).
 pub struct Tracker {
     fitter: Fitter,
     /// Where the next fit starts (landmarks, image coordinates).
@@ -391,7 +393,14 @@ impl Tracker {
             self.start = start;
             r?;
             let mut ok = self.plausible(self.fitter.result(), true);
-            if !ok && self.last_good.is_some() {
+            // Searching here means the face was lost on an earlier frame and the faces to
+            // acquire it from are awaited from elsewhere (`offer_faces`: a finder on another
+            // thread; no source, nothing offered yet). Then the ordinary fit from the last good
+            // fit above is all a frame costs: it catches the face coming back where it was, and
+            // the harder retry is left to the offered faces (else every lost frame of the
+            // search would cost a few tracked ones).
+            let awaiting_offers = self.searching;
+            if !ok && self.last_good.is_some() && !awaiting_offers {
                 self.resets += 1;
                 // Retry from the last good fit, working harder (more appearance-aware steps).
                 let from = self

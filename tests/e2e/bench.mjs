@@ -1,6 +1,8 @@
 // Runs www/bench.html in headless Chromium and prints its JSON summary (a script, not a test).
 //   node tests/e2e/bench.mjs [--frames N] [--method map] [--mesh] [--raster tiny-skia|scanline]
 //     [--finder RUNS]  (face finder runs on a 640x480 frame; 0 skips)
+//     [--track PASSES] [--lost FRAMES]  (tracking the bundled clip: ms per fit, and per lost
+//                      frame while the finder searches; --track 0 skips)
 // Both rasterisers are measured; --raster picks the headline (default tiny-skia).
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import { serveStatic, launchBrowser, screenshot } from './lib.mjs';
@@ -18,6 +20,8 @@ const query = new URLSearchParams({
   mesh: args.includes('--mesh') ? '1' : '0',
   raster: opt('raster', 'tiny-skia'),
   finder: opt('finder', '20'),
+  track: opt('track', '6'),
+  lost: opt('lost', '12'),
 });
 
 const server = await serveStatic('www');
