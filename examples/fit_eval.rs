@@ -7,6 +7,11 @@
 //!   frame's landmarks; `franck2-auto`: the same started (and re-acquired) by the face finder;
 //! - `webcam`: from webcam-dev frames 0, 30, ..., 570, frames 600-1336 from frame 600's
 //!   landmarks; `webcam-auto`: the same started (and re-acquired) by the face finder;
+//! - `webcam-fps`: the reference model of `tests/enrol_webcam.rs`: the dlib landmarks of every
+//!   5th frame of webcam-dev 0-599, 20 chosen by farthest-point sampling (`select_varied`),
+//!   tracked over 600-1336 from the face finder's landmarks on frame 600 (the 1200-1299
+//!   stretch, a hand over the chin, reported apart); `enrol`: the same with the enrolment
+//!   finder's landmarks (`EnrolFinder`, as `tests/enrol_webcam.rs`);
 //! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/fit.rs`);
 //! - `franck2-floor`: the shape model's floor (dlib landmarks projected onto it) and fits
 //!   started from each frame's dlib landmarks;
@@ -15,7 +20,8 @@
 //!
 //! `FIT_OPTIONS='{"refine_iters": 2}'` overrides fields of `FitOptions::default()`;
 //! `FRAME=own` builds in the model's own frame instead of the canonical one;
-//! `SHAPE_VARIANCE`, `APPEARANCE_VARIANCE` set the builder's kept variance fractions.
+//! `SHAPE_VARIANCE`, `APPEARANCE_VARIANCE` set the builder's kept variance fractions,
+//! `MAX_SHAPE_MODES` its most shape modes.
 //! Error: mean landmark distance / distance of landmarks 36 and 45 (dlib points).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
@@ -32,7 +38,8 @@ mod native {
 
     use facemimic::fit::{FitOptions, Fitter, Tracker};
     use facemimic::{
-        io, BuildOptions, Builder, FaceFinder, FrameChoice, Model, Similarity, TrainingImage,
+        io, select_varied, BuildOptions, Builder, EnrolFinder, FaceFinder, FrameChoice, Model,
+        Similarity, TrainingImage,
     };
 
     fn data() -> PathBuf {
@@ -60,6 +67,10 @@ mod native {
             .iter()
             .map(|p| io::read_training_image(p).unwrap())
             .collect();
+        build_images(&images)
+    }
+
+    fn build_images(images: &[TrainingImage]) -> Model {
         let frame = match std::env::var("FRAME").as_deref() {
             Ok("own") => FrameChoice::Own,
             _ => FrameChoice::Canonical,
@@ -70,10 +81,73 @@ mod native {
             frame,
             shape_variance: var("SHAPE_VARIANCE").unwrap_or(d.shape_variance),
             appearance_variance: var("APPEARANCE_VARIANCE").unwrap_or(d.appearance_variance),
+            max_shape_modes: var("MAX_SHAPE_MODES").map_or(d.max_shape_modes, |v| v as usize),
             ..d
         })
-        .build(&images, None)
+        .build(images, None)
         .unwrap()
+    }
+
+    /// 20 of `images` chosen by farthest-point sampling, in the order `tests/enrol_webcam.rs`
+    /// builds them, and the model built from them.
+    fn build_varied(mut images: Vec<TrainingImage>) -> Model {
+        let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+        let mut keep = select_varied(&shapes, 20).unwrap();
+        keep.sort_unstable();
+        let chosen: Vec<TrainingImage> =
+            keep.iter().rev().map(|&i| images.swap_remove(i)).collect();
+        build_images(&chosen)
+    }
+
+    /// Tracks `seq` from `init`; prints the mean error, the mean over `stretch` (indices into
+    /// `seq`), frames above 0.1 and resets.
+    fn track_from(
+        name: &str,
+        model: &Model,
+        seq: &[TrainingImage],
+        init: &[f32],
+        stretch: std::ops::Range<usize>,
+    ) {
+        let mut t = Tracker::new(model, options()).unwrap();
+        t.start_from_landmarks(init).unwrap();
+        let errs: Vec<f32> = seq
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                let r = t.track(&f.image.view().unwrap()).unwrap();
+                let e = norm_error(&r.landmarks, &f.landmarks);
+                if std::env::var_os("FIT_EVAL_FRAMES").is_some() {
+                    println!(
+                        "  {i} {e:.4} residual {:.4} iterations {}",
+                        r.error, r.iterations
+                    );
+                }
+                e
+            })
+            .collect();
+        let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
+        let rest: Vec<f32> = errs
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !stretch.contains(i))
+            .map(|(_, &e)| e)
+            .collect();
+        println!(
+            "{name}: {} shape modes, {} frames, mean {:.4}, max {:.4}, stretch {stretch:?} {:.4}, \
+             elsewhere {:.4}, {} above 0.1, resets {}, lost {}",
+            model.shape().n_modes(),
+            errs.len(),
+            mean(&errs),
+            errs.iter().copied().fold(0f32, f32::max),
+            mean(&errs[stretch.clone()]),
+            mean(&rest),
+            errs.iter().filter(|&&e| e > 0.1).count(),
+            t.resets(),
+            t.lost_count()
+        );
+        let v = &model.shape().variances;
+        let rel: Vec<String> = v.iter().map(|x| format!("{:.3}", x / v[0])).collect();
+        println!("  shape variances / the first: {}", rel.join(" "));
     }
 
     fn load(paths: &[PathBuf]) -> Vec<TrainingImage> {
@@ -110,6 +184,9 @@ mod native {
     }
 
     fn track(name: &str, model: &Model, seq: &[TrainingImage], auto: bool) {
+        let v = &model.shape().variances;
+        let rel: Vec<String> = v.iter().map(|x| format!("{:.3}", x / v[0])).collect();
+        println!("{name}: shape variances / the first: {}", rel.join(" "));
         let mut t = Tracker::new(model, options()).unwrap();
         if auto {
             t.set_face_source(Box::new(FaceFinder::new().unwrap()));
@@ -121,6 +198,7 @@ mod native {
         let mut groups = [0f64; 5];
         let mut iters = 0u64;
         let t0 = Instant::now();
+        let c0 = cpu_seconds();
         for f in seq {
             let r = t.track(&f.image.view().unwrap()).unwrap();
             iters += r.iterations as u64;
@@ -145,6 +223,7 @@ mod native {
             });
         }
         let secs = t0.elapsed().as_secs_f64();
+        let cpu = cpu_seconds() - c0;
         let fin: Vec<f32> = errs.iter().copied().filter(|e| e.is_finite()).collect();
         let mean = fin.iter().sum::<f32>() / fin.len().max(1) as f32;
         let (wi, max) = fin
@@ -154,13 +233,15 @@ mod native {
         let over = errs.iter().filter(|&&e| e > 0.1).count();
         println!(
             "{name}: {} frames, mean {mean:.4}, max {max:.4} (frame {wi}), {over} above 0.1 \
-             (lost counted), lost {}, resets {}, reacquisitions {}, {:.1} iterations, {:.0} fits/s",
+             (lost counted), lost {}, resets {}, reacquisitions {}, {:.1} iterations, {:.0} fits/s \
+             ({:.0} fits/s of CPU time)",
             errs.len(),
             t.lost_count(),
             t.resets(),
             t.reacquisitions(),
             iters as f64 / errs.len() as f64,
-            errs.len() as f64 / secs
+            errs.len() as f64 / secs,
+            errs.len() as f64 / cpu.max(1e-9)
         );
         let n = errs.len() as f64;
         println!(
@@ -176,6 +257,18 @@ mod native {
                 println!("  {i} {e:.4}");
             }
         }
+    }
+
+    /// CPU time of this process in seconds (Linux `/proc/self/stat`; 0 elsewhere), so speed
+    /// comparisons on a shared machine do not count other processes' time.
+    fn cpu_seconds() -> f64 {
+        let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+            return 0.0;
+        };
+        let after = stat.rsplit(')').next().unwrap_or("");
+        let f: Vec<&str> = after.split_whitespace().collect();
+        let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+        (ticks(11) + ticks(12)) / 100.0
     }
 
     struct Rng(u64);
@@ -315,6 +408,31 @@ mod native {
                     let m = build(&numbered(&w, (0..600).step_by(30)));
                     let seq = load(&numbered(&w, 600..1337));
                     track(&set, &m, &seq, set == "webcam-auto");
+                }
+                "webcam-fps" | "enrol" => {
+                    let w = d.join("webcam-dev");
+                    let mut finder = EnrolFinder::new(1).unwrap();
+                    let mut train = load(&numbered(&w, (0..600).step_by(5)));
+                    if set == "enrol" {
+                        train.retain_mut(|f| {
+                            match finder.find(&f.image.view().unwrap(), 0.0).unwrap() {
+                                Some(face) => {
+                                    f.landmarks = face.landmarks;
+                                    true
+                                }
+                                None => false,
+                            }
+                        });
+                    }
+                    let m = build_varied(train);
+                    let seq = load(&numbered(&w, 600..1337));
+                    let init = finder
+                        .finder()
+                        .find(&seq[0].image.view().unwrap())
+                        .first()
+                        .map(|f| f.landmarks.clone())
+                        .expect("a face in frame 600");
+                    track_from(&set, &m, &seq, &init, 600..700);
                 }
                 "grid-basin" => {
                     let list = repo("data/grid/spk07_pwij3p/train20.txt");

@@ -40,6 +40,10 @@ pub(super) struct Work {
     pub best_cur: Vec<f32>,
     pub best_p: Vec<f32>,
     pub best_pose: Similarity,
+    /// The state before the last level ran (for [`super::FitOptions::level_check`]).
+    pub before_cur: Vec<f32>,
+    pub before_p: Vec<f32>,
+    pub before_pose: Similarity,
     pub rgb: Vec<f32>,
 }
 
@@ -69,6 +73,20 @@ pub(super) fn residual(level: &Level, img: GreyView<'_>, w: &mut Work) -> f32 {
         axpy(-w.lam[i], mode, e);
     }
     (dot(e, e) / n as f32).sqrt()
+}
+
+/// The cost a level minimises at the current state: the projected-out residual
+/// `|e|^2 - |A^T e|^2` plus the shape prior (leaves the residual in `w.e`).
+pub(super) fn level_cost(c: &Ctx<'_>, w: &mut Work) -> f64 {
+    let rms = residual(c.level, c.img, w) as f64;
+    let mut cost = rms * rms * c.level.n as f64;
+    for (j, m) in c.basis.mode_of.iter().enumerate() {
+        if let Some(m) = m {
+            let p = w.p[*m] as f64;
+            cost += c.level.prior[j] * p * p;
+        }
+    }
+    cost
 }
 
 /// One fitting algorithm: builds the Gauss-Newton system `H dc = g` at the current state

@@ -7,7 +7,7 @@ use crate::image::ImageRef;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
-use super::algorithm::{residual, run, Ctx, ProjectOut, Simultaneous, Work};
+use super::algorithm::{level_cost, residual, run, Ctx, ProjectOut, Simultaneous, Work};
 use super::geometry::Geometry;
 use super::grey::Grey;
 use super::precompute::{Level, ShapeBasis};
@@ -101,6 +101,9 @@ impl Fitter {
             best_cur: vec![0.0; n2],
             best_p: vec![0.0; m],
             best_pose: Similarity::IDENTITY,
+            before_cur: vec![0.0; n2],
+            before_p: vec![0.0; m],
+            before_pose: Similarity::IDENTITY,
             rgb: if options.appearance {
                 vec![0.0; model.appearance().len()]
             } else {
@@ -239,6 +242,25 @@ impl Fitter {
                 basis: &self.basis,
                 img: view,
             };
+            let w = &mut self.work;
+            if li == 1 && self.options.level_check {
+                // Undo the previous level if this finer level judges its start better: a
+                // heavily smoothed level can be pulled off by what its smoothing spreads over
+                // the face (a hand under the chin).
+                let after = level_cost(&ctx, w);
+                std::mem::swap(&mut w.cur, &mut w.before_cur);
+                std::mem::swap(&mut w.p, &mut w.before_p);
+                std::mem::swap(&mut w.pose, &mut w.before_pose);
+                let before = level_cost(&ctx, w);
+                if !(before < after) {
+                    std::mem::swap(&mut w.cur, &mut w.before_cur);
+                    std::mem::swap(&mut w.p, &mut w.before_p);
+                    std::mem::swap(&mut w.pose, &mut w.before_pose);
+                }
+            }
+            w.before_cur.copy_from_slice(&w.cur);
+            w.before_p.copy_from_slice(&w.p);
+            w.before_pose = w.pose;
             let starts = if li == 0 { starts } else { 1 };
             if starts <= 1 {
                 converged = run(
@@ -276,14 +298,7 @@ impl Fitter {
                         self.options.tolerance,
                         &mut iterations,
                     );
-                    let rms = residual(ctx.level, ctx.img, w) as f64;
-                    let mut cost = rms * rms * ctx.level.n as f64;
-                    for (j, m) in ctx.basis.mode_of.iter().enumerate() {
-                        if let Some(m) = m {
-                            let p = w.p[*m] as f64;
-                            cost += ctx.level.prior[j] * p * p;
-                        }
-                    }
+                    let cost = level_cost(&ctx, w);
                     if cost.is_finite() && cost < best {
                         best = cost;
                         converged = conv;

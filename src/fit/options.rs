@@ -60,6 +60,15 @@ pub struct FitOptions {
     /// lost face (a face leaving the picture cannot be checked against the image).
     #[serde(default = "default_min_inside")]
     pub min_inside: f32,
+    /// Before each level after the first, compare on that level the result of the previous
+    /// level with the state it started from, and keep the one of lower cost (the previous
+    /// level is undone when it made things worse).
+    #[serde(default = "default_level_check")]
+    pub level_check: bool,
+}
+
+fn default_level_check() -> bool {
+    true
 }
 
 fn default_max_error_ratio() -> f32 {
@@ -114,6 +123,7 @@ impl Default for FitOptions {
             start_offset: 0.06,
             max_error_ratio: default_max_error_ratio(),
             min_inside: default_min_inside(),
+            level_check: default_level_check(),
         }
     }
 }
