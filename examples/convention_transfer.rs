@@ -32,7 +32,7 @@ fn main() {
 mod native {
     use std::path::{Path, PathBuf};
 
-    use facemimic::find::{add_face_offsets, face_offsets, landmark_error};
+    use facemimic::find::{add_face_offsets, face_frame, face_offsets, landmark_error};
     use facemimic::{io, EnrolFinder, Image};
     use nalgebra::{DMatrix, DVector};
 
@@ -102,20 +102,9 @@ mod native {
         out
     }
 
-    /// face frame: centroid, rms radius, cos, sin (outer eye line)
+    /// The face frame of `p` (centroid, RMS radius, eye line's cosine and sine).
     fn frame(p: &[f32]) -> ([f32; 2], f32, f32, f32) {
-        let n = 68.0;
-        let cx = p.iter().step_by(2).sum::<f32>() / n;
-        let cy = p.iter().skip(1).step_by(2).sum::<f32>() / n;
-        let r = (p
-            .chunks_exact(2)
-            .map(|q| (q[0] - cx).powi(2) + (q[1] - cy).powi(2))
-            .sum::<f32>()
-            / n)
-            .sqrt();
-        let (dx, dy) = (p[90] - p[72], p[91] - p[73]);
-        let l = (dx * dx + dy * dy).sqrt();
-        ([cx, cy], r, dx / l, dy / l)
+        face_frame(p).expect("a face frame")
     }
 
     pub const CELLS: usize = 4;

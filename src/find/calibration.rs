@@ -16,9 +16,13 @@
 
 include!("calibration_table.rs");
 
-/// The face frame of 68 points: centroid, RMS radius, and the cosine and sine of the angle of
-/// the line from point 36 to point 45. `None` for a degenerate or non-finite shape.
-fn face_frame(points: &[f32]) -> Option<([f32; 2], f32, f32, f32)> {
+/// The face frame of 68 points (the frame of [`face_offsets`]): centroid, RMS radius, and the
+/// cosine and sine of the angle of the line from point 36 to point 45. `None` for a
+/// degenerate or non-finite shape, or one of another length than 136 values.
+pub fn face_frame(points: &[f32]) -> Option<([f32; 2], f32, f32, f32)> {
+    if points.len() != 136 {
+        return None;
+    }
     let n = (points.len() / 2) as f32;
     let cx = points.iter().step_by(2).sum::<f32>() / n;
     let cy = points.iter().skip(1).step_by(2).sum::<f32>() / n;
@@ -235,6 +239,7 @@ mod tests {
         assert!(m.iter().zip(&o).all(|(a, b)| (a - b).abs() < 1e-6));
         // Wrong lengths and degenerate shapes: nothing, and nothing changed.
         assert!(face_offsets(&points[..134], &other[..134]).is_none());
+        assert!(face_frame(&points[..40]).is_none());
         assert!(face_offsets(&vec![5.0; 136], &other).is_none());
         let mut flat = vec![5.0f32; 136];
         assert!(!add_face_offsets(&mut flat, &o));
