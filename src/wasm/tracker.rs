@@ -190,7 +190,9 @@ impl WasmTracker {
     }
 
     /// Whether faces will be offered (`offerFaces`) in every sequence, however it was started:
-    /// then a lost face is searched for (`wantsFaces` turns true). `startSearching` turns it on.
+    /// then a lost face is searched for (`wantsFaces` turns true), and until faces are offered
+    /// each frame gets one ordinary fit from the last good fit (no harder retry).
+    /// `startSearching` turns it on.
     #[wasm_bindgen(js_name = expectOffers)]
     pub fn expect_offers(&mut self, yes: bool) {
         self.inner.expect_offers(yes);
