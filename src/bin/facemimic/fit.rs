@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{io, Error, FaceFinder, Image, Result, Similarity};
+use facemimic::{io, Error, FaceFinder, Image, ImageRef, Result, Similarity};
 
 /// The height of the landmarks' bounding box (pixels).
 fn face_height(points: &[f32]) -> f32 {
@@ -20,24 +20,48 @@ fn scaled(points: &[f32], k: f32) -> Vec<f32> {
     points.iter().map(|v| (v + 0.5) * k - 0.5).collect()
 }
 
-/// `img` resampled by `k` (bilinear, as the page's canvas does).
-fn resample(img: &Image, k: f32) -> Result<Image> {
-    let (w, h) = (
-        ((img.width as f32 * k).round() as u32).max(1),
-        ((img.height as f32 * k).round() as u32).max(1),
-    );
-    let src = image::ImageBuffer::<image::Rgba<u8>, &[u8]>::from_raw(
-        img.width,
-        img.height,
-        &img.data[..],
-    )
-    .ok_or_else(|| Error::Image(format!("{}x{}: short pixel buffer", img.width, img.height)))?;
-    let out = image::imageops::resize(&src, w, h, image::imageops::FilterType::Triangle);
-    Ok(Image {
-        width: w,
-        height: h,
-        data: out.into_raw(),
-    })
+/// Resamples frames by the fit scale into one buffer kept between frames (a triangle filter
+/// widened when shrinking, so a large face is not aliased; the page's canvas does the same
+/// job): tracking a long clip at a scale below 1 allocates nothing per frame.
+struct Resampler {
+    resizer: fast_image_resize::Resizer,
+    out: Vec<u8>,
+}
+
+impl Resampler {
+    fn new() -> Self {
+        Resampler {
+            resizer: fast_image_resize::Resizer::new(),
+            out: Vec::new(),
+        }
+    }
+
+    /// `img` resampled by `k`, borrowed from the kept buffer.
+    fn resample(&mut self, img: &Image, k: f32) -> Result<ImageRef<'_>> {
+        use fast_image_resize::{images, FilterType, PixelType, ResizeAlg, ResizeOptions};
+        let (w, h) = (
+            ((img.width as f32 * k).round() as u32).max(1),
+            ((img.height as f32 * k).round() as u32).max(1),
+        );
+        let fail = |e: &dyn std::fmt::Display| {
+            Error::Image(format!(
+                "resampling {}x{} to {w}x{h}: {e}",
+                img.width, img.height
+            ))
+        };
+        let src = images::ImageRef::new(img.width, img.height, &img.data, PixelType::U8x4)
+            .map_err(|e| fail(&e))?;
+        self.out.resize(w as usize * h as usize * 4, 0);
+        let mut dst = images::Image::from_slice_u8(w, h, &mut self.out, PixelType::U8x4)
+            .map_err(|e| fail(&e))?;
+        let options = ResizeOptions::new()
+            .resize_alg(ResizeAlg::Convolution(FilterType::Bilinear))
+            .use_alpha(false);
+        self.resizer
+            .resize(&src, &mut dst, &options)
+            .map_err(|e| fail(&e))?;
+        ImageRef::new(w, h, &self.out)
+    }
 }
 
 #[derive(clap::Args)]
@@ -106,16 +130,14 @@ pub fn run(a: Args) -> Result<()> {
     }
 
     let mut results = Vec::with_capacity(images.len());
-    let mut resampled = None;
+    let mut resampler = Resampler::new();
     let t0 = Instant::now();
     for (img, path) in images.iter().zip(&a.frames) {
         let context = |e: Error| e.with_context(&path.display().to_string());
         let view = if k == 1.0 {
             img.view()?
         } else {
-            resampled
-                .insert(resample(img, k).map_err(context)?)
-                .view()?
+            resampler.resample(img, k).map_err(context)?
         };
         let r = tracker.track(&view).map_err(context)?;
         // Back to frame pixels.
