@@ -88,8 +88,8 @@ pub fn add_face_offsets(points: &mut [f32], offsets: &[f32]) -> bool {
 }
 
 /// The mean of [`face_offsets`] over pairs `(points, other)` (degenerate pairs skipped; zeros
-/// when none is left): one placement's mean offset from another, e.g. the table [`apply`] adds
-/// (the net's points against dlib's), or one person's own offset.
+/// when none is left): one placement's mean offset from another, e.g. the table the finder
+/// adds to its points (the net's points against dlib's), or one person's own offset.
 pub fn mean_face_offsets<'a>(pairs: impl IntoIterator<Item = (&'a [f32], &'a [f32])>) -> Vec<f32> {
     let mut sum = vec![0f64; 136];
     let mut n = 0usize;
