@@ -3,7 +3,8 @@
 // Data flow per animation frame: active source -> Params -> cloner.setSourceParams -> update()
 // (map + synthesise every target) -> render the source, every target and, when open, the
 // compare view (one target with all three methods) into their canvases at device-pixel size.
-// Nothing is rendered when nothing changed (paused and idle), except the inspector's animation.
+// Nothing is rendered when nothing changed (paused and idle), except the inspector's animation
+// (the Inspector panel's, or while "Create a face" is open, its preview's).
 
 import init, * as fm from './pkg/facemimic.js';
 import { HiDpi, ctx2d } from './js/canvas.js';
@@ -70,6 +71,7 @@ async function main() {
   app.hidpi = new HiDpi(() => {
     app.dirty = true;
     app.inspector?.invalidate();
+    app.enrol?.preview.invalidate();
   });
   app.inspectorVisible = () => app.hidpi.visible($('inspect-mode')) || app.hidpi.visible($('inspect-mean'));
 
@@ -133,6 +135,8 @@ async function main() {
     ...app.shelf.page,
     shelf: app.shelf,
     inspect: (model, info, name) => app.inspector.show(model, info, name),
+    hidpi: app.hidpi,
+    faceOptions: { background: FACE_BG },
   });
   $('create-face').addEventListener('click', () => app.enrol.open());
 
@@ -929,7 +933,10 @@ function frame(now) {
     }
     app.dirty = false;
   }
-  if (app.inspector && app.inspectorVisible()) app.inspector.tick(t);
+  // While "Create a face" is open (modal), its preview animates and the Inspector panel behind
+  // the backdrop rests; closed, the preview does no work at all.
+  if (app.enrol?.dialog.open) app.enrol.tick(t);
+  else if (app.inspector && app.inspectorVisible()) app.inspector.tick(t);
   readouts(now);
 }
 

@@ -9,7 +9,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot, fakeCameraFile } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraFile } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const TRAIN = path.join(ROOT, 'data', 'grid', 'spk07_pwij3p');
@@ -52,6 +52,10 @@ test('a face created in the page becomes the source, and the webcam tracks it wi
   await page.fill('#enrol .enrol-name', 'Me');
   await page.click('#enrol .btn.primary');
   await page.waitForFunction(() => /^Built Me/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 60_000 });
+  // Previewed in the dialog (the preview itself is tested in store.test.mjs): the mean face drawn.
+  await page.waitForFunction(() => window.facemimicEnrol.preview.drawn > 2);
+  const mean = await canvasStats(page, '#enrol .enrol-preview canvas >> nth=0');
+  assert.ok(mean.variance > 60 && mean.distinct > 200, `the preview's mean face is blank (${JSON.stringify(mean)})`);
   await page.getByRole('button', { name: 'Use as source' }).click();
   await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Me'));
 

@@ -28,7 +28,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, screenshot } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -310,8 +310,19 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
   assert.ok(building.gap < 1500, `the page stopped drawing for ${building.gap} ms while building`);
   assert.deepEqual(await shelf(page), [{ name: 'Webcam man', damaged: false }]);
   assert.equal(await page.evaluate(() => window.facemimicEnrol.stream), null, 'the camera is released');
+  // The dialog previews the new model: its mean face drawn, a mode animated.
+  await page.waitForSelector('#enrol .enrol-preview', { state: 'visible' });
+  await page.waitForFunction(() => window.facemimicEnrol.preview.drawn > 2);
+  const mean = await canvasStats(page, '#enrol .enrol-preview canvas >> nth=0');
+  assert.ok(mean.variance > 60 && mean.distinct > 200, `the preview's mean face is blank (${JSON.stringify(mean)})`);
+  const mode = await canvasDigest(page, '#enrol .enrol-preview canvas >> nth=1');
+  await page.waitForTimeout(200);
+  assert.notEqual(await canvasDigest(page, '#enrol .enrol-preview canvas >> nth=1'), mode, 'the previewed mode does not move');
   await screenshot(page, 'enrol-webcam-built', { fullPage: false });
   await page.keyboard.press('Escape');
+  const drawn = await page.evaluate(() => window.facemimicEnrol.preview.drawn);
+  await page.waitForTimeout(200);
+  assert.equal(await page.evaluate(() => window.facemimicEnrol.preview.drawn), drawn, 'the preview draws with the dialog closed');
 
   // Survives a reload; becomes the source from the shelf.
   const workers = []; // the workers this page (since the reload) started, by script

@@ -4,12 +4,16 @@
 // - a model built in the worker from 20 GRID frames (spk02, decoded by the browser; landmarks from
 //   their .pts files) is made while the page keeps drawing, is kept, survives a reload and drives
 //   as a target; a build cancelled half way stores nothing. Prints the build time (Chromium).
+// - "Create a face" from photos: after the build, and only then, the dialog previews the new
+//   model (its mean face and an animated mode, another mode picked from the bars or the kind);
+//   the page draws on meanwhile; closing the dialog stops the preview's drawing; the dialog fits
+//   a desktop and a phone viewport (screenshots artifacts/enrol-built*.png).
 //   node --test tests/e2e/store.test.mjs   (after scripts/build-wasm.sh and scripts/build-models.sh)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasStats, screenshot } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasStats, canvasDigest, screenshot } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const MODELS = path.join(WWW, 'models');
@@ -202,6 +206,87 @@ test('a model built in the worker while the page draws is kept and drives a targ
   assert.deepEqual(errors, []);
 });
 
+/** The dialog's preview after a build: a drawn mean face, a mode that moves, another mode picked
+ *  with the keyboard and another kind; the page keeps drawing meanwhile. */
+async function checkPreview(page) {
+  const P = '#enrol .enrol-preview';
+  await page.waitForSelector(P, { state: 'visible' });
+  const drawn = () => page.evaluate(() => window.facemimicEnrol.preview.drawn);
+  await page.waitForFunction(() => window.facemimicEnrol.preview.drawn > 2);
+  const mean = await canvasStats(page, `${P} canvas >> nth=0`);
+  assert.ok(mean.width > 100 && mean.variance > 60 && mean.distinct > 200, `the preview's mean face is blank (${JSON.stringify(mean)})`);
+  assert.equal(await page.getAttribute(`${P} canvas >> nth=0`, 'aria-label'), 'Mean face of the new model');
+  // The mode animates, and the page keeps drawing meanwhile (rAF gaps over one second).
+  const frames = await page.evaluate(() => new Promise((resolve) => {
+    const t0 = performance.now();
+    let last = t0;
+    let gap = 0;
+    let n = 0;
+    const step = (t) => {
+      gap = Math.max(gap, t - last);
+      last = t;
+      n++;
+      if (t - t0 < 1000) requestAnimationFrame(step);
+      else resolve({ fps: (1000 * n) / (t - t0), gap });
+    };
+    requestAnimationFrame(step);
+  }));
+  const mode = `${P} canvas >> nth=1`;
+  const a = await canvasDigest(page, mode);
+  const n0 = await drawn();
+  await page.waitForTimeout(300);
+  assert.notEqual(await canvasDigest(page, mode), a, 'the mode does not move');
+  console.log(`# preview: ${(await drawn()) - n0} mode frames in 300 ms; the page at ${frames.fps.toFixed(0)} fps meanwhile (longest gap ${frames.gap.toFixed(0)} ms)`);
+  assert.ok(frames.fps > 10 && frames.gap < 1000, `the page draws ${frames.fps.toFixed(1)} fps (gap ${frames.gap.toFixed(0)} ms) while the preview animates`);
+  // Another mode from the keyboard: focus the picked bar, arrow right.
+  const caption = () => page.textContent(`${P} figcaption >> nth=1`);
+  assert.match(await caption(), /^Shape 1 /);
+  await page.focus(`${P} .bar[aria-checked="true"]`);
+  await page.keyboard.press('ArrowRight');
+  assert.match(await caption(), /^Shape 2 /);
+  assert.equal(await page.evaluate(() => document.activeElement.getAttribute('aria-label')?.startsWith('Mode 2:')), true, 'focus follows the picked mode');
+  // Appearance modes (the radio, as a pointer user picks it), then one from the bars.
+  await page.click(`${P} label:has(input[value="appearance"])`);
+  assert.match(await caption(), /^Appearance 1 /);
+  await page.click(`${P} .bar >> nth=2`);
+  assert.match(await caption(), /^Appearance 3 /);
+  assert.equal(await page.getAttribute(`${P} .bar >> nth=2`, 'aria-checked'), 'true');
+  const b = await canvasDigest(page, mode);
+  await page.waitForTimeout(200);
+  assert.notEqual(await canvasDigest(page, mode), b, 'the appearance mode does not move');
+}
+
+/** The dialog after a build on a phone (390x844): nothing wider than the screen, every button
+ *  reachable by scrolling the dialog. Back to the desktop size afterwards. */
+async function checkPhone(page) {
+  const size = page.viewportSize();
+  await page.setViewportSize({ width: 390, height: 844 });
+  await page.waitForTimeout(100);
+  await screenshot(page, 'enrol-built-phone', { fullPage: false });
+  const fit = await page.$eval('#enrol', (d) => {
+    const r = d.getBoundingClientRect();
+    const out = [];
+    for (const el of d.querySelectorAll('button, input:not([type=file]), canvas, meter, label, p, h2, h3')) {
+      if (!el.getClientRects().length) continue; // hidden
+      const e = el.getBoundingClientRect();
+      if (e.left < r.left - 0.5 || e.right > r.right + 0.5) out.push(`${el.tagName}.${el.className} ${e.left.toFixed(0)}-${e.right.toFixed(0)}`);
+    }
+    return { left: r.left, right: r.right, top: r.top, bottom: r.bottom, sideways: d.scrollWidth - d.clientWidth, out };
+  });
+  assert.ok(fit.left >= 0 && fit.right <= 390 && fit.top >= 0 && fit.bottom <= 844, `the dialog is off the screen: ${JSON.stringify(fit)}`);
+  assert.equal(fit.sideways, 0, 'the dialog scrolls sideways');
+  assert.deepEqual(fit.out, [], 'elements stick out of the dialog');
+  for (const label of ['Use as source', 'Add as target', 'Download .fmm', 'Build', 'Close']) {
+    const btn = page.locator('#enrol').getByRole('button', { name: label, exact: true });
+    await btn.scrollIntoViewIfNeeded();
+    const r = await btn.boundingBox();
+    assert.ok(r && r.y >= 0 && r.y + r.height <= 844 && r.x >= 0 && r.x + r.width <= 390, `${label} cannot be reached: ${JSON.stringify(r)}`);
+  }
+  await page.locator('#enrol .enrol-preview').scrollIntoViewIfNeeded();
+  await screenshot(page, 'enrol-built-phone-preview', { fullPage: false });
+  await page.setViewportSize(size);
+}
+
 test('"Create a face" from photos: too few, cancelled, then built, kept and used as the source', async (t) => {
   const { page, errors } = await open(t);
   const list = fs.readFileSync(path.join(CLIP, 'train20.txt'), 'utf8').split('\n').map((s) => s.trim()).filter(Boolean);
@@ -233,17 +318,35 @@ test('"Create a face" from photos: too few, cancelled, then built, kept and used
   await page.getByRole('button', { name: 'Cancel' }).click();
   await page.waitForFunction(() => /cancelled; nothing was kept/.test(document.querySelector('#enrol .enrol-status').textContent));
   assert.deepEqual(await items(page), []);
+  assert.equal(await page.isVisible('#enrol .enrol-preview'), false, 'no preview before a build has finished');
 
-  // Built: kept, shown in the inspector, used as the source.
+  // Built: kept, shown in the inspector and previewed in the dialog, used as the source.
   await page.unroute('**/facemimic_bg.wasm');
   assert.equal(await page.$$eval('#enrol .enrol-strip canvas', (c) => c.length), 20, 'the 20 frames are shown');
   await page.click('#enrol .btn.primary');
   await page.waitForFunction(() => /^Built Speaker two/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 60_000 });
   console.log(await status());
   assert.deepEqual((await items(page)).map((i) => i.name), ['Speaker two']);
-  await screenshot(page, 'enrol-built');
+  await checkPreview(page);
+  await screenshot(page, 'enrol-built', { fullPage: false });
+  await checkPhone(page);
+  const drawn = () => page.evaluate(() => window.facemimicEnrol.preview.drawn);
   await page.getByRole('button', { name: 'Use as source' }).click();
   await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Speaker two'));
+  // Closed: the preview draws nothing more (the page's Inspector panel animates again).
+  const closed = await drawn();
+  await page.locator('#inspect-mode').scrollIntoViewIfNeeded();
+  await page.waitForTimeout(100);
+  const panel = await canvasDigest(page, '#inspect-mode');
+  await page.waitForTimeout(300);
+  assert.equal(await drawn(), closed, 'the preview still draws with the dialog closed');
+  assert.notEqual(await canvasDigest(page, '#inspect-mode'), panel, 'the Inspector panel does not animate');
+  // Opened again: no preview until the next build.
+  await page.click('#create-face');
+  assert.equal(await page.isVisible('#enrol .enrol-preview'), false, 'a preview before a build');
+  await page.waitForTimeout(200);
+  assert.equal(await drawn(), closed, 'the preview draws before a build');
+  await page.keyboard.press('Escape');
   await reload(page);
   assert.deepEqual((await items(page)).map((i) => i.name), ['Speaker two']);
   assert.deepEqual(errors, []);

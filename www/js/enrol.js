@@ -7,10 +7,14 @@
 // are chosen (farthest-point sampling of the aligned shapes, `selectVaried`; the coverage of the
 // expression space is shown while sampling), the model is built in a Web Worker
 // (build-client.js) with a progress bar and a Cancel button, kept in this browser (store.js) and
-// shown in the inspector; then "Use as source", "Add as target" and "Download .fmm".
+// shown in the page's inspector and, in the dialog itself, in a preview (a second `Inspector`:
+// the mean face and one mode animated, shape or appearance, picked from the bars; drawn by the
+// page's frame loop only while the dialog is open); then "Use as source", "Add as target" and
+// "Download .fmm".
 // Nothing is stored until the build has finished: a cancelled or failed build leaves nothing.
 
 import { buildInWorker } from './build-client.js';
+import { Inspector } from './inspector.js';
 import { enrolFace } from './finder-client.js';
 import { download, safeName } from './store.js';
 import { openCamera, looksLikeImage, looksLikeVideo } from './media.js';
@@ -48,7 +52,9 @@ function grab(source, w, h) {
 }
 
 export class Enrolment {
-  /** `page`: { fm, notify, shelf, useAsSource(bytes, name), addAsTarget(bytes, name), inspect(model, info) }. */
+  /** `page`: { fm, notify, shelf, useAsSource(bytes, name), addAsTarget(bytes, name), inspect(model, info),
+   *  hidpi (canvas.js HiDpi: sizes the preview's canvases, says whether they are on screen),
+   *  faceOptions (RenderOptions of the preview) }. */
   constructor(page) {
     this.page = page;
     this.candidates = []; // { rgba, width, height, landmarks }
@@ -58,6 +64,7 @@ export class Enrolment {
     this.abort = null;
     this.result = null;
     this.dialog = this.buildDialog();
+    this.preview = this.buildPreview();
     window.facemimicEnrol = this; // for the console and the end-to-end tests
   }
 
@@ -86,6 +93,7 @@ export class Enrolment {
       cancel: $('button', { type: 'button', className: 'btn', textContent: 'Cancel' }),
       progress: $('progress', { max: 1, value: 0, hidden: true, className: 'enrol-progress' }),
       done: $('div', { className: 'enrol-done', hidden: true }),
+      preview: $('section', { className: 'enrol-preview', hidden: true }),
       strip: $('div', { className: 'enrol-strip' }),
     };
     const e = this.els;
@@ -131,15 +139,69 @@ export class Enrolment {
       $('div', { className: 'row' }, $('span', { textContent: 'Coverage' }), e.coverage),
       e.strip,
       e.status,
+      e.preview,
+      e.done,
       $('div', { className: 'row' }, $('label', { textContent: 'Name' }), e.name),
       $('label', { className: 'row hint', title: 'Fits the new model to its own frames and rebuilds it from the fitted landmarks. Measured on a webcam clip, it tracks unseen frames worse, so it is off by default.' }, e.refine, ' Refine (slower; measured to track worse)'),
       e.progress,
       $('div', { className: 'row buttons' }, e.build, e.cancel),
-      e.done,
     );
     document.body.append(d);
     this.update();
     return d;
+  }
+
+  /** The preview of a built model (the Inspector's look, paper Fig. 1): mean face, one mode
+   *  animated as base + k sigma sin(t), shape or appearance, a mode picked from the bars. */
+  buildPreview() {
+    const $ = (tag, props, ...c) => this.el(tag, props, ...c);
+    const host = this.els.preview;
+    host.setAttribute('aria-labelledby', 'enrol-preview-title');
+    const canvas = (label) => {
+      const c = $('canvas', { className: 'face small' });
+      c.setAttribute('role', 'img');
+      c.setAttribute('aria-label', label);
+      return c;
+    };
+    const els = {
+      mean: canvas('Mean face of the new model'),
+      mode: canvas('The chosen mode of the new model, animated'),
+      caption: $('figcaption'),
+      bars: $('div', { className: 'bars' }),
+      kind: $('fieldset', { className: 'segmented small' }),
+    };
+    els.bars.setAttribute('role', 'radiogroup');
+    els.bars.setAttribute('aria-label', 'Modes of the new model by share of variance');
+    const radio = (value, label, checked) => $('label', {}, $('input', { type: 'radio', name: 'enrol-kind', value, checked }), $('span', { textContent: label }));
+    els.kind.append($('legend', { className: 'visually-hidden', textContent: 'Mode kind' }), radio('shape', 'Shape', true), radio('appearance', 'Appearance', false));
+    host.append(
+      $('h3', { id: 'enrol-preview-title', textContent: 'Preview' }),
+      $('div', { className: 'enrol-preview-body' },
+        $('div', { className: 'inspect-views' },
+          $('figure', {}, els.mean, $('figcaption', { textContent: 'Mean' })),
+          $('figure', {}, els.mode, els.caption)),
+        $('div', { className: 'enrol-preview-modes' },
+          els.kind,
+          els.bars,
+          $('p', { className: 'hint bars-caption', textContent: 'Each mode\'s share of the variance; pick one to animate it.' }))),
+    );
+    for (const c of [els.mean, els.mode]) this.page.hidpi?.watch(c);
+    return new Inspector(this.page.fm, els, this.page.faceOptions ?? {});
+  }
+
+  /** Called by the page's frame loop (t in seconds): draws the preview while it can be seen. */
+  tick(t) {
+    if (!this.dialog.open || this.els.preview.hidden || !this.preview.model) return;
+    const hidpi = this.page.hidpi;
+    if (hidpi && !hidpi.visible(this.preview.els.mode) && !hidpi.visible(this.preview.els.mean)) return;
+    this.preview.tick(t);
+  }
+
+  /** Shows a built model in the dialog's preview (and scrolls it into view). */
+  showPreview(model, info, name) {
+    this.els.preview.hidden = false;
+    this.preview.show(model, info, name);
+    this.els.preview.scrollIntoView({ block: 'nearest' });
   }
 
   open() {
@@ -153,6 +215,8 @@ export class Enrolment {
     this.seen = 0;
     this.result = null;
     this.els.done.hidden = true;
+    this.els.preview.hidden = true;
+    this.preview.clear();
     this.els.progress.hidden = true;
     this.els.guide.textContent = '';
     this.update('Choose the webcam, or drop photos or a video.');
@@ -401,6 +465,11 @@ export class Enrolment {
       const c = this.candidates[i];
       return { rgba: c.rgba.slice(), width: c.width, height: c.height, landmarks: c.landmarks };
     });
+    // The preview and the buttons are for the result of this build: hidden until it is done.
+    this.result = null;
+    this.els.done.hidden = true;
+    this.els.preview.hidden = true;
+    this.preview.clear();
     this.abort = new AbortController();
     const p = this.els.progress;
     p.hidden = false;
@@ -421,8 +490,10 @@ export class Enrolment {
       // Ask the browser not to evict the store under storage pressure (it may say no).
       navigator.storage?.persist?.().catch(() => {});
       const model = this.page.fm.Model.fromBytes(r.bytes);
-      this.page.inspect(model, model.info(), name);
+      const info = model.info();
+      this.page.inspect(model, info, name);
       this.els.done.hidden = false;
+      this.showPreview(model, info, name);
       this.update(`Built ${name} from ${frames.length} frames in ${((performance.now() - t0) / 1000).toFixed(1)} s: ${r.info.shapeModes} shape and ${r.info.appearanceModes} appearance modes. It is kept under Your models.`);
     } catch (e) {
       this.update(e.message === 'cancelled' ? 'Build cancelled; nothing was kept.' : `The build failed: ${e.message}`);

@@ -1,6 +1,8 @@
 // The inspector (the paper's Fig. 1): a model's mean face, one mode animated as
 // base + k sigma * sin(t), its sizes, and a bar chart of each mode's share of the variance
 // (the bars are buttons: pick a mode by clicking one or with the arrow keys).
+// One class serves the page's Inspector panel and the preview in "Create a face" (enrol.js): each
+// instance draws into the elements it is given; the page's frame loop calls `tick`.
 
 import { ctx2d } from './canvas.js';
 
@@ -10,18 +12,21 @@ export class Inspector {
   constructor(wasm, els, options = {}) {
     this.options = options; // RenderOptions (background)
     this.wasm = wasm;
-    this.els = els; // { mean, mode, caption, bars, info, kind (fieldset), sigma, sigmaOut }
+    // { mean, mode, caption, bars, kind (fieldset of radios), info?, sigma?, sigmaOut? }:
+    // without `info` no details are listed; without `sigma` the amplitude is options.sigmas (2).
+    this.els = els;
     this.model = null;
     this.info = null;
     this.kind = 'shape';
     this.mode = 0;
-    this.sigmas = Number(els.sigma.value);
+    this.sigmas = els.sigma ? Number(els.sigma.value) : (options.sigmas ?? 2);
     this.meanDirty = true;
     this.failed = false;
+    this.drawn = 0; // animation frames drawn (the end-to-end tests check it stops)
     els.kind.addEventListener('change', (e) => {
-      if (e.target.name === 'inspect-kind') this.setKind(e.target.value);
+      if (e.target.type === 'radio') this.setKind(e.target.value);
     });
-    els.sigma.addEventListener('input', () => {
+    els.sigma?.addEventListener('input', () => {
       this.sigmas = Number(els.sigma.value);
       els.sigmaOut.value = `±${this.sigmas}σ`;
       this.caption();
@@ -40,6 +45,12 @@ export class Inspector {
     this.bars();
     this.details();
     this.caption();
+  }
+
+  /** Forget the model: nothing is drawn until the next `show`. */
+  clear() {
+    this.model = null;
+    this.info = null;
   }
 
   count() {
@@ -109,6 +120,7 @@ export class Inspector {
   }
 
   details() {
+    if (!this.els.info) return;
     const i = this.info;
     const rows = [
       ['Name', i.name],
@@ -154,6 +166,7 @@ export class Inspector {
       if (this.count() === 0) return;
       const k = this.sigmas * Math.sin((2 * Math.PI * t) / PERIOD);
       this.wasm.renderMode(this.model, this.kind, this.mode, k, ctx2d(this.els.mode), this.options);
+      this.drawn++;
     } catch (e) {
       // Do not flood: report once per model.
       this.failed = true;
