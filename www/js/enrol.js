@@ -197,11 +197,14 @@ export class Enrolment {
     this.preview.tick(t);
   }
 
-  /** Shows a built model in the dialog's preview (and scrolls it into view). */
+  /** Shows a built model in the dialog's preview; a dialog that scrolls (a phone) is scrolled
+   *  to the status line, so the preview and the buttons under it come into view. */
   showPreview(model, info, name) {
     this.els.preview.hidden = false;
     this.preview.show(model, info, name);
-    this.els.preview.scrollIntoView({ block: 'nearest' });
+    if (this.dialog.scrollHeight > this.dialog.clientHeight) {
+      this.dialog.scrollTop += this.els.status.getBoundingClientRect().top - this.dialog.getBoundingClientRect().top - 12;
+    }
   }
 
   open() {
