@@ -11,6 +11,7 @@
 
 use std::path::Path;
 
+use facemimic::find::landmark_error;
 use facemimic::fit::{FitOptions, Tracker};
 use facemimic::{io, refine_landmarks, BuildOptions, Builder, Model, TrainingImage};
 
@@ -29,17 +30,6 @@ fn iod(l: &[f32]) -> f32 {
     ((l[90] - l[72]).powi(2) + (l[91] - l[73]).powi(2)).sqrt()
 }
 
-fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-    let n = truth.len() / 2;
-    let sum: f32 = (0..n)
-        .map(|i| {
-            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                .sqrt()
-        })
-        .sum();
-    sum / n as f32 / iod(truth)
-}
-
 fn mean(v: &[f32]) -> f32 {
     v.iter().sum::<f32>() / v.len() as f32
 }
@@ -50,7 +40,7 @@ fn track(model: &Model, seq: &[TrainingImage]) -> f32 {
     let errs: Vec<f32> = seq
         .iter()
         .map(|f| {
-            norm_error(
+            landmark_error(
                 &t.track(&f.image.view().unwrap()).unwrap().landmarks,
                 &f.landmarks,
             )
@@ -99,12 +89,12 @@ fn refinement_reduces_landmark_noise() {
     let err_noisy: Vec<f32> = noisy
         .iter()
         .zip(&train)
-        .map(|(n, t)| norm_error(&n.landmarks, &t.landmarks))
+        .map(|(n, t)| landmark_error(&n.landmarks, &t.landmarks))
         .collect();
     let err_fitted: Vec<f32> = fitted
         .iter()
         .zip(&train)
-        .map(|(f, t)| norm_error(f, &t.landmarks))
+        .map(|(f, t)| landmark_error(f, &t.landmarks))
         .collect();
     let (tc, tn, tr) = (
         track(&clean, &clip),

@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use facemimic::find::landmark_error;
 use facemimic::fit::{FitOptions, TrackPolicy, Tracker};
 use facemimic::{io, Builder, Image, Model, TrainingImage};
 
@@ -50,19 +51,6 @@ fn model_face_height(m: &Model) -> f32 {
     m.image_shape(&m.base_params(), &mut s).unwrap();
     let ys: Vec<f32> = s.iter().skip(1).step_by(2).copied().collect();
     ys.iter().copied().fold(f32::MIN, f32::max) - ys.iter().copied().fold(f32::MAX, f32::min)
-}
-
-fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-    let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
-    let n = truth.len() / 2;
-    (0..n)
-        .map(|i| {
-            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                .sqrt()
-        })
-        .sum::<f32>()
-        / n as f32
-        / iod
 }
 
 #[test]
@@ -216,7 +204,7 @@ fn offered_faces_start_and_recover_a_sequence() {
         !r.lost && r.reacquired,
         "not acquired from the offered face"
     );
-    let e = norm_error(&r.landmarks, &f2.landmarks);
+    let e = landmark_error(&r.landmarks, &f2.landmarks);
     assert!(e < 0.06, "acquired fit error {e}");
     assert!(!t.wants_faces());
     // A black frame: the face is lost, and faces are wanted again.
@@ -239,7 +227,7 @@ fn offered_faces_start_and_recover_a_sequence() {
         !r.lost && r.reacquired,
         "not re-acquired from the offered faces"
     );
-    assert!(norm_error(&r.landmarks, &f5.landmarks) < 0.06);
+    assert!(landmark_error(&r.landmarks, &f5.landmarks) < 0.06);
     assert_eq!(t.reacquisitions(), 2);
     // Tracking then goes on from the fit, with no faces wanted.
     let f6 = frame(UNSEEN, 6);
@@ -320,7 +308,7 @@ fn a_lost_face_awaiting_offers_is_refitted_without_retries() {
     let f1 = frame(UNSEEN, 1);
     let r = t.track(&f1.image.view().unwrap()).unwrap().clone();
     assert!(!r.lost, "the face back in place was not tracked again");
-    assert!(norm_error(&r.landmarks, &f1.landmarks) < 0.06);
+    assert!(landmark_error(&r.landmarks, &f1.landmarks) < 0.06);
     assert!(!t.wants_faces());
     // Without offers expected, a lost face is retried on every frame (as before).
     let mut t = Tracker::new(model(), FitOptions::default()).unwrap();

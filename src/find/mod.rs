@@ -446,8 +446,11 @@ fn prepare(
 
 /// Mean distance between two 68-point shapes (interleaved x, y) over `b`'s outer-eye-corner
 /// distance (points 36 and 45): the landmark error used throughout the project's figures, and
-/// the finder's pass-to-pass disagreement.
+/// the finder's pass-to-pass disagreement. NaN unless both shapes have 68 points.
 pub fn landmark_error(a: &[f32], b: &[f32]) -> f32 {
+    if a.len() != 136 || b.len() != 136 {
+        return f32::NAN;
+    }
     let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
     let s: f32 = a
         .chunks_exact(2)
@@ -516,5 +519,26 @@ impl std::fmt::Debug for FaceFinder {
         f.debug_struct("FaceFinder")
             .field("options", &self.options)
             .finish_non_exhaustive()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::landmark_error;
+
+    #[test]
+    fn landmark_error_is_relative_to_the_eye_distance_and_nan_for_other_shapes() {
+        // Outer eye corners 10 px apart; every point 1 px off: an error of 0.1.
+        let mut b = vec![0.0f32; 136];
+        b[90] = 10.0;
+        let a: Vec<f32> = b
+            .iter()
+            .enumerate()
+            .map(|(k, v)| if k % 2 == 0 { v + 1.0 } else { *v })
+            .collect();
+        assert!((landmark_error(&a, &b) - 0.1).abs() < 1e-6);
+        assert_eq!(landmark_error(&b, &b), 0.0);
+        assert!(landmark_error(&a[..100], &b[..100]).is_nan());
+        assert!(landmark_error(&a, &b[..134]).is_nan());
     }
 }
