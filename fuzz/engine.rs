@@ -209,6 +209,32 @@ pub fn training_set(n: usize, count: usize, seed: u64) -> Vec<TrainingImage> {
         .collect()
 }
 
+/// A model small on disk whose tracker would need far more memory than its file's budget:
+/// 128 landmarks on a large frame, then 256 orthonormal shape modes (the 0.8 MB model whose
+/// tracker precomputation once took 81 MB).
+#[allow(dead_code)] // the hostile-input tests use it; the fuzz runner does not
+pub fn over_budget_model() -> Model {
+    let images = training_set(128, 4, 11);
+    let m = Builder::new(BuildOptions {
+        name: "many-modes".into(),
+        face_width: 240.0,
+        frame: FrameChoice::Own,
+        max_appearance_modes: 0,
+        ..BuildOptions::default()
+    })
+    .build(&images, None)
+    .unwrap();
+    let d = m.shape().base.len();
+    let k = 256;
+    let mut parts = m.into_parts();
+    parts.shape.modes = vec![0.0; k * d];
+    for i in 0..k {
+        parts.shape.modes[i * d + i] = 1.0;
+    }
+    parts.shape.variances = vec![1.0; k];
+    Model::new(parts).unwrap()
+}
+
 /// A 64x64-ish RGBA test image.
 fn texture(w: u32, h: u32, phase: f32) -> Image {
     let mut data = Vec::with_capacity((w * h * 4) as usize);

@@ -14,7 +14,7 @@ mod engine;
 
 use facemimic::format::write_model;
 use facemimic::wasm::{JsCloner, JsModel, WasmTracker};
-use facemimic::{BuildOptions, Builder, FrameChoice, Model, ModelParts, Params, Similarity};
+use facemimic::{Model, ModelParts, Params, Similarity};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
@@ -98,24 +98,7 @@ fn huge_parameters_gains_and_clamps_are_js_errors() {
 
 #[wasm_bindgen_test]
 fn tracker_over_budget_is_a_js_error_not_an_out_of_memory_trap() {
-    let images = engine::training_set(128, 4, 11);
-    let m = Builder::new(BuildOptions {
-        name: "many-modes".into(),
-        face_width: 240.0,
-        frame: FrameChoice::Own,
-        max_appearance_modes: 0,
-        ..BuildOptions::default()
-    })
-    .build(&images, None)
-    .unwrap();
-    let d = m.shape().base.len();
-    let mut parts = m.into_parts();
-    parts.shape.modes = vec![0.0; 256 * d];
-    for i in 0..256 {
-        parts.shape.modes[i * d + i] = 1.0;
-    }
-    parts.shape.variances = vec![1.0; 256];
-    let m = Model::new(parts).unwrap();
+    let m = engine::over_budget_model();
     let bytes = write_model(&m);
     let e = message(WasmTracker::new(&bytes).expect_err("refused"));
     assert!(e.contains("memory budget:"), "{e}");

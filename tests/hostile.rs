@@ -276,27 +276,8 @@ fn writers_refuse_what_readers_reject() {
 
 #[test]
 fn tracker_refuses_a_model_over_its_memory_budget_before_allocating() {
-    // 128 landmarks, a large frame, then 256 orthonormal shape modes: the 0.8 MB model
-    // whose tracker precomputation took 81 MB.
-    let images = engine::training_set(128, 4, 11);
-    let m = Builder::new(BuildOptions {
-        name: "many-modes".into(),
-        face_width: 240.0,
-        frame: FrameChoice::Own,
-        max_appearance_modes: 0,
-        ..BuildOptions::default()
-    })
-    .build(&images, None)
-    .unwrap();
-    let d = m.shape().base.len();
-    let k = 256;
-    let mut parts = m.into_parts();
-    parts.shape.modes = vec![0.0; k * d];
-    for i in 0..k {
-        parts.shape.modes[i * d + i] = 1.0;
-    }
-    parts.shape.variances = vec![1.0; k];
-    let m = Model::new(parts).unwrap();
+    // The 0.8 MB model whose tracker precomputation took 81 MB.
+    let m = engine::over_budget_model();
     let m = reload(&m).expect("a valid model file");
     let bytes = write_model(&m).len() as u64;
     let need = facemimic::bounds::tracking_bytes(&m, FitOptions::default().levels.len(), 1);
