@@ -9,7 +9,9 @@
 //!   orientations, in the face's own frame) to its offset from dlib's point, in `stages` cascaded
 //!   stages, trained from the finder's points and `perturb` perturbed copies of them;
 //! - a shape-conditioned one (`stages` 0): ridge regression from the finder's normalised shape
-//!   to the offsets, for several ridge weights.
+//!   to the offsets, for several ridge weights;
+//! - a generic AAM (`generic`): a model of every 4th training frame with the dlib landmarks (at
+//!   most 4, 8 or 12 shape modes), fitted to each test frame from the finder's points.
 //!
 //! Printed: the finder's error against dlib (mean point distance over the outer-eye-corner
 //! distance) per group (jaw, brows, nose, eyes, lips, all) before and after, on speakers 6-10
@@ -19,6 +21,7 @@
 //! correction does not transfer".
 //!
 //!   cargo run --release --example convention_transfer -- [STAGES [PERTURB [RIDGE [SCALES]]]]
+//!   cargo run --release --example convention_transfer -- generic
 //!
 //! (defaults 2 4 0.01 0.03,0.02; the finder's landmarks are cached in target/convention-cache).
 #![cfg_attr(target_arch = "wasm32", no_main)]
@@ -425,9 +428,45 @@ mod native {
         (b / te.len() as f32, a / te.len() as f32)
     }
 
+    /// A generic AAM of the training frames (every 4th, dlib landmarks), fitted to each test
+    /// frame from the finder's points: does a model whose shapes follow dlib's convention move
+    /// the points onto it on a face it never saw?
+    fn generic_aam(samples: &[Sample], tr: &[usize], te: &[usize], max_modes: usize) -> (f32, f32) {
+        use facemimic::fit::{FitOptions, Fitter};
+        use facemimic::{BuildOptions, Builder, TrainingImage};
+        let images: Vec<TrainingImage> = tr
+            .iter()
+            .step_by(4)
+            .map(|&k| TrainingImage {
+                name: format!("f{k}"),
+                image: samples[k].image.clone(),
+                landmarks: samples[k].truth.clone(),
+            })
+            .collect();
+        let model = Builder::new(BuildOptions {
+            max_shape_modes: max_modes,
+            ..BuildOptions::default()
+        })
+        .build(&images, None)
+        .unwrap();
+        let mut fitter = Fitter::new(&model, FitOptions::default()).unwrap();
+        let (mut b, mut a) = (0f32, 0f32);
+        for &k in te {
+            let s = &samples[k];
+            let r = fitter.fit(&s.image.view().unwrap(), &s.found).unwrap();
+            b += landmark_error(&s.found, &s.truth);
+            a += landmark_error(&r.landmarks, &s.truth);
+        }
+        (b / te.len() as f32, a / te.len() as f32)
+    }
+
     pub fn main() {
         let args: Vec<String> = std::env::args().collect();
-        let stages_n: usize = args.get(1).map(|s| s.parse().unwrap()).unwrap_or(2);
+        let generic = args.get(1).is_some_and(|a| a == "generic");
+        let stages_n: usize = match args.get(1) {
+            Some(a) if a != "generic" => a.parse().unwrap(),
+            _ => 2,
+        };
         let perturb: usize = args.get(2).map(|s| s.parse().unwrap()).unwrap_or(4);
         let lambda: f64 = args.get(3).map(|s| s.parse().unwrap()).unwrap_or(0.01);
         let scales: Vec<f32> = args
@@ -487,6 +526,22 @@ mod native {
         let a = idx_of(&|k| k < ngrid && speakers[k] <= 5);
         let b = idx_of(&|k| k < ngrid && speakers[k] > 5);
         let all = idx_of(&|k| k < ngrid);
+        if generic {
+            for modes in [4, 8, 12] {
+                let (b0, a0) = generic_aam(&samples, &a, &b, modes);
+                let (b1, a1) = generic_aam(&samples, &b, &a, modes);
+                let mut line = format!(
+                    "generic AAM, <= {modes} modes: A->B {b0:.4}->{a0:.4}  B->A {b1:.4}->{a1:.4}"
+                );
+                for set in ["franck-dev", "webcam-dev", "webcam-dev-test"] {
+                    let idx = idx_of(&|k| samples[k].set == set);
+                    let (bb, aa) = generic_aam(&samples, &all, &idx, modes);
+                    line += &format!("  {set} {bb:.4}->{aa:.4}");
+                }
+                println!("{line}");
+            }
+            return;
+        }
         if stages_n == 0 {
             for lam in [0.0001, 0.001, 0.01, 0.1] {
                 let (b0, a0) = shape_reg(&samples, &a, &b, lam);
