@@ -262,6 +262,7 @@ test('"Create a face" from photos: too few, cancelled, then built, kept and used
   const files = (stems, withPts = true) => stems.flatMap((s) => [path.join(CLIP, `${s}.jpg`), ...(withPts ? [path.join(CLIP, `${s}.pts`)] : [])]);
   await page.click('#create-face');
   await page.waitForSelector('dialog#enrol[open]');
+  assert.match(await page.textContent('#enrol .hint'), /drop them here/, 'a desktop hint says photos can be dropped');
   const status = () => page.textContent('#enrol .enrol-status');
   const input = '#enrol input[type="file"]';
 
@@ -327,6 +328,9 @@ test('"Create a face" on a phone (390x844): the dialog fits, the preview comes i
   const list = fs.readFileSync(path.join(CLIP, 'train20.txt'), 'utf8').split('\n').map((s) => s.trim()).filter(Boolean);
   await page.click('#create-face');
   await page.waitForSelector('dialog#enrol[open]');
+  // A touch screen cannot drop files: the hint says how to choose them.
+  const hint = await page.textContent('#enrol .hint');
+  assert.ok(/choose them/.test(hint) && !/drop them/.test(hint), `the hint on a phone: ${hint}`);
   await page.setInputFiles('#enrol input[type="file"]', list.flatMap((s) => [path.join(CLIP, `${s}.jpg`), path.join(CLIP, `${s}.pts`)]));
   await page.waitForFunction(() => /20 usable faces/.test(document.querySelector('#enrol .enrol-status').textContent));
   await page.click('#enrol .btn.primary');

@@ -132,7 +132,13 @@ export class Enrolment {
     );
     d.append(
       $('h2', { id: 'enrol-title', textContent: 'Create a face' }),
-      $('p', { className: 'hint', textContent: 'Use the webcam, a video, or about 20 photos of one person (drop them here; a .pts landmark file beside a photo is used when given). Everything stays in this browser.' }),
+      $('p', {
+        className: 'hint',
+        // Touch screens cannot drop files: say how to choose them there.
+        textContent: matchMedia('(pointer: coarse)').matches
+          ? 'Use the camera, a video, or about 20 photos of one person (choose them with "Photos or video…"; a .pts landmark file chosen with a photo is used). Everything stays on this device.'
+          : 'Use the webcam, a video, or about 20 photos of one person (drop them here; a .pts landmark file beside a photo is used when given). Everything stays in this browser.',
+      }),
       $('div', { className: 'row buttons' }, e.webcam, e.photos, e.file),
       e.guide,
       e.video,
