@@ -12,6 +12,11 @@
 //!   tracked over 600-1336 from the face finder's landmarks on frame 600 (the 1200-1299
 //!   stretch, a hand over the chin, reported apart); `enrol`: the same with the enrolment
 //!   finder's landmarks (`EnrolFinder`, as `tests/enrol_webcam.rs`);
+//! - `control`: the control row of `examples/enrol_eval.rs`: the dlib landmarks of the frames
+//!   of webcam-dev 0-599 (every 5th) the face finder scores >= 0.5, 20 chosen by
+//!   farthest-point sampling, tracked over 600-1336 from the finder's frame-600 landmarks
+//!   (1190-1289, the hand, reported apart); prints the left-out frames' shapes in the model's
+//!   standard deviations; `CONTROL_KEEP=490,495,...` keeps those frames whatever their score;
 //! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/fit.rs`);
 //! - `franck2-floor`: the shape model's floor (dlib landmarks projected onto it) and fits
 //!   started from each frame's dlib landmarks;
@@ -21,7 +26,11 @@
 //! `FIT_OPTIONS='{"refine_iters": 2}'` overrides fields of `FitOptions::default()`;
 //! `FRAME=own` builds in the model's own frame instead of the canonical one;
 //! `SHAPE_VARIANCE`, `APPEARANCE_VARIANCE` set the builder's kept variance fractions,
-//! `MAX_SHAPE_MODES` its most shape modes.
+//! `MAX_SHAPE_MODES` its most shape modes. For `webcam-fps`, `enrol` and `control`:
+//! `FIT_EVAL_FRAMES=1` prints every frame (error, residual, iterations, a cold fit from the
+//! frame's dlib landmarks, the shape model's floor, the fit's and the truth's shape parameters
+//! in standard deviations); `FIT_EVAL_PROBE='592:{"levels":...};{...}'` fits that frame from
+//! the previous tracked result with each set of options (fields over the current options).
 //! Error: mean landmark distance / distance of landmarks 36 and 45 (dlib points).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
@@ -109,17 +118,69 @@ mod native {
         stretch: std::ops::Range<usize>,
     ) {
         let mut t = Tracker::new(model, options()).unwrap();
+        let mut cold = Fitter::new(model, options()).unwrap();
         t.start_from_landmarks(init).unwrap();
         let errs: Vec<f32> = seq
             .iter()
             .enumerate()
             .map(|(i, f)| {
+                if let Ok(probe) = std::env::var("FIT_EVAL_PROBE") {
+                    // Fits this frame from the previous tracked result with other options.
+                    let (at, variants) = probe.split_once(':').unwrap();
+                    if i == at.parse::<usize>().unwrap() {
+                        let prev = t.last().unwrap().landmarks.clone();
+                        for v in variants.split(';') {
+                            let mut o = serde_json::to_value(options()).unwrap();
+                            let x: serde_json::Value = serde_json::from_str(v).unwrap();
+                            for (k, x) in x.as_object().unwrap() {
+                                o[k] = x.clone();
+                            }
+                            let o: FitOptions = serde_json::from_value(o).unwrap();
+                            let mut pf = Fitter::new(model, o).unwrap();
+                            let r = pf.fit(&f.image.view().unwrap(), &prev).unwrap();
+                            println!(
+                                "  probe {i} {v}: {:.4} residual {:.4} iterations {}",
+                                norm_error(&r.landmarks, &f.landmarks),
+                                r.error,
+                                r.iterations
+                            );
+                        }
+                    }
+                }
                 let r = t.track(&f.image.view().unwrap()).unwrap();
                 let e = norm_error(&r.landmarks, &f.landmarks);
                 if std::env::var_os("FIT_EVAL_FRAMES").is_some() {
+                    // The fit's shape parameters and the truth's (its projection onto the
+                    // model), in standard deviations, and the projection's own error.
+                    let v = &model.shape().variances;
+                    let sig = |p: &[f32]| {
+                        p.iter()
+                            .zip(v)
+                            .map(|(x, s)| format!("{:+.1}", x / s.sqrt()))
+                            .collect::<Vec<_>>()
+                            .join(" ")
+                    };
+                    let mut p = vec![0f32; v.len()];
+                    let mut inst = vec![0f32; model.shape().base.len()];
+                    let pose = model
+                        .shape()
+                        .project_image_shape(&f.landmarks, &mut p)
+                        .unwrap();
+                    model.shape().instance(&p, &mut inst).unwrap();
+                    pose.apply_in_place(&mut inst);
+                    // A cold fit started from the truth: is the tracked fit in the cost's
+                    // minimum near the truth, or in another one?
+                    let c = cold.fit(&f.image.view().unwrap(), &f.landmarks).unwrap();
                     println!(
-                        "  {i} {e:.4} residual {:.4} iterations {}",
-                        r.error, r.iterations
+                        "  {i} {e:.4} residual {:.4} iterations {} from truth {:.4} residual {:.4} \
+                         floor {:.4} fit [{}] truth [{}]",
+                        r.error,
+                        r.iterations,
+                        norm_error(&c.landmarks, &f.landmarks),
+                        c.error,
+                        norm_error(&inst, &f.landmarks),
+                        sig(&r.params.shape),
+                        sig(&p)
                     );
                 }
                 e
@@ -433,6 +494,68 @@ mod native {
                         .map(|f| f.landmarks.clone())
                         .expect("a face in frame 600");
                     track_from(&set, &m, &seq, &init, 600..700);
+                }
+                "control" => {
+                    // The control row of `examples/enrol_eval.rs`: the dlib landmarks of the
+                    // frames of webcam-dev 0-599 (every 5th) the finder scores >= 0.5, 20 chosen
+                    // by farthest-point sampling, built in that order; tracked over 600-1336 from
+                    // the finder's landmarks on frame 600 (1190-1289, the hand, reported apart).
+                    let w = d.join("webcam-dev");
+                    let mut enrol = EnrolFinder::new(1).unwrap();
+                    // `CONTROL_KEEP=490,495` keeps those frames whatever their score.
+                    let extra: Vec<String> = std::env::var("CONTROL_KEEP")
+                        .unwrap_or_default()
+                        .split(',')
+                        .filter(|k| !k.is_empty())
+                        .map(|k| format!("{:06}", k.parse::<usize>().expect("CONTROL_KEEP")))
+                        .collect();
+                    let (mut train, mut dropped) = (Vec::new(), Vec::new());
+                    for f in load(&numbered(&w, (0..600).step_by(5))) {
+                        let view = f.image.view().unwrap();
+                        let faces = enrol.finder().find(&view);
+                        let Some(face) = faces.first() else { continue };
+                        if enrol.average(&view, face).unwrap().is_some() {
+                            if face.score >= 0.5 || extra.contains(&f.name) {
+                                train.push(f);
+                            } else {
+                                dropped.push(f);
+                            }
+                        }
+                    }
+                    let shapes: Vec<&[f32]> =
+                        train.iter().map(|t| t.landmarks.as_slice()).collect();
+                    let mut keep = select_varied(&shapes, 20).unwrap();
+                    keep.sort_unstable();
+                    let chosen: Vec<TrainingImage> =
+                        keep.iter().map(|&i| train[i].clone()).collect();
+                    println!(
+                        "control: {} frames (score >= 0.5 or kept), chose {:?}",
+                        train.len(),
+                        keep.iter()
+                            .map(|&i| train[i].name.clone())
+                            .collect::<Vec<_>>()
+                    );
+                    let m = build_images(&chosen);
+                    // The frames left out (score < 0.5) in the model's standard deviations.
+                    let v = &m.shape().variances;
+                    let mut p = vec![0f32; v.len()];
+                    for f in &dropped {
+                        m.shape().project_image_shape(&f.landmarks, &mut p).unwrap();
+                        let z: Vec<String> = p
+                            .iter()
+                            .zip(v)
+                            .map(|(x, s)| format!("{:+.1}", x / s.sqrt()))
+                            .collect();
+                        println!("  left out {}: [{}]", f.name, z.join(" "));
+                    }
+                    let seq = load(&numbered(&w, 600..1337));
+                    let init = enrol
+                        .finder()
+                        .find(&seq[0].image.view().unwrap())
+                        .first()
+                        .map(|f| f.landmarks.clone())
+                        .expect("a face in frame 600");
+                    track_from(&set, &m, &seq, &init, 590..690);
                 }
                 "grid-basin" => {
                     let list = repo("data/grid/spk07_pwij3p/train20.txt");
