@@ -79,7 +79,53 @@ mod native {
         build_images(&images)
     }
 
+    /// `images` and each one mirrored (image flipped left-right, landmarks flipped and
+    /// renumbered by `MIRROR_68`): an experiment on symmetric augmentation.
+    fn mirrored(images: &[TrainingImage]) -> Vec<TrainingImage> {
+        let mut out = images.to_vec();
+        for t in images {
+            let (w, h) = (t.image.width as usize, t.image.height as usize);
+            let mut data = t.image.data.clone();
+            for y in 0..h {
+                for x in 0..w {
+                    let (a, b) = ((y * w + x) * 4, (y * w + w - 1 - x) * 4);
+                    data[a..a + 4].copy_from_slice(&t.image.data[b..b + 4]);
+                }
+            }
+            let mut lm = t.landmarks.clone();
+            for (i, &j) in facemimic::MIRROR_68.iter().enumerate() {
+                lm[2 * i] = (w - 1) as f32 - t.landmarks[2 * j];
+                lm[2 * i + 1] = t.landmarks[2 * j + 1];
+            }
+            out.push(TrainingImage {
+                name: format!("{}-mirror", t.name),
+                image: facemimic::Image {
+                    width: t.image.width,
+                    height: t.image.height,
+                    data,
+                },
+                landmarks: lm,
+            });
+        }
+        out
+    }
+
+    /// The model of `images`; `MIRROR=1` builds it of `images` and their mirror images,
+    /// `MIRROR=shape` takes only the shape model from those (the appearance from `images`;
+    /// canonical frame only: the appearance lives on the frame's mesh).
     fn build_images(images: &[TrainingImage]) -> Model {
+        match std::env::var("MIRROR").as_deref() {
+            Ok("1") => build_plain(&mirrored(images)),
+            Ok("shape") => {
+                let mut parts = build_plain(images).into_parts();
+                parts.shape = build_plain(&mirrored(images)).into_parts().shape;
+                Model::new(parts).unwrap()
+            }
+            _ => build_plain(images),
+        }
+    }
+
+    fn build_plain(images: &[TrainingImage]) -> Model {
         let frame = match std::env::var("FRAME").as_deref() {
             Ok("own") => FrameChoice::Own,
             _ => FrameChoice::Canonical,
