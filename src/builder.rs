@@ -70,6 +70,13 @@ pub struct BuildOptions {
     pub reference: ReferenceChoice,
     /// The frame used when [`Builder::build`] is given no frame model.
     pub frame: FrameChoice,
+    /// Estimate the shape modes from each training shape's deviation from the base shape and
+    /// its mirror image (68-point landmarks; default on; the symmetric samples of the builder's
+    /// `mirrored_deviations`). A face
+    /// turns and moves both ways; 20 frames often show a head turn or a lopsided expression one
+    /// way only, and a model without the other side has no mode for it. Measured in
+    /// docs/fitting.md ("The control model").
+    pub symmetric_shapes: bool,
 }
 
 impl Default for BuildOptions {
@@ -83,6 +90,7 @@ impl Default for BuildOptions {
             max_appearance_modes: 64,
             reference: ReferenceChoice::Mean,
             frame: FrameChoice::Canonical,
+            symmetric_shapes: true,
         }
     }
 }
@@ -266,7 +274,13 @@ impl Builder {
             Some(i) => aligned[i].clone(),
             None => mean(&aligned),
         };
-        let sp = pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes)?;
+        let sp = if o.symmetric_shapes && n == 2 * CANONICAL_LANDMARKS {
+            let mut both = aligned.clone();
+            both.extend(mirrored_deviations(&aligned, &shape_centre));
+            pca(&both, &shape_centre, o.shape_variance, o.max_shape_modes)?
+        } else {
+            pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes)?
+        };
         step(1)?;
         let shape = ShapeModel {
             base: shape_centre.iter().map(|&v| v as f32).collect(),
@@ -347,6 +361,50 @@ impl Builder {
 /// (their mean is smaller than `r` by the spread of the set); undoing that keeps a model built in
 /// a frame the size of that frame's mesh, so that the person the frame was made from gets back
 /// exactly the frame's mesh as the base shape (and any person a base of the mesh's size).
+/// Symmetric shape samples: each aligned shape's deviation from `centre` mirrored, added back
+/// to `centre` (`centre + M d_i`, `d_i = s_i - centre`). `M` renumbers the points left for right
+/// ([`crate::MIRROR_68`]) and reflects the vectors across the face's vertical axis: the
+/// reflection `R(beta) F` (`F` negates x, `R(beta)` the rotation that best maps the mirrored,
+/// renumbered `centre` onto `centre`, least squares about their centroids), so the model
+/// coordinates need not be upright. The deviations are mirrored, not the shapes: the person's
+/// own asymmetry stays in `centre`, and the samples' covariance is that of the training
+/// deviations made mirror-symmetric, the assumption being that a face turns and moves both
+/// ways. With `centre` the training mean the samples' mean is still `centre`.
+fn mirrored_deviations(aligned: &[Vec<f64>], centre: &[f64]) -> Vec<Vec<f64>> {
+    let map = &crate::MIRROR_68;
+    let n = map.len();
+    let (mut cx, mut cy) = (0.0, 0.0);
+    for p in centre.chunks_exact(2) {
+        cx += p[0] / n as f64;
+        cy += p[1] / n as f64;
+    }
+    // F P centre about the centroid against centre: the rotation angle beta.
+    let (mut dot, mut cross) = (0.0, 0.0);
+    for (i, &j) in map.iter().enumerate() {
+        let (ax, ay) = (-(centre[2 * j] - cx), centre[2 * j + 1] - cy);
+        let (bx, by) = (centre[2 * i] - cx, centre[2 * i + 1] - cy);
+        dot += ax * bx + ay * by;
+        cross += ax * by - ay * bx;
+    }
+    let beta = cross.atan2(dot);
+    let (sn, cs) = beta.sin_cos();
+    aligned
+        .iter()
+        .map(|s| {
+            let mut out = centre.to_vec();
+            for (i, &j) in map.iter().enumerate() {
+                let (dx, dy) = (
+                    -(s[2 * j] - centre[2 * j]),
+                    s[2 * j + 1] - centre[2 * j + 1],
+                );
+                out[2 * i] += cs * dx - sn * dy;
+                out[2 * i + 1] += sn * dx + cs * dy;
+            }
+            out
+        })
+        .collect()
+}
+
 fn scale_to_size_of(aligned: &mut [Vec<f64>], mean: &[f64], r: &[f64]) {
     let n = (r.len() / 2).max(1) as f64;
     let centroid = |s: &[f64]| -> (f64, f64) {
