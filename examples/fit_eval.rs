@@ -26,7 +26,8 @@
 //! `FIT_OPTIONS='{"refine_iters": 2}'` overrides fields of `FitOptions::default()`;
 //! `FRAME=own` builds in the model's own frame instead of the canonical one;
 //! `SHAPE_VARIANCE`, `APPEARANCE_VARIANCE` set the builder's kept variance fractions,
-//! `MAX_SHAPE_MODES` its most shape modes. For `webcam-fps`, `enrol` and `control`:
+//! `MAX_SHAPE_MODES` its most shape modes, `SYMMETRIC_SHAPES=0` turns off its mirrored
+//! deviations. For `webcam-fps`, `enrol` and `control`:
 //! `FIT_EVAL_FRAMES=1` prints every frame (error, residual, iterations, a cold fit from the
 //! frame's dlib landmarks, the shape model's floor, the fit's and the truth's shape parameters
 //! in standard deviations); `FIT_EVAL_PROBE='592:{"levels":...};{...}'` fits that frame from
@@ -137,6 +138,7 @@ mod native {
             shape_variance: var("SHAPE_VARIANCE").unwrap_or(d.shape_variance),
             appearance_variance: var("APPEARANCE_VARIANCE").unwrap_or(d.appearance_variance),
             max_shape_modes: var("MAX_SHAPE_MODES").map_or(d.max_shape_modes, |v| v as usize),
+            symmetric_shapes: var("SYMMETRIC_SHAPES").map_or(d.symmetric_shapes, |v| v != 0.0),
             ..d
         })
         .build(images, None)

@@ -334,10 +334,12 @@ fn projection_reconstructs_training_faces() {
         .collect();
     let images = training_set(&posed, &image);
     let full = build(&images, 1.0, 1.0);
+    // The training deviations span 15 dimensions, their mirror images (the builder's
+    // symmetric shape modes, on by default) 15 more.
     assert_eq!(
         full.shape().n_modes(),
-        15,
-        "16 shapes of 136 values span 15 dimensions"
+        30,
+        "16 shapes of 136 values and their mirrored deviations span 30 dimensions"
     );
     let mut buf = vec![0f32; 136];
     for t in &images {
