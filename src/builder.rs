@@ -277,7 +277,15 @@ impl Builder {
         let sp = if o.symmetric_shapes && n == 2 * CANONICAL_LANDMARKS {
             let mut both = aligned.clone();
             both.extend(mirrored_deviations(&aligned, &shape_centre));
-            pca(&both, &shape_centre, o.shape_variance, o.max_shape_modes)?
+            let mut sp = pca(&both, &shape_centre, o.shape_variance, o.max_shape_modes)?;
+            // `pca` divides by 2k - 1 for the 2k samples; the symmetric covariance
+            // `(C + M C M^T) / 2` of the k training shapes' `C` (denominator k - 1) has the
+            // same total variance as `C`, so the variances are rescaled to it.
+            let k = aligned.len() as f64;
+            let r = ((2.0 * k - 1.0) / (2.0 * (k - 1.0))) as f32;
+            sp.variances.iter_mut().for_each(|v| *v *= r);
+            sp.total_variance *= r as f64;
+            sp
         } else {
             pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes)?
         };
