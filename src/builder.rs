@@ -442,3 +442,62 @@ fn scale_to_size_of(aligned: &mut [Vec<f64>], mean: &[f64], r: &[f64]) {
         }
     }
 }
+
+#[cfg(test)]
+mod symmetric_tests {
+    use super::*;
+
+    /// The mirrored samples keep each deviation's length, mirror back onto the original
+    /// deviations, and map a deviation that moves the face's left side
+    /// to one that moves its right side.
+    #[test]
+    fn mirrored_deviations_reflect_about_the_face() {
+        let centre: Vec<f64> = canonical_frame()
+            .vertices()
+            .iter()
+            .map(|&v| v as f64)
+            .collect();
+        // A rotated copy of the frame as the centre: the reflection axis follows the face.
+        let (sn, cs) = 0.3f64.sin_cos();
+        let centre: Vec<f64> = centre
+            .chunks_exact(2)
+            .flat_map(|p| [cs * p[0] - sn * p[1], sn * p[0] + cs * p[1]])
+            .collect();
+        let mut a = centre.clone();
+        a[2 * 36] += 3.0; // the left outer eye corner moves
+        let mut b = centre.clone();
+        for (i, v) in b.iter_mut().enumerate() {
+            *v += 0.5 * ((i * 7919) % 13) as f64 - 3.0;
+        }
+        let c: Vec<f64> = a
+            .iter()
+            .zip(&b)
+            .zip(&centre)
+            .map(|((x, y), z)| x + y - z)
+            .collect();
+        let shapes = vec![a.clone(), b.clone(), c];
+        let m = mirrored_deviations(&shapes, &centre);
+        let norm = |s: &[f64]| {
+            s.iter()
+                .zip(&centre)
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>()
+        };
+        for (s, t) in shapes.iter().zip(&m) {
+            assert!((norm(s) - norm(t)).abs() < 1e-9 * norm(s).max(1.0));
+        }
+        let back = mirrored_deviations(&m, &centre);
+        for (s, t) in shapes.iter().zip(&back) {
+            for (x, y) in s.iter().zip(t) {
+                assert!((x - y).abs() < 1e-6, "{x} vs {y}");
+            }
+        }
+        // The moved point is now the right outer eye corner (45), by the same distance.
+        let moved: Vec<usize> = (0..68)
+            .filter(|&i| {
+                (m[0][2 * i] - centre[2 * i]).hypot(m[0][2 * i + 1] - centre[2 * i + 1]) > 1e-6
+            })
+            .collect();
+        assert_eq!(moved, vec![45]);
+    }
+}
