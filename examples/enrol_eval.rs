@@ -276,8 +276,8 @@ mod native {
             "frame: {}; tracking 600-1336 from the finder's frame-600 landmarks",
             if own { "own" } else { "canonical" }
         );
-        for (k, (name, set)) in runs.into_iter().enumerate() {
-            if k == 5 {
+        for (name, set) in runs {
+            if name == "finder averaged, confident" {
                 // "finder averaged, confident", refined once (fit to its own frames, rebuilt from the
                 // fitted landmarks).
                 let shapes: Vec<&[f32]> = set.iter().map(|t| t.landmarks.as_slice()).collect();
