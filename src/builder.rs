@@ -8,7 +8,7 @@ use crate::image::Image;
 use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::pca::{mean, pca};
 use crate::shape::{generalised_procrustes, ShapeModel};
-use crate::similarity::Similarity;
+use crate::similarity::{CentredFit, Similarity};
 
 /// One training example: an image and its landmarks (0-based image coordinates).
 #[derive(Clone, Debug)]
@@ -364,11 +364,6 @@ impl Builder {
     }
 }
 
-/// Scales shapes aligned onto `r` about `r`'s centroid so that their mean has `r`'s size
-/// (centroid size). Least-squares alignment shrinks shapes a little towards the reference
-/// (their mean is smaller than `r` by the spread of the set); undoing that keeps a model built in
-/// a frame the size of that frame's mesh, so that the person the frame was made from gets back
-/// exactly the frame's mesh as the base shape (and any person a base of the mesh's size).
 /// Symmetric shape samples: each aligned shape's deviation from `centre` mirrored, added back
 /// to `centre` (`centre + M d_i`, `d_i = s_i - centre`). `M` renumbers the points left for right
 /// ([`crate::MIRROR_68`]) and reflects the vectors across the face's vertical axis: the
@@ -380,21 +375,14 @@ impl Builder {
 /// ways. With `centre` the training mean the samples' mean is still `centre`.
 fn mirrored_deviations(aligned: &[Vec<f64>], centre: &[f64]) -> Vec<Vec<f64>> {
     let map = &crate::MIRROR_68;
-    let n = map.len();
-    let (mut cx, mut cy) = (0.0, 0.0);
-    for p in centre.chunks_exact(2) {
-        cx += p[0] / n as f64;
-        cy += p[1] / n as f64;
-    }
-    // F P centre about the centroid against centre: the rotation angle beta.
-    let (mut dot, mut cross) = (0.0, 0.0);
-    for (i, &j) in map.iter().enumerate() {
-        let (ax, ay) = (-(centre[2 * j] - cx), centre[2 * j + 1] - cy);
-        let (bx, by) = (centre[2 * i] - cx, centre[2 * i + 1] - cy);
-        dot += ax * bx + ay * by;
-        cross += ax * by - ay * bx;
-    }
-    let beta = cross.atan2(dot);
+    // F P centre (renumbered, x negated) fitted onto centre: the rotation `R(beta)` (the
+    // similarity fit centres both; only its direction is used).
+    let reflected: Vec<f64> = map
+        .iter()
+        .flat_map(|&j| [-centre[2 * j], centre[2 * j + 1]])
+        .collect();
+    let fit = CentredFit::new(&reflected, centre);
+    let beta = fit.b.atan2(fit.a);
     let (sn, cs) = beta.sin_cos();
     aligned
         .iter()
@@ -413,6 +401,11 @@ fn mirrored_deviations(aligned: &[Vec<f64>], centre: &[f64]) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// Scales shapes aligned onto `r` about `r`'s centroid so that their mean has `r`'s size
+/// (centroid size). Least-squares alignment shrinks shapes a little towards the reference
+/// (their mean is smaller than `r` by the spread of the set); undoing that keeps a model built in
+/// a frame the size of that frame's mesh, so that the person the frame was made from gets back
+/// exactly the frame's mesh as the base shape (and any person a base of the mesh's size).
 fn scale_to_size_of(aligned: &mut [Vec<f64>], mean: &[f64], r: &[f64]) {
     let n = (r.len() / 2).max(1) as f64;
     let centroid = |s: &[f64]| -> (f64, f64) {
