@@ -40,7 +40,7 @@ pub(super) struct Work {
     pub best_cur: Vec<f32>,
     pub best_p: Vec<f32>,
     pub best_pose: Similarity,
-    /// The state before the last level ran (for [`super::FitOptions::level_check`]).
+    /// The state the first level started from (for [`super::FitOptions::level_check`]).
     pub before_cur: Vec<f32>,
     pub before_p: Vec<f32>,
     pub before_pose: Similarity,
@@ -73,6 +73,16 @@ pub(super) fn residual(level: &Level, img: GreyView<'_>, w: &mut Work) -> f32 {
         axpy(-w.lam[i], mode, e);
     }
     (dot(e, e) / n as f32).sqrt()
+}
+
+impl Work {
+    /// Exchanges the current state (landmarks, shape parameters, pose) with the kept one
+    /// (`before_*`).
+    pub(super) fn swap_before(&mut self) {
+        std::mem::swap(&mut self.cur, &mut self.before_cur);
+        std::mem::swap(&mut self.p, &mut self.before_p);
+        std::mem::swap(&mut self.pose, &mut self.before_pose);
+    }
 }
 
 /// The cost a level minimises at the current state: the projected-out residual

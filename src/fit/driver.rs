@@ -248,19 +248,18 @@ impl Fitter {
                 // heavily smoothed level can be pulled off by what its smoothing spreads over
                 // the face (a hand under the chin).
                 let after = level_cost(&ctx, w);
-                std::mem::swap(&mut w.cur, &mut w.before_cur);
-                std::mem::swap(&mut w.p, &mut w.before_p);
-                std::mem::swap(&mut w.pose, &mut w.before_pose);
+                w.swap_before();
                 let before = level_cost(&ctx, w);
                 if !(before < after) {
-                    std::mem::swap(&mut w.cur, &mut w.before_cur);
-                    std::mem::swap(&mut w.p, &mut w.before_p);
-                    std::mem::swap(&mut w.pose, &mut w.before_pose);
+                    w.swap_before();
                 }
             }
-            w.before_cur.copy_from_slice(&w.cur);
-            w.before_p.copy_from_slice(&w.p);
-            w.before_pose = w.pose;
+            if li == 0 && self.options.level_check {
+                // The state the first level starts from, for the check above.
+                w.before_cur.copy_from_slice(&w.cur);
+                w.before_p.copy_from_slice(&w.p);
+                w.before_pose = w.pose;
+            }
             let starts = if li == 0 { starts } else { 1 };
             if starts <= 1 {
                 converged = run(

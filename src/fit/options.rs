@@ -60,9 +60,10 @@ pub struct FitOptions {
     /// lost face (a face leaving the picture cannot be checked against the image).
     #[serde(default = "default_min_inside")]
     pub min_inside: f32,
-    /// Before each level after the first, compare on that level the result of the previous
-    /// level with the state it started from, and keep the one of lower cost (the previous
-    /// level is undone when it made things worse).
+    /// Before the second level, compare on that level the first level's result with the state
+    /// the first level started from, and keep the one of lower cost: the first, most smoothed
+    /// level is undone when it made things worse (checking before every later level measured
+    /// the same, docs/fitting.md).
     #[serde(default = "default_level_check")]
     pub level_check: bool,
 }
