@@ -203,6 +203,15 @@ export class Enrolment {
     this.preview.tick(t);
   }
 
+  /** Forgets the last build's result: its buttons and preview are hidden, and the preview
+   *  draws nothing. */
+  hideResult() {
+    this.result = null;
+    this.els.done.hidden = true;
+    this.els.preview.hidden = true;
+    this.preview.clear();
+  }
+
   /** Shows a built model in the dialog's preview; a dialog that scrolls (a phone) is scrolled
    *  to the status line, so the preview and the buttons under it come into view. */
   showPreview(model, info, name) {
@@ -222,10 +231,7 @@ export class Enrolment {
     this.stopCapture();
     this.candidates = [];
     this.seen = 0;
-    this.result = null;
-    this.els.done.hidden = true;
-    this.els.preview.hidden = true;
-    this.preview.clear();
+    this.hideResult();
     this.els.progress.hidden = true;
     this.els.guide.textContent = '';
     this.update('Choose the webcam, or drop photos or a video.');
@@ -233,8 +239,9 @@ export class Enrolment {
 
   /** Landmarks of the most confident face in a frame (found in the page's finder worker), or null. */
   async findFace(frame) {
+    // The worker's Float32Array, transferred: this page's own copy.
     const face = await enrolFace(frame, MIN_SCORE);
-    return face ? Float32Array.from(face.landmarks) : null;
+    return face ? face.landmarks : null;
   }
 
   /** Adds a frame with its landmarks, pruning to the most varied when there are too many. */
@@ -475,10 +482,7 @@ export class Enrolment {
       return { rgba: c.rgba.slice(), width: c.width, height: c.height, landmarks: c.landmarks };
     });
     // The preview and the buttons are for the result of this build: hidden until it is done.
-    this.result = null;
-    this.els.done.hidden = true;
-    this.els.preview.hidden = true;
-    this.preview.clear();
+    this.hideResult();
     this.abort = new AbortController();
     const p = this.els.progress;
     p.hidden = false;

@@ -60,7 +60,7 @@ function pump() {
 
 function request(kind, image, extra = {}) {
   return new Promise((resolve, reject) => {
-    const data = new Uint8Array(image.data ?? image.rgba).slice().buffer; // a copy: the caller keeps its frame
+    const data = new Uint8Array(image.data ?? image.rgba).buffer; // a copy (the constructor copies): the caller keeps its frame
     waiting[kind].push({ id: nextId++, kind, data, width: image.width, height: image.height, resolve, reject, ...extra });
     pump();
   });
