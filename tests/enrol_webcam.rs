@@ -21,18 +21,13 @@
 
 mod common;
 
-use common::{frame, shared_data};
+use common::{frame, shared_data, varied};
 use facemimic::find::{add_face_offsets, landmark_error, mean_face_offsets};
 use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{select_varied, BuildOptions, Builder, EnrolFinder, Model, TrainingImage};
+use facemimic::{BuildOptions, Builder, EnrolFinder, Model, TrainingImage};
 
 fn build(name: &str, images: &[TrainingImage]) -> Model {
-    let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
-    let chosen: Vec<TrainingImage> = select_varied(&shapes, 20)
-        .unwrap()
-        .into_iter()
-        .map(|i| images[i].clone())
-        .collect();
+    let chosen = varied(images, 20);
     Builder::new(BuildOptions {
         name: name.into(),
         ..BuildOptions::default()

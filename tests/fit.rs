@@ -4,38 +4,19 @@
 //! Error measure: mean point-to-point distance between fitted and annotated landmarks divided
 //! by the distance between landmarks 36 and 45 (outer eye corners) of the annotation.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use facemimic::fit::{FitOptions, Fitter, Tracker};
-use facemimic::{
-    io, select_varied, BuildOptions, Builder, FrameChoice, Image, Model, Similarity, TrainingImage,
-};
+use facemimic::{io, BuildOptions, Builder, FrameChoice, Image, Model, Similarity, TrainingImage};
 
 fn repo(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
 }
 
 fn franck_dir() -> Option<PathBuf> {
-    shared_dir("franck-dev")
-}
-
-/// A clip of the shared research data (`../shared/data/NAME`, with its `train20.txt`).
-fn shared_dir(name: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    if d.join("train20.txt").is_file() {
-        Some(d)
-    } else {
-        // CI always has ../shared: there its absence is a failure, not a skip.
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is absent (CI must have ../shared beside the repository)",
-            d.display()
-        );
-        eprintln!("SKIPPED: {} is absent", d.display());
-        None
-    }
+    common::shared_data("franck-dev")
 }
 
 fn build(list: &Path) -> (Model, Vec<String>) {
@@ -238,7 +219,7 @@ fn franck_convergence_basin() {
 /// is measured on the unseen frames 600-899, from frame 600's landmarks.
 #[test]
 fn webcam_canonical_frame_model_tracks_like_own_frame() {
-    let Some(dir) = shared_dir("webcam-dev") else {
+    let Some(dir) = common::shared_data("webcam-dev") else {
         return;
     };
     let frame = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
@@ -279,7 +260,7 @@ fn webcam_canonical_frame_model_tracks_like_own_frame() {
 /// no landmarks given: the tracker starts from the face finder's face and re-acquires with it.
 #[test]
 fn webcam_tracks_from_the_face_finder() {
-    let Some(dir) = shared_dir("webcam-dev") else {
+    let Some(dir) = common::shared_data("webcam-dev") else {
         return;
     };
     let frame = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
@@ -334,17 +315,12 @@ fn webcam_tracks_from_the_face_finder() {
 /// 1150's landmarks.
 #[test]
 fn webcam_farthest_point_model_keeps_the_chin_under_the_hand() {
-    let Some(dir) = shared_dir("webcam-dev") else {
+    let Some(dir) = common::shared_data("webcam-dev") else {
         return;
     };
     let frame = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
     let pool: Vec<TrainingImage> = (0..600).step_by(5).map(frame).collect();
-    let shapes: Vec<&[f32]> = pool.iter().map(|t| t.landmarks.as_slice()).collect();
-    let chosen: Vec<TrainingImage> = select_varied(&shapes, 20)
-        .unwrap()
-        .into_iter()
-        .map(|i| pool[i].clone())
-        .collect();
+    let chosen = common::varied(&pool, 20);
     let model = Builder::default().build(&chosen, None).unwrap();
     let seq: Vec<TrainingImage> = (600..1337).map(frame).collect();
     let (errs, resets, lost) = track(&model, &seq);

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use facemimic::{io, TrainingImage};
+use facemimic::{io, select_varied, TrainingImage};
 
 /// `../shared/data/NAME` beside the repository, or `None` after a visible "SKIPPED" message
 /// when it is absent. Under `CI` its absence is a failure: CI always has `../shared`.
@@ -27,4 +27,15 @@ pub fn shared_data(name: &str) -> Option<PathBuf> {
 /// Frame `i` of the clip in `dir` (`NNNNNN.jpg` and its landmarks).
 pub fn frame(dir: &Path, i: usize) -> TrainingImage {
     io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap()
+}
+
+/// The `n` most varied of `images` (farthest-point sampling of their aligned shapes,
+/// [`select_varied`]), in the order chosen.
+pub fn varied(images: &[TrainingImage], n: usize) -> Vec<TrainingImage> {
+    let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+    select_varied(&shapes, n)
+        .unwrap()
+        .into_iter()
+        .map(|i| images[i].clone())
+        .collect()
 }
