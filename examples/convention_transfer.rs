@@ -51,17 +51,8 @@ mod native {
     pub struct Sample {
         pub set: String,
         pub image: Image,
-        pub grey: Vec<f32>,
         pub truth: Vec<f32>,
         pub found: Vec<f32>,
-    }
-
-    fn grey_of(img: &Image) -> Vec<f32> {
-        let v = img.view().unwrap();
-        v.data()
-            .chunks_exact(4)
-            .map(|p| (0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32) / 255.0)
-            .collect()
     }
 
     fn load(finder: &mut EnrolFinder, set: &str, paths: &[PathBuf], cache: &Path) -> Vec<Sample> {
@@ -92,7 +83,6 @@ mod native {
             if found.len() == 136 {
                 out.push(Sample {
                     set: set.into(),
-                    grey: grey_of(&t.image),
                     image: t.image,
                     truth: t.landmarks,
                     found,
@@ -115,20 +105,14 @@ mod native {
     pub const BINS: usize = 8;
     pub const DIM: usize = CELLS * CELLS * BINS;
 
-    fn sample(g: &[f32], w: usize, h: usize, x: f32, y: f32) -> f32 {
-        let x = x.clamp(0.0, (w - 1) as f32);
-        let y = y.clamp(0.0, (h - 1) as f32);
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-        let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let a = g[y0 * w + x0] * (1.0 - fx) + g[y0 * w + x1] * fx;
-        let b = g[y1 * w + x0] * (1.0 - fx) + g[y1 * w + x1] * fx;
-        a * (1.0 - fy) + b * fy
-    }
-
     /// HOG-like descriptor of the patch around each point, in the face's frame.
     pub fn features(s: &Sample, pts: &[f32], scale: f32, out: &mut Vec<f32>) {
-        let (w, h) = (s.image.width as usize, s.image.height as usize);
+        let view = s.image.view().unwrap();
+        // Grey (luma) of the crate's bilinear RGB sample.
+        let grey = |x: f32, y: f32| {
+            let [r, g, b] = view.sample_rgb(x, y);
+            0.299 * r + 0.587 * g + 0.114 * b
+        };
         let (_, r, c, sn) = frame(pts);
         let step = r * scale;
         let n = CELLS * PER + 2;
@@ -140,8 +124,7 @@ mod native {
                 for u in 0..n {
                     let a = (u as f32 - (n as f32 - 1.0) / 2.0) * step;
                     let b = (v as f32 - (n as f32 - 1.0) / 2.0) * step;
-                    patch[v * n + u] =
-                        sample(&s.grey, w, h, px + c * a - sn * b, py + sn * a + c * b);
+                    patch[v * n + u] = grey(px + c * a - sn * b, py + sn * a + c * b);
                 }
             }
             let mut d = [0f32; DIM];
