@@ -288,6 +288,17 @@ pub fn target_pose(
     }
 }
 
+/// The method a target is cloned with: `method`, except for a photo target ([`Model::is_photo`]:
+/// no modes of its own), which `map` and `map-residual` cannot express anything on; it is
+/// cloned by substitution (Fig. 4 A: the source's modes on the photo's face).
+pub fn effective_method(method: Method, target: &Model) -> Method {
+    if target.is_photo() {
+        Method::Substitute
+    } else {
+        method
+    }
+}
+
 /// A pose that keeps every posed coordinate finite: valid, scale and translation below 1e15.
 fn pose_in_range(p: &Similarity) -> bool {
     const MAX: f32 = 1e15;
@@ -503,12 +514,12 @@ impl<'a> Step<'a> {
         out.params.pose = target_pose(
             self.source_mean_inverse,
             self.source_pose,
-            &m.mean_pose(),
+            &m.home_pose(),
             options.follow_pose,
         );
         map_params(&pair.shape_map, p, &mut out.params.shape);
         map_params(&pair.appearance_map, lambda, &mut out.params.appearance);
-        match options.method {
+        match effective_method(options.method, m) {
             Method::Substitute => {
                 substitute_shape(&m.shape().base, &self.source.shape().modes, p, acc);
                 crate::appearance::synthesise(
@@ -760,7 +771,7 @@ impl Cloner {
             let pose = target_pose(
                 &self.scratch.source_mean_inverse,
                 &source.pose,
-                &t.model.mean_pose(),
+                &t.model.home_pose(),
                 options.follow_pose,
             );
             if !pose_in_range(&pose) {

@@ -12,6 +12,7 @@ pub use crate::bounds::{Limits, LIMITS};
 pub use crate::error::FormatError;
 
 use crate::appearance::AppearanceModel;
+use crate::backdrop::Backdrop;
 use crate::frame::ReferenceFrame;
 use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::shape::ShapeModel;
@@ -21,8 +22,16 @@ use crate::similarity::Similarity;
 /// a non-ASCII first byte and line-ending bytes expose text-mode transfers and truncation).
 pub const MAGIC: [u8; 8] = [0x89, b'F', b'M', b'M', b'\r', b'\n', 0x1a, b'\n'];
 
-/// The format version this library writes (the newest it reads).
-pub const FORMAT_VERSION: u32 = 2;
+/// The format version this library writes (the newest it reads). Version 3 is version 2 plus
+/// optional tagged sections after the appearance (the backdrop, [`SECTION_BACKDROP`]).
+pub const FORMAT_VERSION: u32 = 3;
+
+/// Section tag of the backdrop (`"BKDR"` in little-endian bytes): the picture a model's face is
+/// composited into, with its landmarks (see `docs/model-format.md`).
+pub const SECTION_BACKDROP: u32 = u32::from_le_bytes(*b"BKDR");
+
+/// Most sections a file may hold.
+pub const MAX_SECTIONS: usize = 16;
 
 /// The oldest format version this library reads. Readers keep reading older versions: every
 /// version from this one to [`FORMAT_VERSION`] loads.
@@ -168,7 +177,8 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
         model.appearance().modes.len() as u64 / model.appearance().base.len().max(1) as u64,
     )
     .unwrap_or(0) as usize;
-    let total = HEADER_LEN + names + padding + 4 * floats + appearance + CHECKSUM_LEN;
+    let sections = sections_of(model);
+    let total = HEADER_LEN + names + padding + 4 * floats + appearance + sections.len() + CHECKSUM_LEN;
     let mut out = Vec::with_capacity(total);
     let u32le = |out: &mut Vec<u8>, v: u32| out.extend_from_slice(&v.to_le_bytes());
     let f32le = |out: &mut Vec<u8>, v: f32| out.extend_from_slice(&v.to_le_bytes());
@@ -225,6 +235,7 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
         .flatten()
         .for_each(|&i| u32le(&mut out, i));
     write_appearance(&mut out, model.appearance(), storage);
+    out.extend_from_slice(&sections);
     let crc = crc32(&out);
     u32le(&mut out, crc);
     debug_assert_eq!(out.len(), total);
@@ -602,12 +613,16 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
         value: u64::MAX,
         limit: u64::MAX - 1,
     })?;
-    if h.file_length != implied {
+    // Version 3 may hold sections after the appearance: the stated length is then larger than
+    // what the dimensions imply, by the sections' bytes (checked when they are parsed).
+    let sections_allowed = h.version >= 3;
+    if h.file_length != implied && !(sections_allowed && h.file_length > implied) {
         return Err(FormatError::LengthMismatch {
             stated: h.file_length,
             implied,
         });
     }
+    let implied = h.file_length;
     let found = bytes.len() as u64;
     if found < implied {
         return Err(FormatError::Truncated {
@@ -673,6 +688,7 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
         triangles.push(idx);
     }
     let appearance = read_appearance(&mut c, h.storage, px3, l)?;
+    let sections = read_sections(&mut c, body, h.n)?;
     debug_assert_eq!(c.pos, body);
 
     check_variances("shape variances", &shape_variances)?;
@@ -705,9 +721,11 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
         });
     }
 
-    let info = FileInfo {
+    let mut info = FileInfo {
         version: h.version,
         storage: h.storage,
+        backdrop_bytes: 0,
+        backdrop_notice: None,
     };
     let model = Model::new(ModelParts {
         name,
@@ -733,7 +751,146 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
     })
     .map_err(|e| FormatError::InconsistentDimensions(e.to_string()))?;
     crate::bounds::check_model_values(&model)?;
+    // A backdrop whose picture does not decode or whose landmarks fall outside it is dropped
+    // with a notice: the model still renders, face only.
+    let model = match sections.backdrop {
+        None => model,
+        Some(raw) => {
+            info.backdrop_bytes = raw.jpeg.len();
+            match Backdrop::decode(raw.width, raw.height, raw.landmarks, raw.jpeg)
+                .and_then(|b| model.clone().with_backdrop(b))
+            {
+                Ok(m) => m,
+                Err(e) => {
+                    info.backdrop_notice = Some(format!(
+                        "the backdrop is damaged and was left out (the face renders alone): {e}"
+                    ));
+                    model
+                }
+            }
+        }
+    };
     Ok((model, info))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sections (version 3): `u32 tag, u32 length, length bytes, zero padding to 4`, up to the
+// checksum. Unknown tags are skipped (a newer writer's optional data).
+
+/// A backdrop section as stored, before its picture is decoded.
+struct RawBackdrop {
+    width: u32,
+    height: u32,
+    landmarks: Vec<f32>,
+    jpeg: Vec<u8>,
+}
+
+/// The sections a file holds.
+#[derive(Default)]
+struct Sections {
+    backdrop: Option<RawBackdrop>,
+}
+
+/// The sections' bytes for `model` (empty when it has no backdrop).
+fn sections_of(model: &Model) -> Vec<u8> {
+    let mut out = Vec::new();
+    if let Some(b) = model.backdrop() {
+        let mut payload = Vec::with_capacity(16 + 4 * b.landmarks().len() + b.jpeg().len());
+        payload.extend_from_slice(&b.width().to_le_bytes());
+        payload.extend_from_slice(&b.height().to_le_bytes());
+        payload.extend_from_slice(&((b.landmarks().len() / 2) as u32).to_le_bytes());
+        b.landmarks()
+            .iter()
+            .for_each(|v| payload.extend_from_slice(&v.to_le_bytes()));
+        payload.extend_from_slice(&(b.jpeg().len() as u32).to_le_bytes());
+        payload.extend_from_slice(b.jpeg());
+        out.extend_from_slice(&SECTION_BACKDROP.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+        out.extend_from_slice(&payload);
+        out.extend(std::iter::repeat_n(0u8, pad4(payload.len() as u64) as usize));
+    }
+    out
+}
+
+/// Parses the sections from the cursor's position up to `end` (the checksum).
+fn read_sections(c: &mut Cursor<'_>, end: usize, landmarks: u32) -> Result<Sections, FormatError> {
+    let mut sections = Sections::default();
+    let mut count = 0;
+    while c.pos < end {
+        count += 1;
+        if count > MAX_SECTIONS {
+            return Err(FormatError::LimitExceeded {
+                what: "sections",
+                value: count as u64,
+                limit: MAX_SECTIONS as u64,
+            });
+        }
+        let head = c.take(8)?;
+        let (tag, len) = (u32_at(head, 0), u32_at(head, 4) as usize);
+        if len > end - c.pos {
+            return Err(FormatError::InconsistentDimensions(format!(
+                "a section of {len} bytes runs past the end of the file"
+            )));
+        }
+        let payload = c.take(len)?;
+        check_padding(c, len)?;
+        if tag != SECTION_BACKDROP {
+            continue;
+        }
+        if sections.backdrop.is_some() {
+            return Err(FormatError::InconsistentDimensions(
+                "two backdrop sections".into(),
+            ));
+        }
+        sections.backdrop = Some(parse_backdrop(payload, landmarks)?);
+    }
+    Ok(sections)
+}
+
+/// The backdrop section's payload: `u32 width, u32 height, u32 n, 2n f32 landmarks, u32 jpeg
+/// length, jpeg bytes`.
+fn parse_backdrop(p: &[u8], landmarks: u32) -> Result<RawBackdrop, FormatError> {
+    let bad = |m: String| FormatError::InconsistentDimensions(format!("backdrop section: {m}"));
+    if p.len() < 12 {
+        return Err(bad(format!("{} bytes, too short for its header", p.len())));
+    }
+    let (width, height, n) = (u32_at(p, 0), u32_at(p, 4), u32_at(p, 8));
+    check_range("backdrop width", width, 1, crate::backdrop::MAX_BACKDROP_SIDE)?;
+    check_range("backdrop height", height, 1, crate::backdrop::MAX_BACKDROP_SIDE)?;
+    if n != landmarks {
+        return Err(bad(format!("{n} landmarks, the model has {landmarks}")));
+    }
+    let lm_end = 12 + 8 * n as usize;
+    if p.len() < lm_end + 4 {
+        return Err(bad(format!("{} bytes, too short for {n} landmarks", p.len())));
+    }
+    let values: Vec<f32> = (0..2 * n as usize).map(|i| f32_at(p, 12 + 4 * i)).collect();
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(FormatError::NonFinite {
+            array: "backdrop landmarks",
+            index: i as u64,
+        });
+    }
+    let jpeg_len = u32_at(p, lm_end) as usize;
+    if jpeg_len > crate::backdrop::MAX_BACKDROP_BYTES {
+        return Err(FormatError::LimitExceeded {
+            what: "backdrop bytes",
+            value: jpeg_len as u64,
+            limit: crate::backdrop::MAX_BACKDROP_BYTES as u64,
+        });
+    }
+    if p.len() != lm_end + 4 + jpeg_len {
+        return Err(bad(format!(
+            "{} bytes for a picture of {jpeg_len} bytes and {n} landmarks",
+            p.len()
+        )));
+    }
+    Ok(RawBackdrop {
+        width,
+        height,
+        landmarks: values,
+        jpeg: p[lm_end + 4..].to_vec(),
+    })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -814,12 +971,16 @@ impl std::str::FromStr for Storage {
 }
 
 /// What a file was, besides the model it holds: see [`read_model_info`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FileInfo {
-    /// Its format version (1 or 2).
+    /// Its format version (1 to 3).
     pub version: u32,
     /// How it stores the appearance ([`Storage::F32`] for version 1).
     pub storage: Storage,
+    /// Compressed bytes of its backdrop section's picture (0 when it has none).
+    pub backdrop_bytes: usize,
+    /// Set when the file's backdrop could not be used (the model was loaded without it): why.
+    pub backdrop_notice: Option<String>,
 }
 
 /// The header field at offset 12: reserved flags (0) in version 1, the storage tag in version 2.

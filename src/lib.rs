@@ -29,6 +29,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod appearance;
+mod backdrop;
 pub mod bounds;
 mod builder;
 pub mod canonical;
@@ -48,6 +49,7 @@ mod limits;
 mod model;
 pub mod numerics;
 mod pca;
+mod photo;
 mod refine;
 mod render;
 mod select;
@@ -58,6 +60,7 @@ mod warp;
 pub mod wasm;
 
 pub use appearance::AppearanceModel;
+pub use backdrop::{backdrop_budget, Backdrop, MAX_BACKDROP_BYTES, MAX_BACKDROP_SIDE};
 pub use builder::{
     BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
 };
@@ -68,10 +71,11 @@ pub use find::{BBox, Face, FaceFinder, FindOptions};
 pub use frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
+pub use photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
 pub use refine::refine_landmarks;
 pub use render::{
-    base_box, canvas_view, demultiply, demultiply_into, fit_view, DrawOptions, FaceDrawer,
-    Rasterizer, Renderer, Scanline,
+    base_box, canvas_view, hull_loop, mean_value_weights, Compositor, ExtendedMesh, demultiply, demultiply_into, fit_view, DrawOptions, FaceDrawer,
+    Rasterizer, Renderer, Scanline, picture_view,
 };
 pub use select::{coverage, select_varied};
 pub use shape::ShapeModel;

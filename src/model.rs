@@ -2,7 +2,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use std::sync::Arc;
+
 use crate::appearance::AppearanceModel;
+use crate::backdrop::Backdrop;
 use crate::error::{check_len, Error, Result};
 use crate::frame::ReferenceFrame;
 use crate::image::ImageRef;
@@ -74,6 +77,8 @@ pub struct Params {
 pub struct Model {
     /// The parts, checked by [`Model::new`].
     parts: ModelParts,
+    /// The picture the face is composited into, if any (shared: models are cloned per target).
+    backdrop: Option<Arc<Backdrop>>,
 }
 
 /// Everything a [`Model`] is made of, with public fields: build one, then check it with
@@ -111,10 +116,72 @@ impl Model {
                 parts.name
             )));
         }
-        Ok(Model { parts })
+        Ok(Model {
+            parts,
+            backdrop: None,
+        })
     }
 
-    /// Takes the model apart (to change a part and check it again with [`Model::new`]).
+    /// The model with `backdrop` as the picture its face is composited into. Fails with
+    /// [`Error::Landmarks`] unless the backdrop's landmarks are this model's landmark count.
+    pub fn with_backdrop(mut self, backdrop: Backdrop) -> Result<Model> {
+        if backdrop.landmarks().len() != self.parts.shape.base.len() {
+            return Err(Error::Landmarks(format!(
+                "the backdrop has {} landmarks, the model '{}' has {}",
+                backdrop.landmarks().len() / 2,
+                self.parts.name,
+                self.landmarks()
+            )));
+        }
+        self.backdrop = Some(Arc::new(backdrop));
+        Ok(self)
+    }
+
+    /// The model without its backdrop (it then renders face only, as before backdrops).
+    pub fn without_backdrop(mut self) -> Model {
+        self.backdrop = None;
+        self
+    }
+
+    /// The picture the face is composited into, if the model carries one.
+    pub fn backdrop(&self) -> Option<&Backdrop> {
+        self.backdrop.as_deref()
+    }
+
+    /// True for a model made from one photo: no shape or appearance modes of its own (it is a
+    /// base face; cloning onto it substitutes the source's modes, Fig. 4 A).
+    pub fn is_photo(&self) -> bool {
+        self.parts.shape.n_modes() == 0 && self.parts.appearance.n_modes() == 0
+    }
+
+    /// Where the face sits at rest: the pose of the base shape on the backdrop's landmarks when
+    /// the model has a backdrop (the face composited in its own picture), the mean training pose
+    /// otherwise. Cloned targets move about this pose.
+    pub fn home_pose(&self) -> Similarity {
+        match &self.backdrop {
+            Some(b) => {
+                let pose = Similarity::align(&self.parts.shape.base, b.landmarks());
+                if pose.is_valid() {
+                    pose
+                } else {
+                    self.parts.mean_pose
+                }
+            }
+            None => self.parts.mean_pose,
+        }
+    }
+
+    /// The size of the picture the face is shown in: the backdrop's when there is one, the
+    /// training images' otherwise.
+    pub fn home_size(&self) -> [u32; 2] {
+        match &self.backdrop {
+            Some(b) => [b.width(), b.height()],
+            None => self.parts.image_size,
+        }
+    }
+
+    /// Takes the model apart (to change a part and check it again with [`Model::new`]; the
+    /// backdrop is not among the parts: add it again with [`Model::with_backdrop`]).
     pub fn into_parts(self) -> ModelParts {
         self.parts
     }

@@ -243,7 +243,9 @@ fn every_storage_round_trips_within_its_rounding() {
                 info,
                 FileInfo {
                     version: FORMAT_VERSION,
-                    storage: s
+                    storage: s,
+                    backdrop_bytes: 0,
+                    backdrop_notice: None,
                 }
             );
             // Everything but the appearance base and modes is exact.
@@ -322,7 +324,9 @@ fn a_version_1_file_still_loads_as_it_was() {
         info,
         FileInfo {
             version: 1,
-            storage: Storage::F32
+            storage: Storage::F32,
+            backdrop_bytes: 0,
+            backdrop_notice: None,
         }
     );
     assert_eq!(m.name(), "tiny-v1");

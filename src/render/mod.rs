@@ -16,15 +16,17 @@ use crate::frame::ReferenceFrame;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
+mod composite;
 mod overlay;
 mod scanline;
 mod skia;
 mod view;
 
+pub use composite::{hull_loop, mean_value_weights, Compositor, ExtendedMesh};
 pub use overlay::MeshOverlay;
 pub use scanline::Scanline;
 pub use skia::Renderer;
-pub use view::{base_box, canvas_view, fit_view};
+pub use view::{base_box, canvas_view, fit_view, picture_view};
 
 /// Which rasteriser warps the triangles of a piecewise-affine warp into a tiny-skia pixmap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -95,6 +97,20 @@ impl FaceDrawer {
         match self.options.rasterizer {
             Rasterizer::TinySkia => self.skia.upload(frame, appearance),
             Rasterizer::Scanline => self.scanline.upload(frame, appearance),
+        }
+    }
+
+    /// [`FaceDrawer::upload`] with a coverage per frame pixel (`N` values in `0..=1`): the warp
+    /// then blends the face over what is under it (used by [`Compositor`]'s feathered edge).
+    pub fn upload_with_alpha(
+        &mut self,
+        frame: &ReferenceFrame,
+        appearance: &[f32],
+        alpha: &[f32],
+    ) -> Result<()> {
+        match self.options.rasterizer {
+            Rasterizer::TinySkia => self.skia.upload_with_alpha(frame, appearance, Some(alpha)),
+            Rasterizer::Scanline => self.scanline.upload_with_alpha(frame, appearance, Some(alpha)),
         }
     }
 

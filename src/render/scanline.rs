@@ -47,8 +47,22 @@ impl Scanline {
 
     /// Writes an appearance vector (`3N`, RGB in `0..=1`) into the texture.
     pub fn upload(&mut self, frame: &ReferenceFrame, appearance: &[f32]) -> Result<()> {
+        self.upload_with_alpha(frame, appearance, None)
+    }
+
+    /// [`Scanline::upload`] with a coverage per frame pixel (`N` values in `0..=1`; `None` =
+    /// opaque): the warp then blends the face over what is under it (premultiplied source-over).
+    pub fn upload_with_alpha(
+        &mut self,
+        frame: &ReferenceFrame,
+        appearance: &[f32],
+        alpha: Option<&[f32]>,
+    ) -> Result<()> {
         check_len("appearance", appearance, frame.n_pixels() * 3)?;
         crate::error::check_finite("appearance", appearance)?;
+        if let Some(a) = alpha {
+            check_len("alpha", a, frame.n_pixels())?;
+        }
         if self.fingerprint != Some(frame.fingerprint()) {
             self.width = frame.width();
             self.height = frame.height();
@@ -57,9 +71,13 @@ impl Scanline {
         }
         let w = self.width as usize;
         let tex = &mut self.texture;
-        for (px, rgb) in frame.pixels().iter().zip(appearance.chunks_exact(3)) {
+        for (i, (px, rgb)) in frame.pixels().iter().zip(appearance.chunks_exact(3)).enumerate() {
+            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
             if let Some(t) = tex.get_mut(px.y as usize * w + px.x as usize) {
-                *t = to_u8(rgb[0]) | (to_u8(rgb[1]) << 8) | (to_u8(rgb[2]) << 16) | (255 << 24);
+                *t = to_u8(rgb[0] * a)
+                    | (to_u8(rgb[1] * a) << 8)
+                    | (to_u8(rgb[2] * a) << 16)
+                    | (to_u8(a) << 24);
             }
         }
         let pixels = frame.pixels();
@@ -143,7 +161,6 @@ impl Scanline {
             ));
         }
         let (tw, th) = (self.width as i32, self.height as i32);
-        let (cw, ch) = (target.width() as i32, target.height() as i32);
         self.dst.clear();
         for p in image_shape.chunks_exact(2) {
             let (x, y) = view.apply_point(p[0], p[1]);
@@ -162,18 +179,43 @@ impl Scanline {
         }
         let [ox, oy] = frame.origin();
         let v = frame.vertices();
-        let tex = &self.texture[..];
+        let src = |i: usize| {
+            Vec2::new(
+                v.get(2 * i).copied().unwrap_or(0.0) + ox,
+                v.get(2 * i + 1).copied().unwrap_or(0.0) + oy,
+            )
+        };
+        warp_mesh(
+            &self.texture,
+            (tw, th),
+            src,
+            &self.dst,
+            frame.triangles(),
+            target,
+        );
+        Ok(())
+    }
+}
+
+/// The fixed-point scanline warp of a packed RGBA8 texture (`tw x th` premultiplied words) by a
+/// triangle mesh: triangle `t` is painted where `dst` places it (target pixels, centres on
+/// integers), reading the texture bilinearly where `src` places it (texels, centres on
+/// integers); premultiplied source-over where the texture is not opaque. Pixels outside the
+/// mesh are untouched. Allocates nothing.
+pub(crate) fn warp_mesh(
+    tex: &[u32],
+    (tw, th): (i32, i32),
+    src: impl Fn(usize) -> Vec2,
+    dst: &[Vec2],
+    triangles: &[[u32; 3]],
+    target: &mut PixmapMut<'_>,
+) {
+    let (cw, ch) = (target.width() as i32, target.height() as i32);
         let out = target.data_mut();
         let (umax, vmax) = (((tw - 1) << 16) as f32, ((th - 1) << 16) as f32);
-        for t in frame.triangles() {
-            let d = t.map(|i| self.dst.get(i as usize).copied().unwrap_or(Vec2::ZERO));
-            let s = t.map(|i| {
-                let i = i as usize;
-                Vec2::new(
-                    v.get(2 * i).copied().unwrap_or(0.0) + ox,
-                    v.get(2 * i + 1).copied().unwrap_or(0.0) + oy,
-                )
-            });
+        for t in triangles {
+            let d = t.map(|i| dst.get(i as usize).copied().unwrap_or(Vec2::ZERO));
+            let s = t.map(|i| src(i as usize));
             // Target pixel -> texture coordinates (texel centres on integers).
             let Some(m) = triangle_affine(d, s) else {
                 continue;
@@ -253,8 +295,6 @@ impl Scanline {
                 }
             }
         }
-        Ok(())
-    }
 }
 
 #[cfg(test)]

@@ -58,17 +58,32 @@ impl Renderer {
     /// Writes an appearance vector (`3N`, RGB in `0..=1`) into the frame texture, with the
     /// padding ring copied from the nearest inside pixels.
     pub fn upload(&mut self, frame: &ReferenceFrame, appearance: &[f32]) -> Result<()> {
+        self.upload_with_alpha(frame, appearance, None)
+    }
+
+    /// [`Renderer::upload`] with a coverage per frame pixel (`N` values in `0..=1`; `None` =
+    /// opaque): the warp then blends the face over what is under it (source-over).
+    pub fn upload_with_alpha(
+        &mut self,
+        frame: &ReferenceFrame,
+        appearance: &[f32],
+        alpha: Option<&[f32]>,
+    ) -> Result<()> {
         self.check_frame(frame)?;
         check_len("appearance", appearance, frame.n_pixels() * 3)?;
         crate::error::check_finite("appearance", appearance)?;
+        if let Some(a) = alpha {
+            check_len("alpha", a, frame.n_pixels())?;
+        }
         let w = frame.width() as usize;
         let data = self.texture.data_mut();
-        for (px, rgb) in frame.pixels().iter().zip(appearance.chunks_exact(3)) {
+        for (i, (px, rgb)) in frame.pixels().iter().zip(appearance.chunks_exact(3)).enumerate() {
             let k = (px.y as usize * w + px.x as usize) * 4;
-            data[k] = to_u8(rgb[0]);
-            data[k + 1] = to_u8(rgb[1]);
-            data[k + 2] = to_u8(rgb[2]);
-            data[k + 3] = 255;
+            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
+            data[k] = to_u8(rgb[0] * a);
+            data[k + 1] = to_u8(rgb[1] * a);
+            data[k + 2] = to_u8(rgb[2] * a);
+            data[k + 3] = to_u8(a);
         }
         for &(k, src) in frame.padding() {
             let px = frame.pixels()[src as usize];
@@ -102,62 +117,75 @@ impl Renderer {
         check_len("shape", image_shape, frame.vertices().len())?;
         crate::error::check_finite("shape", image_shape)?;
         let [ox, oy] = frame.origin();
-        let v = frame.vertices();
-        // Destination points in tiny-skia space (pixel centres at +0.5).
+        // Destination points in target pixels, source points in texture pixels.
         for (d, s) in self
             .shape
             .chunks_exact_mut(2)
             .zip(image_shape.chunks_exact(2))
         {
             let (x, y) = view.apply_point(s[0], s[1]);
-            d[0] = x + 0.5;
-            d[1] = y + 0.5;
+            d[0] = x;
+            d[1] = y;
         }
-        let texture = self.texture.as_ref();
-        for t in frame.triangles() {
-            let src = t.map(|i| {
-                Vec2::new(
-                    v[2 * i as usize] + ox + 0.5,
-                    v[2 * i as usize + 1] + oy + 0.5,
-                )
-            });
-            let dst =
-                t.map(|i| Vec2::new(self.shape[2 * i as usize], self.shape[2 * i as usize + 1]));
-            let Some(m) = triangle_affine(src, dst) else {
-                continue;
-            };
-            let tr = Transform::from_row(
-                m.matrix2.x_axis.x,
-                m.matrix2.x_axis.y,
-                m.matrix2.y_axis.x,
-                m.matrix2.y_axis.y,
-                m.translation.x,
-                m.translation.y,
-            );
-            let mut pb = self.path.take().unwrap_or_default();
-            pb.move_to(dst[0].x, dst[0].y);
-            pb.line_to(dst[1].x, dst[1].y);
-            pb.line_to(dst[2].x, dst[2].y);
-            pb.close();
-            let Some(path) = pb.finish() else {
-                self.path = Some(PathBuilder::new());
-                continue;
-            };
-            let paint = Paint {
-                shader: Pattern::new(texture, SpreadMode::Pad, FilterQuality::Bilinear, 1.0, tr),
-                anti_alias: false,
-                ..Paint::default()
-            };
-            target.fill_path(
-                &path,
-                &paint,
-                FillRule::Winding,
-                Transform::identity(),
-                None,
-            );
-            self.path = Some(path.clear());
-        }
+        let v = frame.vertices();
+        let src = |i: usize| Vec2::new(v[2 * i] + ox, v[2 * i + 1] + oy);
+        let dst = &self.shape;
+        warp_mesh(
+            self.texture.as_ref(),
+            src,
+            |i| Vec2::new(dst[2 * i], dst[2 * i + 1]),
+            frame.triangles(),
+            &mut self.path,
+            target,
+        );
         Ok(())
+    }
+}
+
+/// The piecewise-affine warp of a texture by a triangle mesh, one pattern-shaded,
+/// non-anti-aliased tiny-skia fill per triangle: triangle `t` of `triangles` is painted where
+/// `dst` places it (target pixels, centres on integers) with the texture read where `src` places
+/// it (texture pixels, centres on integers). Adjacent triangles share edges exactly; pixels
+/// outside the mesh are untouched. `path` is a recycled path builder.
+pub(crate) fn warp_mesh(
+    texture: tiny_skia::PixmapRef<'_>,
+    src: impl Fn(usize) -> Vec2,
+    dst: impl Fn(usize) -> Vec2,
+    triangles: &[[u32; 3]],
+    path: &mut Option<PathBuilder>,
+    target: &mut PixmapMut<'_>,
+) {
+    let half = Vec2::splat(0.5);
+    for t in triangles {
+        let s = t.map(|i| src(i as usize) + half);
+        let d = t.map(|i| dst(i as usize) + half);
+        let Some(m) = triangle_affine(s, d) else {
+            continue;
+        };
+        let tr = Transform::from_row(
+            m.matrix2.x_axis.x,
+            m.matrix2.x_axis.y,
+            m.matrix2.y_axis.x,
+            m.matrix2.y_axis.y,
+            m.translation.x,
+            m.translation.y,
+        );
+        let mut pb = path.take().unwrap_or_default();
+        pb.move_to(d[0].x, d[0].y);
+        pb.line_to(d[1].x, d[1].y);
+        pb.line_to(d[2].x, d[2].y);
+        pb.close();
+        let Some(p) = pb.finish() else {
+            *path = Some(PathBuilder::new());
+            continue;
+        };
+        let paint = Paint {
+            shader: Pattern::new(texture, SpreadMode::Pad, FilterQuality::Bilinear, 1.0, tr),
+            anti_alias: false,
+            ..Paint::default()
+        };
+        target.fill_path(&p, &paint, FillRule::Winding, Transform::identity(), None);
+        *path = Some(p.clear());
     }
 }
 

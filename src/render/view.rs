@@ -7,18 +7,34 @@ use crate::similarity::Similarity;
 /// Share of the smaller canvas side that the face's bounding box takes.
 pub const FACE_FILL: f32 = 0.85;
 
-/// The bounding box `[min x, min y, max x, max y]` of a model's base shape placed at its mean
-/// pose, in image coordinates. Allocation-free.
+/// The bounding box `[min x, min y, max x, max y]` of a model's base shape placed at its home
+/// pose ([`Model::home_pose`]: on its backdrop, or at its mean training pose), in image
+/// coordinates. Allocation-free.
 pub fn base_box(model: &Model) -> [f32; 4] {
     let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
+    let pose = model.home_pose();
     for p in model.shape().base.chunks_exact(2) {
-        let (x, y) = model.mean_pose().apply_point(p[0], p[1]);
+        let (x, y) = pose.apply_point(p[0], p[1]);
         b[0] = b[0].min(x);
         b[1] = b[1].min(y);
         b[2] = b[2].max(x);
         b[3] = b[3].max(y);
     }
     b
+}
+
+/// The view (backdrop pixels -> canvas pixels) that shows a whole `width x height` picture
+/// centred in a `w x h` canvas, as large as fits (letterboxed).
+pub fn picture_view(width: u32, height: u32, w: u32, h: u32) -> Similarity {
+    let s = (w as f32 / width.max(1) as f32).min(h as f32 / height.max(1) as f32);
+    let s = if s.is_finite() && s > 0.0 { s } else { 1.0 };
+    // Centres on integers: the picture's centre (width - 1) / 2 goes to the canvas's.
+    Similarity {
+        a: s,
+        b: 0.0,
+        tx: 0.5 * (w as f32 - 1.0) - s * 0.5 * (width as f32 - 1.0),
+        ty: 0.5 * (h as f32 - 1.0) - s * 0.5 * (height as f32 - 1.0),
+    }
 }
 
 /// The view (image coordinates -> canvas pixels) that centres the box in a `w x h` canvas with

@@ -48,13 +48,85 @@ pub struct Args {
     /// Keep this many varied frames (farthest-point sampling of the aligned shapes).
     #[arg(long, value_name = "N")]
     select: Option<usize>,
+    /// The picture the model's face is composited into (its .pts beside it, or the face
+    /// finder's landmarks). Default: the training image closest to the model's mean.
+    #[arg(long, value_name = "IMG", conflicts_with = "no_backdrop")]
+    backdrop: Option<PathBuf>,
+    /// Build the model without a backdrop (it renders face only).
+    #[arg(long)]
+    no_backdrop: bool,
+    /// Make a target from this one photo (its .pts beside it, or the face finder's landmarks):
+    /// the photo's face is the base, the photo its backdrop; cloning onto it substitutes the
+    /// source's modes. No training images are used.
+    #[arg(long, value_name = "IMG", conflicts_with_all = ["list", "images", "backdrop", "no_backdrop", "select"])]
+    photo: Option<PathBuf>,
     /// Images (PNG or JPEG), each with a sibling .pts or .asf landmark file (unless
     /// --find-faces).
     #[arg(value_name = "IMAGE")]
     images: Vec<PathBuf>,
 }
 
+/// The model's name: `--name`, or the output's file stem.
+fn model_name(a: &Args) -> String {
+    a.name.clone().unwrap_or_else(|| {
+        a.out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".into())
+    })
+}
+
+/// An image and its landmarks: from the landmark file beside it when there is one, otherwise
+/// the face finder's (the most confident face).
+fn picture_with_landmarks(path: &std::path::Path) -> Result<TrainingImage> {
+    if io::landmark_path(path).is_ok() {
+        return io::read_training_image(path);
+    }
+    let image = io::read_image(path)?;
+    let mut finder = EnrolFinder::new(1)?;
+    let face = finder.find(&image.view()?, 0.0)?.ok_or_else(|| {
+        facemimic::Error::Landmarks(format!(
+            "{}: no landmark file beside it and no face found in it",
+            path.display()
+        ))
+    })?;
+    Ok(TrainingImage {
+        name: path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        image,
+        landmarks: face.landmarks,
+    })
+}
+
+/// `build --photo`: a target model of one photo.
+fn build_photo(a: &Args, path: &std::path::Path) -> Result<()> {
+    let t = picture_with_landmarks(path).map_err(|e| e.with_context(&path.display().to_string()))?;
+    let frame_model = a.frame.as_deref().map(io::read_model_file).transpose()?;
+    let frame = match &frame_model {
+        Some(m) => m.frame(),
+        None => facemimic::canonical_frame(),
+    };
+    let model = facemimic::photo_model(&model_name(a), &t.image.view()?, &t.landmarks, frame)
+        .map_err(|e| e.with_context(&path.display().to_string()))?;
+    io::write_model_file_as(&a.out, &model, a.precision)?;
+    let b = model.backdrop().map(|b| b.jpeg().len()).unwrap_or(0);
+    eprintln!(
+        "facemimic: made the photo target '{}' from {} ({}x{}, backdrop {b} bytes) -> {}",
+        model.name(),
+        path.display(),
+        t.image.width,
+        t.image.height,
+        a.out.display()
+    );
+    Ok(())
+}
+
 pub fn run(a: Args) -> Result<()> {
+    if let Some(photo) = &a.photo {
+        return build_photo(&a, photo);
+    }
     let mut paths = a.images.clone();
     if let Some(list) = &a.list {
         paths.extend(io::read_list(list)?);
@@ -93,12 +165,7 @@ pub fn run(a: Args) -> Result<()> {
         "closest" => ReferenceChoice::ClosestToFrame,
         name => ReferenceChoice::Named(name.to_string()),
     };
-    let name = a.name.clone().unwrap_or_else(|| {
-        a.out
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "model".into())
-    });
+    let name = model_name(&a);
     let builder = Builder::new(BuildOptions {
         name,
         shape_variance: a.shape_variance,
@@ -113,6 +180,18 @@ pub fn run(a: Args) -> Result<()> {
         ..BuildOptions::default()
     });
     let model = builder.build(&images, frame_model.as_ref())?;
+    let model = if a.no_backdrop {
+        model
+    } else {
+        let chosen = a
+            .backdrop
+            .as_deref()
+            .map(|p| picture_with_landmarks(p).map_err(|e| e.with_context(&p.display().to_string())))
+            .transpose()?;
+        let view = chosen.as_ref().map(|t| t.image.view()).transpose()?;
+        let pair = chosen.as_ref().zip(view.as_ref()).map(|(t, v)| (v, t.landmarks.as_slice()));
+        facemimic::with_default_backdrop(model, &images, pair)?
+    };
     io::write_model_file_as(&a.out, &model, a.precision)?;
     eprintln!(
         "facemimic: built '{}' from {} images: {} shape modes, {} appearance modes, {} frame pixels -> {}",

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use facemimic::clone::{CloneOptions, Cloner, Method};
-use facemimic::{io, Error, FaceDrawer, Result, Similarity};
+use facemimic::{io, Error, Result};
 
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["params", "image"])))]
@@ -86,13 +86,14 @@ pub fn run(a: Args) -> Result<()> {
         (None, None) => return Err(Error::Params("give --params or --image".into())),
     };
     // A size the model declares is only a default, bounded; a larger canvas must be asked for.
-    let (width, height) = match (a.width, a.height) {
-        (Some(w), Some(h)) => (w, h),
-        (w, h) => {
-            let (dw, dh) = facemimic::bounds::default_canvas(&target)?;
-            (w.unwrap_or(dw), h.unwrap_or(dh))
-        }
-    };
+    let composite = super::render::composite_wanted(a.draw.composite, &target);
+    if target.is_photo() && method != Method::Substitute {
+        eprintln!(
+            "facemimic: notice: '{}' is a photo target (no modes of its own); cloned by substitution instead of {method}",
+            target.name()
+        );
+    }
+    let (width, height) = super::render::canvas_size(&target, a.width, a.height, composite)?;
     super::render::check_canvas(width, height)?;
     let options = CloneOptions {
         method,
@@ -107,14 +108,13 @@ pub fn run(a: Args) -> Result<()> {
 
     if let Some(out) = &a.out {
         let mut pixmap = super::render::canvas(width, height)?;
-        let frame = &cloner.target(0).frame();
-        let mut drawer = FaceDrawer::new(frame, a.draw.options())?;
-        drawer.draw(
-            frame,
+        super::render::draw_face(
+            cloner.target(0),
             cloner.target_appearance(0),
             cloner.target_shape(0),
-            &Similarity::IDENTITY,
-            &mut pixmap.as_mut(),
+            a.draw.options(),
+            composite,
+            &mut pixmap,
         )?;
         io::write_pixmap(out, &pixmap)?;
     }

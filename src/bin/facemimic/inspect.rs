@@ -35,6 +35,14 @@ pub fn run(a: Args) -> Result<()> {
         "image_width": m.image_size()[0],
         "image_height": m.image_size()[1],
         "mean_pose": m.mean_pose(),
+        "photo_target": m.is_photo(),
+        "backdrop": m.backdrop().map(|b| serde_json::json!({
+            "width": b.width(),
+            "height": b.height(),
+            "bytes": b.jpeg().len(),
+            "budget_bytes": facemimic::backdrop_budget(b.width(), b.height()),
+        })),
+        "backdrop_notice": info.backdrop_notice,
     });
     crate::print_line(&json.to_string())
 }

@@ -16,6 +16,11 @@ pub struct DrawArgs {
     #[arg(long, default_value = "tiny-skia", value_name = "RASTER",
           value_parser = clap::builder::PossibleValuesParser::new(["tiny-skia", "scanline"]))]
     raster: String,
+    /// Composite the face into the model's backdrop (its own picture): the PNG is the size of
+    /// the backdrop (unless --width/--height are given), the head at the given pose. A model
+    /// without a backdrop renders face only, with a notice.
+    #[arg(long)]
+    pub composite: bool,
 }
 
 impl DrawArgs {
@@ -85,19 +90,82 @@ pub fn read_params(path: &Path) -> Result<Params> {
     serde_json::from_str(&text).map_err(|e| Error::Params(format!("{}: {e}", path.display())))
 }
 
-/// Renders `params` of `model` on a `width x height` canvas (dark grey background) and writes
-/// the PNG and optionally the landmarks (`(png, pts)`).
+/// Whether to composite `model`'s faces: asked for and possible. A model without a backdrop
+/// renders face only, with a notice on stderr.
+pub fn composite_wanted(asked: bool, model: &facemimic::Model) -> bool {
+    if asked && model.backdrop().is_none() {
+        eprintln!(
+            "facemimic: notice: model '{}' has no backdrop; rendering the face only",
+            model.name()
+        );
+    }
+    asked && model.backdrop().is_some()
+}
+
+/// The canvas size: `--width`/`--height` when given, else the backdrop's size when compositing,
+/// else the model's default canvas.
+pub fn canvas_size(
+    model: &facemimic::Model,
+    width: Option<u32>,
+    height: Option<u32>,
+    composite: bool,
+) -> Result<(u32, u32)> {
+    Ok(match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (w, h) => {
+            let (dw, dh) = match (composite, model.backdrop()) {
+                (true, Some(b)) => (b.width(), b.height()),
+                _ => facemimic::bounds::default_canvas(model)?,
+            };
+            (w.unwrap_or(dw), h.unwrap_or(dh))
+        }
+    })
+}
+
+/// Draws a face (appearance on the frame, landmarks in image pixels) of `model` into `pixmap`:
+/// composited into the backdrop (scaled to the canvas) or alone at the identity view.
+pub fn draw_face(
+    model: &facemimic::Model,
+    appearance: &[f32],
+    shape: &[f32],
+    draw: DrawOptions,
+    composite: bool,
+    pixmap: &mut Pixmap,
+) -> Result<()> {
+    if composite {
+        let mut c = facemimic::Compositor::new(model, draw)?;
+        let (bw, bh) = c.size();
+        let view = facemimic::picture_view(bw, bh, pixmap.width(), pixmap.height());
+        c.draw(model, appearance, shape, &view, &mut pixmap.as_mut())
+    } else {
+        let mut drawer = FaceDrawer::new(model.frame(), draw)?;
+        drawer.draw(
+            model.frame(),
+            appearance,
+            shape,
+            &Similarity::IDENTITY,
+            &mut pixmap.as_mut(),
+        )
+    }
+}
+
+/// Renders `params` of `model` on a `width x height` canvas (dark grey background, or the
+/// backdrop when compositing) and writes the PNG and optionally the landmarks (`(png, pts)`).
 pub fn render_to_files(
     model: &facemimic::Model,
     params: &Params,
-    width: u32,
-    height: u32,
-    draw: DrawOptions,
+    (width, height): (u32, u32),
+    (draw, composite): (DrawOptions, bool),
     (out, out_pts): (&Path, Option<&Path>),
 ) -> Result<()> {
     let mut pixmap = canvas(width, height)?;
-    let mut drawer = FaceDrawer::new(model.frame(), draw)?;
-    drawer.render(model, params, &Similarity::IDENTITY, &mut pixmap.as_mut())?;
+    let mut shape = vec![0.0; model.landmarks() * 2];
+    model.image_shape(params, &mut shape)?;
+    let mut appearance = vec![0.0; model.appearance().len()];
+    model
+        .appearance()
+        .instance(&params.appearance, &mut appearance)?;
+    draw_face(model, &appearance, &shape, draw, composite, &mut pixmap)?;
     io::write_pixmap(out, &pixmap)?;
     if let Some(p) = out_pts {
         let mut shape = vec![0.0; model.landmarks() * 2];
@@ -110,19 +178,18 @@ pub fn render_to_files(
 
 pub fn run(a: Args) -> Result<()> {
     let model = io::read_model_file(&a.model)?;
+    let composite = composite_wanted(a.draw.composite, &model);
     let params = match &a.params {
         Some(p) => read_params(p)?,
+        None if composite => facemimic::Params {
+            pose: model.home_pose(),
+            ..model.base_params()
+        },
         None => model.base_params(),
     };
     model.check_params(&params)?;
     // A size the model declares is only a default, bounded; a larger canvas must be asked for.
-    let (width, height) = match (a.width, a.height) {
-        (Some(w), Some(h)) => (w, h),
-        (w, h) => {
-            let (dw, dh) = facemimic::bounds::default_canvas(&model)?;
-            (w.unwrap_or(dw), h.unwrap_or(dh))
-        }
-    };
+    let size = canvas_size(&model, a.width, a.height, composite)?;
     let files = (a.out.as_path(), a.out_pts.as_deref());
-    render_to_files(&model, &params, width, height, a.draw.options(), files)
+    render_to_files(&model, &params, size, (a.draw.options(), composite), files)
 }

@@ -1,0 +1,711 @@
+//! Compositing a rendered face into its model's backdrop (the picture it belongs in): the head
+//! of the backdrop moves with the face while the room stays still, the face's colours are
+//! matched to the backdrop along its border by a smooth offset field, and its edge is feathered.
+//!
+//! - [`ExtendedMesh`]: the face mesh extended by two rings of points around the head. The inner
+//!   ring moves rigidly with the head (forehead, hair, ears, neck), the outer ring stays where it
+//!   is in the backdrop; the band between them absorbs the motion. The whole is warped
+//!   piecewise-affinely, so pixels outside the outer ring are the backdrop as it is.
+//! - [`mean_value_weights`]: mean-value coordinates of a point with respect to a polygon
+//!   (Floater 2003), the interpolant of Farbman et al., "Coordinates for instant image cloning"
+//!   (SIGGRAPH 2009): the membrane that carries the border's colour differences inside.
+//! - [`Compositor`]: per model precomputation (rings, triangles, the border pixels, the
+//!   mean-value weights of every mesh vertex, the feather) and the per-frame composite.
+
+use glam::Vec2;
+use tiny_skia::{Pixmap, PixmapMut, PixmapPaint, Transform};
+
+use super::{scanline, skia, DrawOptions, FaceDrawer, Rasterizer};
+use crate::error::{check_finite, check_len, Error, Result};
+use crate::frame::ReferenceFrame;
+use crate::model::{Model, Params};
+use crate::similarity::Similarity;
+
+// The constants below were chosen by the webcam-dev self-reenactment measure
+// (tests/composite_measure.rs, docs/compositing.md), within the folding bounds of
+// tests/composite.rs.
+
+/// Distance of the inner ring (moving with the head) outside the face's hull, in eye
+/// distances, at the sides and below; above the brows it is pushed further by
+/// [`RING_UP`] to take the forehead and the hair along.
+const RING_INNER: f32 = 0.45;
+/// Extra distance of the inner ring above the brows, in eye distances.
+const RING_UP: f32 = 0.25;
+/// Width of the band between the rings (where the motion fades out), in eye distances. The
+/// outer ring then lies 1.15-1.4 eye distances outside the face: beyond it the picture is
+/// untouched.
+const RING_BAND: f32 = 0.7;
+/// Width of the feathered edge of the face, in eye distances of the reference frame.
+const FEATHER: f32 = 0.07;
+/// Depth, in eye distances of the reference frame, over which the colour offset fades from
+/// the border (where it matches the backdrop exactly) to none: the inside of the face keeps
+/// the model's own colours. Measured: the full membrane (Farbman's) costs 1.6 dB on the face
+/// when the backdrop was lit differently from the frame; this fade 0.5 dB.
+const OFFSET_FADE: f32 = 0.22;
+
+/// The boundary of a triangle mesh as one closed loop of vertex indices (the edges used by
+/// exactly one triangle, chained), counter-clockwise in image axes (y down). Fails when the
+/// boundary is not one simple loop.
+pub fn hull_loop(triangles: &[[u32; 3]], vertices: &[f32]) -> Result<Vec<u32>> {
+    use std::collections::HashMap;
+    let mut count: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            *count.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let mut next: HashMap<u32, Vec<u32>> = HashMap::new();
+    for (&(a, b), &c) in &count {
+        if c == 1 {
+            next.entry(a).or_default().push(b);
+            next.entry(b).or_default().push(a);
+        }
+    }
+    let bad = || Error::Training("the mesh boundary is not one simple loop".into());
+    if next.is_empty() || next.values().any(|v| v.len() != 2) {
+        return Err(bad());
+    }
+    let start = *next.keys().min().ok_or_else(bad)?;
+    let mut lp = vec![start];
+    let mut prev = start;
+    let mut cur = next[&start][0];
+    while cur != start {
+        lp.push(cur);
+        let n = &next[&cur];
+        let nxt = if n[0] == prev { n[1] } else { n[0] };
+        prev = cur;
+        cur = nxt;
+        if lp.len() > next.len() {
+            return Err(bad());
+        }
+    }
+    if lp.len() != next.len() {
+        return Err(bad());
+    }
+    // Orientation: make the signed area positive (counter-clockwise with y down = clockwise on
+    // screen; any fixed choice will do, it only has to be consistent).
+    let p = |i: u32| Vec2::new(vertices[2 * i as usize], vertices[2 * i as usize + 1]);
+    let area: f32 = (0..lp.len())
+        .map(|k| p(lp[k]).perp_dot(p(lp[(k + 1) % lp.len()])))
+        .sum();
+    if area < 0.0 {
+        lp.reverse();
+    }
+    Ok(lp)
+}
+
+/// The eye distance of a shape: between the outer eye corners (points 37 and 46, 1-based) for
+/// 68 points, otherwise a size of the same order (half the square root of the hull's area).
+fn eye_distance(points: &[f32], hull: &[u32]) -> f32 {
+    if points.len() == 136 {
+        let d = Vec2::new(points[72] - points[90], points[73] - points[91]).length();
+        if d > 0.0 {
+            return d;
+        }
+    }
+    let p = |i: u32| Vec2::new(points[2 * i as usize], points[2 * i as usize + 1]);
+    let area: f32 = (0..hull.len())
+        .map(|k| p(hull[k]).perp_dot(p(hull[(k + 1) % hull.len()])))
+        .sum::<f32>()
+        .abs()
+        / 2.0;
+    area.sqrt() / 2.0
+}
+
+/// The direction "up" of a 68-point face (from the mouth towards the brows, perpendicular to
+/// the eye line), or `-y` for other layouts.
+fn face_up(points: &[f32]) -> Vec2 {
+    if points.len() == 136 {
+        let eyes = Vec2::new(points[90] - points[72], points[91] - points[73]);
+        if eyes.length() > 0.0 {
+            // Perpendicular to the eye line, pointing up in the image (y down).
+            let up = Vec2::new(eyes.y, -eyes.x).normalize();
+            return if up.y <= 0.0 { up } else { -up };
+        }
+    }
+    Vec2::new(0.0, -1.0)
+}
+
+/// The face mesh extended by two rings around the head, in the backdrop.
+///
+/// Represents: `n` landmarks, then `r` inner-ring points, then `r` outer-ring points (one per
+/// vertex of the face mesh's boundary loop, pushed radially outwards from the face's centre), and
+/// triangles: the face's own (the reference frame's, over the landmarks) plus two annuli of
+/// quads split in two (boundary to inner ring, inner ring to outer ring).
+/// Ensures: the annuli's triangles all have the same orientation in the backdrop, and keep it
+/// for the head motions of a conversation (tested: roll within 15 degrees, scale within 20%,
+/// translation within 20% of the face width).
+#[derive(Clone, Debug)]
+pub struct ExtendedMesh {
+    points: Vec<f32>,
+    triangles: Vec<[u32; 3]>,
+    n: usize,
+    ring: usize,
+    /// Index of the annuli's first triangle (the face's own come first).
+    annuli: usize,
+}
+
+impl ExtendedMesh {
+    /// Extends `frame`'s mesh placed on `landmarks` (the backdrop's) by the two rings.
+    pub fn new(frame: &ReferenceFrame, landmarks: &[f32]) -> Result<ExtendedMesh> {
+        check_len("backdrop landmarks", landmarks, frame.vertices().len())?;
+        check_finite("backdrop landmarks", landmarks)?;
+        let hull = hull_loop(frame.triangles(), frame.vertices())?;
+        let d = eye_distance(landmarks, &hull);
+        if !(d > 0.0) {
+            return Err(Error::Landmarks(
+                "the backdrop's landmarks have no extent".into(),
+            ));
+        }
+        let p = |i: u32| Vec2::new(landmarks[2 * i as usize], landmarks[2 * i as usize + 1]);
+        let centre = hull.iter().map(|&i| p(i)).sum::<Vec2>() / hull.len() as f32;
+        let up = face_up(landmarks);
+        let n = landmarks.len() / 2;
+        let r = hull.len();
+        let mut points = landmarks.to_vec();
+        let mut outer = Vec::with_capacity(2 * r);
+        for &i in &hull {
+            let dir = (p(i) - centre).normalize_or_zero();
+            let inner = d * (RING_INNER + RING_UP * dir.dot(up).max(0.0));
+            let a = p(i) + dir * inner;
+            points.extend_from_slice(&[a.x, a.y]);
+            let b = p(i) + dir * (inner + d * RING_BAND);
+            outer.extend_from_slice(&[b.x, b.y]);
+        }
+        points.extend_from_slice(&outer);
+        let mut triangles = frame.triangles().to_vec();
+        let annuli = triangles.len();
+        for k in 0..r {
+            let k1 = (k + 1) % r;
+            let (h0, h1) = (hull[k], hull[k1]);
+            let (i0, i1) = ((n + k) as u32, (n + k1) as u32);
+            let (o0, o1) = ((n + r + k) as u32, (n + r + k1) as u32);
+            triangles.push([h0, h1, i1]);
+            triangles.push([h0, i1, i0]);
+            triangles.push([i0, i1, o1]);
+            triangles.push([i0, o1, o0]);
+        }
+        Ok(ExtendedMesh {
+            points,
+            triangles,
+            n,
+            ring: r,
+            annuli,
+        })
+    }
+
+    /// All points in the backdrop (landmarks, inner ring, outer ring), interleaved.
+    pub fn points(&self) -> &[f32] {
+        &self.points
+    }
+
+    /// The triangles (the face's, then the annuli's).
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// Where the points go when the face is at `image_shape`: the landmarks there, the inner
+    /// ring moved by the similarity that best takes the backdrop's landmarks onto
+    /// `image_shape`, the outer ring where it is. Writes `out` (same length as
+    /// [`ExtendedMesh::points`]).
+    pub fn place(&self, image_shape: &[f32], out: &mut [f32]) {
+        let n2 = 2 * self.n;
+        let r2 = 2 * self.ring;
+        let head = Similarity::align(&self.points[..n2], image_shape);
+        out[..n2].copy_from_slice(image_shape);
+        for (o, s) in out[n2..n2 + r2]
+            .chunks_exact_mut(2)
+            .zip(self.points[n2..n2 + r2].chunks_exact(2))
+        {
+            let (x, y) = head.apply_point(s[0], s[1]);
+            o[0] = x;
+            o[1] = y;
+        }
+        out[n2 + r2..].copy_from_slice(&self.points[n2 + r2..]);
+    }
+
+    /// How many of the annuli's triangles are folded (orientation reversed or collapsed)
+    /// at `placed` (a [`ExtendedMesh::place`] output) compared with the backdrop.
+    pub fn folded(&self, placed: &[f32]) -> usize {
+        let area = |pts: &[f32], t: &[u32; 3]| {
+            let p = |i: u32| Vec2::new(pts[2 * i as usize], pts[2 * i as usize + 1]);
+            (p(t[1]) - p(t[0])).perp_dot(p(t[2]) - p(t[0]))
+        };
+        self.triangles[self.annuli..]
+            .iter()
+            .filter(|t| {
+                let a0 = area(&self.points, t);
+                let a1 = area(placed, t);
+                !(a0 * a1 > 0.0) || a1.abs() < 1e-3 * a0.abs()
+            })
+            .count()
+    }
+}
+
+/// Mean-value coordinates of `x` with respect to the closed polygon `poly` (Floater, "Mean
+/// value coordinates", 2003): `w_k = (tan(a_{k-1}/2) + tan(a_k/2)) / |q_k - x|`, normalised,
+/// where `a_k` is the angle at `x` between `q_k` and `q_{k+1}`. They reproduce linear
+/// functions and constants exactly, and interpolate the polygon's values smoothly inside: the
+/// membrane of Farbman et al., "Coordinates for instant image cloning" (2009). A point on a
+/// vertex gets that vertex alone. Writes `out` (`poly.len()`).
+pub fn mean_value_weights(x: Vec2, poly: &[Vec2], out: &mut [f32]) {
+    let k = poly.len();
+    out.iter_mut().for_each(|w| *w = 0.0);
+    if k == 0 {
+        return;
+    }
+    // tan(a/2) = sin a / (1 + cos a) = (e_k x e_k1) / (r_k r_k1 + e_k . e_k1).
+    let e = |i: usize| poly[i % k] - x;
+    for i in 0..k {
+        if e(i).length() < 1e-6 {
+            out[i] = 1.0;
+            return;
+        }
+    }
+    let tan_half = |i: usize| {
+        let (a, b) = (e(i), e(i + 1));
+        let den = a.length() * b.length() + a.dot(b);
+        if den.abs() < 1e-12 {
+            0.0
+        } else {
+            a.perp_dot(b) / den
+        }
+    };
+    let mut sum = 0.0f64;
+    for i in 0..k {
+        let w = (tan_half(i + k - 1) + tan_half(i)) / e(i).length();
+        out[i] = w;
+        sum += w as f64;
+    }
+    if sum.abs() > 1e-12 {
+        let inv = (1.0 / sum) as f32;
+        out.iter_mut().for_each(|w| *w *= inv);
+    }
+}
+
+/// Composites one model's faces into its backdrop.
+///
+/// Represents: for one model with a backdrop, the backdrop as textures, its [`ExtendedMesh`],
+/// the frame's border pixels (in order around the face) with the backdrop's colours there, the
+/// mean-value weights of every frame vertex with respect to that border, the feathered edge
+/// (a coverage per frame pixel) and the scratch of one frame.
+/// Requires: the model it was made for ([`Compositor::draw`] checks the frame and landmark
+/// counts). Ensures: a frame allocates nothing once the cache of the static backdrop is made for
+/// the canvas; pixels outside the outer ring are the backdrop's (through the view); the face's
+/// colour offset is the mean-value interpolation of the border differences, so a constant
+/// difference is removed exactly.
+#[derive(Debug)]
+pub struct Compositor {
+    fingerprint: u64,
+    size: (u32, u32),
+    backdrop: Pixmap,
+    words: Vec<u32>,
+    mesh: ExtendedMesh,
+    /// Frame pixel indices of the border, ordered around the face.
+    border: Vec<u32>,
+    /// The backdrop's colours at the border pixels (3 per pixel), sampled once.
+    border_backdrop: Vec<f32>,
+    /// Mean-value weights: one row of `border.len()` per frame vertex.
+    weights: Vec<f32>,
+    /// Coverage of each frame pixel (the feathered edge).
+    alpha: Vec<f32>,
+    /// Share of the colour offset each frame pixel takes (1 at the border).
+    decay: Vec<f32>,
+    drawer: FaceDrawer,
+    /// Static backdrop under the last view: (view, width, height, pixels).
+    cache: Option<(Similarity, u32, u32, Pixmap)>,
+    placed: Vec<f32>,
+    dst: Vec<Vec2>,
+    diff: Vec<f32>,
+    smooth: Vec<f32>,
+    offsets: Vec<f32>,
+    rgb: Vec<f32>,
+    appearance: Vec<f32>,
+    shape: Vec<f32>,
+    path: Option<tiny_skia::PathBuilder>,
+}
+
+impl Compositor {
+    /// The compositor of `model`'s faces, drawing with `options`. Fails with
+    /// [`Error::Params`] when the model has no backdrop.
+    pub fn new(model: &Model, options: DrawOptions) -> Result<Compositor> {
+        let b = model.backdrop().ok_or_else(|| {
+            Error::Params(format!(
+                "model '{}' has no backdrop to composite into",
+                model.name()
+            ))
+        })?;
+        let frame = model.frame();
+        let mesh = ExtendedMesh::new(frame, b.landmarks())?;
+        let (w, h) = (b.width(), b.height());
+        let mut backdrop = Pixmap::new(w, h)
+            .ok_or_else(|| Error::Image(format!("backdrop {w}x{h} too large")))?;
+        backdrop.data_mut().copy_from_slice(b.rgba());
+        let words = b
+            .rgba()
+            .chunks_exact(4)
+            .map(|p| u32::from_le_bytes([p[0], p[1], p[2], 255]))
+            .collect();
+
+        let border = border_pixels(frame);
+        let image = b.image();
+        let tris = frame.triangles();
+        let lm = b.landmarks();
+        let mut border_backdrop = Vec::with_capacity(3 * border.len());
+        for &k in &border {
+            let px = frame.pixels()[k as usize];
+            let t = tris[px.triangle as usize];
+            let (mut x, mut y) = (0.0, 0.0);
+            for j in 0..3 {
+                x += px.bary[j] * lm[2 * t[j] as usize];
+                y += px.bary[j] * lm[2 * t[j] as usize + 1];
+            }
+            border_backdrop.extend_from_slice(&image.sample_rgb(x, y));
+        }
+        let [ox, oy] = frame.origin();
+        let poly: Vec<Vec2> = border
+            .iter()
+            .map(|&k| {
+                let px = frame.pixels()[k as usize];
+                Vec2::new(px.x as f32 - ox, px.y as f32 - oy)
+            })
+            .collect();
+        let v = frame.vertices();
+        let nv = v.len() / 2;
+        let mut weights = vec![0.0; nv * border.len()];
+        for (i, row) in weights.chunks_exact_mut(border.len().max(1)).enumerate() {
+            mean_value_weights(Vec2::new(v[2 * i], v[2 * i + 1]), &poly, row);
+        }
+        let alpha = feather(frame, FEATHER)?;
+        let decay = feather(frame, OFFSET_FADE)?
+            .into_iter()
+            .map(|a| 1.0 - a)
+            .collect();
+        let n_px = frame.n_pixels();
+        Ok(Compositor {
+            fingerprint: frame.fingerprint(),
+            size: (w, h),
+            backdrop,
+            words,
+            placed: vec![0.0; mesh.points().len()],
+            dst: Vec::with_capacity(mesh.points().len() / 2),
+            mesh,
+            diff: vec![0.0; 3 * border.len()],
+            smooth: vec![0.0; 3 * border.len()],
+            border,
+            border_backdrop,
+            weights,
+            alpha,
+            decay,
+            drawer: FaceDrawer::new(frame, options)?,
+            cache: None,
+            offsets: vec![0.0; 3 * nv],
+            rgb: vec![0.0; 3 * n_px],
+            appearance: vec![0.0; 3 * n_px],
+            shape: vec![0.0; v.len()],
+            path: Some(tiny_skia::PathBuilder::new()),
+        })
+    }
+
+    /// The backdrop's size `(width, height)`: the size of a composite at the identity view.
+    pub fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    /// The extended mesh (for tests and tools).
+    pub fn mesh(&self) -> &ExtendedMesh {
+        &self.mesh
+    }
+
+    /// The drawing options.
+    pub fn options(&self) -> DrawOptions {
+        self.drawer.options()
+    }
+
+    /// Changes the drawing options.
+    pub fn set_options(&mut self, options: DrawOptions) {
+        self.drawer.set_options(options);
+    }
+
+    /// Composites a model instance: synthesises its shape (Eq. 1, posed by `params.pose` in
+    /// the backdrop's pixels) and appearance (Eq. 2), then [`Compositor::draw`]s them.
+    pub fn render(
+        &mut self,
+        model: &Model,
+        params: &Params,
+        view: &Similarity,
+        target: &mut PixmapMut<'_>,
+    ) -> Result<()> {
+        model.check_params(params)?;
+        self.check_model(model)?;
+        let mut appearance = std::mem::take(&mut self.appearance);
+        let mut shape = std::mem::take(&mut self.shape);
+        model
+            .appearance()
+            .instance_unchecked(&params.appearance, &mut appearance);
+        model.shape().instance_unchecked(&params.shape, &mut shape);
+        params.pose.apply_in_place(&mut shape);
+        let r = self.draw(model, &appearance, &shape, view, target);
+        self.appearance = appearance;
+        self.shape = shape;
+        r
+    }
+
+    fn check_model(&self, model: &Model) -> Result<()> {
+        if model.frame().fingerprint() != self.fingerprint
+            || model.landmarks() != self.mesh.n
+        {
+            return Err(Error::Incompatible(format!(
+                "compositor was made for another model than '{}'",
+                model.name()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Composites a face given by its appearance (`3N`, frame pixels) and its landmarks in the
+    /// backdrop's pixels (`image_shape`), through `view` (backdrop pixels to target pixels),
+    /// into `target`: the static backdrop, the head warped by the extended mesh, then the face,
+    /// colour-matched and feathered.
+    pub fn draw(
+        &mut self,
+        model: &Model,
+        appearance: &[f32],
+        image_shape: &[f32],
+        view: &Similarity,
+        target: &mut PixmapMut<'_>,
+    ) -> Result<()> {
+        self.check_model(model)?;
+        let frame = model.frame();
+        check_len("appearance", appearance, 3 * frame.n_pixels())?;
+        check_len("shape", image_shape, frame.vertices().len())?;
+        check_finite("shape", image_shape)?;
+        check_finite("appearance", appearance)?;
+        if !view.is_valid() {
+            return Err(Error::Params("the view is not a valid similarity".into()));
+        }
+        self.paint_static(view, target);
+        self.warp_head(image_shape, view, target)?;
+        self.colour_match(frame, appearance);
+        let rgb = std::mem::take(&mut self.rgb);
+        let r = self
+            .drawer
+            .upload_with_alpha(frame, &rgb, &self.alpha)
+            .and_then(|_| self.drawer.warp(frame, image_shape, view, target));
+        self.rgb = rgb;
+        r
+    }
+
+    /// The backdrop as it is, through `view`, into `target` (from a cache made once per view and
+    /// canvas size).
+    fn paint_static(&mut self, view: &Similarity, target: &mut PixmapMut<'_>) {
+        let (w, h) = (target.width(), target.height());
+        let fresh = matches!(&self.cache, Some((v, cw, ch, _)) if v == view && *cw == w && *ch == h);
+        if !fresh {
+            let mut p = match Pixmap::new(w, h) {
+                Some(p) => p,
+                None => return,
+            };
+            let identity = *view == Similarity::IDENTITY && (w, h) == self.size;
+            if identity {
+                p.data_mut().copy_from_slice(self.backdrop.data());
+            } else {
+                p.fill(tiny_skia::Color::BLACK);
+                let tr = centred(view);
+                let paint = PixmapPaint {
+                    quality: tiny_skia::FilterQuality::Bilinear,
+                    ..PixmapPaint::default()
+                };
+                p.draw_pixmap(0, 0, self.backdrop.as_ref(), &paint, tr, None);
+            }
+            self.cache = Some((*view, w, h, p));
+        }
+        if let Some((_, _, _, p)) = &self.cache {
+            target.data_mut().copy_from_slice(p.data());
+        }
+    }
+
+    /// Warps the backdrop's head region by the extended mesh placed at `image_shape`.
+    fn warp_head(
+        &mut self,
+        image_shape: &[f32],
+        view: &Similarity,
+        target: &mut PixmapMut<'_>,
+    ) -> Result<()> {
+        self.mesh.place(image_shape, &mut self.placed);
+        self.dst.clear();
+        for p in self.placed.chunks_exact(2) {
+            let (x, y) = view.apply_point(p[0], p[1]);
+            if !(x.abs() < 1e6 && y.abs() < 1e6) {
+                return Err(Error::Params(
+                    "the face is placed too far outside the canvas".into(),
+                ));
+            }
+            self.dst.push(Vec2::new(x, y));
+        }
+        let pts = &self.mesh.points;
+        let src = |i: usize| Vec2::new(pts[2 * i], pts[2 * i + 1]);
+        let (bw, bh) = (self.size.0 as i32, self.size.1 as i32);
+        match self.drawer.options().rasterizer {
+            Rasterizer::Scanline => scanline::warp_mesh(
+                &self.words,
+                (bw, bh),
+                src,
+                &self.dst,
+                &self.mesh.triangles,
+                target,
+            ),
+            Rasterizer::TinySkia => {
+                let dst = &self.dst;
+                skia::warp_mesh(
+                    self.backdrop.as_ref(),
+                    src,
+                    |i| dst[i],
+                    &self.mesh.triangles,
+                    &mut self.path,
+                    target,
+                )
+            }
+        }
+        Ok(())
+    }
+
+    /// The face's colours matched to the backdrop: the differences along the border (backdrop
+    /// minus face), smoothed along it, carried to every frame vertex by the mean-value weights
+    /// and across each triangle by the frame's barycentrics, added to `appearance` into
+    /// `self.rgb`.
+    fn colour_match(&mut self, frame: &ReferenceFrame, appearance: &[f32]) {
+        let k = self.border.len();
+        if k == 0 {
+            self.rgb.copy_from_slice(appearance);
+            return;
+        }
+        for (j, &px) in self.border.iter().enumerate() {
+            for c in 0..3 {
+                self.diff[3 * j + c] =
+                    self.border_backdrop[3 * j + c] - appearance[3 * px as usize + c];
+            }
+        }
+        // A [1 4 6 4 1] / 16 smoothing along the (closed) border: one noisy pixel does not
+        // decide a vertex's offset.
+        const TAPS: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
+        for j in 0..k {
+            for c in 0..3 {
+                let mut s = 0.0;
+                for (t, w) in TAPS.iter().enumerate() {
+                    let i = (j + k + t - 2) % k;
+                    s += w * self.diff[3 * i + c];
+                }
+                self.smooth[3 * j + c] = s;
+            }
+        }
+        for (o, row) in self
+            .offsets
+            .chunks_exact_mut(3)
+            .zip(self.weights.chunks_exact(k))
+        {
+            let mut acc = [0f32; 3];
+            for (w, d) in row.iter().zip(self.smooth.chunks_exact(3)) {
+                acc[0] += w * d[0];
+                acc[1] += w * d[1];
+                acc[2] += w * d[2];
+            }
+            o.copy_from_slice(&acc);
+        }
+        let tris = frame.triangles();
+        for (((px, a), out), &share) in frame
+            .pixels()
+            .iter()
+            .zip(appearance.chunks_exact(3))
+            .zip(self.rgb.chunks_exact_mut(3))
+            .zip(&self.decay)
+        {
+            let t = tris[px.triangle as usize];
+            for c in 0..3 {
+                let off = px.bary[0] * self.offsets[3 * t[0] as usize + c]
+                    + px.bary[1] * self.offsets[3 * t[1] as usize + c]
+                    + px.bary[2] * self.offsets[3 * t[2] as usize + c];
+                out[c] = (a[c] + share * off).clamp(0.0, 1.0);
+            }
+        }
+    }
+
+    /// The colour offset of the last frame at every frame vertex (3 per vertex), for tests.
+    pub fn vertex_offsets(&self) -> &[f32] {
+        &self.offsets
+    }
+
+    /// The colour-matched appearance of the last frame (`3N`), for tests.
+    pub fn matched_appearance(&self) -> &[f32] {
+        &self.rgb
+    }
+}
+
+/// The tiny-skia transform drawing a bitmap whose pixel centres are on integers through `view`
+/// (whose coordinates also put centres on integers): `x + 0.5 = view(u - 0.5 + 0.5) + 0.5`.
+fn centred(view: &Similarity) -> Transform {
+    Transform::from_row(view.a, view.b, -view.b, view.a, view.tx, view.ty)
+        .pre_translate(-0.5, -0.5)
+        .post_translate(0.5, 0.5)
+}
+
+/// The frame pixels on the mesh's border (a 4-neighbour outside the mesh), ordered by angle
+/// around their centroid.
+fn border_pixels(frame: &ReferenceFrame) -> Vec<u32> {
+    let (w, h) = (frame.width() as i64, frame.height() as i64);
+    let mut inside = vec![false; (w * h) as usize];
+    for px in frame.pixels() {
+        inside[(px.y as i64 * w + px.x as i64) as usize] = true;
+    }
+    let is_in = |x: i64, y: i64| x >= 0 && y >= 0 && x < w && y < h && inside[(y * w + x) as usize];
+    let mut border: Vec<u32> = frame
+        .pixels()
+        .iter()
+        .enumerate()
+        .filter(|(_, px)| {
+            let (x, y) = (px.x as i64, px.y as i64);
+            !(is_in(x - 1, y) && is_in(x + 1, y) && is_in(x, y - 1) && is_in(x, y + 1))
+        })
+        .map(|(i, _)| i as u32)
+        .collect();
+    let pts = frame.pixels();
+    let n = border.len().max(1) as f32;
+    let c = border.iter().fold(Vec2::ZERO, |acc, &i| {
+        acc + Vec2::new(pts[i as usize].x as f32, pts[i as usize].y as f32)
+    }) / n;
+    border.sort_by(|&a, &b| {
+        let ang = |i: u32| {
+            let p = pts[i as usize];
+            (p.y as f32 - c.y).atan2(p.x as f32 - c.x)
+        };
+        ang(a).total_cmp(&ang(b))
+    });
+    border
+}
+
+/// A ramp from the mesh's boundary inwards: each frame pixel's value rises from 0 at the
+/// boundary to 1 at `eyes` eye distances inside it (smoothstep). With [`FEATHER`], the coverage
+/// of the feathered edge; with [`OFFSET_FADE`], one minus the colour offset's share.
+fn feather(frame: &ReferenceFrame, eyes: f32) -> Result<Vec<f32>> {
+    let v = frame.vertices();
+    let hull = hull_loop(frame.triangles(), v)?;
+    let width = (eyes * eye_distance(v, &hull)).max(1.0);
+    let [ox, oy] = frame.origin();
+    let p = |i: u32| Vec2::new(v[2 * i as usize], v[2 * i as usize + 1]);
+    Ok(frame
+        .pixels()
+        .iter()
+        .map(|px| {
+            let x = Vec2::new(px.x as f32 - ox, px.y as f32 - oy);
+            let mut d = f32::MAX;
+            for k in 0..hull.len() {
+                let (a, b) = (p(hull[k]), p(hull[(k + 1) % hull.len()]));
+                let ab = b - a;
+                let t = ((x - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
+                d = d.min((a + ab * t - x).length());
+            }
+            let s = (d / width).clamp(0.0, 1.0);
+            s * s * (3.0 - 2.0 * s)
+        })
+        .collect())
+}
