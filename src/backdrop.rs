@@ -122,7 +122,8 @@ impl Backdrop {
                 jpeg.len()
             )));
         }
-        let mut reader = image::ImageReader::with_format(Cursor::new(&jpeg), image::ImageFormat::Jpeg);
+        let mut reader =
+            image::ImageReader::with_format(Cursor::new(&jpeg), image::ImageFormat::Jpeg);
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(width);
         limits.max_image_height = Some(height);
@@ -230,7 +231,13 @@ mod tests {
             .to_string();
         assert!(e.contains("JPEG"), "{e}");
         let good = Backdrop::encode(&img, &lm).unwrap();
-        let e = Backdrop::decode(32, 48, lm.clone(), good.jpeg().to_vec())
+        // A picture of another size than the model states (larger: the decoder's limits refuse
+        // it; smaller: the size check does).
+        let e = Backdrop::decode(64, 44, lm.clone(), good.jpeg().to_vec())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("backdrop"), "{e}");
+        let e = Backdrop::decode(64, 60, lm.clone(), good.jpeg().to_vec())
             .unwrap_err()
             .to_string();
         assert!(e.contains("64x48"), "{e}");

@@ -472,14 +472,16 @@ impl Target {
     }
 }
 
-/// What every target of one frame shares: the source, its gained (and, for `substitute`,
-/// constrained) parameters and the options.
+/// What every target of one frame shares: the source, its gained parameters (as they are,
+/// and constrained to the source's range for substitution) and the options.
 struct Step<'a> {
     source: &'a Model,
     source_mean_inverse: &'a Similarity,
     source_pose: &'a Similarity,
     p: &'a [f32],
     lambda: &'a [f32],
+    p_sub: &'a [f32],
+    lambda_sub: &'a [f32],
     options: &'a CloneOptions,
 }
 
@@ -497,6 +499,8 @@ impl<'a> Step<'a> {
             source_pose: &source.pose,
             p: &prepared.shape,
             lambda: &prepared.appearance,
+            p_sub: &prepared.sub_shape,
+            lambda_sub: &prepared.sub_appearance,
             options,
         }
     }
@@ -510,7 +514,13 @@ impl<'a> Step<'a> {
         out: &mut TargetFrame,
         acc: &mut [f64],
     ) -> Result<()> {
-        let (m, p, lambda, options) = (model, self.p, self.lambda, self.options);
+        let (m, options) = (model, self.options);
+        let method = effective_method(options.method, m);
+        let (p, lambda) = if method == Method::Substitute {
+            (self.p_sub, self.lambda_sub)
+        } else {
+            (self.p, self.lambda)
+        };
         out.params.pose = target_pose(
             self.source_mean_inverse,
             self.source_pose,
@@ -519,7 +529,7 @@ impl<'a> Step<'a> {
         );
         map_params(&pair.shape_map, p, &mut out.params.shape);
         map_params(&pair.appearance_map, lambda, &mut out.params.appearance);
-        match effective_method(options.method, m) {
+        match method {
             Method::Substitute => {
                 substitute_shape(&m.shape().base, &self.source.shape().modes, p, acc);
                 crate::appearance::synthesise(
@@ -539,7 +549,7 @@ impl<'a> Step<'a> {
                     );
                 }
                 map_shape(&m.shape().base, &m.shape().modes, &out.params.shape, acc);
-                if options.method == Method::MapResidual {
+                if method == Method::MapResidual {
                     add_residual(&pair.residual, p, acc);
                 }
                 crate::appearance::synthesise(
@@ -600,10 +610,15 @@ pub struct Cloner {
 struct Prepared {
     /// The inverse of the source's mean pose.
     source_mean_inverse: Similarity,
-    /// The gained (and, for `substitute`, constrained) source shape parameters.
+    /// The gained source shape parameters (what `map` and `map-residual` map).
     shape: Vec<f32>,
-    /// The gained (and constrained) source appearance parameters.
+    /// The gained source appearance parameters.
     appearance: Vec<f32>,
+    /// The gained shape parameters constrained to the source's range, when the options clamp
+    /// (what `substitute` uses, and every photo target whatever the method).
+    sub_shape: Vec<f32>,
+    /// The gained and constrained appearance parameters, likewise.
+    sub_appearance: Vec<f32>,
 }
 
 impl Cloner {
@@ -621,6 +636,8 @@ impl Cloner {
                 source_mean_inverse: inv,
                 shape: vec![0.0; source.shape().n_modes()],
                 appearance: vec![0.0; source.appearance().n_modes()],
+                sub_shape: vec![0.0; source.shape().n_modes()],
+                sub_appearance: vec![0.0; source.appearance().n_modes()],
             },
             acc: vec![0.0; source.shape().base.len()],
             source,
@@ -758,7 +775,7 @@ impl Cloner {
     }
 
     /// Checks the source parameters, the options and the poses of `targets`, then writes the
-    /// gained (and, for `substitute`, constrained) source parameters into the scratch.
+    /// gained source parameters, as they are and constrained for substitution, into the scratch.
     fn prepare(
         &mut self,
         source: &Params,
@@ -796,15 +813,12 @@ impl Cloner {
             &options.appearance_gains,
             &mut self.scratch.appearance,
         );
-        if options.method == Method::Substitute {
-            if let Some(k) = options.clamp {
-                constrain(&mut self.scratch.shape, &self.source_shape_sigmas, k);
-                constrain(
-                    &mut self.scratch.appearance,
-                    &self.source_appearance_sigmas,
-                    k,
-                );
-            }
+        let s = &mut self.scratch;
+        s.sub_shape.copy_from_slice(&s.shape);
+        s.sub_appearance.copy_from_slice(&s.appearance);
+        if let Some(k) = options.clamp {
+            constrain(&mut s.sub_shape, &self.source_shape_sigmas, k);
+            constrain(&mut s.sub_appearance, &self.source_appearance_sigmas, k);
         }
         Ok(())
     }

@@ -178,7 +178,8 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
     )
     .unwrap_or(0) as usize;
     let sections = sections_of(model);
-    let total = HEADER_LEN + names + padding + 4 * floats + appearance + sections.len() + CHECKSUM_LEN;
+    let total =
+        HEADER_LEN + names + padding + 4 * floats + appearance + sections.len() + CHECKSUM_LEN;
     let mut out = Vec::with_capacity(total);
     let u32le = |out: &mut Vec<u8>, v: u32| out.extend_from_slice(&v.to_le_bytes());
     let f32le = |out: &mut Vec<u8>, v: f32| out.extend_from_slice(&v.to_le_bytes());
@@ -807,7 +808,10 @@ fn sections_of(model: &Model) -> Vec<u8> {
         out.extend_from_slice(&SECTION_BACKDROP.to_le_bytes());
         out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
         out.extend_from_slice(&payload);
-        out.extend(std::iter::repeat_n(0u8, pad4(payload.len() as u64) as usize));
+        out.extend(std::iter::repeat_n(
+            0u8,
+            pad4(payload.len() as u64) as usize,
+        ));
     }
     out
 }
@@ -855,14 +859,27 @@ fn parse_backdrop(p: &[u8], landmarks: u32) -> Result<RawBackdrop, FormatError> 
         return Err(bad(format!("{} bytes, too short for its header", p.len())));
     }
     let (width, height, n) = (u32_at(p, 0), u32_at(p, 4), u32_at(p, 8));
-    check_range("backdrop width", width, 1, crate::backdrop::MAX_BACKDROP_SIDE)?;
-    check_range("backdrop height", height, 1, crate::backdrop::MAX_BACKDROP_SIDE)?;
+    check_range(
+        "backdrop width",
+        width,
+        1,
+        crate::backdrop::MAX_BACKDROP_SIDE,
+    )?;
+    check_range(
+        "backdrop height",
+        height,
+        1,
+        crate::backdrop::MAX_BACKDROP_SIDE,
+    )?;
     if n != landmarks {
         return Err(bad(format!("{n} landmarks, the model has {landmarks}")));
     }
     let lm_end = 12 + 8 * n as usize;
     if p.len() < lm_end + 4 {
-        return Err(bad(format!("{} bytes, too short for {n} landmarks", p.len())));
+        return Err(bad(format!(
+            "{} bytes, too short for {n} landmarks",
+            p.len()
+        )));
     }
     let values: Vec<f32> = (0..2 * n as usize).map(|i| f32_at(p, 12 + 4 * i)).collect();
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {

@@ -69,13 +69,15 @@ pub use enrol::{EnrolFace, EnrolFinder, MIRROR_68};
 pub use error::{Error, FormatError, Result};
 pub use find::{BBox, Face, FaceFinder, FindOptions};
 pub use frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
+pub use glam;
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
 pub use photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
 pub use refine::refine_landmarks;
 pub use render::{
-    base_box, canvas_view, hull_loop, mean_value_weights, Compositor, ExtendedMesh, demultiply, demultiply_into, fit_view, DrawOptions, FaceDrawer,
-    Rasterizer, Renderer, Scanline, picture_view,
+    base_box, canvas_view, demultiply, demultiply_into, fit_view, hull_loop, mean_value_weights,
+    picture_view, Compositor, DrawOptions, ExtendedMesh, FaceDrawer, Rasterizer, Renderer,
+    Scanline,
 };
 pub use select::{coverage, select_varied};
 pub use shape::ShapeModel;

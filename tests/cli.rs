@@ -498,7 +498,8 @@ fn bad_input_fails_cleanly() {
 fn build_precision_and_inspect_version() {
     let model = spk07_model();
     let info = json(&ok(&[&"inspect", &model]));
-    assert_eq!(info["format_version"], 2, "{info}");
+    assert_eq!(info["format_version"], 3, "{info}");
+    assert_eq!(info["backdrop"]["width"], 360, "{info}");
     assert_eq!(info["precision"], "i6", "{info}");
     let compact = std::fs::metadata(model).unwrap().len();
     let dir = scratch("precision");

@@ -22,8 +22,8 @@ use std::path::Path;
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::tiny_skia::Pixmap;
 use facemimic::{
-    io, photo_model, with_default_backdrop, BuildOptions, Builder, Compositor, DrawOptions,
-    Model, Similarity, TrainingImage,
+    io, photo_model, with_default_backdrop, BuildOptions, Builder, Compositor, DrawOptions, Model,
+    Similarity, TrainingImage,
 };
 
 /// Squared luma error sums and counts per region.
@@ -136,7 +136,9 @@ fn accumulate(acc: &mut Acc, out: &[u8], real: &[u8], w: u32, h: u32, landmarks:
 /// The backdrop moved rigidly onto `landmarks` (straight RGBA8).
 fn rigid_photo(model: &Model, landmarks: &[f32]) -> Vec<u8> {
     let b = model.backdrop().unwrap();
-    let t = Similarity::align(b.landmarks(), landmarks).inverse().unwrap();
+    let t = Similarity::align(b.landmarks(), landmarks)
+        .inverse()
+        .unwrap();
     let img = b.image();
     let (w, h) = (b.width(), b.height());
     let mut out = Vec::with_capacity((w * h * 4) as usize);
@@ -170,7 +172,10 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
         return;
     };
     // Split: models from frames 0-599 only; frame 600 is the backdrop; 601-1336 are measured.
-    let pool: Vec<TrainingImage> = (0..600).step_by(6).map(|i| common::frame(&dir, i)).collect();
+    let pool: Vec<TrainingImage> = (0..600)
+        .step_by(6)
+        .map(|i| common::frame(&dir, i))
+        .collect();
     let train = common::varied(&pool, 20);
     let model = build(&train, "webcam");
     let b600 = common::frame(&dir, 600);
@@ -212,7 +217,9 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
             a.psnr(REST)
         )
     };
-    eprintln!("webcam-dev self-reenactment, {frames} frames of 601-1336 (every 4th), luma PSNR dB:");
+    eprintln!(
+        "webcam-dev self-reenactment, {frames} frames of 601-1336 (every 4th), luma PSNR dB:"
+    );
     row("composite", &ours);
     row("rigid photo", &rigid);
     row("unmoved", &still);
@@ -352,7 +359,13 @@ fn one_photo_target_follows_the_expression() {
         n += 1;
     }
     let (o, p) = (ours_sum / n as f64, photo_sum / n as f64);
-    eprintln!("mean over {n} speakers: photo target {o:.2} dB, neutral photo {p:.2} dB ({:+.2})", o - p);
+    eprintln!(
+        "mean over {n} speakers: photo target {o:.2} dB, neutral photo {p:.2} dB ({:+.2})",
+        o - p
+    );
     assert!(n >= 5);
-    assert!(o >= p + 1.0, "the photo target {o:.2} dB, the neutral photo {p:.2} dB");
+    assert!(
+        o >= p + 1.0,
+        "the photo target {o:.2} dB, the neutral photo {p:.2} dB"
+    );
 }

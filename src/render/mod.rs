@@ -110,7 +110,9 @@ impl FaceDrawer {
     ) -> Result<()> {
         match self.options.rasterizer {
             Rasterizer::TinySkia => self.skia.upload_with_alpha(frame, appearance, Some(alpha)),
-            Rasterizer::Scanline => self.scanline.upload_with_alpha(frame, appearance, Some(alpha)),
+            Rasterizer::Scanline => self
+                .scanline
+                .upload_with_alpha(frame, appearance, Some(alpha)),
         }
     }
 

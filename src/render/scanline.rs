@@ -71,7 +71,12 @@ impl Scanline {
         }
         let w = self.width as usize;
         let tex = &mut self.texture;
-        for (i, (px, rgb)) in frame.pixels().iter().zip(appearance.chunks_exact(3)).enumerate() {
+        for (i, (px, rgb)) in frame
+            .pixels()
+            .iter()
+            .zip(appearance.chunks_exact(3))
+            .enumerate()
+        {
             let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
             if let Some(t) = tex.get_mut(px.y as usize * w + px.x as usize) {
                 *t = to_u8(rgb[0] * a)
@@ -211,90 +216,89 @@ pub(crate) fn warp_mesh(
     target: &mut PixmapMut<'_>,
 ) {
     let (cw, ch) = (target.width() as i32, target.height() as i32);
-        let out = target.data_mut();
-        let (umax, vmax) = (((tw - 1) << 16) as f32, ((th - 1) << 16) as f32);
-        for t in triangles {
-            let d = t.map(|i| dst.get(i as usize).copied().unwrap_or(Vec2::ZERO));
-            let s = t.map(|i| src(i as usize));
-            // Target pixel -> texture coordinates (texel centres on integers).
-            let Some(m) = triangle_affine(d, s) else {
-                continue;
-            };
-            let (ymin, ymax) = (
-                d[0].y.min(d[1].y).min(d[2].y),
-                d[0].y.max(d[1].y).max(d[2].y),
-            );
-            let j0 = (ymin.ceil() as i32).max(0);
-            let j1 = (ymax.ceil() as i32).min(ch); // exclusive
-            let edges = [(d[0], d[1]), (d[1], d[2]), (d[2], d[0])];
-            let (du, dv) = (
-                (m.matrix2.x_axis.x * ONE) as i32,
-                (m.matrix2.x_axis.y * ONE) as i32,
-            );
-            for j in j0..j1 {
-                let y = j as f32;
-                // The two edges whose half-open y-range [top, bottom) holds the row.
-                let mut xs = [0f32; 2];
-                let mut n = 0;
-                for &(p, q) in &edges {
-                    let (top, bottom) = if p.y <= q.y { (p.y, q.y) } else { (q.y, p.y) };
-                    if top <= y && y < bottom && n < 2 {
-                        xs[n] = edge_x(p, q, y);
-                        n += 1;
-                    }
-                }
-                if n < 2 {
-                    continue;
-                }
-                let (xl, xr) = if xs[0] <= xs[1] {
-                    (xs[0], xs[1])
-                } else {
-                    (xs[1], xs[0])
-                };
-                let i0 = (xl.ceil() as i32).max(0);
-                let i1 = (xr.ceil() as i32).min(cw); // exclusive
-                if i0 >= i1 {
-                    continue;
-                }
-                let x0 = i0 as f32;
-                let u0 = m.matrix2.x_axis.x * x0 + m.matrix2.y_axis.x * y + m.translation.x;
-                let v0 = m.matrix2.x_axis.y * x0 + m.matrix2.y_axis.y * y + m.translation.y;
-                let mut u = (u0 * ONE).clamp(-umax, 2.0 * umax) as i32;
-                let mut w = (v0 * ONE).clamp(-vmax, 2.0 * vmax) as i32;
-                let row = (j * cw) as usize;
-                let Some(span) = out.get_mut((row + i0 as usize) * 4..(row + i1 as usize) * 4)
-                else {
-                    continue;
-                };
-                for px in span.chunks_exact_mut(4) {
-                    let uc = u.clamp(0, umax as i32);
-                    let vc = w.clamp(0, vmax as i32);
-                    let (xi, yi) = ((uc >> 16) as usize, (vc >> 16) as usize);
-                    let (wx, wy) = (((uc >> 8) & 0xff) as u32, ((vc >> 8) & 0xff) as u32);
-                    let k = yi * tw as usize + xi;
-                    let dx = usize::from((xi as i32) < tw - 1);
-                    let dy = if (yi as i32) < th - 1 { tw as usize } else { 0 };
-                    let c = match (
-                        tex.get(k),
-                        tex.get(k + dx),
-                        tex.get(k + dy),
-                        tex.get(k + dy + dx),
-                    ) {
-                        (Some(&a), Some(&b), Some(&c), Some(&d)) => bilerp(a, b, c, d, wx, wy),
-                        _ => 0,
-                    };
-                    let a = c >> 24;
-                    if a == 255 {
-                        px.copy_from_slice(&c.to_le_bytes());
-                    } else if a != 0 {
-                        let under = u32::from_le_bytes([px[0], px[1], px[2], px[3]]);
-                        px.copy_from_slice(&source_over(c, under).to_le_bytes());
-                    }
-                    u = u.wrapping_add(du);
-                    w = w.wrapping_add(dv);
+    let out = target.data_mut();
+    let (umax, vmax) = (((tw - 1) << 16) as f32, ((th - 1) << 16) as f32);
+    for t in triangles {
+        let d = t.map(|i| dst.get(i as usize).copied().unwrap_or(Vec2::ZERO));
+        let s = t.map(|i| src(i as usize));
+        // Target pixel -> texture coordinates (texel centres on integers).
+        let Some(m) = triangle_affine(d, s) else {
+            continue;
+        };
+        let (ymin, ymax) = (
+            d[0].y.min(d[1].y).min(d[2].y),
+            d[0].y.max(d[1].y).max(d[2].y),
+        );
+        let j0 = (ymin.ceil() as i32).max(0);
+        let j1 = (ymax.ceil() as i32).min(ch); // exclusive
+        let edges = [(d[0], d[1]), (d[1], d[2]), (d[2], d[0])];
+        let (du, dv) = (
+            (m.matrix2.x_axis.x * ONE) as i32,
+            (m.matrix2.x_axis.y * ONE) as i32,
+        );
+        for j in j0..j1 {
+            let y = j as f32;
+            // The two edges whose half-open y-range [top, bottom) holds the row.
+            let mut xs = [0f32; 2];
+            let mut n = 0;
+            for &(p, q) in &edges {
+                let (top, bottom) = if p.y <= q.y { (p.y, q.y) } else { (q.y, p.y) };
+                if top <= y && y < bottom && n < 2 {
+                    xs[n] = edge_x(p, q, y);
+                    n += 1;
                 }
             }
+            if n < 2 {
+                continue;
+            }
+            let (xl, xr) = if xs[0] <= xs[1] {
+                (xs[0], xs[1])
+            } else {
+                (xs[1], xs[0])
+            };
+            let i0 = (xl.ceil() as i32).max(0);
+            let i1 = (xr.ceil() as i32).min(cw); // exclusive
+            if i0 >= i1 {
+                continue;
+            }
+            let x0 = i0 as f32;
+            let u0 = m.matrix2.x_axis.x * x0 + m.matrix2.y_axis.x * y + m.translation.x;
+            let v0 = m.matrix2.x_axis.y * x0 + m.matrix2.y_axis.y * y + m.translation.y;
+            let mut u = (u0 * ONE).clamp(-umax, 2.0 * umax) as i32;
+            let mut w = (v0 * ONE).clamp(-vmax, 2.0 * vmax) as i32;
+            let row = (j * cw) as usize;
+            let Some(span) = out.get_mut((row + i0 as usize) * 4..(row + i1 as usize) * 4) else {
+                continue;
+            };
+            for px in span.chunks_exact_mut(4) {
+                let uc = u.clamp(0, umax as i32);
+                let vc = w.clamp(0, vmax as i32);
+                let (xi, yi) = ((uc >> 16) as usize, (vc >> 16) as usize);
+                let (wx, wy) = (((uc >> 8) & 0xff) as u32, ((vc >> 8) & 0xff) as u32);
+                let k = yi * tw as usize + xi;
+                let dx = usize::from((xi as i32) < tw - 1);
+                let dy = if (yi as i32) < th - 1 { tw as usize } else { 0 };
+                let c = match (
+                    tex.get(k),
+                    tex.get(k + dx),
+                    tex.get(k + dy),
+                    tex.get(k + dy + dx),
+                ) {
+                    (Some(&a), Some(&b), Some(&c), Some(&d)) => bilerp(a, b, c, d, wx, wy),
+                    _ => 0,
+                };
+                let a = c >> 24;
+                if a == 255 {
+                    px.copy_from_slice(&c.to_le_bytes());
+                } else if a != 0 {
+                    let under = u32::from_le_bytes([px[0], px[1], px[2], px[3]]);
+                    px.copy_from_slice(&source_over(c, under).to_le_bytes());
+                }
+                u = u.wrapping_add(du);
+                w = w.wrapping_add(dv);
+            }
         }
+    }
 }
 
 #[cfg(test)]

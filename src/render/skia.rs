@@ -77,7 +77,12 @@ impl Renderer {
         }
         let w = frame.width() as usize;
         let data = self.texture.data_mut();
-        for (i, (px, rgb)) in frame.pixels().iter().zip(appearance.chunks_exact(3)).enumerate() {
+        for (i, (px, rgb)) in frame
+            .pixels()
+            .iter()
+            .zip(appearance.chunks_exact(3))
+            .enumerate()
+        {
             let k = (px.y as usize * w + px.x as usize) * 4;
             let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
             data[k] = to_u8(rgb[0] * a);

@@ -433,6 +433,8 @@ pub fn build_model(
     let model = Builder::new(o).build_refined(&images, None, rounds, &mut |p| {
         report("model", p.done, p.total, &skipped)
     });
+    // The backdrop: the training frame closest to the model's mean, as the CLI's build.
+    let model = model.and_then(|m| crate::photo::with_default_backdrop(m, &images, None));
     match model {
         Ok(m) => Ok(JsModel::from(m)),
         Err(e) => match thrown.take() {

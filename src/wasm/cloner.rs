@@ -11,7 +11,7 @@ use super::{install_panic_hook, js_err, params_to_js, RenderOptionsArg};
 use crate::clone::{CloneOptions, Cloner, Method, TargetFrame};
 use crate::frame::ReferenceFrame;
 use crate::model::{Model, Params};
-use crate::render::{base_box, fit_view, FaceDrawer};
+use crate::render::{base_box, fit_view, picture_view, Compositor, FaceDrawer};
 
 /// Stage timings accumulated since the last `update()`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -58,6 +58,9 @@ pub struct JsCloner {
     target_boxes: Vec<[f32; 4]>,
     timings: Timings,
     compare: Option<Compare>,
+    /// Per target, its compositor (made on its first composited render; cleared when the
+    /// targets change).
+    compositors: Vec<Option<Compositor>>,
     /// Bumped whenever the source or the targets change.
     generation: u64,
 }
@@ -160,6 +163,9 @@ impl JsCloner {
         let Some(model) = self.cloner.get_target(index) else {
             return Err(JsError::new(&format!("target index {index} out of range")));
         };
+        if options.composite && model.backdrop().is_some() {
+            return self.composite_target_into(index, sink, options);
+        }
         let face = Face {
             frame: model.frame(),
             appearance: self.cloner.target_appearance(index),
@@ -172,6 +178,44 @@ impl JsCloner {
     fn changed(&mut self) {
         self.generation += 1;
         self.compare = None;
+        self.compositors.clear();
+    }
+
+    /// Composites target `index` into its backdrop, letterboxed to the sink.
+    fn composite_target_into(
+        &mut self,
+        index: usize,
+        sink: Sink<'_>,
+        options: &RenderOptions,
+    ) -> Result<(), JsError> {
+        let Some(model) = self.cloner.get_target(index) else {
+            return Err(JsError::new(&format!("target index {index} out of range")));
+        };
+        if self.compositors.len() <= index {
+            self.compositors.resize_with(index + 1, || None);
+        }
+        if self.compositors[index].is_none() {
+            let t0 = now_ms();
+            self.compositors[index] = Some(Compositor::new(model, options.draw).map_err(js_err)?);
+            self.timings.synth += now_ms() - t0;
+        }
+        let Some(c) = self.compositors[index].as_mut() else {
+            return Err(JsError::new("internal error: compositor"));
+        };
+        c.set_options(options.draw);
+        let (bw, bh) = c.size();
+        let (appearance, shape) = (
+            self.cloner.target_appearance(index),
+            self.cloner.target_shape(index),
+        );
+        let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
+            let view = picture_view(bw, bh, w, h);
+            c.draw(model, appearance, shape, &view, pixmap)
+                .map_err(js_err)
+        })?;
+        self.timings.raster += stages.raster;
+        self.timings.blit += stages.blit;
+        Ok(())
     }
 }
 
@@ -200,6 +244,7 @@ impl JsCloner {
             target_boxes: Vec::new(),
             timings: Timings::default(),
             compare: None,
+            compositors: Vec::new(),
             generation: 0,
         })
     }

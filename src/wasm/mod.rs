@@ -95,6 +95,13 @@ export interface ModelInfo {
   /** "mean" or the name of the training image the bases show. */
   reference: string;
   imageWidth: number; imageHeight: number;
+  /** The picture the face is composited into (`render*` with `composite: true`), or null. */
+  backdrop: { width: number; height: number; bytes: number } | null;
+  /** Set when the file's backdrop was damaged and left out (the face renders alone): why. */
+  backdropNotice: string | null;
+  /** A target made from one photo: no modes of its own; cloned onto by substitution whatever
+   *  the method (Fig. 4 A). */
+  isPhoto: boolean;
 }
 /** Cloning method (the paper's Fig. 4 A, B, C). */
 export type Method = "substitute" | "map" | "map-residual";
@@ -108,6 +115,10 @@ export interface RenderOptions {
    *  "scanline" (opt-in fast path: a faster fixed-point rasteriser that writes into the same
    *  tiny-skia pixmap; results agree within ~1.5 levels). */
   raster?: "tiny-skia" | "scanline";
+  /** Targets: show the whole picture (the model's backdrop, letterboxed to the canvas) with the
+   *  face composited into it, the head moving with the face. Default false (the face alone,
+   *  the paper's view). A model without a backdrop is drawn face only. */
+  composite?: boolean;
 }
 /** Milliseconds spent per stage since the last `update()` (mapping, synthesis, rasterising, blitting). */
 export interface Timings { mapMs: number; synthMs: number; rasterMs: number; blitMs: number }

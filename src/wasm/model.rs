@@ -33,9 +33,25 @@ pub(crate) struct ModelInfo {
     reference: String,
     image_width: u32,
     image_height: u32,
+    backdrop: Option<BackdropInfo>,
+    backdrop_notice: Option<String>,
+    is_photo: bool,
+}
+
+/// `ModelInfo.backdrop`.
+#[derive(Serialize)]
+pub(crate) struct BackdropInfo {
+    width: u32,
+    height: u32,
+    bytes: usize,
 }
 
 pub(crate) fn model_info(m: &Model) -> Result<JsValue, JsError> {
+    model_info_with(m, None)
+}
+
+/// [`model_info`] with the notice a file's reader left (a damaged backdrop).
+pub(crate) fn model_info_with(m: &Model, notice: Option<&str>) -> Result<JsValue, JsError> {
     let info = ModelInfo {
         name: m.name().to_string(),
         landmarks: m.landmarks(),
@@ -57,6 +73,13 @@ pub(crate) fn model_info(m: &Model) -> Result<JsValue, JsError> {
         },
         image_width: m.image_size()[0],
         image_height: m.image_size()[1],
+        backdrop: m.backdrop().map(|b| BackdropInfo {
+            width: b.width(),
+            height: b.height(),
+            bytes: b.jpeg().len(),
+        }),
+        backdrop_notice: notice.map(str::to_string),
+        is_photo: m.is_photo(),
     };
     serde_wasm_bindgen::to_value(&info).map_err(|e| JsError::new(&format!("model info: {e}")))
 }
@@ -97,6 +120,8 @@ impl ModelScratch {
 pub struct JsModel {
     pub(crate) model: Rc<Model>,
     scratch: RefCell<Option<Box<ModelScratch>>>,
+    /// Why the file's backdrop was left out, if it was.
+    notice: Option<String>,
 }
 
 impl From<Model> for JsModel {
@@ -105,6 +130,7 @@ impl From<Model> for JsModel {
         JsModel {
             model: Rc::new(model),
             scratch: RefCell::new(None),
+            notice: None,
         }
     }
 }
@@ -140,7 +166,29 @@ impl JsModel {
     #[wasm_bindgen(js_name = fromBytes)]
     pub fn from_bytes(bytes: &[u8]) -> Result<JsModel, JsError> {
         install_panic_hook();
-        let model = crate::format::read_model(bytes).map_err(|e| js_err(e.into()))?;
+        let (model, info) = crate::format::read_model_info(bytes).map_err(|e| js_err(e.into()))?;
+        let mut m = JsModel::from(model);
+        m.notice = info.backdrop_notice;
+        Ok(m)
+    }
+
+    /// A target made from one photo (straight RGBA, `width x height`) and the face's landmarks
+    /// in it (`2n` values, image pixels, centres on integers; e.g. a `FaceFinder` face's):
+    /// the photo's face is the model's base and the photo its backdrop; cloning onto it
+    /// substitutes the source's modes (Fig. 4 A). Throws when the landmarks fall outside the
+    /// photo, the face is under 64 pixels wide, or the photo is outside the size limits.
+    #[wasm_bindgen(js_name = fromPhoto)]
+    pub fn from_photo(
+        name: &str,
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] rgba: &[u8],
+        width: u32,
+        height: u32,
+        landmarks: &[f32],
+    ) -> Result<JsModel, JsError> {
+        install_panic_hook();
+        let image = ImageRef::new(width, height, rgba).map_err(js_err)?;
+        let frame = crate::canonical::canonical_frame();
+        let model = crate::photo::photo_model(name, &image, landmarks, frame).map_err(js_err)?;
         Ok(JsModel::from(model))
     }
 
@@ -160,7 +208,7 @@ impl JsModel {
     /// Sizes, variances and identity of the model.
     #[wasm_bindgen(unchecked_return_type = "ModelInfo")]
     pub fn info(&self) -> Result<JsValue, JsError> {
-        model_info(&self.model)
+        model_info_with(&self.model, self.notice.as_deref())
     }
 
     /// The reference face at its mean pose (all shape and appearance parameters zero).
@@ -223,6 +271,7 @@ impl JsModel {
         JsModel {
             model: self.model.clone(),
             scratch: RefCell::new(None),
+            notice: self.notice.clone(),
         }
     }
 

@@ -126,6 +126,8 @@ pub(crate) struct RenderOptions {
     pub background: Color,
     /// The rasteriser and the mesh overlay.
     pub draw: DrawOptions,
+    /// Composite targets into their backdrops.
+    pub composite: bool,
 }
 
 /// The default background, `#202024`.
@@ -137,6 +139,7 @@ impl Default for RenderOptions {
         RenderOptions {
             background: Color::from_rgba8(r, g, b, a),
             draw: DrawOptions::default(),
+            composite: false,
         }
     }
 }
@@ -201,6 +204,15 @@ impl RenderOptions {
                 JsError::new(&format!(
                     "render options: mesh must be a boolean, got {}",
                     describe(&mesh)
+                ))
+            })?;
+        }
+        let composite = get("composite")?;
+        if !(composite.is_undefined() || composite.is_null()) {
+            o.composite = composite.as_bool().ok_or_else(|| {
+                JsError::new(&format!(
+                    "render options: composite must be a boolean, got {}",
+                    describe(&composite)
                 ))
             })?;
         }
