@@ -14,6 +14,14 @@
 //!   `spk07_id2_vcd_swwp2s/000024` (projected with its landmarks) cloned onto spk02 by each
 //!   method (default options otherwise), drawn at spk02's canvas view on 200x220.
 //!
+//! - `composite_map.png`, `composite_map_follow.png`: the same frame cloned onto spk02 by
+//!   `map`, composited into spk02's default backdrop (its training frame closest to the mean)
+//!   at the backdrop's size (360x288), without and with follow-pose; for follow-pose the
+//!   source's pose is additionally rolled by 8 degrees and moved 12 px right about the face
+//!   centre, so that the head's motion in the picture is plain;
+//! - `composite_photo.png`: the same frame cloned onto a one-photo target (spk03's first
+//!   training frame, `data/grid/spk03_lbax4n/train20.txt`), composited into the photo.
+//!
 //! Tolerance: a pixel differs when a channel is off by more than 3 levels (float rounding in
 //! PCA or rasterisation on another CPU may move a value by one or two); at most 0.5% of the
 //! pixels may differ. Regenerate (after an intended change only) with
@@ -25,8 +33,8 @@ use std::sync::OnceLock;
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::tiny_skia::{Color, Pixmap};
 use facemimic::{
-    canvas_view, io, BuildOptions, Builder, DrawOptions, FaceDrawer, Model, Params, Rasterizer,
-    Similarity,
+    canvas_view, io, photo_model, picture_view, with_default_backdrop, BuildOptions, Builder,
+    Compositor, DrawOptions, FaceDrawer, Model, Params, Rasterizer, Similarity,
 };
 
 const TOLERANCE: i32 = 3;
@@ -64,6 +72,32 @@ fn spk07() -> &'static Model {
 fn spk02() -> &'static Model {
     static M: OnceLock<Model> = OnceLock::new();
     M.get_or_init(|| build("data/grid/spk02_brbk7n/train20.txt", "spk02"))
+}
+
+/// spk02 with its default backdrop (the training frame closest to the model's mean).
+fn spk02_backdrop() -> &'static Model {
+    static M: OnceLock<Model> = OnceLock::new();
+    M.get_or_init(|| {
+        let list = io::read_list(&root().join("data/grid/spk02_brbk7n/train20.txt")).unwrap();
+        let images: Vec<_> = list
+            .iter()
+            .map(|p| io::read_training_image(p).unwrap())
+            .collect();
+        with_default_backdrop(spk02().clone(), &images, None).unwrap()
+    })
+}
+
+/// A one-photo target: spk03's first training frame.
+fn spk03_photo() -> Model {
+    let list = io::read_list(&root().join("data/grid/spk03_lbax4n/train20.txt")).unwrap();
+    let t = io::read_training_image(&list[0]).unwrap();
+    photo_model(
+        "spk03-photo",
+        &t.image.view().unwrap(),
+        &t.landmarks,
+        facemimic::canonical_frame(),
+    )
+    .unwrap()
 }
 
 fn canvas() -> Pixmap {
@@ -106,14 +140,62 @@ fn draw_instance(options: DrawOptions) -> Vec<u8> {
     facemimic::demultiply(&pixmap)
 }
 
-/// spk07's unseen frame 30 cloned onto spk02 with `method` (straight RGBA8).
-fn draw_clone(method: Method) -> Vec<u8> {
+/// spk07's unseen frame 24, projected with its landmarks.
+fn source_params() -> Params {
     let frame = root().join("data/grid/spk07_id2_vcd_swwp2s/000024.jpg");
     let t = io::read_training_image(&frame).unwrap();
-    let source = spk07();
-    let params = source
+    spk07()
         .project(&t.image.view().unwrap(), &t.landmarks)
+        .unwrap()
+}
+
+/// spk07's unseen frame 24 composited into `target`'s backdrop at its size, cloned by
+/// `map` (substitution for a photo target); with `follow`, the source's pose rolled by 8
+/// degrees and moved 12 px right about its face centre, and followed (straight RGBA8, and the
+/// size).
+fn draw_composite(target: &Model, follow: bool) -> (Vec<u8>, (u32, u32)) {
+    let source = spk07();
+    let mut params = source_params();
+    if follow {
+        let (cx, cy) = (params.pose.tx, params.pose.ty);
+        let turn = Similarity::from_parts(1.0, 8f32.to_radians(), 0.0, 0.0);
+        let (mx, my) = turn.apply_point(cx, cy);
+        let about = Similarity {
+            tx: cx - mx + 12.0,
+            ty: cy - my,
+            ..turn
+        };
+        params.pose = about.compose(&params.pose);
+    }
+    let mut cloner = Cloner::new(source.clone()).unwrap();
+    cloner.add_target(target.clone()).unwrap();
+    let options = CloneOptions {
+        method: Method::Map,
+        follow_pose: follow,
+        ..CloneOptions::default()
+    };
+    cloner.clone_frame(&params, &options).unwrap();
+    let mut compositor = Compositor::new(target, DrawOptions::default()).unwrap();
+    let (w, h) = compositor.size();
+    let mut pixmap = Pixmap::new(w, h).unwrap();
+    let [r, g, b, a] = BACKGROUND;
+    pixmap.fill(Color::from_rgba8(r, g, b, a));
+    compositor
+        .draw(
+            target,
+            cloner.target_appearance(0),
+            cloner.target_shape(0),
+            &picture_view(w, h, w, h),
+            &mut pixmap.as_mut(),
+        )
         .unwrap();
+    (facemimic::demultiply(&pixmap), (w, h))
+}
+
+/// spk07's unseen frame 24 cloned onto spk02 with `method` (straight RGBA8).
+fn draw_clone(method: Method) -> Vec<u8> {
+    let source = spk07();
+    let params = source_params();
     let target = spk02();
     let mut cloner = Cloner::new(source.clone()).unwrap();
     cloner.add_target(target.clone()).unwrap();
@@ -139,10 +221,16 @@ fn draw_clone(method: Method) -> Vec<u8> {
 
 /// Compares `got` with the golden image `name` (or writes it with `FACEMIMIC_BLESS=1`).
 fn check(name: &str, got: &[u8]) {
+    check_sized(name, got, SIZE);
+}
+
+/// [`check`] for an image of another size.
+fn check_sized(name: &str, got: &[u8], size: (u32, u32)) {
+    assert_eq!(got.len(), (size.0 * size.1 * 4) as usize, "{name}: buffer size");
     let path = golden_path(name);
     if std::env::var_os("FACEMIMIC_BLESS").is_some_and(|v| v == "1") {
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        io::write_png(&path, SIZE.0, SIZE.1, got).unwrap();
+        io::write_png(&path, size.0, size.1, got).unwrap();
         println!("wrote {}", path.display());
         return;
     }
@@ -151,7 +239,7 @@ fn check(name: &str, got: &[u8]) {
     });
     assert_eq!(
         (golden.width, golden.height),
-        SIZE,
+        size,
         "{name}: golden image size"
     );
     let (mut differing, mut worst) = (0usize, 0i32);
@@ -171,7 +259,7 @@ fn check(name: &str, got: &[u8]) {
             background += 1;
         }
     }
-    let total = (SIZE.0 * SIZE.1) as usize;
+    let total = (size.0 * size.1) as usize;
     let share = differing as f64 / total as f64;
     println!(
         "{name}: {differing} of {total} pixels differ by more than {TOLERANCE} (worst {worst})"
@@ -226,4 +314,24 @@ fn map_clone_matches_golden_image() {
 #[test]
 fn map_residual_clone_matches_golden_image() {
     check("clone_map_residual", &draw_clone(Method::MapResidual));
+}
+
+#[test]
+fn composite_matches_golden_image() {
+    let (got, size) = draw_composite(spk02_backdrop(), false);
+    check_sized("composite_map", &got, size);
+}
+
+#[test]
+fn composite_with_follow_pose_matches_golden_image() {
+    let (still, size) = draw_composite(spk02_backdrop(), false);
+    let (got, _) = draw_composite(spk02_backdrop(), true);
+    assert_ne!(got, still, "the head did not move");
+    check_sized("composite_map_follow", &got, size);
+}
+
+#[test]
+fn photo_target_composite_matches_golden_image() {
+    let (got, size) = draw_composite(&spk03_photo(), false);
+    check_sized("composite_photo", &got, size);
 }
