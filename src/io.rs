@@ -21,7 +21,14 @@ pub fn read_image(path: &Path) -> Result<Image> {
     reader.limits(limits);
     let img = reader
         .decode()
-        .map_err(|e| Error::Image(format!("{}: {e}", path.display())))?
+        .map_err(|e| match e {
+            ::image::ImageError::Limits(_) => Error::Image(format!(
+                "{}: {} is beyond the image limit of {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE} pixels",
+                path.display(),
+                image_size(path).unwrap_or_else(|| "the image".into())
+            )),
+            e => Error::Image(format!("{}: {e}", path.display())),
+        })?
         .to_rgba8();
     if img.width() == 0 || img.height() == 0 {
         return Err(Error::Image(format!(
@@ -34,6 +41,17 @@ pub fn read_image(path: &Path) -> Result<Image> {
         height: img.height(),
         data: img.into_raw(),
     })
+}
+
+/// `WxH` of an image file, read from its header alone (for messages).
+fn image_size(path: &Path) -> Option<String> {
+    let (w, h) = ::image::ImageReader::open(path)
+        .ok()?
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()?;
+    Some(format!("{w}x{h}"))
 }
 
 /// Writes RGBA8 pixels as a PNG file.

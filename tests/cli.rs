@@ -690,3 +690,206 @@ fn fit_follows_a_large_face_at_the_policy_scale() {
         );
     }
 }
+
+/// Reads a PNG written by the CLI: (width, height, straight RGBA8).
+fn png(path: &Path) -> (u32, u32, Vec<u8>) {
+    let img = facemimic::io::read_image(path).unwrap();
+    (img.width, img.height, img.data)
+}
+
+/// Whether the 8x8 top-left corner of an RGBA image is the face-only background (#202024).
+fn corner_is_background(w: u32, data: &[u8]) -> bool {
+    (0..8).all(|y| {
+        (0..8).all(|x| {
+            let i = 4 * (y * w as usize + x);
+            data[i..i + 3] == [32, 32, 36]
+        })
+    })
+}
+
+/// Backdrops and compositing from the command line: `build --backdrop IMG`, `--no-backdrop`,
+/// `--photo IMG` (its `.pts`, or the face finder's), `inspect`, `render --composite` and
+/// `clone --composite` (a PNG the size of the backdrop), and bad photos.
+#[test]
+fn backdrops_photo_targets_and_composites() {
+    let dir = scratch("composite");
+    let spk02 = dir.join("spk02.fmm");
+    let backdrop = grid("spk02_brbk7n/000010.jpg");
+    let err = ok(&[
+        &"build",
+        &"--out",
+        &spk02,
+        &"--list",
+        &grid("spk02_brbk7n/train20.txt"),
+        &"--backdrop",
+        &backdrop,
+    ]);
+    assert!(err.is_empty());
+    let info = json(&ok(&[&"inspect", &spk02]));
+    let b = &info["backdrop"];
+    assert_eq!(
+        (b["width"].as_u64(), b["height"].as_u64()),
+        (Some(360), Some(288)),
+        "{info}"
+    );
+    assert!(
+        b["bytes"].as_u64().unwrap() <= b["budget_bytes"].as_u64().unwrap(),
+        "{info}"
+    );
+    assert!(b["bytes"].as_u64().unwrap() > 4000, "{info}");
+    assert_eq!(info["photo_target"], false);
+
+    // render --composite: the backdrop's size, the picture all round the face.
+    let out = dir.join("composite.png");
+    ok(&[
+        &"render",
+        &"--model",
+        &spk02,
+        &"--composite",
+        &"--out",
+        &out,
+    ]);
+    let (w, h, data) = png(&out);
+    assert_eq!((w, h), (360, 288));
+    assert!(!corner_is_background(w, &data), "the backdrop is missing");
+    // Face only, as before.
+    let face = dir.join("face.png");
+    ok(&[&"render", &"--model", &spk02, &"--out", &face]);
+    let (w, _, data) = png(&face);
+    assert!(corner_is_background(w, &data));
+
+    // Without a backdrop: compositing renders the face only, with a notice.
+    let bare = dir.join("bare.fmm");
+    ok(&[
+        &"build",
+        &"--out",
+        &bare,
+        &"--list",
+        &grid("spk02_brbk7n/train20.txt"),
+        &"--no-backdrop",
+    ]);
+    assert_eq!(json(&ok(&[&"inspect", &bare]))["backdrop"], Value::Null);
+    let o = run(&[
+        "render".as_ref(),
+        "--model".as_ref(),
+        bare.as_os_str(),
+        "--composite".as_ref(),
+        "--out".as_ref(),
+        dir.join("bare.png").as_os_str(),
+    ]);
+    assert!(o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("no backdrop; rendering the face only"), "{e}");
+    let (w, _, data) = png(&dir.join("bare.png"));
+    assert!(corner_is_background(w, &data));
+
+    // A photo target from its .pts, and one from the face finder (the photo copied alone).
+    let photo = dir.join("photo.fmm");
+    ok(&[
+        &"build",
+        &"--photo",
+        &grid("spk03_lbax4n/000000.jpg"),
+        &"--out",
+        &photo,
+    ]);
+    let info = json(&ok(&[&"inspect", &photo]));
+    assert_eq!(info["photo_target"], true, "{info}");
+    assert_eq!(info["backdrop"]["width"], 360, "{info}");
+    let alone = dir.join("alone.jpg");
+    std::fs::copy(grid("spk03_lbax4n/000000.jpg"), &alone).unwrap();
+    let found = dir.join("found.fmm");
+    ok(&[&"build", &"--photo", &alone, &"--out", &found]);
+    assert_eq!(json(&ok(&[&"inspect", &found]))["photo_target"], true);
+
+    // clone --composite onto the photo: `map` falls back to substitution with a notice.
+    let params = dir.join("p.json");
+    let p = ok(&[
+        &"project",
+        &"--model",
+        &spk07_model(),
+        &grid("spk07_id2_vcd_swwp2s/000024.jpg"),
+    ]);
+    std::fs::write(&params, p).unwrap();
+    let cloned = dir.join("clone.png");
+    let o = run(&[
+        "clone".as_ref(),
+        "--source".as_ref(),
+        spk07_model().as_os_str(),
+        "--target".as_ref(),
+        photo.as_os_str(),
+        "--params".as_ref(),
+        params.as_os_str(),
+        "--method".as_ref(),
+        "map".as_ref(),
+        "--composite".as_ref(),
+        "--out".as_ref(),
+        cloned.as_os_str(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("photo target") && e.contains("substitution"),
+        "{e}"
+    );
+    let (w, h, data) = png(&cloned);
+    assert_eq!((w, h), (360, 288));
+    assert!(!corner_is_background(w, &data));
+    // The cloned face differs from the photo's own (the source's expression is on it).
+    let own = dir.join("own.png");
+    ok(&[
+        &"render",
+        &"--model",
+        &photo,
+        &"--composite",
+        &"--out",
+        &own,
+    ]);
+    assert_ne!(png(&own).2, data);
+
+    // Bad photos: no face, a face under 64 px, landmarks outside, beyond the image limit.
+    let flat = dir.join("flat.png");
+    facemimic::io::write_png(&flat, 320, 240, &vec![128u8; 320 * 240 * 4]).unwrap();
+    let e = fails(&[&"build", &"--photo", &flat, &"--out", &dir.join("x.fmm")]);
+    assert!(e.contains("flat.png") && e.contains("face"), "{e}");
+    let small = dir.join("small.png");
+    let t = facemimic::io::read_training_image(&grid("spk03_lbax4n/000000.jpg")).unwrap();
+    facemimic::io::write_png(&small, t.image.width, t.image.height, &t.image.data).unwrap();
+    let pts: String = {
+        let mut s = String::from("version: 1\nn_points: 68\n{\n");
+        for p in t.landmarks.chunks_exact(2) {
+            s += &format!("{} {}\n", 150.0 + p[0] * 0.2, 100.0 + p[1] * 0.2);
+        }
+        s + "}\n"
+    };
+    std::fs::write(dir.join("small.pts"), pts).unwrap();
+    let e = fails(&[&"build", &"--photo", &small, &"--out", &dir.join("x.fmm")]);
+    assert!(e.contains("64"), "{e}");
+    let outside = dir.join("outside.png");
+    std::fs::copy(&small, &outside).unwrap();
+    let pts: String = {
+        let mut s = String::from("version: 1\nn_points: 68\n{\n");
+        for (i, p) in t.landmarks.chunks_exact(2).enumerate() {
+            let x = if i == 0 { -30.0 } else { p[0] + 1.0 };
+            s += &format!("{} {}\n", x, p[1] + 1.0);
+        }
+        s + "}\n"
+    };
+    std::fs::write(dir.join("outside.pts"), pts).unwrap();
+    let e = fails(&[&"build", &"--photo", &outside, &"--out", &dir.join("x.fmm")]);
+    assert!(e.contains("outside"), "{e}");
+    let e = fails(&[
+        &"build",
+        &"--out",
+        &dir.join("x.fmm"),
+        &"--list",
+        &grid("spk02_brbk7n/train20.txt"),
+        &"--backdrop",
+        &outside,
+    ]);
+    assert!(e.contains("outside"), "{e}");
+    let huge = dir.join("huge.png");
+    facemimic::io::write_png(&huge, 9000, 4, &vec![0u8; 9000 * 4 * 4]).unwrap();
+    let e = fails(&[&"build", &"--photo", &huge, &"--out", &dir.join("x.fmm")]);
+    assert!(e.contains("9000"), "{e}");
+    assert!(!dir.join("x.fmm").exists(), "a failed build wrote a file");
+}

@@ -102,8 +102,8 @@ fn picture_with_landmarks(path: &std::path::Path) -> Result<TrainingImage> {
 
 /// `build --photo`: a target model of one photo.
 fn build_photo(a: &Args, path: &std::path::Path) -> Result<()> {
-    let t =
-        picture_with_landmarks(path).map_err(|e| e.with_context(&path.display().to_string()))?;
+    // The errors of the picture's own reading name it already.
+    let t = picture_with_landmarks(path)?;
     let frame_model = a.frame.as_deref().map(io::read_model_file).transpose()?;
     let frame = match &frame_model {
         Some(m) => m.frame(),
@@ -187,16 +187,17 @@ pub fn run(a: Args) -> Result<()> {
         let chosen = a
             .backdrop
             .as_deref()
-            .map(|p| {
-                picture_with_landmarks(p).map_err(|e| e.with_context(&p.display().to_string()))
-            })
+            .map(|p| picture_with_landmarks(p))
             .transpose()?;
         let view = chosen.as_ref().map(|t| t.image.view()).transpose()?;
         let pair = chosen
             .as_ref()
             .zip(view.as_ref())
             .map(|(t, v)| (v, t.landmarks.as_slice()));
-        facemimic::with_default_backdrop(model, &images, pair)?
+        facemimic::with_default_backdrop(model, &images, pair).map_err(|e| match &a.backdrop {
+            Some(p) => e.with_context(&format!("backdrop {}", p.display())),
+            None => e,
+        })?
     };
     io::write_model_file_as(&a.out, &model, a.precision)?;
     eprintln!(
