@@ -81,7 +81,10 @@ pub(crate) fn model_info_with(m: &Model, notice: Option<&str>) -> Result<JsValue
         backdrop_notice: notice.map(str::to_string),
         is_photo: m.is_photo(),
     };
-    serde_wasm_bindgen::to_value(&info).map_err(|e| JsError::new(&format!("model info: {e}")))
+    // `None` as `null`, as the TypeScript type says (`to_value` would give `undefined`).
+    let ser = serde_wasm_bindgen::Serializer::new().serialize_missing_as_null(true);
+    info.serialize(&ser)
+        .map_err(|e| JsError::new(&format!("model info: {e}")))
 }
 
 /// Per-model rendering scratch (created on the first render, reused afterwards).
