@@ -25,11 +25,24 @@ import {
 import { ModelShelf } from './js/store.js';
 import { Enrolment } from './js/enrol.js';
 import { isMediaFile } from './js/tracking.js'; // registers the video and webcam sources (when the package can track)
+import { photoTarget, chooseFace, splitPhotos, isPts } from './js/photo-target.js';
+import { looksLikeVideo } from './js/media.js';
+
+/** Drops a target slot takes: anything but videos alone (those go on to the page: the source). */
+const notVideos = (files) => !files.every(looksLikeVideo);
 
 const MODELS = 'models/';
 const METHODS = ['substitute', 'map', 'map-residual'];
-const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: false };
+// faceOnly: targets drawn as the face alone (the paper's view) instead of composited into their
+// picture (the model's backdrop; models without one are drawn face only either way).
+const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: false, faceOnly: false };
 const FACE_BG = '#1b1d22'; // = --face-bg in style.css: the canvas background meets the card without a seam
+const FACE_ASPECT = 0.8; // a face canvas's width / height (= the .face-card default --ar in style.css)
+/** A picture's canvas keeps the picture's aspect within these bounds (beyond, it is letterboxed). */
+const PICTURE_ASPECT = [0.75, 1.8];
+const PHOTO_NOTE = 'photo · substitution';
+const PHOTO_TITLE =
+  "A target made from one photo: it has no modes of its own, so the source's expression is substituted onto the photo's face (the paper's Fig. 4 A), whatever the method";
 
 const $ = (id) => document.getElementById(id);
 
@@ -217,9 +230,11 @@ function buildStage() {
   add.type = 'button';
   add.className = 'card add-card';
   add.id = 'add-card';
-  add.innerHTML = '<span class="plus" aria-hidden="true">+</span><span>Add a target</span><small>drop <code>.fmm</code> files here, or click to choose</small>';
+  add.innerHTML =
+    '<span class="plus" aria-hidden="true">+</span><span>Add a target</span><small>drop <code>.fmm</code> models or a photo of a face here, or click to choose</small>';
+  add.title = 'A photo becomes a photo target (its face is found, or read from a .pts file dropped with it)';
   add.addEventListener('click', () => pickFiles({ kind: 'add' }));
-  dropZone(add, (files) => loadFiles(files, { kind: 'add' }));
+  dropZone(add, (files) => loadFiles(files, { kind: 'add' }), { accept: notVideos });
   faces.append(add);
 
   // Drops anywhere else on the page add targets.
@@ -244,11 +259,10 @@ function buildStage() {
     if (!e.dataTransfer?.files?.length) return;
     e.preventDefault();
     const files = [...e.dataTransfer.files];
-    // A video or a photo dropped anywhere is tracked: the faces in it are found and shown.
+    // A video or a photo dropped anywhere else is tracked (it drives the source): the faces in
+    // it are found and shown. Photos for targets go on the "Add a target" card or a target.
     if (files.every(isMediaFile) && availableSources(fm).some((s) => s.kind === 'video-file')) {
-      if (app.active?.kind !== 'video-file') activate('video-file');
-      window.facemimicTracking?.openFile(files[0]);
-      if (files.length > 1) notify('info', `Used ${files[0].name}`, 'one file at a time; the other files were ignored');
+      openMediaSource(files);
       return;
     }
     loadFiles(files, { kind: 'add' });
@@ -294,7 +308,10 @@ function makeCard(role) {
   const slot = () => (role === 'source' ? { kind: 'source' } : { kind: 'replace', entry: entryOf(el) });
   replace.addEventListener('click', () => pickFiles(slot()));
   tools.querySelector('[data-action="remove"]')?.addEventListener('click', () => removeTarget(entryOf(el)));
-  dropZone(el, (files) => loadFiles(files, slot()));
+  // A video or a photo dropped on the source goes on to the page, which tracks it (the source is
+  // driven by it); on a target, a photo replaces the target with a photo target (and a video
+  // goes on to the page).
+  dropZone(el, (files) => loadFiles(files, slot()), { accept: role === 'source' ? (files) => !files.every(isMediaFile) : notVideos });
   // Clicking a face shows its model in the inspector.
   canvas.addEventListener('click', () => {
     const entry = role === 'source' ? app.source : entryOf(el);
@@ -322,6 +339,39 @@ function setCardName(entry) {
   entry.card.dataset.model = entry.name;
 }
 
+/** Whether a target is drawn composited into its picture (its canvas then has the picture's aspect). */
+function composited(entry) {
+  return !app.settings.faceOnly && !!entry.info.backdrop;
+}
+
+/** A target card's look: its canvas's aspect (the picture's, or a face's), the photo note, the
+ *  backdrop notice. */
+function styleTarget(entry) {
+  const card = entry.card;
+  const b = entry.info.backdrop;
+  const ar = composited(entry) ? Math.min(PICTURE_ASPECT[1], Math.max(PICTURE_ASPECT[0], b.width / b.height)) : FACE_ASPECT;
+  card.style.setProperty('--ar', ar.toFixed(4));
+  card.classList.toggle('picture', composited(entry));
+  card.classList.toggle('photo', !!entry.info.isPhoto);
+  let badge = card.querySelector('.badge');
+  if (entry.info.isPhoto) {
+    if (!badge) {
+      badge = document.createElement('span');
+      badge.className = 'badge';
+      card.append(badge);
+    }
+    badge.textContent = PHOTO_NOTE;
+    badge.title = PHOTO_TITLE;
+  } else badge?.remove();
+  const name = card.querySelector('.name');
+  const notes = [entry.file];
+  if (entry.info.isPhoto) notes.push(PHOTO_TITLE);
+  if (entry.info.backdropNotice) notes.push(`Shown face only: ${entry.info.backdropNotice}`);
+  name.title = notes.join('\n');
+  const what = entry.info.isPhoto ? `Target (${PHOTO_NOTE})` : 'Target';
+  entry.canvas.setAttribute('aria-label', `${what}: ${entry.name}${composited(entry) ? ', in its picture' : ''}`);
+}
+
 
 // ---------------------------------------------------------------------------------------------
 // Loading models
@@ -331,7 +381,8 @@ let pickSlot = { kind: 'add' };
 function pickFiles(slot) {
   pickSlot = slot;
   const input = $('file-input');
-  input.multiple = slot.kind === 'add';
+  input.multiple = slot.kind !== 'source'; // a photo may come with its .pts
+  input.accept = slot.kind === 'source' ? '.fmm,application/octet-stream' : '.fmm,application/octet-stream,image/*,.pts';
   input.value = '';
   input.click();
 }
@@ -339,13 +390,39 @@ function pickFiles(slot) {
 /**
  * Load dropped or picked files into a slot: { kind: "add" } adds each as a target,
  * { kind: "replace", entry } replaces that target with the first file, { kind: "source" } makes
- * the first file the source. Every failure is reported with the file's name and the reason.
+ * the first file the source. For targets, a photo (with its .pts when one of the same name comes
+ * with it) makes a photo target. Every failure is reported with the file's name and the reason.
  */
 async function loadFiles(files, slot) {
   if (!files.length) return;
-  const list = slot.kind === 'add' ? files : files.slice(0, 1);
-  if (slot.kind !== 'add' && files.length > 1) {
-    notify('info', `Used ${files[0].name}`, `one model replaces one face; ${files.length - 1} other file(s) ignored`);
+  if (slot.kind === 'source' && files.every(isMediaFile)) {
+    openMediaSource(files);
+    return;
+  }
+  let models = files;
+  if (slot.kind !== 'source') {
+    const { photos, loosePts, rest } = splitPhotos(files);
+    if (loosePts.length) {
+      notify(
+        'error',
+        `Not used: ${loosePts.map((f) => f.name).join(', ')}`,
+        'a .pts file gives the landmarks of the photo of the same name; drop or choose them together',
+      );
+    }
+    if (slot.kind === 'replace' && photos.length && (!rest.length || files.find((f) => !isPts(f)) === photos[0].file)) {
+      if (photos.length + rest.length > 1) {
+        notify('info', `Used ${photos[0].file.name}`, `one photo replaces one face; ${photos.length + rest.length - 1} other file(s) ignored`);
+      }
+      queuePhoto(photos[0], slot.entry);
+      return;
+    }
+    if (slot.kind === 'add') for (const p of photos) queuePhoto(p, null);
+    models = rest;
+    if (!models.length) return;
+  }
+  const list = slot.kind === 'add' ? models : models.slice(0, 1);
+  if (slot.kind !== 'add' && models.length > 1) {
+    notify('info', `Used ${models[0].name}`, `one model replaces one face; ${models.length - 1} other file(s) ignored`);
   }
   for (const file of list) {
     let bytes;
@@ -362,6 +439,17 @@ async function loadFiles(files, slot) {
   }
 }
 
+/** A video or a photo for the source: the tracking panel opens it (as a drop anywhere does). */
+function openMediaSource(files) {
+  if (!availableSources(fm).some((s) => s.kind === 'video-file')) {
+    notify('error', `Could not use ${files[0].name}`, 'this build of the package cannot track faces in videos or photos');
+    return;
+  }
+  if (app.active?.kind !== 'video-file') activate('video-file');
+  window.facemimicTracking?.openFile(files[0]);
+  if (files.length > 1) notify('info', `Used ${files[0].name}`, 'one file at a time; the other files were ignored');
+}
+
 function parseModel(bytes, file) {
   try {
     return fm.Model.fromBytes(bytes);
@@ -371,9 +459,24 @@ function parseModel(bytes, file) {
   }
 }
 
+const noticed = new Set();
+
+/** A target whose file's backdrop was damaged: said once per file (the card's tooltip keeps it). */
+function backdropNotice(entry) {
+  const notice = entry.info.backdropNotice;
+  if (!notice || noticed.has(`${entry.file}\n${notice}`)) return;
+  noticed.add(`${entry.file}\n${notice}`);
+  notify('warning', `Backdrop damaged: ${entry.file} is shown face only`, notice);
+}
+
 function addTargetFromBytes(bytes, file) {
   const model = parseModel(bytes, file);
   if (!model) return false;
+  return addTargetModel(model, file);
+}
+
+/** Adds a parsed model (owned from here on: kept, or freed when refused) as a target. */
+function addTargetModel(model, file) {
   try {
     app.cloner.addTarget(model);
   } catch (e) {
@@ -385,7 +488,9 @@ function addTargetFromBytes(bytes, file) {
   const entry = { name: model.name, file, model, info: model.info(), card: card.el, canvas: card.canvas };
   app.targets.push(entry);
   setCardName(entry);
+  styleTarget(entry);
   $('faces').insertBefore(card.el, $('add-card'));
+  backdropNotice(entry);
   afterModelsChanged();
   return true;
 }
@@ -394,21 +499,88 @@ function replaceTargetFromBytes(entry, bytes, file) {
   if (!entry) return;
   const model = parseModel(bytes, file);
   if (!model) return;
+  replaceTargetModel(entry, model, file);
+}
+
+function replaceTargetModel(entry, model, file) {
   const index = app.targets.indexOf(entry);
   try {
     app.cloner.replaceTarget(index, model);
   } catch (e) {
     model.free();
     fileError(file, e);
-    return;
+    return false;
   }
   const old = entry.model;
   Object.assign(entry, { name: model.name, file, model, info: model.info() });
   setCardName(entry);
+  styleTarget(entry);
   if (app.inspector.model === old) app.inspector.show(model, entry.info, 'target');
   old.free();
+  backdropNotice(entry);
   afterModelsChanged();
   notify('info', `Replaced with ${model.name}`, file);
+  return true;
+}
+
+// Photo targets, one at a time (the face picker is one dialog).
+let photoQueue = Promise.resolve();
+
+/** Makes a photo target of `{ file, pts }`: added, or replacing `entry` (a target card). */
+function queuePhoto(photo, entry) {
+  const pending = entry ? null : pendingCard(photo.file.name);
+  entry?.card.classList.add('busy');
+  const job = () => photoTargetFrom(photo, entry).finally(() => {
+    pending?.remove();
+    entry?.card.classList.remove('busy');
+  });
+  photoQueue = photoQueue.then(job, job);
+  return photoQueue;
+}
+
+async function photoTargetFrom({ file, pts }, entry) {
+  let made;
+  try {
+    made = await photoTarget(fm, file, pts, { choose: chooseFace });
+  } catch (e) {
+    console.warn(`facemimic: ${file.name}: ${message(e)}`);
+    notify('error', `Could not make a target of ${file.name}`, message(e));
+    return false;
+  }
+  if (!made) return false; // the face picker was cancelled
+  const how = pts ? `landmarks from ${pts.name}` : made.faces > 1 ? `the face you chose of ${made.faces}` : 'the face found';
+  let ok;
+  if (entry && app.targets.includes(entry)) ok = replaceTargetModel(entry, made.model, file.name);
+  else {
+    ok = addTargetModel(made.model, file.name);
+    if (ok) notify('info', `Added ${made.name}, a photo target`, `${file.name}: ${how}; cloned by substitution`);
+  }
+  if (!ok || !app.shelf) return ok;
+  // Kept in "Your models" like a dropped model, so it comes back after a reload.
+  try {
+    app.shelf.keep(made.model.toBytes(), made.name, 'photo', { quiet: true });
+  } catch (e) {
+    console.warn(`facemimic: ${file.name} not kept: ${message(e)}`);
+  }
+  return ok;
+}
+
+/** A placeholder card while a photo's face is looked for. */
+function pendingCard(fileName) {
+  const el = document.createElement('figure');
+  el.className = 'card face-card pending';
+  el.setAttribute('aria-busy', 'true');
+  const box = document.createElement('div');
+  box.className = 'pending-box';
+  box.textContent = 'Finding the face…';
+  const cap = document.createElement('figcaption');
+  const name = document.createElement('span');
+  name.className = 'name';
+  name.textContent = fileName;
+  cap.append(name);
+  el.append(box, cap);
+  $('faces').insertBefore(el, $('add-card'));
+  return el;
 }
 
 function setSourceFromBytes(bytes, file) {
@@ -503,6 +675,7 @@ function buildControls() {
     app.settings.fast = $('fast-raster').checked;
     app.dirty = true;
   });
+  $('face-only').addEventListener('change', () => setFaceOnly($('face-only').checked));
   $('compare-on').addEventListener('change', () => {
     $('compare').hidden = !$('compare-on').checked;
     app.dirty = true;
@@ -529,6 +702,11 @@ function buildControls() {
   });
 
   $('add-file').addEventListener('click', () => pickFiles({ kind: 'add' }));
+  $('add-photo').addEventListener('click', () => {
+    $('photo-input').value = '';
+    $('photo-input').click();
+  });
+  $('photo-input').addEventListener('change', () => loadFiles([...$('photo-input').files], { kind: 'add' }));
   $('file-input').addEventListener('change', () => {
     const files = [...$('file-input').files];
     loadFiles(files, pickSlot);
@@ -581,6 +759,13 @@ function buildControls() {
   syncControls();
 }
 
+/** Targets as the face alone (the paper's view) or composited into their pictures. */
+function setFaceOnly(on) {
+  app.settings.faceOnly = on;
+  for (const t of app.targets) styleTarget(t);
+  app.dirty = true;
+}
+
 function setMethod(m) {
   if (!METHODS.includes(m)) return;
   app.settings.method = m;
@@ -624,12 +809,14 @@ function syncControls() {
   $('follow-pose').checked = s.followPose;
   $('mesh').checked = s.mesh;
   $('fast-raster').checked = s.fast;
+  $('face-only').checked = s.faceOnly;
 }
 
 function reset() {
   app.settings = { ...DEFAULTS };
   applySettingsToCloner();
   syncControls();
+  setFaceOnly(app.settings.faceOnly);
   // The source back to its reference face: sliders at zero, mean pose.
   if (app.track) app.track.pause();
   app.params = app.source.model.baseParams();
@@ -833,9 +1020,16 @@ function option(value, label) {
 // ---------------------------------------------------------------------------------------------
 // Record
 
-/** The faces to record: source then targets. `crisp`: render each afresh at the tile size. */
+/** The options the faces are drawn with: the source's, and the targets' (composited unless "Face only"). */
+function renderOptions() {
+  const face = { background: FACE_BG, mesh: app.settings.mesh, raster: app.settings.fast ? 'scanline' : 'tiny-skia' };
+  return { face, target: { ...face, composite: !app.settings.faceOnly } };
+}
+
+/** The faces to record, as shown: source then targets. `crisp`: render each afresh at the tile
+ *  size (with the options the page draws them with). */
 function recordTiles(crisp = false) {
-  const opts = { background: FACE_BG };
+  const { face, target } = renderOptions();
   return [app.source, ...app.targets].map((e) => {
     const isSource = e === app.source;
     const index = app.targets.indexOf(e);
@@ -844,7 +1038,7 @@ function recordTiles(crisp = false) {
       label: isSource ? `${e.name} (source)` : e.name,
       render: crisp
         ? (w, h) =>
-            isSource ? app.cloner.renderSourceImageData(w, h, opts) : app.cloner.renderTargetImageData(index, w, h, opts)
+            isSource ? app.cloner.renderSourceImageData(w, h, face) : app.cloner.renderTargetImageData(index, w, h, target)
         : null,
     };
   });
@@ -949,18 +1143,22 @@ function render(t) {
   c.update();
   // tiny-skia renders by default; "Fast raster" switches to the package's fixed-point scanline
   // warp (same pixmap, ~3x faster, within ~1.5 levels of tiny-skia).
-  const opts = { background: FACE_BG, mesh: app.settings.mesh, raster: app.settings.fast ? 'scanline' : 'tiny-skia' };
+  // Targets are composited into their pictures unless "Face only" is on (the compare view's
+  // renderTargetWithMethod draws the face alone either way).
+  const { face: opts, target: targetOpts } = renderOptions();
   // Faces scrolled out of view are skipped (redrawn when they come back), except while
   // recording, which copies every face canvas into the video.
   const all = !!app.recorder;
   const seen = (canvas) => all || app.hidpi.visible(canvas);
   if (seen(app.source.canvas)) c.renderSource(ctx2d(app.source.canvas), opts);
   for (let i = 0; i < app.targets.length; i++) {
-    if (seen(app.targets[i].canvas)) c.renderTarget(i, ctx2d(app.targets[i].canvas), opts);
+    if (seen(app.targets[i].canvas)) c.renderTarget(i, ctx2d(app.targets[i].canvas), targetOpts);
   }
   if (!$('compare').hidden && app.targets.length) {
     const i = Math.min(app.compareIndex, app.targets.length - 1);
     if ($('compare-name').textContent !== app.targets[i].name) $('compare-name').textContent = app.targets[i].name;
+    const note = $('compare-note');
+    if (note.hidden === !!app.targets[i].info.isPhoto) note.hidden = !app.targets[i].info.isPhoto;
     for (const m of METHODS) {
       const canvas = $(`cmp-${m}`);
       if (app.hidpi.visible(canvas)) c.renderTargetWithMethod(i, m, ctx2d(canvas), opts);

@@ -367,3 +367,35 @@ export async function fakeCameraFile(t, dir, { name = 'camera', black } = {}) {
   t.after(() => fs.rmSync(file, { force: true }));
   return file;
 }
+
+/**
+ * How far the four corner regions of a canvas (each `frac` of its width and height) are from
+ * the colour `bg` ([r, g, b]): per corner (top-left, top-right, bottom-left, bottom-right), the
+ * mean over the region's pixels of the largest per-channel difference. A corner that is all
+ * background gives ~0; a picture (a target composited into its backdrop) gives tens.
+ */
+export async function cornerDistances(page, selector, bg, frac = 0.08) {
+  return page.$eval(
+    selector,
+    (canvas, [bg, frac]) => {
+      const { width: w, height: h } = canvas;
+      const cw = Math.max(1, Math.round(w * frac));
+      const ch = Math.max(1, Math.round(h * frac));
+      const g = canvas.getContext('2d');
+      return [
+        [0, 0],
+        [w - cw, 0],
+        [0, h - ch],
+        [w - cw, h - ch],
+      ].map(([x, y]) => {
+        const d = g.getImageData(x, y, cw, ch).data;
+        let s = 0;
+        for (let i = 0; i < d.length; i += 4) {
+          s += Math.max(Math.abs(d[i] - bg[0]), Math.abs(d[i + 1] - bg[1]), Math.abs(d[i + 2] - bg[2]));
+        }
+        return s / (d.length / 4);
+      });
+    },
+    [bg, frac],
+  );
+}

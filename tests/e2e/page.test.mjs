@@ -21,6 +21,7 @@ import {
   canvasPixels,
   meanAbsDiff,
   faceBox,
+  cornerDistances,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
@@ -114,6 +115,21 @@ async function assertFace(page, selector, what) {
   return s;
 }
 
+/**
+ * A target composited into its picture (the page's default): the canvas has the picture's
+ * aspect (the bundled GRID pictures are 360x288), its corners are the picture (not the
+ * background) and its middle (the face) varies.
+ */
+async function assertPicture(page, selector, what) {
+  const s = await canvasStats(page, selector);
+  assert.ok(s.width > 50 && s.height > 50, `${what}: canvas backing store is ${s.width}x${s.height}`);
+  assert.ok(Math.abs(s.width / s.height - 1.25) < 0.03, `${what}: a ${s.width}x${s.height} canvas for a 5:4 picture`);
+  assert.ok(s.variance > 60 && s.distinct > 200, `${what}: centre looks blank (${JSON.stringify(s)})`);
+  const corners = await cornerDistances(page, selector, FACE_BG);
+  assert.ok(corners.every((d) => d > 12), `${what}: a corner is background, not the picture (${corners.map((d) => d.toFixed(1))})`);
+  return s;
+}
+
 async function pause(page) {
   if ((await page.getAttribute('#play', 'data-state')) === 'playing') await page.click('#play');
   assert.equal(await page.getAttribute('#play', 'data-state'), 'paused');
@@ -156,7 +172,7 @@ function modelBytes(file) {
   return fs.readFileSync(path.join(MODELS, file));
 }
 
-test('the page opens playing, with the source and every default target painted as a face', async (t) => {
+test('the page opens playing, with the source painted as a face and every default target as its picture', async (t) => {
   const { page, errors, offOrigin, frames } = await openPage(t);
   const nTargets = manifest.targets.length;
   assert.ok(nTargets >= 4, `the manifest lists ${nTargets} default targets`);
@@ -164,7 +180,7 @@ test('the page opens playing, with the source and every default target painted a
   assert.equal(await page.getAttribute('#play', 'data-state'), 'playing', 'the track plays on load');
   await frames(3);
   await assertFace(page, SOURCE, 'source');
-  for (let i = 0; i < nTargets; i++) await assertFace(page, `${TARGETS} >> nth=${i}`, `target ${i + 1}`);
+  for (let i = 0; i < nTargets; i++) await assertPicture(page, `${TARGETS} >> nth=${i}`, `target ${i + 1}`);
   // The targets are different people: their pixels differ.
   const a = await canvasPixels(page, `${TARGETS} >> nth=0`);
   const b = await canvasPixels(page, `${TARGETS} >> nth=1`);
@@ -199,7 +215,7 @@ test('backing stores are the CSS size times devicePixelRatio, and the phone layo
   const overflow = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
   assert.ok(overflow <= 0, `the page scrolls sideways by ${overflow}px on a phone`);
   await assertFace(page, SOURCE, 'source (phone)');
-  await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 (phone)');
+  await assertPicture(page, `${TARGETS} >> nth=0`, 'target 1 (phone)');
   await screenshot(page, 'page-phone', { fullPage: false });
   // Faces off screen are not drawn; scrolled into view, they are.
   await page.locator('#cmp-map-residual').scrollIntoViewIfNeeded();
@@ -303,7 +319,7 @@ test('dropping valid models adds and replaces targets; removing one works', asyn
   await frames(2);
   const name0 = spare[0].replace(/\.fmm$/, '');
   assert.equal(await page.textContent('.face-card.target >> nth=-1 >> .name'), name0);
-  await assertFace(page, `${TARGETS} >> nth=-1`, `dropped ${spare[0]}`);
+  await assertPicture(page, `${TARGETS} >> nth=-1`, `dropped ${spare[0]}`);
 
   // The file picker adds too.
   await page.setInputFiles('#file-input', path.join(MODELS, spare[1]));
@@ -318,7 +334,7 @@ test('dropping valid models adds and replaces targets; removing one works', asyn
   await page.click('.face-card.target >> nth=0 >> [data-action=remove]');
   assert.equal(await page.locator(TARGETS).count(), n0 + 1);
   await frames(2);
-  await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 after removal');
+  await assertPicture(page, `${TARGETS} >> nth=0`, 'target 1 after removal');
   await screenshot(page, 'page-models-added');
   assert.deepEqual(errors, []);
 });
@@ -394,7 +410,7 @@ test('bad files show an error naming the file and the reason; the page keeps ren
   await frames(5);
   await page.waitForTimeout(300);
   assert.notEqual(await page.textContent('#frame-counter'), f0, 'playback stopped after the errors');
-  await assertFace(page, `${TARGETS} >> nth=0`, 'target 1 after the errors');
+  await assertPicture(page, `${TARGETS} >> nth=0`, 'target 1 after the errors');
 
   // The notices are dismissible.
   const before = await page.locator('.toast.error').count();
@@ -504,7 +520,7 @@ test('"Fast raster" switches to the scanline warp: faces stay painted and look t
   await page.check('#fast-raster');
   await frames(2);
   await assertFace(page, SOURCE, 'source (fast raster)');
-  await assertFace(page, `${TARGETS} >> nth=0`, 'target (fast raster)');
+  await assertPicture(page, `${TARGETS} >> nth=0`, 'target (fast raster)');
   const fast = await canvasPixels(page, `${TARGETS} >> nth=0`);
   const d = meanAbsDiff(skia, fast);
   assert.ok(d < 2, `scanline and tiny-skia renders differ by ${d} levels on average`);

@@ -29,8 +29,8 @@ const VIDEO_SAMPLES = 120; // frames searched in a dropped video (evenly spaced)
 const GUIDE = 'Talk, smile, open your mouth wide, raise your eyebrows, look a little left and right.';
 const PROMPTS = ['Talk', 'Smile', 'Open your mouth wide', 'Raise your eyebrows', 'Look a little left', 'Look a little right', 'Frown', 'Talk again'];
 
-/** Reads a .pts (iBUG, 1-based) into 0-based points. */
-function parsePts(text) {
+/** Reads a .pts (iBUG, 1-based) into 0-based points (also used by photo-target.js). */
+export function parsePts(text) {
   const open = text.indexOf('{');
   const close = text.indexOf('}', open);
   if (open < 0 || close < 0) throw new Error('not an iBUG .pts file');

@@ -81,7 +81,9 @@ export class Inspector {
     this.els.caption.title = `${pct(share)} of the variance`;
     this.els.caption.textContent = n
       ? `${this.kind === 'shape' ? 'Shape' : 'Appearance'} ${this.mode + 1} ±${this.sigmas}σ`
-      : 'No modes';
+      : this.info?.isPhoto
+        ? 'No modes (a photo)'
+        : 'No modes';
   }
 
   shares() {
@@ -133,6 +135,9 @@ export class Inspector {
       ['Images', `${i.imageWidth}×${i.imageHeight}`],
       ['Frame id', String(i.fingerprint).slice(0, 12)],
     ];
+    if (i.isPhoto) rows.splice(1, 0, ['Kind', 'photo target (substitution)']);
+    if (i.backdrop) rows.push(['Picture', `${i.backdrop.width}×${i.backdrop.height}, ${(i.backdrop.bytes / 1024).toFixed(0)} KB`]);
+    else if (i.backdropNotice) rows.push(['Picture', 'damaged: shown face only']);
     const dl = this.els.info;
     dl.replaceChildren();
     for (const [k, v] of rows) {
@@ -156,10 +161,13 @@ export class Inspector {
     if (!this.model || this.failed) return;
     try {
       if (this.meanDirty) {
-        // sigmas = 0 draws the base face; any mode that exists will do.
+        // sigmas = 0 draws the base face; any mode that exists will do. A model without modes
+        // (a photo target) is its base face.
         const kind = this.info.appearanceModes > 0 ? 'appearance' : 'shape';
         if (this.info.appearanceModes + this.info.shapeModes > 0) {
           this.wasm.renderMode(this.model, kind, 0, 0, ctx2d(this.els.mean), this.options);
+        } else {
+          this.model.render(this.model.baseParams(), ctx2d(this.els.mean), this.options);
         }
         this.meanDirty = false;
       }

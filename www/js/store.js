@@ -2,7 +2,7 @@
 // IndexedDB, on this machine only (nothing is uploaded anywhere), and listed in the "Your models"
 // panel, where it can be renamed, used as the source, added as a target, downloaded or deleted.
 //
-// Records: { id, name, bytes: ArrayBuffer (the .fmm file), origin: "built" | "dropped", created,
+// Records: { id, name, bytes: ArrayBuffer (the .fmm file), origin: "built" | "dropped" | "photo", created,
 // size, fingerprint, hash }. A record is written in one transaction with the complete, validated
 // file, so a half-made model is never stored (a cancelled or failed build writes nothing). On
 // load every record is validated with Model.fromBytes: a damaged one is listed as damaged with
@@ -202,7 +202,13 @@ export class ModelShelf {
     const name = this.el('span', 'shelf-name', record.name || `#${record.id}`);
     const meta = error
       ? this.el('small', 'shelf-meta', `damaged: ${error}`)
-      : this.el('small', 'shelf-meta', `${record.origin === 'built' ? 'created here' : 'dropped'} · ${info.shapeModes}+${info.appearanceModes} modes · ${(record.size / 1e6).toFixed(1)} MB`);
+      : this.el(
+          'small',
+          'shelf-meta',
+          info.isPhoto
+            ? `photo target · substitution · ${(record.size / 1e6).toFixed(2)} MB`
+            : `${record.origin === 'built' ? 'created here' : 'dropped'} · ${info.shapeModes}+${info.appearanceModes} modes · ${(record.size / 1e6).toFixed(1)} MB`,
+        );
     const text = this.el('div', 'shelf-text');
     text.append(name, meta);
     const buttons = this.el('div', 'shelf-buttons');
@@ -216,7 +222,8 @@ export class ModelShelf {
     };
     const bytes = () => new Uint8Array(record.bytes);
     if (!error) {
-      button('Source', 'Use as the source face', async () => this.page.useAsSource(bytes(), record.name));
+      // A photo target has no modes to drive others with: it is a target only.
+      if (!info.isPhoto) button('Source', 'Use as the source face', async () => this.page.useAsSource(bytes(), record.name));
       button('Target', 'Add as a target face', async () => this.page.addAsTarget(bytes(), record.name));
       button('Save', 'Download the .fmm file', async () => download(bytes(), `${safeName(record.name)}.fmm`));
       button('Rename', 'Rename this model', async () => {

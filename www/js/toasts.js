@@ -1,10 +1,10 @@
 // Non-blocking notices: errors that name the file and the reason, and short confirmations.
-// Each notice has a close button; confirmations fade on their own, errors stay until dismissed
-// (or until there are too many, the oldest go first).
+// Each notice has a close button; confirmations fade on their own (warnings after a while),
+// errors stay until dismissed (or until there are too many, the oldest go first).
 
 const MAX = 5;
 
-/** Show a notice. kind: "error" | "info". Returns the element. */
+/** Show a notice. kind: "error" | "warning" | "info". Returns the element. */
 export function notify(kind, title, detail = '') {
   const host = document.getElementById('toasts');
   const el = document.createElement('div');
@@ -29,7 +29,8 @@ export function notify(kind, title, detail = '') {
   el.append(text, close);
   host.append(el);
   while (host.children.length > MAX) host.firstElementChild.remove();
-  if (kind !== 'error') setTimeout(() => el.remove(), 4000);
+  if (kind === 'info') setTimeout(() => el.remove(), 4000);
+  else if (kind === 'warning') setTimeout(() => el.remove(), 15000);
   return el;
 }
 
