@@ -383,6 +383,11 @@ pub struct Compositor {
     appearance: Vec<f32>,
     shape: Vec<f32>,
     path: Option<tiny_skia::PathBuilder>,
+    /// Per face triangle, whether the face covers it opaquely (every pixel in it is at least
+    /// twice the feather's width inside the border): the head warp skips it.
+    opaque: Vec<bool>,
+    /// The triangles of the head warp of the current frame.
+    draw_list: Vec<[u32; 3]>,
 }
 
 impl Compositor {
@@ -437,11 +442,18 @@ impl Compositor {
             mean_value_weights(Vec2::new(v[2 * i], v[2 * i + 1]), &poly, row);
         }
         let alpha = feather(frame, FEATHER)?;
+        let mut opaque = vec![true; tris.len()];
+        for (px, a) in frame.pixels().iter().zip(feather(frame, 2.0 * FEATHER)?) {
+            if a < 1.0 {
+                opaque[px.triangle as usize] = false;
+            }
+        }
         let decay = feather(frame, OFFSET_FADE)?
             .into_iter()
             .map(|a| 1.0 - a)
             .collect();
         let n_px = frame.n_pixels();
+        let mesh_triangles = mesh.triangles().len();
         Ok(Compositor {
             fingerprint: frame.fingerprint(),
             size: (w, h),
@@ -464,6 +476,8 @@ impl Compositor {
             appearance: vec![0.0; 3 * n_px],
             shape: vec![0.0; v.len()],
             path: Some(tiny_skia::PathBuilder::new()),
+            opaque,
+            draw_list: Vec::with_capacity(mesh_triangles),
         })
     }
 
@@ -586,7 +600,10 @@ impl Compositor {
         }
     }
 
-    /// Warps the backdrop's head region by the extended mesh placed at `image_shape`.
+    /// Warps the backdrop's head region by the extended mesh placed at `image_shape`: every
+    /// triangle but those the face covers opaquely and those whose corners did not move (their
+    /// warp is the identity: the static picture already shows them; the outer annulus while
+    /// the head moves little).
     fn warp_head(
         &mut self,
         image_shape: &[f32],
@@ -605,6 +622,18 @@ impl Compositor {
             self.dst.push(Vec2::new(x, y));
         }
         let pts = &self.mesh.points;
+        let placed = &self.placed;
+        let still = |i: u32| {
+            let i = 2 * i as usize;
+            pts[i] == placed[i] && pts[i + 1] == placed[i + 1]
+        };
+        self.draw_list.clear();
+        for (j, t) in self.mesh.triangles.iter().enumerate() {
+            let covered = self.opaque.get(j).copied().unwrap_or(false);
+            if !covered && !t.iter().all(|&i| still(i)) {
+                self.draw_list.push(*t);
+            }
+        }
         let src = |i: usize| Vec2::new(pts[2 * i], pts[2 * i + 1]);
         let (bw, bh) = (self.size.0 as i32, self.size.1 as i32);
         match self.drawer.options().rasterizer {
@@ -613,7 +642,7 @@ impl Compositor {
                 (bw, bh),
                 src,
                 &self.dst,
-                &self.mesh.triangles,
+                &self.draw_list,
                 target,
             ),
             Rasterizer::TinySkia => {
@@ -622,7 +651,7 @@ impl Compositor {
                     self.backdrop.as_ref(),
                     src,
                     |i| dst[i],
-                    &self.mesh.triangles,
+                    &self.draw_list,
                     &mut self.path,
                     target,
                 )
