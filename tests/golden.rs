@@ -226,7 +226,11 @@ fn check(name: &str, got: &[u8]) {
 
 /// [`check`] for an image of another size.
 fn check_sized(name: &str, got: &[u8], size: (u32, u32)) {
-    assert_eq!(got.len(), (size.0 * size.1 * 4) as usize, "{name}: buffer size");
+    assert_eq!(
+        got.len(),
+        (size.0 * size.1 * 4) as usize,
+        "{name}: buffer size"
+    );
     let path = golden_path(name);
     if std::env::var_os("FACEMIMIC_BLESS").is_some_and(|v| v == "1") {
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
