@@ -24,6 +24,12 @@ const RASTER = q.get('raster') || 'tiny-skia';
 const OTHER = RASTERS.find((r) => r !== RASTER);
 // The face finder's runs (0 skips it): `find` on a 640x480 frame and `landmarks` given its box.
 const FINDER_RUNS = int('finder', 20, 0, 1000);
+// Frames of the composited run (0 skips it): the source and the targets each composited into its
+// picture in a 640x480 canvas, follow-pose on (the head moves in the picture), as the page shows
+// them by default.
+const COMPOSITE_FRAMES = int('composite', 300, 0, 100000);
+const CW = 640;
+const CH = 480;
 // Passes over the bundled clip for the tracking figures (0 skips them).
 const TRACK_PASSES = int('track', 6, 0, 1000);
 // Frames without a face in each pass of the lost-frame run (the face gone while a search runs).
@@ -39,11 +45,12 @@ async function fetchOk(url) {
 }
 const bytes = async (file) => new Uint8Array(await (await fetchOk(MODELS + file)).arrayBuffer());
 
-function canvas(label) {
+function canvas(label, w = W, h = H) {
   const fig = document.createElement('figure');
   const c = document.createElement('canvas');
-  c.width = W;
-  c.height = H;
+  c.width = w;
+  c.height = h;
+  if (w !== W) c.className = 'wide';
   const cap = document.createElement('figcaption');
   cap.textContent = label;
   fig.append(c, cap);
@@ -358,6 +365,63 @@ async function main() {
     }
     for (const m of modes) rasterCompare[m] = summary(samples[m]);
   }
+  // The composited run: the page's default view at 640x480 with follow-pose on, with the
+  // headline rasteriser; then the compositing cost per face beyond the face alone, interleaved
+  // call by call on target 0 (raster ms: the stage that holds both warps).
+  let composite = null;
+  if (COMPOSITE_FRAMES > 0 && targetCtx.length > 0) {
+    const srcCtx = canvas(`source ${source.name} (640x480)`, CW, CH);
+    const ctxs = targetNames.map((n) => canvas(`${n} composited (640x480)`, CW, CH));
+    cloner.setFollowPose(true);
+    const opts = { background: '#202024', raster: RASTER, composite: true };
+    const faceOpts = { background: '#202024', raster: RASTER };
+    const totals = [];
+    const stages = { map: [], synth: [], raster: [], blit: [] };
+    const run = (i) => {
+      const t0 = performance.now();
+      cloner.setSourceParams(track[i % track.length]);
+      cloner.update(); // resets the stage timings: after the renders they are this frame's
+      cloner.renderSource(srcCtx, faceOpts);
+      for (let k = 0; k < ctxs.length; k++) cloner.renderTarget(k, ctxs[k], opts);
+      return [performance.now() - t0, cloner.timings()];
+    };
+    status(`composited: warming up (${WARMUP} frames)...`);
+    await new Promise((r) => setTimeout(r, 0));
+    for (let i = 0; i < WARMUP; i++) run(i);
+    status(`composited: running ${COMPOSITE_FRAMES} frames...`);
+    for (let i = 0; i < COMPOSITE_FRAMES; ) {
+      const end = Math.min(COMPOSITE_FRAMES, i + 50);
+      for (; i < end; i++) {
+        const [total, t] = run(WARMUP + i);
+        totals.push(total);
+        for (const k of Object.keys(stages)) stages[k].push(t[`${k}Ms`]);
+      }
+      await new Promise((r) => setTimeout(r, 0));
+    }
+    const per = { composite: [], face: [] };
+    for (let i = 0; i < Math.max(60, Math.min(COMPOSITE_FRAMES, 300)); i++) {
+      cloner.setSourceParams(track[i % track.length]);
+      cloner.update();
+      for (const m of i % 2 ? ['composite', 'face'] : ['face', 'composite']) {
+        const before = cloner.timings().rasterMs;
+        cloner.renderTarget(0, ctxs[0], m === 'composite' ? opts : faceOpts);
+        per[m].push(cloner.timings().rasterMs - before);
+      }
+    }
+    cloner.setFollowPose(false);
+    const total = summary(totals);
+    composite = {
+      canvas: `${CW}x${CH}`,
+      faces: 1 + ctxs.length,
+      raster: RASTER,
+      followPose: true,
+      frames: COMPOSITE_FRAMES,
+      ms: { ...Object.fromEntries(Object.entries(stages).map(([k, v]) => [k, summary(v)])), total },
+      fps: { fromMean: Math.round(1000 / total.mean), fromMedian: Math.round(1000 / total.median) },
+      perFaceRasterMs: { composite: summary(per.composite), faceOnly: summary(per.face) },
+      extraPerFaceMs: Math.round((summary(per.composite).median - summary(per.face).median) * 1000) / 1000,
+    };
+  }
   const finder = FINDER_RUNS > 0 ? await benchFinder() : null;
   const tracking = TRACK_PASSES > 0 ? await benchTracking(source) : null;
   const result = {
@@ -386,6 +450,7 @@ async function main() {
       ms: o,
       fps: { fromMean: Math.round(1000 / o.total.mean), fromMedian: Math.round(1000 / o.total.median) },
     },
+    composite,
     finder,
     tracking,
   };
@@ -403,6 +468,9 @@ async function main() {
   status(`${result.faces} faces at ${W}x${H}, ${RASTER}: ${s.total.mean.toFixed(2)} ms per frame (mean), ` +
     `${result.fps.fromMean} fps; median ${s.total.median.toFixed(2)} ms, ${result.fps.fromMedian} fps ` +
     `(${OTHER}: median ${o.total.median.toFixed(2)} ms, ${result.other.fps.fromMedian} fps)` +
+    (composite ? `; composited (source + ${composite.faces - 1} at ${composite.canvas}, follow-pose): ` +
+      `median ${composite.ms.total.median.toFixed(2)} ms, ${composite.fps.fromMedian} fps, ` +
+      `${composite.extraPerFaceMs.toFixed(2)} ms a face beyond the face alone` : '') +
     (finder ? `; face finder on ${finder.frame}: find ${finder.findMs.median.toFixed(1)} ms, ` +
       `landmarks ${finder.landmarksMs.median.toFixed(1)} ms (median)` : '') +
     (tracking ? `; tracking: ${tracking.trackedMs.median.toFixed(2)} ms a fit, a lost frame ` +

@@ -1,5 +1,6 @@
 // Runs www/bench.html in headless Chromium and prints its JSON summary (a script, not a test).
 //   node tests/e2e/bench.mjs [--frames N] [--method map] [--mesh] [--raster tiny-skia|scanline]
+//     [--composite FRAMES]  (source + targets composited at 640x480, follow-pose; 0 skips)
 //     [--finder RUNS]  (face finder runs on a 640x480 frame; 0 skips)
 //     [--track PASSES] [--lost FRAMES]  (tracking the bundled clip: ms per fit, and per lost
 //                      frame while the finder searches; --track 0 skips)
@@ -22,6 +23,7 @@ const query = new URLSearchParams({
   finder: opt('finder', '20'),
   track: opt('track', '6'),
   lost: opt('lost', '12'),
+  composite: opt('composite', '300'),
 });
 
 const server = await serveStatic('www');
