@@ -1143,8 +1143,8 @@ function render(t) {
   c.update();
   // tiny-skia renders by default; "Fast raster" switches to the package's fixed-point scanline
   // warp (same pixmap, ~3x faster, within ~1.5 levels of tiny-skia).
-  // Targets are composited into their pictures unless "Face only" is on (the compare view's
-  // renderTargetWithMethod draws the face alone either way).
+  // Targets are composited into their pictures unless "Face only" is on. The compare view shows
+  // the face alone, where the three methods differ (renderTargetWithMethod could composite too).
   const { face: opts, target: targetOpts } = renderOptions();
   // Faces scrolled out of view are skipped (redrawn when they come back), except while
   // recording, which copies every face canvas into the video.

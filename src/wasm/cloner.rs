@@ -191,30 +191,51 @@ impl JsCloner {
         let Some(model) = self.cloner.get_target(index) else {
             return Err(JsError::new(&format!("target index {index} out of range")));
         };
-        if self.compositors.len() <= index {
-            self.compositors.resize_with(index + 1, || None);
+        let face = (
+            self.cloner.target_appearance(index),
+            self.cloner.target_shape(index),
+        );
+        Self::composite(
+            &mut self.compositors,
+            &mut self.timings,
+            (index, model),
+            face,
+            sink,
+            options,
+        )
+    }
+
+    /// Composites a face of target `index` (`model`), its appearance and its landmarks in
+    /// the backdrop's pixels, into the target's backdrop letterboxed to the sink, with the
+    /// target's compositor (made on first use).
+    fn composite(
+        compositors: &mut Vec<Option<Compositor>>,
+        timings: &mut Timings,
+        (index, model): (usize, &Model),
+        (appearance, shape): (&[f32], &[f32]),
+        sink: Sink<'_>,
+        options: &RenderOptions,
+    ) -> Result<(), JsError> {
+        if compositors.len() <= index {
+            compositors.resize_with(index + 1, || None);
         }
-        if self.compositors[index].is_none() {
+        if compositors[index].is_none() {
             let t0 = now_ms();
-            self.compositors[index] = Some(Compositor::new(model, options.draw).map_err(js_err)?);
-            self.timings.synth += now_ms() - t0;
+            compositors[index] = Some(Compositor::new(model, options.draw).map_err(js_err)?);
+            timings.synth += now_ms() - t0;
         }
-        let Some(c) = self.compositors[index].as_mut() else {
+        let Some(c) = compositors[index].as_mut() else {
             return Err(JsError::new("internal error: compositor"));
         };
         c.set_options(options.draw);
         let (bw, bh) = c.size();
-        let (appearance, shape) = (
-            self.cloner.target_appearance(index),
-            self.cloner.target_shape(index),
-        );
         let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
             let view = picture_view(bw, bh, w, h);
             c.draw(model, appearance, shape, &view, pixmap)
                 .map_err(js_err)
         })?;
-        self.timings.raster += stages.raster;
-        self.timings.blit += stages.blit;
+        timings.raster += stages.raster;
+        timings.blit += stages.blit;
         Ok(())
     }
 }
@@ -551,7 +572,8 @@ impl JsCloner {
 
     /// The compare view (the paper's Fig. 4): target `index` cloned from the current source
     /// parameters with `method` (and the other current options), rendered into a canvas,
-    /// without changing the cloner's method or its targets' state.
+    /// without changing the cloner's method or its targets' state; `composite` in the options draws
+    /// the whole picture as `renderTarget` does.
     #[wasm_bindgen(js_name = renderTargetWithMethod)]
     pub fn render_target_with_method(
         &mut self,
@@ -593,6 +615,16 @@ impl JsCloner {
         r.map_err(js_err)?;
         self.timings.map += now_ms() - t0;
         let model = self.cloner.target(i);
+        if render_options.composite && model.backdrop().is_some() {
+            return Self::composite(
+                &mut self.compositors,
+                &mut self.timings,
+                (i, model),
+                (compare.out.appearance(), compare.out.shape()),
+                Sink::Canvas(&ctx),
+                &render_options,
+            );
+        }
         let face = Face {
             frame: model.frame(),
             appearance: compare.out.appearance(),
