@@ -13,6 +13,10 @@ pub const MAX_BACKDROP_SIDE: u32 = 4096;
 /// Largest compressed backdrop (bytes) a model file may carry.
 pub const MAX_BACKDROP_BYTES: usize = 4 << 20;
 
+/// Pixels a backdrop may have per compressed byte (beyond 1 Mi pixels, which any JPEG may
+/// have): a photograph at the budget's qualities has 5-20; only a nearly flat picture has more.
+pub const MAX_PIXELS_PER_BYTE: u64 = 64;
+
 /// The compressed size a backdrop aims at: 60 KB for 640x480, in proportion to the area for
 /// other sizes (never under 12 KB). The encoder lowers the JPEG quality until it fits.
 pub fn backdrop_budget(width: u32, height: u32) -> usize {
@@ -119,6 +123,16 @@ impl Backdrop {
         if jpeg.len() > MAX_BACKDROP_BYTES {
             return Err(Error::Image(format!(
                 "backdrop: {} compressed bytes (limit {MAX_BACKDROP_BYTES})",
+                jpeg.len()
+            )));
+        }
+        // A picture compresses at most so much: a small file stating a huge flat picture would
+        // otherwise cost far more memory than its bytes (the reader's budget, model-format.md).
+        let pixels = width as u64 * height as u64;
+        if pixels > MAX_PIXELS_PER_BYTE * jpeg.len() as u64 + (1 << 20) {
+            return Err(Error::Image(format!(
+                "backdrop: {width}x{height} pixels from {} compressed bytes is implausible \
+                 (at most {MAX_PIXELS_PER_BYTE} pixels a byte)",
                 jpeg.len()
             )));
         }
@@ -241,6 +255,11 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("64x48"), "{e}");
+        // A small file stating a huge picture is refused before decoding.
+        let e = Backdrop::decode(4096, 4096, lm.clone(), good.jpeg().to_vec())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("implausible"), "{e}");
         let mut cut = good.jpeg().to_vec();
         cut.truncate(cut.len() / 2);
         // A truncated JPEG either fails or decodes to the stated size; never panics.
