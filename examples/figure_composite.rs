@@ -67,7 +67,14 @@ fn main() -> Result<()> {
         quality: FilterQuality::Bilinear,
         ..PixmapPaint::default()
     };
-    strip.draw_pixmap(0, 0, src.as_ref(), &paint, Transform::from_scale(k, k), None);
+    strip.draw_pixmap(
+        0,
+        0,
+        src.as_ref(),
+        &paint,
+        Transform::from_scale(k, k),
+        None,
+    );
     for (i, t) in targets.iter().enumerate() {
         let mut tile = Pixmap::new(TILE.0, TILE.1).expect("tile size");
         let mut c = Compositor::new(t, DrawOptions::default())?;

@@ -475,3 +475,66 @@ fn both_rasterisers_composite_alike() {
         worst_share * 100.0
     );
 }
+
+/// Whether `p` lies inside the closed polygon `poly` (even-odd rule).
+fn inside_polygon(p: Vec2, poly: &[Vec2]) -> bool {
+    let mut inside = false;
+    for (i, a) in poly.iter().enumerate() {
+        let b = poly[(i + 1) % poly.len()];
+        if (a.y > p.y) != (b.y > p.y) && p.x < a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x) {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+#[test]
+fn the_inner_mouth_and_the_eyes_keep_the_models_own_colours() {
+    // The colour offset fades from the border to none inside: a face much darker than its
+    // picture is lifted at the border but its inner mouth (teeth, tongue: landmarks 60-67)
+    // and its eyes (36-41, 42-47) are drawn with the model's own colours, exactly.
+    let model = spk02();
+    let face: Vec<f32> = backdrop_in_frame(model).iter().map(|v| v * 0.6).collect();
+    let b = model.backdrop().unwrap();
+    let mut c = Compositor::new(model, DrawOptions::default()).unwrap();
+    let mut pixmap = Pixmap::new(b.width(), b.height()).unwrap();
+    c.draw(
+        model,
+        &face,
+        b.landmarks(),
+        &Similarity::IDENTITY,
+        &mut pixmap.as_mut(),
+    )
+    .unwrap();
+    let frame = model.frame();
+    let v = frame.vertices();
+    let polygon = |r: std::ops::Range<usize>| -> Vec<Vec2> {
+        r.map(|i| Vec2::new(v[2 * i], v[2 * i + 1])).collect()
+    };
+    let [ox, oy] = frame.origin();
+    let mut counted = [0usize; 3];
+    for (k, poly) in [polygon(60..68), polygon(36..42), polygon(42..48)]
+        .iter()
+        .enumerate()
+    {
+        for (i, px) in frame.pixels().iter().enumerate() {
+            let p = Vec2::new(px.x as f32 - ox, px.y as f32 - oy);
+            if inside_polygon(p, poly) {
+                counted[k] += 1;
+                for ch in 0..3 {
+                    assert_eq!(
+                        c.matched_appearance()[3 * i + ch],
+                        face[3 * i + ch],
+                        "region {k}, pixel {i}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(
+        counted.iter().all(|n| *n >= 20),
+        "pixels checked: {counted:?}"
+    );
+    // And the border was lifted towards the picture.
+    assert!(c.vertex_offsets().iter().all(|o| *o > 0.0));
+}

@@ -246,7 +246,7 @@ impl ExtendedMesh {
     /// Where the points go when the face is at `image_shape`: the landmarks there, the inner
     /// ring moved by the similarity that best takes the backdrop's landmarks onto
     /// `image_shape`, the outer ring where it is unless its inner point moves towards it by
-    /// more than the slack (then it moves by [`RING_SHARE`] of that motion's excess, in the
+    /// more than the slack (then it moves by 65% of that motion's excess, in the
     /// motion's direction), the anchors where they are. Writes `out` (same length as
     /// [`ExtendedMesh::points`]).
     pub fn place(&self, image_shape: &[f32], out: &mut [f32]) {

@@ -187,7 +187,7 @@ pub fn run(a: Args) -> Result<()> {
         let chosen = a
             .backdrop
             .as_deref()
-            .map(|p| picture_with_landmarks(p))
+            .map(picture_with_landmarks)
             .transpose()?;
         let view = chosen.as_ref().map(|t| t.image.view()).transpose()?;
         let pair = chosen
