@@ -456,10 +456,15 @@ fn compact_bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
         } else {
             Storage::I8
         };
+        // A label implying more bytes than the file has is a length mismatch; one implying
+        // fewer leaves bytes that version 3 would read as sections, and the checksum (over a
+        // header that was changed) refuses the file first.
         add(
             format!("{s}: labelled {other}"),
             patched(&v, offsets::STORAGE, other.tag()),
-            Like("LengthMismatch", |e| matches!(e, E::LengthMismatch { .. })),
+            Like("LengthMismatch or ChecksumMismatch", |e| {
+                matches!(e, E::LengthMismatch { .. } | E::ChecksumMismatch { .. })
+            }),
         );
         add(
             format!("{s}: labelled version 1"),
@@ -718,21 +723,31 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
         patched(&patched(&v, offsets::VERSION, 1), offsets::FLAGS, 1),
         Exact(E::ReservedFlags { value: 1 }),
     );
+    // Version 3 allows a stated length beyond what the dimensions imply (the sections' bytes):
+    // a header that implies fewer bytes than the file has meets the checksum first, and with
+    // the checksum repaired, the arrays or the sections' framing.
     add(
         "f32 data labelled i6",
         patched(&v, offsets::STORAGE, Storage::I6.tag()),
-        Like("LengthMismatch", |e| {
-            matches!(e, FormatError::LengthMismatch { .. })
+        Like("ChecksumMismatch", |e| {
+            matches!(e, FormatError::ChecksumMismatch { .. })
         }),
+    );
+    let mut x = patched(&v, offsets::STORAGE, Storage::I6.tag());
+    fix_crc(&mut x);
+    add(
+        "f32 data labelled i6, checksum repaired",
+        x,
+        Like("any error (arrays or sections)", |_| true),
     );
     let mut x = v.clone();
     set_u64(&mut x, offsets::FILE_LENGTH, len + 4);
     add(
         "stated length + 4",
         x,
-        Exact(E::LengthMismatch {
-            stated: len + 4,
-            implied: len,
+        Exact(E::Truncated {
+            needed: len + 4,
+            available: len,
         }),
     );
     let mut x = v.clone();
@@ -740,9 +755,9 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
     add(
         "stated length u64::MAX",
         x,
-        Exact(E::LengthMismatch {
-            stated: u64::MAX,
-            implied: len,
+        Exact(E::Truncated {
+            needed: u64::MAX,
+            available: len,
         }),
     );
     add(
@@ -917,13 +932,21 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
         patched(&v, offsets::SHAPE_MODES, u32::MAX),
         lim("shape modes", u32::MAX, 256),
     );
+    // Fewer bytes implied than the file has: version 3 reads the rest as sections; the
+    // checksum refuses the changed header first.
     add(
         "shape modes 0",
         patched(&v, offsets::SHAPE_MODES, 0),
-        Exact(E::LengthMismatch {
-            stated: len,
-            implied: len - 4 * m * (2 * n as u64 + 1),
+        Like("ChecksumMismatch", |e| {
+            matches!(e, E::ChecksumMismatch { .. })
         }),
+    );
+    let mut x = patched(&v, offsets::SHAPE_MODES, 0);
+    fix_crc(&mut x);
+    add(
+        "shape modes 0, checksum repaired",
+        x,
+        Like("any error (arrays or sections)", |_| true),
     );
     let mut x = patched(&v, offsets::LANDMARKS, 3);
     set_u32(&mut x, offsets::SCHEME, 0);
@@ -948,10 +971,16 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
     add(
         "appearance modes 0",
         patched(&v, offsets::APPEARANCE_MODES, 0),
-        Exact(E::LengthMismatch {
-            stated: len,
-            implied: len - 4 * l * (3 * px as u64 + 1),
+        Like("ChecksumMismatch", |e| {
+            matches!(e, E::ChecksumMismatch { .. })
         }),
+    );
+    let mut x = patched(&v, offsets::APPEARANCE_MODES, 0);
+    fix_crc(&mut x);
+    add(
+        "appearance modes 0, checksum repaired",
+        x,
+        Like("any error (arrays or sections)", |_| true),
     );
     let mut x = patched(&v, offsets::PIXELS, 1);
     set_u32(&mut x, offsets::APPEARANCE_MODES, 4);
