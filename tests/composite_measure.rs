@@ -1,3 +1,4 @@
+#![cfg(not(target_arch = "wasm32"))]
 //! The compositing measures of the near-videorealism work, on data no model was built from.
 //!
 //! - **Self-reenactment, webcam-dev** (`../shared`): a model built from 20 varied frames of
