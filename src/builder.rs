@@ -366,7 +366,7 @@ impl Builder {
 
 /// Symmetric shape samples: each aligned shape's deviation from `centre` mirrored, added back
 /// to `centre` (`centre + M d_i`, `d_i = s_i - centre`). `M` renumbers the points left for right
-/// ([`crate::MIRROR_68`]) and reflects the vectors across the face's vertical axis: the
+/// ([`crate::landmarks::MIRROR_68`]) and reflects the vectors across the face's vertical axis: the
 /// reflection `R(beta) F` (`F` negates x, `R(beta)` the rotation that best maps the mirrored,
 /// renumbered `centre` onto `centre`, least squares about their centroids), so the model
 /// coordinates need not be upright. The deviations are mirrored, not the shapes: the person's
@@ -374,7 +374,7 @@ impl Builder {
 /// deviations made mirror-symmetric, the assumption being that a face turns and moves both
 /// ways. With `centre` the training mean the samples' mean is still `centre`.
 fn mirrored_deviations(aligned: &[Vec<f64>], centre: &[f64]) -> Vec<Vec<f64>> {
-    let map = &crate::MIRROR_68;
+    let map = &crate::landmarks::MIRROR_68;
     // F P centre (renumbered, x negated) fitted onto centre: the rotation `R(beta)` (the
     // similarity fit centres both; only its direction is used).
     let reflected: Vec<f64> = map

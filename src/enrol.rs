@@ -13,20 +13,6 @@ use crate::find::{BBox, Face, FaceFinder};
 use crate::image::ImageRef;
 use crate::Result;
 
-/// For each iBUG-68 point, the index of its mirror image (left and right swapped).
-pub const MIRROR_68: [usize; 68] = [
-    16, 15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0, // jaw
-    26, 25, 24, 23, 22, 21, 20, 19, 18, 17, // brows
-    27, 28, 29, 30, // nose bridge
-    35, 34, 33, 32, 31, // nostrils
-    45, 44, 43, 42, 47, 46, // eyes
-    39, 38, 37, 36, 41, 40, //
-    54, 53, 52, 51, 50, 49, 48, // outer lips
-    59, 58, 57, 56, 55, //
-    64, 63, 62, 61, 60, // inner lips
-    67, 66, 65,
-];
-
 /// Box shifts (x, y as fractions of the box side) and scales of the passes, first the box the
 /// finder settled on.
 const JITTER: [(f32, f32, f32); 7] = [
@@ -133,7 +119,7 @@ impl EnrolFinder {
             };
             self.finder.landmarks_into(&mirror, mb, &mut flipped)?;
             let out = &mut self.passes[(2 * k + 1) * 136..(2 * k + 2) * 136];
-            for (i, &j) in MIRROR_68.iter().enumerate() {
+            for (i, &j) in crate::landmarks::MIRROR_68.iter().enumerate() {
                 out[2 * i] = w as f32 - 1.0 - flipped[2 * j];
                 out[2 * i + 1] = flipped[2 * j + 1];
             }
@@ -164,17 +150,6 @@ impl EnrolFinder {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn mirror_is_an_involution_that_swaps_sides() {
-        for (i, &j) in MIRROR_68.iter().enumerate() {
-            assert_eq!(MIRROR_68[j], i);
-        }
-        assert_eq!(MIRROR_68[36], 45); // outer eye corners
-        assert_eq!(MIRROR_68[48], 54); // mouth corners
-        assert_eq!(MIRROR_68[8], 8); // chin
-        assert_eq!(MIRROR_68[30], 30); // nose tip
-    }
 
     #[test]
     fn no_face_in_a_flat_image() {

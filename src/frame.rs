@@ -97,13 +97,8 @@ impl ReferenceFrame {
     /// box plus a margin of `FRAME_MARGIN` (3) pixels.
     pub fn from_base(base: &[f32]) -> Result<ReferenceFrame> {
         let triangles = triangulate(base)?;
-        let (mut minx, mut miny, mut maxx, mut maxy) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-        for p in base.chunks_exact(2) {
-            minx = minx.min(p[0]);
-            maxx = maxx.max(p[0]);
-            miny = miny.min(p[1]);
-            maxy = maxy.max(p[1]);
-        }
+        let b = crate::geometry::BBox::of_points(base);
+        let (minx, miny, maxx, maxy) = (b.x, b.y, b.right(), b.bottom());
         let origin = [(FRAME_MARGIN - minx).ceil(), (FRAME_MARGIN - miny).ceil()];
         let width = (maxx + origin[0] + FRAME_MARGIN).ceil() as u32 + 1;
         let height = (maxy + origin[1] + FRAME_MARGIN).ceil() as u32 + 1;

@@ -5,6 +5,38 @@
 
 use crate::error::{Error, Result};
 
+/// For each iBUG-68 point, the index of its mirror image (left and right swapped).
+pub const MIRROR_68: [usize; 68] = [
+    16, 15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0, // jaw
+    26, 25, 24, 23, 22, 21, 20, 19, 18, 17, // brows
+    27, 28, 29, 30, // nose bridge
+    35, 34, 33, 32, 31, // nostrils
+    45, 44, 43, 42, 47, 46, // eyes
+    39, 38, 37, 36, 41, 40, //
+    54, 53, 52, 51, 50, 49, 48, // outer lips
+    59, 58, 57, 56, 55, //
+    64, 63, 62, 61, 60, // inner lips
+    67, 66, 65,
+];
+
+/// The iBUG-68 outer eye corners (0-based; 37 and 46 in the 1-based `.pts` numbering): the
+/// line between them is the face's horizontal (the shape model's gauge, the finder's face frame)
+/// and their distance the unit of every landmark error and of the compositor's rings.
+pub const OUTER_EYE_CORNERS: [usize; 2] = [36, 45];
+
+/// The vector from the left outer eye corner to the right one of a 68-point shape
+/// (interleaved `x, y`), or `None` for another number of points.
+pub fn eye_line(points: &[f32]) -> Option<[f32; 2]> {
+    if points.len() != 136 {
+        return None;
+    }
+    let [l, r] = OUTER_EYE_CORNERS;
+    Some([
+        points[2 * r] - points[2 * l],
+        points[2 * r + 1] - points[2 * l + 1],
+    ])
+}
+
 /// Most landmarks a file may hold (guards against absurd inputs).
 pub const MAX_LANDMARKS: usize = 4096;
 
@@ -150,6 +182,30 @@ pub fn parse_asf(text: &str, width: u32, height: u32) -> Result<Vec<f32>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mirror_is_an_involution_that_swaps_sides() {
+        for (i, &j) in MIRROR_68.iter().enumerate() {
+            assert_eq!(MIRROR_68[j], i);
+        }
+        assert_eq!(MIRROR_68[36], 45); // outer eye corners
+        assert_eq!(MIRROR_68[48], 54); // mouth corners
+        assert_eq!(MIRROR_68[8], 8); // chin
+        assert_eq!(MIRROR_68[30], 30); // nose tip
+        let [l, r] = OUTER_EYE_CORNERS;
+        assert_eq!(MIRROR_68[l], r);
+    }
+
+    #[test]
+    fn eye_line_is_left_to_right_corner() {
+        let mut p = vec![0.0f32; 136];
+        p[72] = 10.0;
+        p[73] = 20.0;
+        p[90] = 40.0;
+        p[91] = 24.0;
+        assert_eq!(eye_line(&p), Some([30.0, 4.0]));
+        assert_eq!(eye_line(&p[..134]), None);
+    }
 
     #[test]
     fn pts_round_trip_is_zero_based() {

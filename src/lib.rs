@@ -41,6 +41,7 @@ pub mod find;
 pub mod fit;
 pub mod format;
 mod frame;
+mod geometry;
 mod image;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod io;
@@ -65,12 +66,14 @@ pub use builder::{
     BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
 };
 pub use canonical::{canonical_frame, CANONICAL_FINGERPRINT};
-pub use enrol::{EnrolFace, EnrolFinder, MIRROR_68};
+pub use enrol::{EnrolFace, EnrolFinder};
 pub use error::{Error, FormatError, Result};
-pub use find::{BBox, Face, FaceFinder, FindOptions};
+pub use find::{Face, FaceFinder, FindOptions};
 pub use frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
+pub use geometry::BBox;
 pub use glam;
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
+pub use landmarks::MIRROR_68;
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
 pub use photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
 pub use refine::refine_landmarks;

@@ -41,15 +41,10 @@ pub fn photo_model(
         )));
     }
     crate::limits::check_landmarks(landmarks)?;
-    let (mut x0, mut x1) = (f32::MAX, f32::MIN);
-    for p in landmarks.chunks_exact(2) {
-        x0 = x0.min(p[0]);
-        x1 = x1.max(p[0]);
-    }
-    if !(x1 - x0 >= MIN_PHOTO_FACE) {
+    let width = crate::geometry::BBox::of_points(landmarks).width;
+    if !(width >= MIN_PHOTO_FACE) {
         return Err(Error::Landmarks(format!(
-            "the face is {:.0} pixels wide; a photo target needs at least {MIN_PHOTO_FACE:.0}",
-            x1 - x0
+            "the face is {width:.0} pixels wide; a photo target needs at least {MIN_PHOTO_FACE:.0}"
         )));
     }
     let backdrop = Backdrop::encode(photo, landmarks)?;

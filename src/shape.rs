@@ -167,7 +167,11 @@ fn align_to(src: &mut [f64], dst: &[f64]) {
 fn canonical_orientation(shape: &mut [f64]) {
     let n = shape.len() / 2;
     let angle = if n == 68 {
-        let (dx, dy) = (shape[90] - shape[72], shape[91] - shape[73]);
+        let [l, r] = crate::landmarks::OUTER_EYE_CORNERS;
+        let (dx, dy) = (
+            shape[2 * r] - shape[2 * l],
+            shape[2 * r + 1] - shape[2 * l + 1],
+        );
         dy.atan2(dx)
     } else {
         let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);

@@ -32,7 +32,7 @@ pub fn face_frame(points: &[f32]) -> Option<([f32; 2], f32, f32, f32)> {
         .sum::<f32>()
         / n)
         .sqrt();
-    let (dx, dy) = (points[90] - points[72], points[91] - points[73]);
+    let [dx, dy] = crate::landmarks::eye_line(points)?;
     let len = (dx * dx + dy * dy).sqrt();
     if !(r.is_finite() && r > 0.0 && len.is_finite() && len > 0.0) {
         return None;

@@ -23,48 +23,10 @@ pub const DETECTOR_WEIGHTS: &[u8] = include_bytes!("../../data/weights/tiny_face
 /// The 68-point landmark net's weights.
 pub const LANDMARK_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_landmark_68.fmw");
 
-/// An axis-aligned box in image pixels.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct BBox {
-    /// Left edge.
-    pub x: f32,
-    /// Top edge.
-    pub y: f32,
-    /// Width.
-    pub width: f32,
-    /// Height.
-    pub height: f32,
-}
+pub use crate::geometry::BBox;
 
+/// The finder's boxes.
 impl BBox {
-    /// Intersection over union with `other` (0 when either is empty).
-    pub fn iou(&self, other: &BBox) -> f32 {
-        let ix = (self.x + self.width).min(other.x + other.width) - self.x.max(other.x);
-        let iy = (self.y + self.height).min(other.y + other.height) - self.y.max(other.y);
-        if !(ix > 0.0 && iy > 0.0) {
-            return 0.0;
-        }
-        let inter = ix * iy;
-        inter / (self.width * self.height + other.width * other.height - inter)
-    }
-
-    /// The bounding box of interleaved points `x0, y0, x1, y1, ...`.
-    pub fn of_points(points: &[f32]) -> BBox {
-        let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-        for p in points.chunks_exact(2) {
-            x0 = x0.min(p[0]);
-            x1 = x1.max(p[0]);
-            y0 = y0.min(p[1]);
-            y1 = y1.max(p[1]);
-        }
-        BBox {
-            x: x0,
-            y: y0,
-            width: x1 - x0,
-            height: y1 - y0,
-        }
-    }
-
     /// The box the detector would give for a face with these 68 landmarks: centred on the
     /// points' box (0.025 of its height higher), 1.27 times its width and 1.14 times its height
     /// (the mean relation between the detector's boxes and the dlib landmarks' boxes, measured on
@@ -451,7 +413,10 @@ pub fn landmark_error(a: &[f32], b: &[f32]) -> f32 {
     if a.len() != 136 || b.len() != 136 {
         return f32::NAN;
     }
-    let iod = ((b[72] - b[90]).powi(2) + (b[73] - b[91]).powi(2)).sqrt();
+    let Some([dx, dy]) = crate::landmarks::eye_line(b) else {
+        return f32::NAN;
+    };
+    let iod = (dx * dx + dy * dy).sqrt();
     let s: f32 = a
         .chunks_exact(2)
         .zip(b.chunks_exact(2))

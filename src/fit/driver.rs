@@ -384,11 +384,7 @@ fn contrast(v: &[f32]) -> f32 {
 
 /// Width of a shape (`max x - min x`).
 fn shape_width(shape: &[f32]) -> f32 {
-    let (lo, hi) = shape
-        .iter()
-        .step_by(2)
-        .fold((f32::MAX, f32::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
-    (hi - lo).max(0.0)
+    crate::geometry::BBox::of_points(shape).width.max(0.0)
 }
 
 impl std::fmt::Debug for Fitter {

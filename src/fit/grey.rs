@@ -80,13 +80,8 @@ impl Grey {
     /// Smooths the region around `shape` (its bounding box grown by half its size) with a
     /// Gaussian of `sigma` image pixels (separable, at most radius 24) into `blur`.
     pub(super) fn smooth(&mut self, shape: &[f32], sigma: f32) -> GreyView<'_> {
-        let (mut minx, mut miny, mut maxx, mut maxy) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-        for p in shape.chunks_exact(2) {
-            minx = minx.min(p[0]);
-            maxx = maxx.max(p[0]);
-            miny = miny.min(p[1]);
-            maxy = maxy.max(p[1]);
-        }
+        let b = crate::geometry::BBox::of_points(shape);
+        let (minx, miny, maxx, maxy) = (b.x, b.y, b.right(), b.bottom());
         let (mw, mh) = (
             0.2 * (maxx - minx) + 3.0 * sigma + 2.0,
             0.2 * (maxy - miny) + 3.0 * sigma + 2.0,

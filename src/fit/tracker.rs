@@ -254,13 +254,8 @@ impl Tracker {
             )));
         }
         let s0 = &self.fitter.geom.s0;
-        let (mut minx, mut miny, mut maxx, mut maxy) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-        for p in s0.chunks_exact(2) {
-            minx = minx.min(p[0]);
-            maxx = maxx.max(p[0]);
-            miny = miny.min(p[1]);
-            maxy = maxy.max(p[1]);
-        }
+        let b = crate::geometry::BBox::of_points(s0);
+        let (minx, miny, maxx, maxy) = (b.x, b.y, b.right(), b.bottom());
         let scale = (w / (maxx - minx).max(1e-6)).min(h / (maxy - miny).max(1e-6));
         let (cx, cy) = (0.5 * (minx + maxx), 0.5 * (miny + maxy));
         let pose = Similarity {
@@ -575,12 +570,6 @@ impl std::fmt::Debug for Tracker {
 
 /// Width and height of the bounding box of interleaved points.
 fn extent(points: &[f32]) -> (f32, f32) {
-    let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-    for p in points.chunks_exact(2) {
-        x0 = x0.min(p[0]);
-        x1 = x1.max(p[0]);
-        y0 = y0.min(p[1]);
-        y1 = y1.max(p[1]);
-    }
-    ((x1 - x0).max(0.0), (y1 - y0).max(0.0))
+    let b = crate::geometry::BBox::of_points(points);
+    (b.width.max(0.0), b.height.max(0.0))
 }

@@ -111,8 +111,8 @@ pub fn hull_loop(triangles: &[[u32; 3]], vertices: &[f32]) -> Result<Vec<u32>> {
 /// The eye distance of a shape: between the outer eye corners (points 37 and 46, 1-based) for
 /// 68 points, otherwise a size of the same order (half the square root of the hull's area).
 fn eye_distance(points: &[f32], hull: &[u32]) -> f32 {
-    if points.len() == 136 {
-        let d = Vec2::new(points[72] - points[90], points[73] - points[91]).length();
+    if let Some([dx, dy]) = crate::landmarks::eye_line(points) {
+        let d = Vec2::new(dx, dy).length();
         if d > 0.0 {
             return d;
         }
@@ -129,8 +129,8 @@ fn eye_distance(points: &[f32], hull: &[u32]) -> f32 {
 /// The direction "up" of a 68-point face (from the mouth towards the brows, perpendicular to
 /// the eye line), or `-y` for other layouts.
 fn face_up(points: &[f32]) -> Vec2 {
-    if points.len() == 136 {
-        let eyes = Vec2::new(points[90] - points[72], points[91] - points[73]);
+    if let Some([dx, dy]) = crate::landmarks::eye_line(points) {
+        let eyes = Vec2::new(dx, dy);
         if eyes.length() > 0.0 {
             // Perpendicular to the eye line, pointing up in the image (y down).
             let up = Vec2::new(eyes.y, -eyes.x).normalize();

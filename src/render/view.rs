@@ -11,16 +11,15 @@ pub const FACE_FILL: f32 = 0.85;
 /// pose ([`Model::home_pose`]: on its backdrop, or at its mean training pose), in image
 /// coordinates. Allocation-free.
 pub fn base_box(model: &Model) -> [f32; 4] {
-    let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
     let pose = model.home_pose();
-    for p in model.shape().base.chunks_exact(2) {
-        let (x, y) = pose.apply_point(p[0], p[1]);
-        b[0] = b[0].min(x);
-        b[1] = b[1].min(y);
-        b[2] = b[2].max(x);
-        b[3] = b[3].max(y);
-    }
-    b
+    let b = crate::geometry::BBox::of_pairs(
+        model
+            .shape()
+            .base
+            .chunks_exact(2)
+            .map(|p| pose.apply_point(p[0], p[1])),
+    );
+    [b.x, b.y, b.right(), b.bottom()]
 }
 
 /// The view (backdrop pixels -> canvas pixels) that shows a whole `width x height` picture

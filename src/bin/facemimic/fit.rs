@@ -9,9 +9,7 @@ use facemimic::{io, Error, FaceFinder, Image, ImageRef, Result, Similarity};
 
 /// The height of the landmarks' bounding box (pixels).
 fn face_height(points: &[f32]) -> f32 {
-    let ys = points.iter().skip(1).step_by(2);
-    let (lo, hi) = ys.fold((f32::MAX, f32::MIN), |(lo, hi), &y| (lo.min(y), hi.max(y)));
-    hi - lo
+    facemimic::BBox::of_points(points).height
 }
 
 /// `points` in a copy of the frame resampled by `k` (pixel centres on integers, the
