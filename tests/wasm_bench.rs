@@ -1,7 +1,8 @@
 //! Timings of the core operations, natively and in wasm under Node, with one harness (a
 //! wasm-bindgen test that also runs natively). As a test (the default) it runs every stage a
-//! few times and asserts what the timings rest on: each stage was timed (finite, positive),
-//! the build and the projection are deterministic, the render paints a face. The timing
+//! few times and asserts what the timings rest on: the build and the projection are
+//! deterministic, the render paints a face (the timings themselves are figures, printed, not
+//! asserted: a time cannot be wrong, only slow). The timing
 //! windows are long (seconds per stage, the figures) only when `FACEMIMIC_BENCH` was set when
 //! the test was BUILT (`option_env!`), so that CI does not pay for them:
 //!
@@ -10,9 +11,9 @@
 //! FACEMIMIC_BENCH=1 cargo test --release --test wasm_bench -- --nocapture
 //! ```
 //!
-//! The wasm build cannot decode JPEG (no `image` crate there), so the 20 training images are
-//! synthetic 360x288 RGBA images with the REAL spk07 train20 landmarks (compiled in); the cost
-//! of building, sampling and rendering does not depend on the pixel values. Figures:
+//! No files are read (the wasm test has none), so the 20 training images are synthetic 360x288
+//! RGBA images with the REAL spk07 train20 landmarks (compiled in); the cost of building,
+//! sampling and rendering does not depend on the pixel values. Figures:
 //! docs/core-figures.md.
 
 use facemimic::tiny_skia::{Color, Pixmap};
@@ -218,12 +219,6 @@ fn core_timings() {
         ("sample_rgb image -> frame", sample),
         ("project (pose, shape, appearance)", project),
     ] {
-        assert!(ms.0.is_finite() && ms.0 >= 0.0, "{what}: wall {} ms", ms.0);
-        assert!(
-            ms.1.is_none_or(|c| c.is_finite() && c >= 0.0),
-            "{what}: cpu {:?}",
-            ms.1
-        );
         let cpu = ms.1.map_or("n/a".to_string(), |c| format!("{c:.3} ms"));
         say(&format!(
             "[{target}] {what}: wall {:.3} ms, cpu {cpu}",
