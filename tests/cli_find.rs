@@ -82,17 +82,26 @@ fn landmark_writes_pts_beside_or_into_a_folder_and_never_overwrites() {
     let o = run(&[Path::new("landmark"), Path::new("--force"), &imgs[1]]);
     assert!(o.status.success());
     assert_ne!(std::fs::read_to_string(d.join("f1.pts")).unwrap(), "keep");
-    // --out-dir
-    let out = d.join("out");
-    std::fs::create_dir_all(&out).unwrap();
+    // --out-dir, made when missing (as mkdir -p); a file in its place is an error.
+    let out = d.join("out").join("nested");
     let o = run(&[
         Path::new("landmark"),
         Path::new("--out-dir"),
         &out,
         &imgs[0],
     ]);
-    assert!(o.status.success());
+    assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("f0.pts").is_file());
+    let file = d.join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let o = run(&[
+        Path::new("landmark"),
+        Path::new("--out-dir"),
+        &file,
+        &imgs[0],
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("not a folder"), "{}", stderr(&o));
     // An unreadable image: one line, exit 1.
     let bad = d.join("bad.jpg");
     std::fs::write(&bad, b"not an image").unwrap();

@@ -6,7 +6,7 @@ use facemimic::{io, landmarks, Error, FaceFinder, Result};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Write the .pts files into this folder instead of beside the images.
+    /// Write the .pts files into this folder (made if missing) instead of beside the images.
     #[arg(long, value_name = "DIR")]
     out_dir: Option<PathBuf>,
     /// Overwrite existing .pts files.
@@ -27,9 +27,12 @@ fn out_path(image: &Path, dir: Option<&Path>) -> PathBuf {
 
 pub fn run(a: Args) -> Result<()> {
     if let Some(d) = &a.out_dir {
-        if !d.is_dir() {
+        if d.exists() && !d.is_dir() {
             return Err(Error::Io(format!("{}: not a folder", d.display())));
         }
+        // A folder that does not exist yet is made (as `mkdir -p`).
+        std::fs::create_dir_all(d)
+            .map_err(|e| Error::Io(format!("{}: cannot make the folder: {e}", d.display())))?;
     }
     // Refuse before any work if a file would be overwritten.
     if !a.force {
