@@ -3,7 +3,7 @@
 // Then tracking: the time per fit of the bundled clip with the source model, and what a lost
 // frame costs while the page's finder worker searches (see benchTracking).
 // Prints a JSON summary into <pre id="result"> (data-done="1" when finished) for headless runs
-// (tests/e2e/bench.mjs).
+// (scripts/bench/page.mjs).
 import init, { Model, Cloner, FaceFinder, Tracker, version } from './pkg/facemimic.js';
 
 const MODELS = './models/';

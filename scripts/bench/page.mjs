@@ -1,12 +1,12 @@
 // Runs www/bench.html in headless Chromium and prints its JSON summary (a script, not a test).
-//   node tests/e2e/bench.mjs [--frames N] [--method map] [--mesh] [--raster tiny-skia|scanline]
+//   node scripts/bench/page.mjs [--frames N] [--method map] [--mesh] [--raster tiny-skia|scanline]
 //     [--composite FRAMES]  (source + targets composited at 640x480, follow-pose; 0 skips)
 //     [--finder RUNS]  (face finder runs on a 640x480 frame; 0 skips)
 //     [--track PASSES] [--lost FRAMES]  (tracking the bundled clip: ms per fit, and per lost
 //                      frame while the finder searches; --track 0 skips)
 // Both rasterisers are measured; --raster picks the headline (default tiny-skia).
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
-import { serveStatic, launchBrowser, screenshot } from './lib.mjs';
+import { serveStatic, launchBrowser, screenshot } from '../../tests/e2e/lib.mjs';
 
 const args = process.argv.slice(2);
 const opt = (name, dflt) => {

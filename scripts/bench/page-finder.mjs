@@ -3,9 +3,9 @@
 // Web Worker. Prints the finder's time per 640x480 frame in the worker, the gaps between the
 // page's animation frames meanwhile, and what one find costs on the main thread (the stall the
 // worker avoids).
-//   node tests/e2e/page-finder-bench.mjs [--seconds 6]
+//   node scripts/bench/page-finder.mjs [--seconds 6]
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
-import { serveStatic, launchBrowser } from './lib.mjs';
+import { serveStatic, launchBrowser } from '../../tests/e2e/lib.mjs';
 
 const args = process.argv.slice(2);
 const i = args.indexOf('--seconds');

@@ -5,11 +5,11 @@
 // run (each in a fresh worker, as the page does; one run first to warm the caches), and the
 // medians, as JSON; also the longest gap between the page's animation frames (while
 // the builds run in the worker) and the finder's time per frame (FaceFinder.find, enrolFace).
-//   node tests/e2e/bench_build.mjs [--runs 5]
+//   node scripts/bench/build.mjs [--runs 5]
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser } from '../../tests/e2e/lib.mjs';
 
 const args = process.argv.slice(2);
 const runs = Number(args[args.indexOf('--runs') + 1]) || 5;
