@@ -329,21 +329,13 @@ impl Builder {
         };
 
         // Average pose (for placing the base face on a canvas like the training images).
-        let (mut a, mut b, mut tx, mut ty) = (0.0, 0.0, 0.0, 0.0);
-        for t in images {
-            let p = Similarity::align(&shape.base, &t.landmarks);
-            a += p.a;
-            b += p.b;
-            tx += p.tx;
-            ty += p.ty;
-        }
-        let k = images.len() as f32;
-        let mean_pose = Similarity {
-            a: a / k,
-            b: b / k,
-            tx: tx / k,
-            ty: ty / k,
-        };
+        let poses: Vec<Similarity> = images
+            .iter()
+            .map(|t| Similarity::align(&shape.base, &t.landmarks))
+            .collect();
+        let mean_pose = Similarity::mean(&poses).ok_or_else(|| {
+            Error::Training("the training faces' poses have no mean (degenerate landmarks)".into())
+        })?;
 
         let model = Model::new(ModelParts {
             name: o.name.clone(),

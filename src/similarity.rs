@@ -116,6 +116,37 @@ impl Similarity {
         Some(target.compose(&anchor.inverse()?).compose(self))
     }
 
+    /// The mean of `poses`, the crate's one pose average: the geometric mean of the scales
+    /// (the mean of their logarithms), the circular mean of the rotations (the angle of the
+    /// summed unit vectors: -179 and 179 degrees average to 180, not 0) and the arithmetic mean
+    /// of the translations. Used by the builder (a model's mean training pose) and, through the
+    /// wasm `meanPose`, by the page's recorded tracks. `None` for no poses, an invalid pose, or
+    /// rotations that cancel out (their unit vectors summing to under 1e-6 a pose).
+    pub fn mean(poses: &[Similarity]) -> Option<Similarity> {
+        if poses.is_empty() || !poses.iter().all(Similarity::is_valid) {
+            return None;
+        }
+        let n = poses.len() as f64;
+        let (mut ls, mut c, mut s, mut tx, mut ty) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for p in poses {
+            ls += (p.scale() as f64).ln();
+            let r = p.rotation() as f64;
+            c += r.cos();
+            s += r.sin();
+            tx += p.tx as f64;
+            ty += p.ty as f64;
+        }
+        if c.hypot(s) < 1e-6 * n {
+            return None;
+        }
+        Some(Similarity::from_parts(
+            (ls / n).exp() as f32,
+            s.atan2(c) as f32,
+            (tx / n) as f32,
+            (ty / n) as f32,
+        ))
+    }
+
     /// True when all four numbers are finite and the scale is non-zero.
     pub fn is_valid(&self) -> bool {
         [self.a, self.b, self.tx, self.ty]
@@ -234,6 +265,30 @@ impl TryFrom<PoseJson> for Similarity {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mean_of_poses_is_geometric_in_scale_and_circular_in_angle() {
+        let deg = |d: f32| d.to_radians();
+        let p = |s: f32, r: f32, tx: f32, ty: f32| Similarity::from_parts(s, deg(r), tx, ty);
+        let m = Similarity::mean(&[p(1.0, 10.0, 0.0, 4.0), p(4.0, 20.0, 10.0, 8.0)]).unwrap();
+        assert!((m.scale() - 2.0).abs() < 1e-5, "{}", m.scale());
+        assert!((m.rotation() - deg(15.0)).abs() < 1e-5);
+        assert_eq!((m.tx, m.ty), (5.0, 6.0));
+        // Across the +-180 degree cut: 180, not 0.
+        let m = Similarity::mean(&[p(1.0, 179.0, 0.0, 0.0), p(1.0, -179.0, 0.0, 0.0)]).unwrap();
+        assert!(
+            (m.rotation().abs() - deg(180.0)).abs() < 1e-4,
+            "{}",
+            m.rotation()
+        );
+        // One pose is itself; none, an invalid one or cancelling angles give None.
+        let one = p(1.5, 30.0, 2.0, 3.0);
+        let m = Similarity::mean(&[one]).unwrap();
+        assert!((m.a - one.a).abs() < 1e-6 && (m.b - one.b).abs() < 1e-6);
+        assert!(Similarity::mean(&[]).is_none());
+        assert!(Similarity::mean(&[one, Similarity { a: f32::NAN, ..one }]).is_none());
+        assert!(Similarity::mean(&[p(1.0, 0.0, 0.0, 0.0), p(1.0, 180.0, 0.0, 0.0)]).is_none());
+    }
 
     #[test]
     fn recentred_maps_the_anchor_onto_the_target() {

@@ -8,6 +8,22 @@ fn pose_from_js(what: &str, v: JsValue) -> Result<Similarity, JsError> {
     serde_wasm_bindgen::from_value(v).map_err(|e| JsError::new(&format!("{what}: {e}")))
 }
 
+/// The mean of poses (`Similarity::mean`: geometric in scale, circular in angle, arithmetic in
+/// translation), the one pose average of the package. Throws for an empty list, a pose that is
+/// not `{ scale > 0, rotation, tx, ty }` with finite values, or rotations that cancel out.
+#[wasm_bindgen(js_name = meanPose, unchecked_return_type = "Pose")]
+pub fn mean_pose(
+    #[wasm_bindgen(unchecked_param_type = "Pose[]")] poses: JsValue,
+) -> Result<JsValue, JsError> {
+    let poses: Vec<Similarity> = serde_wasm_bindgen::from_value(poses)
+        .map_err(|e| JsError::new(&format!("meanPose: {e}")))?;
+    let m = Similarity::mean(&poses).ok_or_else(|| {
+        JsError::new("meanPose: no poses, an invalid pose, or rotations that cancel out")
+    })?;
+    serde_wasm_bindgen::to_value(&PoseJson::from(m))
+        .map_err(|e| JsError::new(&format!("pose: {e}")))
+}
+
 /// `target ∘ anchor⁻¹ ∘ pose` (`Similarity::recentred`): `pose` moved so that where `anchor`
 /// places a face, `target` does, keeping the motion relative to `anchor` exactly. Throws for a
 /// pose that is not `{ scale > 0, rotation, tx, ty }` with finite values.

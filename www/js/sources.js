@@ -10,7 +10,7 @@
 // The tracking work adds video-file and webcam sources (driven by the package's `Tracker`) by
 // calling `registerSource` from its own module; the page lists them only when they are registered.
 
-import { recentrePose } from '../pkg/facemimic.js';
+import { meanPose, recentrePose } from '../pkg/facemimic.js';
 
 /** Registered source factories, in menu order: kind -> { label, create(ctx) }. */
 const registry = new Map();
@@ -87,18 +87,8 @@ export function validateTrack(frames, model) {
  * `Similarity::recentred`). Returns new frames; the input is not modified.
  */
 export function recentreTrack(frames, meanPose) {
-  const n = frames.length;
-  let logScale = 0;
-  let rotation = 0;
-  let tx = 0;
-  let ty = 0;
-  for (const f of frames) {
-    logScale += Math.log(f.pose.scale);
-    rotation += f.pose.rotation;
-    tx += f.pose.tx;
-    ty += f.pose.ty;
-  }
-  const trackMean = { scale: Math.exp(logScale / n), rotation: rotation / n, tx: tx / n, ty: ty / n };
+  // The package's one pose average (`meanPose`: log-scale, circular angle).
+  const trackMean = meanPose(frames.map((f) => f.pose));
   return frames.map((f) => ({ ...cloneParams(f), pose: recentrePose(f.pose, trackMean, meanPose) }));
 }
 
