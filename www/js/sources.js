@@ -10,7 +10,7 @@
 // The tracking work adds video-file and webcam sources (driven by the package's `Tracker`) by
 // calling `registerSource` from its own module; the page lists them only when they are registered.
 
-import { meanPose, recentrePose } from '../pkg/facemimic.js';
+import { meanPose as averagePose, recentrePose } from '../pkg/facemimic.js';
 
 /** Registered source factories, in menu order: kind -> { label, create(ctx) }. */
 const registry = new Map();
@@ -88,7 +88,7 @@ export function validateTrack(frames, model) {
  */
 export function recentreTrack(frames, meanPose) {
   // The package's one pose average (`meanPose`: log-scale, circular angle).
-  const trackMean = meanPose(frames.map((f) => f.pose));
+  const trackMean = averagePose(frames.map((f) => f.pose));
   return frames.map((f) => ({ ...cloneParams(f), pose: recentrePose(f.pose, trackMean, meanPose) }));
 }
 
