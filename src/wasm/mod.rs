@@ -61,6 +61,16 @@ pub fn version() -> String {
     env!("CARGO_PKG_VERSION").to_string()
 }
 
+/// Parses an iBUG `.pts` file (the crate's parser, as the CLI reads them): its 1-based points as
+/// 0-based image coordinates (`2n` values). Throws for a malformed file, a non-finite value or
+/// more points than the limit.
+#[wasm_bindgen(js_name = parsePts)]
+pub fn parse_pts(text: &str) -> Result<js_sys::Float32Array, JsError> {
+    install_panic_hook();
+    let v = crate::landmarks::parse_pts(text).map_err(js_err)?;
+    Ok(js_sys::Float32Array::from(&v[..]))
+}
+
 /// Installs (once) `console_error_panic_hook`, which reports any panic (a bug: the API
 /// validates its input) with its message and stack on the console before the module traps.
 /// Called by the constructors.

@@ -13,6 +13,7 @@
 // "Download .fmm".
 // Nothing is stored until the build has finished: a cancelled or failed build leaves nothing.
 
+import { parsePts as parsePtsFile } from '../pkg/facemimic.js';
 import { buildInWorker } from './build-client.js';
 import { Inspector } from './inspector.js';
 import { enrolFace } from './finder-client.js';
@@ -31,12 +32,10 @@ const PROMPTS = ['Talk', 'Smile', 'Open your mouth wide', 'Raise your eyebrows',
 
 /** Reads a .pts (iBUG, 1-based) into 0-based points (also used by photo-target.js). */
 export function parsePts(text) {
-  const open = text.indexOf('{');
-  const close = text.indexOf('}', open);
-  if (open < 0 || close < 0) throw new Error('not an iBUG .pts file');
-  const v = text.slice(open + 1, close).trim().split(/\s+/).map(Number);
-  if (v.length !== 136 || v.some((x) => !Number.isFinite(x))) throw new Error(`${v.length / 2} points, 68 are needed`);
-  return Float32Array.from(v, (x) => x - 1);
+  // The package's parser (the CLI's): 0-based coordinates; the page needs the 68-point scheme.
+  const v = parsePtsFile(text);
+  if (v.length !== 136) throw new Error(`${v.length / 2} points, 68 are needed`);
+  return v;
 }
 
 /** Draws a bitmap or video frame scaled to at most MAX_SIDE; returns { rgba, width, height, scale }. */
