@@ -9,12 +9,11 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraFile } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraFile, fakeCameraArgs } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const TRAIN = path.join(ROOT, 'data', 'grid', 'spk07_pwij3p');
 const UNSEEN = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
-const CAMERA = ['--autoplay-policy=no-user-gesture-required', '--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream'];
 
 let server;
 
@@ -34,7 +33,7 @@ function faceCamera(t) {
 
 test('a face created in the page becomes the source, and the webcam tracks it with its own model and drives the targets', async (t) => {
   const camera = await faceCamera(t);
-  const browser = await launchBrowser([...CAMERA, `--use-file-for-fake-video-capture=${camera}`]);
+  const browser = await launchBrowser(fakeCameraArgs(camera));
   t.after(() => browser.close());
   const context = await browser.newContext({ viewport: { width: 1440, height: 1600 } });
   const page = await context.newPage();

@@ -28,11 +28,10 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraArgs, FAKE_CAMERA_ARGS } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
-const CAMERA = ['--autoplay-policy=no-user-gesture-required', '--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream'];
 const HAVE_DATA = fs.existsSync(DATA);
 /** Where the test server serves webcam-dev (same origin as the page; read from ../shared). */
 const DATA_URL = '/research/webcam-dev/';
@@ -276,7 +275,7 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
   const camera = path.join(os.tmpdir(), `facemimic-enrol-webcam-${process.pid}.mjpeg`);
   fs.writeFileSync(camera, Buffer.concat(Array.from({ length: 600 }, (_, i) => fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.jpg`)))));
   t.after(() => fs.rmSync(camera, { force: true }));
-  const browser = await launchBrowser([...CAMERA, `--use-file-for-fake-video-capture=${camera}`]);
+  const browser = await launchBrowser(fakeCameraArgs(camera));
   t.after(() => browser.close());
   const { page, errors } = await open(t, browser);
   await openEnrol(page);
@@ -388,7 +387,7 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
 test('enrolment bad input: no face, too few frames, camera refused or stopping, build cancelled; nothing stored', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
   // Chromium's own fake camera: a moving test pattern, no face.
   {
-    const browser = await launchBrowser(CAMERA);
+    const browser = await launchBrowser(FAKE_CAMERA_ARGS);
     t.after(() => browser.close());
     const { page, errors } = await open(t, browser);
     await openEnrol(page);
@@ -445,7 +444,7 @@ test('enrolment bad input: no face, too few frames, camera refused or stopping, 
   // A build cancelled from the dialog stores nothing (half way through the finder's stage:
   // the next test).
   {
-    const browser = await launchBrowser(CAMERA);
+    const browser = await launchBrowser(FAKE_CAMERA_ARGS);
     t.after(() => browser.close());
     const { page, errors } = await open(t, browser);
     await openEnrol(page);

@@ -13,7 +13,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, screenshot, readPts, fakeCameraFile } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, screenshot, readPts, fakeCameraFile, fakeCameraArgs, landmarkError } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const UNSEEN = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
@@ -64,13 +64,7 @@ async function drop(page, files, selector = 'body') {
   );
 }
 
-/** Mean point distance over the outer-eye-corner distance (landmarks 36 and 45) of `truth`. */
-function normError(a, truth) {
-  let s = 0;
-  const n = truth.length / 2;
-  for (let i = 0; i < n; i++) s += Math.hypot(a[2 * i] - truth[2 * i], a[2 * i + 1] - truth[2 * i + 1]);
-  return s / n / Math.hypot(truth[72] - truth[90], truth[73] - truth[91]);
-}
+const normError = landmarkError;
 
 const src = () => window.facemimicTracking;
 
@@ -208,12 +202,7 @@ test('black frames are a lost face ("face lost"), and the face is tracked again 
   const BLACK = [30, 45];
   const black = new Set(Array.from({ length: BLACK[1] - BLACK[0] }, (_, i) => BLACK[0] + i));
   const camera = await fakeCameraFile(t, UNSEEN, { name: 'blackout-camera', black });
-  const b = await launchBrowser([
-    '--autoplay-policy=no-user-gesture-required',
-    '--use-fake-ui-for-media-stream',
-    '--use-fake-device-for-media-stream',
-    `--use-file-for-fake-video-capture=${camera}`,
-  ]);
+  const b = await launchBrowser(fakeCameraArgs(camera));
   t.after(() => b.close());
   const context = await b.newContext({ viewport: { width: 1440, height: 1400 } });
   const page = await context.newPage();

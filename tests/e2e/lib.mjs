@@ -355,6 +355,30 @@ async function guideFrames({ dir, count, width = 640, height = 480, black = new 
   }
 }
 
+/** Chromium's switches for a fake camera the page may use without asking (and autoplay). */
+export const FAKE_CAMERA_ARGS = [
+  '--autoplay-policy=no-user-gesture-required',
+  '--use-fake-ui-for-media-stream',
+  '--use-fake-device-for-media-stream',
+];
+
+/** `FAKE_CAMERA_ARGS` playing `file` (a `fakeCameraFile`) as the camera. */
+export function fakeCameraArgs(file) {
+  return [...FAKE_CAMERA_ARGS, `--use-file-for-fake-video-capture=${file}`];
+}
+
+/**
+ * The landmark error used throughout the project's figures: the mean point-to-point distance
+ * between `a` and `truth` (interleaved x, y) over `truth`'s outer-eye-corner distance
+ * (landmarks 36 and 45 of the 68-point scheme).
+ */
+export function landmarkError(a, truth) {
+  let s = 0;
+  const n = truth.length / 2;
+  for (let i = 0; i < n; i++) s += Math.hypot(a[2 * i] - truth[2 * i], a[2 * i + 1] - truth[2 * i + 1]);
+  return s / n / Math.hypot(truth[72] - truth[90], truth[73] - truth[91]);
+}
+
 /**
  * A fake camera for Chromium (`--use-file-for-fake-video-capture=FILE`): the frames of a GRID
  * clip folder as a 640x480 MJPEG with the face in the webcam guide, written to the temporary

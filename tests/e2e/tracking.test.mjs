@@ -22,6 +22,9 @@ import {
   canvasDigest,
   readPts,
   fakeCameraFile,
+  fakeCameraArgs,
+  FAKE_CAMERA_ARGS,
+  landmarkError,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
@@ -30,7 +33,6 @@ const CLIP = JSON.parse(fs.readFileSync(path.join(WWW, 'media', 'spk07-clip.json
 const CLIP_VIDEO = path.join(WWW, 'media', CLIP.video);
 const CLIP_FRAMES = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
 const AUTOPLAY = '--autoplay-policy=no-user-gesture-required';
-const FAKE_CAMERA = ['--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream'];
 const PANEL = '.trk-panel';
 const PANEL_CANVAS = '.trk-panel canvas.trk-canvas';
 const TARGETS = '.face-card.target canvas.face';
@@ -98,14 +100,7 @@ function getLog(page, withLandmarks = false) {
   );
 }
 
-/** Mean point-to-point distance over the outer-eye-corner distance (landmarks 36 and 45). */
-function normError(a, b) {
-  let s = 0;
-  const n = b.length / 2;
-  for (let i = 0; i < n; i++) s += Math.hypot(a[2 * i] - b[2 * i], a[2 * i + 1] - b[2 * i + 1]);
-  const iod = Math.hypot(b[72] - b[90], b[73] - b[91]);
-  return s / n / iod;
-}
+const normError = landmarkError;
 
 /** Pixels of the panel canvas that differ from the raw frame drawn at the same place. */
 function overlayDiff(page, mirrored = false) {
@@ -356,7 +351,7 @@ test('a video file is placed with a box, then tracked; a file that is neither vi
 });
 
 test('the webcam starts with a face guide (fake camera: no face) and reports its state', async (t) => {
-  camBrowser = await launchBrowser([AUTOPLAY, ...FAKE_CAMERA]);
+  camBrowser = await launchBrowser(FAKE_CAMERA_ARGS);
   const { page, errors } = await openPage(t, camBrowser);
   await chooseSource(page, 'webcam');
   await page.waitForSelector('.trk-panel[data-phase="placing"]', { timeout: 20_000 });
@@ -412,7 +407,7 @@ test('the webcam auto-starts on a face in the guide and tracks it live', async (
     t.skip(`${CLIP_FRAMES} is absent`);
     return;
   }
-  const b = await launchBrowser([AUTOPLAY, ...FAKE_CAMERA, `--use-file-for-fake-video-capture=${file}`]);
+  const b = await launchBrowser(fakeCameraArgs(file));
   t.after(() => b.close());
   const { page, errors } = await openPage(t, b);
   await chooseSource(page, 'webcam');
