@@ -81,6 +81,22 @@ fn backdrop_in_frame(model: &Model) -> Vec<f32> {
     a
 }
 
+/// A compositor that drew `face` (frame pixels) at the backdrop's own pose, at its size.
+fn composite_at_backdrop_pose(model: &Model, face: &[f32]) -> Compositor {
+    let b = model.backdrop().unwrap();
+    let mut c = Compositor::new(model, DrawOptions::default()).unwrap();
+    let mut pixmap = Pixmap::new(b.width(), b.height()).unwrap();
+    c.draw(
+        model,
+        face,
+        b.landmarks(),
+        &Similarity::IDENTITY,
+        &mut pixmap.as_mut(),
+    )
+    .unwrap();
+    c
+}
+
 #[test]
 fn a_constant_offset_across_the_border_is_removed_exactly() {
     let model = spk02();
@@ -93,17 +109,7 @@ fn a_constant_offset_across_the_border_is_removed_exactly() {
         .chunks_exact(3)
         .flat_map(|c| [c[0] - offset[0], c[1] - offset[1], c[2] - offset[2]])
         .collect();
-    let b = model.backdrop().unwrap();
-    let mut c = Compositor::new(model, DrawOptions::default()).unwrap();
-    let mut pixmap = Pixmap::new(b.width(), b.height()).unwrap();
-    c.draw(
-        model,
-        &face,
-        b.landmarks(),
-        &Similarity::IDENTITY,
-        &mut pixmap.as_mut(),
-    )
-    .unwrap();
+    let c = composite_at_backdrop_pose(model, &face);
     for v in c.vertex_offsets().chunks_exact(3) {
         for k in 0..3 {
             assert!((v[k] - offset[k]).abs() < 1e-4, "{v:?} against {offset:?}");
@@ -495,17 +501,7 @@ fn the_inner_mouth_and_the_eyes_keep_the_models_own_colours() {
     // and its eyes (36-41, 42-47) are drawn with the model's own colours, exactly.
     let model = spk02();
     let face: Vec<f32> = backdrop_in_frame(model).iter().map(|v| v * 0.6).collect();
-    let b = model.backdrop().unwrap();
-    let mut c = Compositor::new(model, DrawOptions::default()).unwrap();
-    let mut pixmap = Pixmap::new(b.width(), b.height()).unwrap();
-    c.draw(
-        model,
-        &face,
-        b.landmarks(),
-        &Similarity::IDENTITY,
-        &mut pixmap.as_mut(),
-    )
-    .unwrap();
+    let c = composite_at_backdrop_pose(model, &face);
     let frame = model.frame();
     let v = frame.vertices();
     let polygon = |r: std::ops::Range<usize>| -> Vec<Vec2> {

@@ -160,6 +160,8 @@ pub struct ExtendedMesh {
     annuli: usize,
     /// Motion of the inner ring the band absorbs alone ([`RING_SLACK`] eye distances).
     slack: f32,
+    /// Per boundary vertex, the unit direction of its spoke (boundary -> inner -> outer ring).
+    spokes: Vec<Vec2>,
 }
 
 impl ExtendedMesh {
@@ -182,6 +184,7 @@ impl ExtendedMesh {
         let mut points = landmarks.to_vec();
         let mut outer = Vec::with_capacity(2 * r);
         let mut anchor = Vec::with_capacity(2 * r);
+        let mut spokes = Vec::with_capacity(r);
         for (k, &i) in hull.iter().enumerate() {
             // Outwards along the boundary's normal at the vertex (the bisector of its two
             // edges' normals): spokes square to the rings keep every annulus triangle the right
@@ -205,6 +208,7 @@ impl ExtendedMesh {
             outer.extend_from_slice(&[b.x, b.y]);
             let c = b + dir * (d * RING_ROOM);
             anchor.extend_from_slice(&[c.x, c.y]);
+            spokes.push(dir);
         }
         points.extend_from_slice(&outer);
         points.extend_from_slice(&anchor);
@@ -230,6 +234,7 @@ impl ExtendedMesh {
             ring: r,
             annuli,
             slack: d * RING_SLACK,
+            spokes,
         })
     }
 
@@ -257,8 +262,7 @@ impl ExtendedMesh {
         for k in 0..self.ring {
             let (i, o) = (n2 + 2 * k, n2 + r2 + 2 * k);
             let motion = at(out, i) - at(&self.points, i);
-            let spoke = (at(&self.points, o) - at(&self.points, i)).normalize_or_zero();
-            let towards = motion.dot(spoke);
+            let towards = motion.dot(self.spokes[k]);
             if towards > self.slack {
                 let moved =
                     at(&self.points, o) + motion * (RING_SHARE * (towards - self.slack) / towards);

@@ -171,6 +171,19 @@ fn bilerp_scalar(p00: u32, p10: u32, p01: u32, p11: u32, wx: u32, wy: u32) -> u3
     lerp_lanes(top_rb, bot_rb, wy) | (lerp_lanes(top_ag, bot_ag, wy) << 8)
 }
 
+/// Writes texel `c` (premultiplied RGBA8) into the target pixel `px`: stored when opaque,
+/// blended source-over when translucent, skipped when transparent.
+#[inline(always)]
+fn put(px: &mut [u8], c: u32) {
+    let a = c >> 24;
+    if a == 255 {
+        px.copy_from_slice(&c.to_le_bytes());
+    } else if a != 0 {
+        let under = u32::from_le_bytes([px[0], px[1], px[2], px[3]]);
+        px.copy_from_slice(&source_over(c, under).to_le_bytes());
+    }
+}
+
 /// Premultiplied source-over of `src` onto `dst` (both RGBA8 little-endian).
 #[inline]
 fn source_over(src: u32, dst: u32) -> u32 {
@@ -325,7 +338,7 @@ pub(crate) fn warp_mesh(
             };
             // Fast path: the whole span samples inside the texture (the lookups affine along
             // it, so its ends decide), every 2x2 neighbourhood exists: no clamping, no edge
-            // cases; and an opaque texel is stored as it is.
+            // cases.
             let n = (i1 - i0) as i64;
             let (ue, ve) = (
                 u as i64 + du as i64 * (n - 1),
@@ -340,13 +353,7 @@ pub(crate) fn warp_mesh(
                     let k = yi * stride + xi;
                     let (top, bottom) = (&tex[k..k + 2], &tex[k + stride..k + stride + 2]);
                     let c = bilerp(top[0], top[1], bottom[0], bottom[1], wx, wy);
-                    let a = c >> 24;
-                    if a == 255 {
-                        px.copy_from_slice(&c.to_le_bytes());
-                    } else if a != 0 {
-                        let under = u32::from_le_bytes([px[0], px[1], px[2], px[3]]);
-                        px.copy_from_slice(&source_over(c, under).to_le_bytes());
-                    }
+                    put(px, c);
                     u = u.wrapping_add(du);
                     w = w.wrapping_add(dv);
                 }
@@ -369,13 +376,7 @@ pub(crate) fn warp_mesh(
                     (Some(&a), Some(&b), Some(&c), Some(&d)) => bilerp(a, b, c, d, wx, wy),
                     _ => 0,
                 };
-                let a = c >> 24;
-                if a == 255 {
-                    px.copy_from_slice(&c.to_le_bytes());
-                } else if a != 0 {
-                    let under = u32::from_le_bytes([px[0], px[1], px[2], px[3]]);
-                    px.copy_from_slice(&source_over(c, under).to_le_bytes());
-                }
+                put(px, c);
                 u = u.wrapping_add(du);
                 w = w.wrapping_add(dv);
             }

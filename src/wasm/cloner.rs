@@ -164,7 +164,18 @@ impl JsCloner {
             return Err(JsError::new(&format!("target index {index} out of range")));
         };
         if options.composite && model.backdrop().is_some() {
-            return self.composite_target_into(index, sink, options);
+            let face = (
+                self.cloner.target_appearance(index),
+                self.cloner.target_shape(index),
+            );
+            return Self::composite(
+                &mut self.compositors,
+                &mut self.timings,
+                (index, model),
+                face,
+                sink,
+                options,
+            );
         }
         let face = Face {
             frame: model.frame(),
@@ -179,30 +190,6 @@ impl JsCloner {
         self.generation += 1;
         self.compare = None;
         self.compositors.clear();
-    }
-
-    /// Composites target `index` into its backdrop, letterboxed to the sink.
-    fn composite_target_into(
-        &mut self,
-        index: usize,
-        sink: Sink<'_>,
-        options: &RenderOptions,
-    ) -> Result<(), JsError> {
-        let Some(model) = self.cloner.get_target(index) else {
-            return Err(JsError::new(&format!("target index {index} out of range")));
-        };
-        let face = (
-            self.cloner.target_appearance(index),
-            self.cloner.target_shape(index),
-        );
-        Self::composite(
-            &mut self.compositors,
-            &mut self.timings,
-            (index, model),
-            face,
-            sink,
-            options,
-        )
     }
 
     /// Composites a face of target `index` (`model`), its appearance and its landmarks in
