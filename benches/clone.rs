@@ -13,24 +13,12 @@ use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use facemimic::clone::{CloneOptions, Cloner, Method};
-use facemimic::{io, BuildOptions, Builder, Model, Params, Renderer, Similarity};
+use facemimic::{io, Model, Params, Renderer, Similarity};
+
+mod common;
 
 fn build(folder: &str, frame_of: Option<&Model>) -> Model {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data/grid")
-        .join(folder);
-    let list = io::read_list(&dir.join("train20.txt")).expect("GRID training list");
-    let images: Vec<_> = list
-        .iter()
-        .map(|p| io::read_training_image(p).expect("GRID frame"))
-        .collect();
-    let name = folder.split('_').next().unwrap_or(folder).to_string();
-    Builder::new(BuildOptions {
-        name,
-        ..BuildOptions::default()
-    })
-    .build(&images, frame_of)
-    .expect("GRID model")
+    common::build(folder, &common::grid_training(folder), frame_of)
 }
 
 fn setup() -> (Model, Vec<Model>, Params) {

@@ -21,29 +21,19 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::tiny_skia::{Color, Pixmap};
 use facemimic::{
-    canvas_view, io, picture_view, with_default_backdrop, BuildOptions, Builder, Compositor,
-    DrawOptions, FaceDrawer, Model, Params, Rasterizer,
+    canvas_view, io, picture_view, with_default_backdrop, Compositor, DrawOptions, FaceDrawer,
+    Model, Params, Rasterizer,
 };
 
 const W: u32 = 640;
 const H: u32 = 480;
 
+mod common;
+
+/// A GRID model with its default backdrop (the training frame closest to its mean).
 fn build(folder: &str) -> Model {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data/grid")
-        .join(folder);
-    let list = io::read_list(&dir.join("train20.txt")).expect("GRID training list");
-    let images: Vec<_> = list
-        .iter()
-        .map(|p| io::read_training_image(p).expect("GRID frame"))
-        .collect();
-    let name = folder.split('_').next().unwrap_or(folder).to_string();
-    let m = Builder::new(BuildOptions {
-        name,
-        ..BuildOptions::default()
-    })
-    .build(&images, None)
-    .expect("GRID model");
+    let images = common::grid_training(folder);
+    let m = common::build(folder, &images, None);
     with_default_backdrop(m, &images, None).expect("a backdrop")
 }
 
