@@ -35,7 +35,7 @@ const MODELS = 'models/';
 const METHODS = ['substitute', 'map', 'map-residual'];
 // faceOnly: targets drawn as the face alone (the paper's view) instead of composited into their
 // picture (the model's backdrop; models without one are drawn face only either way).
-const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: false, faceOnly: false };
+const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: true, faceOnly: false };
 const FACE_BG = '#1b1d22'; // = --face-bg in style.css: the canvas background meets the card without a seam
 const FACE_ASPECT = 0.8; // a face canvas's width / height (= the .face-card default --ar in style.css)
 /** A picture's canvas keeps the picture's aspect within these bounds (beyond, it is letterboxed). */
@@ -1141,8 +1141,9 @@ function render(t) {
   const c = app.cloner;
   c.setSourceParams(p);
   c.update();
-  // tiny-skia renders by default; "Fast raster" switches to the package's fixed-point scanline
-  // warp (same pixmap, ~3x faster, within ~1.5 levels of tiny-skia).
+  // "Fast raster" (on by default) rasterises with the package's fixed-point scanline warp into
+  // the same tiny-skia pixmap (~3x faster, within ~1.5 levels); off, tiny-skia's pattern fills
+  // (the reference renderer of the CLI and the npm package) draw every triangle.
   // Targets are composited into their pictures unless "Face only" is on. The compare view shows
   // the face alone, where the three methods differ (renderTargetWithMethod could composite too).
   const { face: opts, target: targetOpts } = renderOptions();

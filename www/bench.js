@@ -1,5 +1,5 @@
 // facemimic in-browser benchmark: the whole frame (source + N targets at 360x288) split by stage,
-// with the chosen rasteriser (?raster=, default tiny-skia: the headline) and then the other one.
+// with the chosen rasteriser (?raster=, default scanline: the page's default and the headline) and then the other one.
 // Then tracking: the time per fit of the bundled clip with the source model, and what a lost
 // frame costs while the page's finder worker searches (see benchTracking).
 // Prints a JSON summary into <pre id="result"> (data-done="1" when finished) for headless runs
@@ -20,7 +20,7 @@ const TARGETS = int('targets', 4, 0, 16);
 const METHOD = q.get('method') || 'map';
 const MESH = q.get('mesh') === '1';
 const RASTERS = ['tiny-skia', 'scanline'];
-const RASTER = q.get('raster') || 'tiny-skia';
+const RASTER = q.get('raster') || 'scanline';
 const OTHER = RASTERS.find((r) => r !== RASTER);
 // The face finder's runs (0 skips it): `find` on a 640x480 frame and `landmarks` given its box.
 const FINDER_RUNS = int('finder', 20, 0, 1000);

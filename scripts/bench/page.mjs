@@ -4,7 +4,7 @@
 //     [--finder RUNS]  (face finder runs on a 640x480 frame; 0 skips)
 //     [--track PASSES] [--lost FRAMES]  (tracking the bundled clip: ms per fit, and per lost
 //                      frame while the finder searches; --track 0 skips)
-// Both rasterisers are measured; --raster picks the headline (default tiny-skia).
+// Both rasterisers are measured; --raster picks the headline (default scanline, the page's default).
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import { serveStatic, launchBrowser, screenshot } from '../../tests/e2e/lib.mjs';
 
@@ -19,7 +19,7 @@ const query = new URLSearchParams({
   targets: opt('targets', '4'),
   method: opt('method', 'map'),
   mesh: args.includes('--mesh') ? '1' : '0',
-  raster: opt('raster', 'tiny-skia'),
+  raster: opt('raster', 'scanline'),
   finder: opt('finder', '20'),
   track: opt('track', '6'),
   lost: opt('lost', '12'),
