@@ -125,7 +125,7 @@ impl CloneOptions {
     /// Checks the options against a source model: finite gains, per-mode gain vectors no
     /// longer than the source's mode counts, a finite non-negative clamp.
     pub fn validate(&self, source: &Model) -> Result<()> {
-        crate::bounds::check_gain("gain", self.gain)?;
+        crate::model::bounds::check_gain("gain", self.gain)?;
         for (what, g, m) in [
             ("shape gains", &self.shape_gains, source.shape().n_modes()),
             (
@@ -142,14 +142,14 @@ impl CloneOptions {
                 )));
             }
             for (i, &v) in g.iter().enumerate() {
-                crate::bounds::check_gain(&format!("{what}[{i}]"), v)?;
+                crate::model::bounds::check_gain(&format!("{what}[{i}]"), v)?;
             }
         }
         if let Some(k) = self.clamp {
-            if !(0.0..=crate::bounds::MAX_GAIN).contains(&k) {
+            if !(0.0..=crate::model::bounds::MAX_GAIN).contains(&k) {
                 return Err(Error::Params(format!(
                     "clamp {k} must be a number of standard deviations in 0..={}",
-                    crate::bounds::MAX_GAIN
+                    crate::model::bounds::MAX_GAIN
                 )));
             }
         }
@@ -228,11 +228,11 @@ pub fn map_params(r: &[f32], p: &[f32], out: &mut [f32]) {
 ///
 /// NaN-safe and total: a NaN parameter becomes 0 (the mean), a negative or NaN `k` or sigma
 /// counts as 0, an overflowing `k sigma` as `f32::MAX` (see
-/// [`crate::bounds::clamp_symmetric`]); parameters beyond `sigmas.len()` are left as they
+/// [`crate::model::bounds::clamp_symmetric`]); parameters beyond `sigmas.len()` are left as they
 /// are. Never panics; every clamped value is finite.
 pub fn constrain(params: &mut [f32], sigmas: &[f32], k: f32) {
     for (p, s) in params.iter_mut().zip(sigmas) {
-        *p = crate::bounds::clamp_symmetric(*p, k * s);
+        *p = crate::model::bounds::clamp_symmetric(*p, k * s);
     }
 }
 
@@ -532,7 +532,7 @@ impl<'a> Step<'a> {
         match method {
             Method::Substitute => {
                 substitute_shape(&m.shape().base, &self.source.shape().modes, p, acc);
-                crate::appearance::synthesise(
+                crate::model::appearance::synthesise(
                     &m.appearance().base,
                     &self.source.appearance().modes,
                     lambda,
@@ -552,7 +552,7 @@ impl<'a> Step<'a> {
                 if method == Method::MapResidual {
                     add_residual(&pair.residual, p, acc);
                 }
-                crate::appearance::synthesise(
+                crate::model::appearance::synthesise(
                     &m.appearance().base,
                     &m.appearance().modes,
                     &out.params.appearance,
@@ -568,13 +568,16 @@ impl<'a> Step<'a> {
         }
         // The entry bounds keep these finite; checked so that no NaN can ever leave.
         let name = &model.name();
-        crate::bounds::check_output(&format!("target '{name}' shape"), &out.shape)?;
-        crate::bounds::check_output(&format!("target '{name}' appearance"), &out.appearance)?;
-        crate::bounds::check_output(
+        crate::model::bounds::check_output(&format!("target '{name}' shape"), &out.shape)?;
+        crate::model::bounds::check_output(
+            &format!("target '{name}' appearance"),
+            &out.appearance,
+        )?;
+        crate::model::bounds::check_output(
             &format!("target '{name}' shape parameters"),
             &out.params.shape,
         )?;
-        crate::bounds::check_output(
+        crate::model::bounds::check_output(
             &format!("target '{name}' appearance parameters"),
             &out.params.appearance,
         )
@@ -721,7 +724,7 @@ impl Cloner {
     /// Clones one source frame onto every target in one call. Allocates nothing.
     ///
     /// Requires: `source` fits the source model (lengths, finite values within the bounds of
-    /// [`crate::bounds`], pose in range) and the options are valid
+    /// [`crate::model::bounds`], pose in range) and the options are valid
     /// ([`CloneOptions::validate`]); otherwise [`Error::Params`] and no output changes. An
     /// output that overflows anyway is [`Error::Overflow`] naming it (then outputs are
     /// partly written and must not be used).

@@ -70,7 +70,7 @@ impl Error {
 /// Why a model file was rejected. Each variant names the problem precisely.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]
 pub enum FormatError {
-    /// The file does not start with [`crate::format::MAGIC`].
+    /// The file does not start with [`crate::model::format::MAGIC`].
     #[error("not a facemimic model (bad magic bytes)")]
     BadMagic,
     /// The format version is not one this reader understands.
@@ -111,7 +111,7 @@ pub enum FormatError {
         /// The flags value.
         value: u32,
     },
-    /// The appearance storage tag (version 2) is not one of [`crate::format::Storage`]'s.
+    /// The appearance storage tag (version 2) is not one of [`crate::model::format::Storage`]'s.
     #[error("unknown appearance storage tag {tag} (0 = f32, 1 = f16, 2 = i8)")]
     BadStorageTag {
         /// The tag.
@@ -194,7 +194,7 @@ pub enum FormatError {
         index: u64,
     },
     /// A value is finite but outside the range a real model can have (see
-    /// [`crate::bounds::check_model_values`]).
+    /// [`crate::model::bounds::check_model_values`]).
     #[error("{array}[{index}] is {value}, outside the range {range} a real model can have")]
     OutOfRange {
         /// Which array or quantity.

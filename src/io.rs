@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::builder::TrainingImage;
+use crate::build::TrainingImage;
 use crate::error::{Error, Result};
 use crate::image::{Image, MAX_IMAGE_SIDE};
 use crate::landmarks::{parse_asf, parse_pts};
@@ -10,7 +10,8 @@ use crate::landmarks::{parse_asf, parse_pts};
 /// Decodes a PNG or JPEG file into RGBA8.
 pub fn read_image(path: &Path) -> Result<Image> {
     // Through the size cap: a device, FIFO or directory is refused before it is opened.
-    let bytes = crate::bounds::read_file_capped(path, crate::bounds::MAX_IMAGE_FILE_BYTES)?;
+    let bytes =
+        crate::model::bounds::read_file_capped(path, crate::model::bounds::MAX_IMAGE_FILE_BYTES)?;
     let mut reader = ::image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
@@ -77,7 +78,8 @@ pub fn landmark_path(image: &Path) -> Result<PathBuf> {
 
 /// Reads the landmarks of an image of the given size from a `.pts` or `.asf` file.
 pub fn read_landmarks(path: &Path, width: u32, height: u32) -> Result<Vec<f32>> {
-    let text = crate::bounds::read_text_capped(path, crate::bounds::MAX_TEXT_FILE_BYTES)?;
+    let text =
+        crate::model::bounds::read_text_capped(path, crate::model::bounds::MAX_TEXT_FILE_BYTES)?;
     let r = if path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("asf"))
@@ -114,7 +116,8 @@ pub fn read_training_image(path: &Path) -> Result<TrainingImage> {
 /// Reads a list file (one image stem a line, relative to the list's folder; `#` comments) and
 /// resolves each stem to an existing `.jpg`, `.jpeg` or `.png` file.
 pub fn read_list(list: &Path) -> Result<Vec<PathBuf>> {
-    let text = crate::bounds::read_text_capped(list, crate::bounds::MAX_TEXT_FILE_BYTES)?;
+    let text =
+        crate::model::bounds::read_text_capped(list, crate::model::bounds::MAX_TEXT_FILE_BYTES)?;
     let dir = list.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
     for line in text
@@ -186,24 +189,25 @@ pub fn read_model_file(path: &Path) -> Result<crate::Model> {
 
 /// Writes a model as a `.fmm` file (the default, compact storage).
 pub fn write_model_file(path: &Path, model: &crate::Model) -> Result<()> {
-    write_model_file_as(path, model, crate::format::Storage::default())
+    write_model_file_as(path, model, crate::model::format::Storage::default())
 }
 
 /// Writes a model as a `.fmm` file with the given appearance storage; refuses (writing
-/// nothing) a model that [`crate::format::read_model`] would reject.
+/// nothing) a model that [`crate::model::format::read_model`] would reject.
 pub fn write_model_file_as(
     path: &Path,
     model: &crate::Model,
-    storage: crate::format::Storage,
+    storage: crate::model::format::Storage,
 ) -> Result<()> {
-    let bytes = crate::format::write_model_checked_as(model, storage)
+    let bytes = crate::model::format::write_model_checked_as(model, storage)
         .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))?;
     std::fs::write(path, bytes).map_err(|e| Error::Io(format!("{}: {e}", path.display())))
 }
 
 /// Reads and validates a `.fmm` model file, also returning its version and storage.
-pub fn read_model_file_info(path: &Path) -> Result<(crate::Model, crate::format::FileInfo)> {
-    let bytes = crate::bounds::read_file_capped(path, crate::bounds::MAX_MODEL_FILE_BYTES)?;
-    crate::format::read_model_info(&bytes)
+pub fn read_model_file_info(path: &Path) -> Result<(crate::Model, crate::model::format::FileInfo)> {
+    let bytes =
+        crate::model::bounds::read_file_capped(path, crate::model::bounds::MAX_MODEL_FILE_BYTES)?;
+    crate::model::format::read_model_info(&bytes)
         .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))
 }

@@ -40,9 +40,9 @@ pub fn eye_line(points: &[f32]) -> Option<[f32; 2]> {
 /// Most landmarks a file may hold (guards against absurd inputs).
 pub const MAX_LANDMARKS: usize = 4096;
 
-/// Largest magnitude of a landmark coordinate in pixels (= [`crate::bounds::MAX_PARAM`]):
+/// Largest magnitude of a landmark coordinate in pixels (= [`crate::model::limits::MAX_PARAM`]):
 /// no image is larger, and it keeps every computation on landmarks finite.
-pub const MAX_COORDINATE: f32 = crate::bounds::MAX_PARAM;
+pub const MAX_COORDINATE: f32 = 1e6;
 
 /// Parses an iBUG `.pts` file. Its coordinates are 1-based pixel coordinates: 1 is subtracted.
 ///

@@ -28,61 +28,55 @@
 // Index loops over several parallel arrays read better than zipped iterators in the numerics.
 #![allow(clippy::needless_range_loop)]
 
-mod appearance;
-mod backdrop;
-pub mod bounds;
-mod builder;
-pub mod canonical;
+mod build;
 pub mod clone;
-mod enrol;
 mod error;
 mod filter;
 pub mod find;
 pub mod fit;
-pub mod format;
-mod frame;
 mod geometry;
 mod image;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod io;
 pub mod landmarks;
-mod limits;
 mod model;
 pub mod numerics;
 mod pca;
-mod photo;
-mod refine;
 mod render;
-mod select;
-mod shape;
 mod similarity;
-mod warp;
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;
 
-pub use appearance::AppearanceModel;
-pub use backdrop::{backdrop_budget, Backdrop, MAX_BACKDROP_BYTES, MAX_BACKDROP_SIDE};
-pub use builder::{
+pub use build::canonical;
+pub use build::canonical::{canonical_frame, CANONICAL_FINGERPRINT};
+pub use build::enrol::{EnrolFace, EnrolFinder};
+pub use build::photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
+pub use build::pipeline::{
+    enrol, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, Enrolment, DEFAULT_MIN_SCORE,
+    ENROL_BOXES, MAX_REFINE_ROUNDS,
+};
+pub use build::refine::refine_landmarks;
+pub use build::select::{coverage, select_varied};
+pub use build::{
     BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
 };
-pub use canonical::{canonical_frame, CANONICAL_FINGERPRINT};
-pub use enrol::{EnrolFace, EnrolFinder};
 pub use error::{Error, FormatError, Result};
 pub use find::{Face, FaceFinder, FindOptions};
-pub use frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use geometry::BBox;
 pub use glam;
 pub use image::{Image, ImageRef, MAX_IMAGE_SIDE};
 pub use landmarks::MIRROR_68;
+pub use model::appearance::AppearanceModel;
+pub use model::backdrop::{backdrop_budget, Backdrop, MAX_BACKDROP_BYTES, MAX_BACKDROP_SIDE};
+pub use model::frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
+pub use model::linear::LinearModel;
+pub use model::shape::ShapeModel;
+pub use model::{bounds, format};
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
-pub use photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
-pub use refine::refine_landmarks;
 pub use render::{
     base_box, canvas_view, demultiply, demultiply_into, fit_view, hull_loop, mean_value_weights,
     picture_view, Compositor, DrawOptions, ExtendedMesh, FaceDrawer, Rasterizer, Renderer,
     Scanline,
 };
-pub use select::{coverage, select_varied};
-pub use shape::ShapeModel;
 pub use similarity::{PoseJson, Similarity};
 pub use tiny_skia;

@@ -9,8 +9,8 @@
 //! - [`sample_rgb`] samples an image at its landmarks into a reference frame;
 //! - [`synthesise`] computes an appearance instance `A0 + sum lambda_i A_i` (Eq. 2).
 
-pub use crate::appearance::synthesise;
-pub use crate::frame::triangulate;
+pub use crate::model::appearance::synthesise;
+pub use crate::model::frame::triangulate;
+pub use crate::model::shape::generalised_procrustes;
+pub use crate::model::warp::sample_rgb;
 pub use crate::pca::{pca, Pca};
-pub use crate::shape::generalised_procrustes;
-pub use crate::warp::sample_rgb;

@@ -157,3 +157,65 @@ fn build_find_faces_selects_varied_frames_and_refuses_too_few_faces() {
     assert!(stderr(&o).contains("at least 2"), "{}", stderr(&o));
     assert!(!none.exists());
 }
+
+/// The CLI's `build` is a thin shell over the core enrolment pipeline ([`facemimic::enrol`]):
+/// from the same frames without landmark files, with `--find-faces --select 6 --reference f2`,
+/// both give the same model file, byte for byte. (The wasm `buildModel`'s side of the same
+/// claim is `tests/wasm_enrol.rs`.)
+#[test]
+fn build_find_faces_is_the_core_pipeline() {
+    let d = scratch("pipeline");
+    let stems: Vec<String> = ["02", "10", "12", "15", "18", "20", "21", "22"]
+        .iter()
+        .map(|n| format!("spk02_brbk7n/0000{n}"))
+        .collect();
+    let stems: Vec<&str> = stems.iter().map(String::as_str).collect();
+    let imgs = frames(&d, &stems);
+    let out = d.join("spk02-enrolled.fmm");
+    let mut args: Vec<&Path> = vec![
+        Path::new("build"),
+        Path::new("--find-faces"),
+        Path::new("--select"),
+        Path::new("6"),
+        Path::new("--reference"),
+        Path::new("f2"),
+        Path::new("--out"),
+        &out,
+    ];
+    args.extend(imgs.iter().map(PathBuf::as_path));
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("selected 6 varied frames"),
+        "{}",
+        stderr(&o)
+    );
+
+    let frames: Vec<facemimic::EnrolFrame> = imgs
+        .iter()
+        .enumerate()
+        .map(|(i, p)| facemimic::EnrolFrame {
+            name: format!("f{i}"),
+            image: facemimic::io::read_image(p).unwrap(),
+            landmarks: None,
+        })
+        .collect();
+    let options = facemimic::EnrolOptions {
+        build: facemimic::BuildOptions {
+            name: "spk02-enrolled".into(),
+            reference: facemimic::ReferenceChoice::Named("f2".into()),
+            ..facemimic::BuildOptions::default()
+        },
+        select: Some(6),
+        ..facemimic::EnrolOptions::default()
+    };
+    let core = facemimic::enrol(frames, &options, None, None, &mut |_| true).unwrap();
+    assert!(core.used.contains(&2), "the reference frame is kept");
+    let bytes =
+        facemimic::format::write_model_checked_as(&core.model, facemimic::format::Storage::I6)
+            .unwrap();
+    assert!(
+        std::fs::read(&out).unwrap() == bytes,
+        "facemimic build --find-faces and enrol give different models"
+    );
+}

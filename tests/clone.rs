@@ -88,16 +88,16 @@ fn synthetic_parts(
     };
     let d = base.len();
     let da = frame.n_pixels() * 3;
-    let shape = ShapeModel {
+    let shape = ShapeModel(facemimic::LinearModel {
         base,
         modes: orthonormalise(&rng.vec(m * d), d),
         variances: (0..m).map(|i| 9.0 / (1.0 + i as f32)).collect(),
-    };
-    let appearance = AppearanceModel {
+    });
+    let appearance = AppearanceModel(facemimic::LinearModel {
         base: (0..da).map(|_| 0.5 + 0.3 * rng.next()).collect(),
         modes: orthonormalise(&rng.vec(l * da), da),
         variances: (0..l).map(|i| 4.0 / (1.0 + i as f32)).collect(),
-    };
+    });
     ModelParts {
         name: name.into(),
         scheme: LandmarkScheme::for_count(d / 2),

@@ -31,20 +31,51 @@ pub(super) struct Work {
     pub h: Vec<f64>,
     pub hf: Vec<f64>,
     pub dc: Vec<f64>,
-    pub saved_cur: Vec<f32>,
-    pub saved_p: Vec<f32>,
-    pub saved_pose: Similarity,
+    /// The state before the last step of [`run`], to undo it.
+    pub saved: FitState,
+    /// The system (`g`, `h`) at the saved state.
     pub saved_g: Vec<f64>,
     pub saved_h: Vec<f64>,
+    /// The landmarks the starts of a multi-start level are offset from.
     pub start_cur: Vec<f32>,
-    pub best_cur: Vec<f32>,
-    pub best_p: Vec<f32>,
-    pub best_pose: Similarity,
+    /// The best state over a multi-start level's starts.
+    pub best: FitState,
     /// The state the first level started from (for [`super::FitOptions::level_check`]).
-    pub before_cur: Vec<f32>,
-    pub before_p: Vec<f32>,
-    pub before_pose: Similarity,
+    pub before: FitState,
     pub rgb: Vec<f32>,
+}
+
+/// A copy of the fitting state of [`Work`] (its `cur`, `p` and `pose`): the landmarks in level
+/// coordinates, the shape parameters and the pose. Copies in and out allocate nothing.
+pub(super) struct FitState {
+    pub cur: Vec<f32>,
+    pub p: Vec<f32>,
+    pub pose: Similarity,
+}
+
+impl FitState {
+    /// A state for `n2` landmark values and `m` shape parameters.
+    pub fn new(n2: usize, m: usize) -> FitState {
+        FitState {
+            cur: vec![0.0; n2],
+            p: vec![0.0; m],
+            pose: Similarity::IDENTITY,
+        }
+    }
+
+    /// Keeps a copy of the state `(cur, p, pose)`.
+    pub fn save(&mut self, cur: &[f32], p: &[f32], pose: Similarity) {
+        self.cur.copy_from_slice(cur);
+        self.p.copy_from_slice(p);
+        self.pose = pose;
+    }
+
+    /// Writes the kept state back into `(cur, p, pose)`.
+    pub fn restore(&self, cur: &mut [f32], p: &mut [f32], pose: &mut Similarity) {
+        cur.copy_from_slice(&self.cur);
+        p.copy_from_slice(&self.p);
+        *pose = self.pose;
+    }
 }
 
 /// What one iteration did.
@@ -77,11 +108,11 @@ pub(super) fn residual(level: &Level, img: GreyView<'_>, w: &mut Work) -> f32 {
 
 impl Work {
     /// Exchanges the current state (landmarks, shape parameters, pose) with the kept one
-    /// (`before_*`).
+    /// (`before`).
     pub(super) fn swap_before(&mut self) {
-        std::mem::swap(&mut self.cur, &mut self.before_cur);
-        std::mem::swap(&mut self.p, &mut self.before_p);
-        std::mem::swap(&mut self.pose, &mut self.before_pose);
+        std::mem::swap(&mut self.cur, &mut self.before.cur);
+        std::mem::swap(&mut self.p, &mut self.before.p);
+        std::mem::swap(&mut self.pose, &mut self.before.pose);
     }
 }
 
@@ -145,9 +176,7 @@ pub(super) fn run<A: Algorithm>(
         let cost = alg.system(c, w);
         if cost.is_finite() && cost <= best {
             best = cost;
-            w.saved_cur.copy_from_slice(&w.cur);
-            w.saved_p.copy_from_slice(&w.p);
-            w.saved_pose = w.pose;
+            w.saved.save(&w.cur, &w.p, w.pose);
             w.saved_g.copy_from_slice(&w.g);
             w.saved_h.copy_from_slice(&w.h);
             mu = if mu < 1e-4 { 0.0 } else { mu * 0.1 };
@@ -156,9 +185,7 @@ pub(super) fn run<A: Algorithm>(
                 return false;
             }
             // Undo the last step; retry from the saved state with more damping.
-            w.cur.copy_from_slice(&w.saved_cur);
-            w.p.copy_from_slice(&w.saved_p);
-            w.pose = w.saved_pose;
+            w.saved.restore(&mut w.cur, &mut w.p, &mut w.pose);
             w.g.copy_from_slice(&w.saved_g);
             w.h.copy_from_slice(&w.saved_h);
             mu = if mu == 0.0 { 1e-2 } else { mu * 10.0 };
@@ -182,9 +209,7 @@ pub(super) fn run<A: Algorithm>(
             Step::Moved(d) if d <= tol => return true,
             Step::Moved(_) => {}
             Step::Failed => {
-                w.cur.copy_from_slice(&w.saved_cur);
-                w.p.copy_from_slice(&w.saved_p);
-                w.pose = w.saved_pose;
+                w.saved.restore(&mut w.cur, &mut w.p, &mut w.pose);
                 return false;
             }
         }

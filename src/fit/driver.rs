@@ -7,7 +7,7 @@ use crate::image::ImageRef;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
-use super::algorithm::{level_cost, residual, run, Ctx, ProjectOut, Simultaneous, Work};
+use super::algorithm::{level_cost, residual, run, Ctx, FitState, ProjectOut, Simultaneous, Work};
 use super::geometry::Geometry;
 use super::grey::Grey;
 use super::precompute::{Level, ShapeBasis};
@@ -21,8 +21,8 @@ pub struct Fitter {
     basis: ShapeBasis,
     levels: Vec<Level>,
     model_sigmas: Vec<f32>,
-    appearance: crate::appearance::AppearanceModel,
-    frame: crate::frame::ReferenceFrame,
+    appearance: crate::model::appearance::AppearanceModel,
+    frame: crate::model::frame::ReferenceFrame,
     grey: Grey,
     work: Work,
     result: FitResult,
@@ -39,7 +39,7 @@ impl Fitter {
     /// (degenerate base shape, flat appearance, too few pixels for a level).
     pub fn new(model: &Model, options: FitOptions) -> Result<Fitter> {
         options.check()?;
-        crate::bounds::check_tracking_budget(
+        crate::model::bounds::check_tracking_budget(
             model,
             options.levels.len(),
             options.channels as usize,
@@ -92,18 +92,12 @@ impl Fitter {
             h: vec![0.0; k * k],
             hf: vec![0.0; k * k],
             dc: vec![0.0; k],
-            saved_cur: vec![0.0; n2],
-            saved_p: vec![0.0; m],
-            saved_pose: Similarity::IDENTITY,
+            saved: FitState::new(n2, m),
             saved_g: vec![0.0; k],
             saved_h: vec![0.0; k * k],
             start_cur: vec![0.0; n2],
-            best_cur: vec![0.0; n2],
-            best_p: vec![0.0; m],
-            best_pose: Similarity::IDENTITY,
-            before_cur: vec![0.0; n2],
-            before_p: vec![0.0; m],
-            before_pose: Similarity::IDENTITY,
+            best: FitState::new(n2, m),
+            before: FitState::new(n2, m),
             rgb: if options.appearance {
                 vec![0.0; model.appearance().len()]
             } else {
@@ -256,9 +250,7 @@ impl Fitter {
             }
             if li == 0 && self.options.level_check {
                 // The state the first level starts from, for the check above.
-                w.before_cur.copy_from_slice(&w.cur);
-                w.before_p.copy_from_slice(&w.p);
-                w.before_pose = w.pose;
+                w.before.save(&w.cur, &w.p, w.pose);
             }
             let starts = if li == 0 { starts } else { 1 };
             if starts <= 1 {
@@ -271,46 +263,15 @@ impl Fitter {
                     &mut iterations,
                 );
             } else {
-                let w = &mut self.work;
-                w.start_cur.copy_from_slice(&w.cur);
-                let mut best = f64::INFINITY;
-                let width = self.face_width * w.pose.scale();
-                let dt = self.options.start_offset * width;
-                let dr = self.options.start_offset;
-                for s in 0..starts {
-                    let (dx, dy, da) = start_offset(s, dt, dr);
-                    if s > 0 {
-                        offset_shape(&w.start_cur, dx, dy, da, &mut w.next);
-                        let Some(pose) =
-                            ctx.geom
-                                .project(&w.next, &mut w.p, &mut w.scratch, &mut w.cur)
-                        else {
-                            continue;
-                        };
-                        w.pose = pose;
-                    }
-                    let conv = run(
-                        &ProjectOut,
-                        &ctx,
-                        w,
-                        max_iters,
-                        self.options.tolerance,
-                        &mut iterations,
-                    );
-                    let cost = level_cost(&ctx, w);
-                    if cost.is_finite() && cost < best {
-                        best = cost;
-                        converged = conv;
-                        w.best_cur.copy_from_slice(&w.cur);
-                        w.best_p.copy_from_slice(&w.p);
-                        w.best_pose = w.pose;
-                    }
-                }
-                if best.is_finite() {
-                    w.cur.copy_from_slice(&w.best_cur);
-                    w.p.copy_from_slice(&w.best_p);
-                    w.pose = w.best_pose;
-                }
+                converged = multi_start(
+                    &ctx,
+                    &mut self.work,
+                    starts,
+                    self.options.start_offset,
+                    self.face_width,
+                    (max_iters, self.options.tolerance),
+                    &mut iterations,
+                );
             }
             if li + 1 == nl && refine > 0 {
                 converged = run(
@@ -334,7 +295,7 @@ impl Fitter {
         r.params.pose = w.pose;
         r.params.shape.copy_from_slice(&w.p);
         if self.options.appearance {
-            crate::warp::sample_rgb(&self.frame, image, &w.cur, &mut w.rgb)?;
+            crate::model::warp::sample_rgb(&self.frame, image, &w.cur, &mut w.rgb)?;
             self.appearance.project(&w.rgb, &mut r.params.appearance);
         } else {
             r.params.appearance.iter_mut().for_each(|v| *v = 0.0);
@@ -346,6 +307,48 @@ impl Fitter {
         r.reacquired = false;
         Ok(&self.result)
     }
+}
+
+/// The coarsest level fitted from `starts` starts (the current state, then offsets of
+/// `offset` face widths and radians, see [`start_offset`]); the state ends at the start whose
+/// fit cost least. Returns whether that fit converged.
+fn multi_start(
+    ctx: &Ctx<'_>,
+    w: &mut Work,
+    starts: u32,
+    offset: f32,
+    face_width: f32,
+    (max_iters, tolerance): (u32, f32),
+    iterations: &mut u32,
+) -> bool {
+    let mut converged = false;
+    w.start_cur.copy_from_slice(&w.cur);
+    let mut best = f64::INFINITY;
+    let dt = offset * (face_width * w.pose.scale());
+    for s in 0..starts {
+        let (dx, dy, da) = start_offset(s, dt, offset);
+        if s > 0 {
+            offset_shape(&w.start_cur, dx, dy, da, &mut w.next);
+            let Some(pose) = ctx
+                .geom
+                .project(&w.next, &mut w.p, &mut w.scratch, &mut w.cur)
+            else {
+                continue;
+            };
+            w.pose = pose;
+        }
+        let conv = run(&ProjectOut, ctx, w, max_iters, tolerance, iterations);
+        let cost = level_cost(ctx, w);
+        if cost.is_finite() && cost < best {
+            best = cost;
+            converged = conv;
+            w.best.save(&w.cur, &w.p, w.pose);
+        }
+    }
+    if best.is_finite() {
+        w.best.restore(&mut w.cur, &mut w.p, &mut w.pose);
+    }
+    converged
 }
 
 /// Offset `(dx, dy, angle)` of the `s`-th coarse start: the given start, then +-x, +-y, +-angle.

@@ -189,7 +189,7 @@ impl Tracker {
     pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
         for f in &faces {
             check_len("offered face landmarks", f, self.start.len())?;
-            crate::bounds::check_landmarks(f)?;
+            crate::model::bounds::check_landmarks(f)?;
         }
         self.offered = Some(faces);
         Ok(())
@@ -232,7 +232,7 @@ impl Tracker {
     /// Starts a new sequence from landmarks on the next frame (image coordinates, `2n`).
     pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
         check_len("landmarks", landmarks, self.start.len())?;
-        crate::bounds::check_landmarks(landmarks)?;
+        crate::model::bounds::check_landmarks(landmarks)?;
         let pose = Similarity::align(&self.fitter.geom.s0, landmarks);
         if !(pose.is_valid() && pose.scale() > 1e-4) {
             return Err(Error::Params(
@@ -247,7 +247,7 @@ impl Tracker {
     /// Starts a new sequence from a face box (image coordinates: left, top, width, height):
     /// the base shape is scaled to the box's width and centred in it.
     pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        crate::bounds::check_param_values("box", &[x, y, w, h])?;
+        crate::model::bounds::check_param_values("box", &[x, y, w, h])?;
         if !(w >= 4.0 && h >= 4.0) {
             return Err(Error::Params(format!(
                 "box {w}x{h} is too small (at least 4x4)"

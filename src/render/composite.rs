@@ -17,7 +17,7 @@ use tiny_skia::{Pixmap, PixmapMut, PixmapPaint, Transform};
 
 use super::{scanline, skia, DrawOptions, FaceDrawer, Rasterizer};
 use crate::error::{check_finite, check_len, Error, Result};
-use crate::frame::ReferenceFrame;
+use crate::model::frame::ReferenceFrame;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 

@@ -12,7 +12,7 @@ use glam::{Affine2, Mat2, Vec2};
 use tiny_skia::{Pixmap, PixmapMut, PixmapRef};
 
 use crate::error::{check_len, Result};
-use crate::frame::ReferenceFrame;
+use crate::model::frame::ReferenceFrame;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 

@@ -2,7 +2,7 @@
 
 use tiny_skia::{Paint, PathBuilder, PixmapMut, Stroke, Transform};
 
-use crate::frame::ReferenceFrame;
+use crate::model::frame::ReferenceFrame;
 use crate::similarity::Similarity;
 
 /// Unique undirected edges of a frame's triangles, sorted.

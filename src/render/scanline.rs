@@ -16,7 +16,7 @@ use tiny_skia::PixmapMut;
 
 use super::triangle_affine;
 use crate::error::{check_finite, check_len, Result};
-use crate::frame::ReferenceFrame;
+use crate::model::frame::ReferenceFrame;
 use crate::similarity::Similarity;
 use glam::Vec2;
 

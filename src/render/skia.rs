@@ -8,7 +8,7 @@ use tiny_skia::{
 
 use super::triangle_affine;
 use crate::error::{check_len, Error, Result};
-use crate::frame::ReferenceFrame;
+use crate::model::frame::ReferenceFrame;
 use crate::similarity::Similarity;
 
 /// The tiny-skia backend of [`super::FaceDrawer`] for one reference frame: the appearance

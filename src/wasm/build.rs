@@ -10,9 +10,12 @@ use wasm_bindgen::prelude::*;
 use super::install_panic_hook;
 use super::model::JsModel;
 use super::surface::describe;
-use crate::builder::{BuildOptions, Builder, ReferenceChoice, TrainingImage};
+use crate::build::{BuildOptions, ReferenceChoice};
 use crate::image::{Image, ImageRef};
-use crate::EnrolFinder;
+use crate::{
+    enrol, EnrolFinder, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, DEFAULT_MIN_SCORE,
+    ENROL_BOXES, MAX_REFINE_ROUNDS,
+};
 
 #[wasm_bindgen]
 extern "C" {
@@ -165,7 +168,63 @@ pub fn build_model(
             describe(&options)
         )));
     }
-    let frames = get(&options, "frames")?;
+    let given = read_frames(&options)?;
+    let enrol_options = read_options(&options, given.len())?;
+    let callback = progress_callback(on_progress)?;
+    // Progress goes to the callback; a callback that throws cancels, and its error is thrown.
+    let thrown = std::cell::RefCell::new(None::<JsValue>);
+    let mut report = |p: EnrolProgress<'_>| -> bool {
+        let Some(f) = &callback else { return true };
+        if thrown.borrow().is_some() {
+            return false;
+        }
+        let stage = match p.stage {
+            EnrolStage::Landmarks => "landmarks",
+            EnrolStage::Model => "model",
+        };
+        let arg = js_sys::Object::new();
+        let _ = js_sys::Reflect::set(&arg, &"stage".into(), &stage.into());
+        let _ = js_sys::Reflect::set(&arg, &"done".into(), &(p.done as f64).into());
+        let _ = js_sys::Reflect::set(&arg, &"total".into(), &(p.total as f64).into());
+        let list: js_sys::Array = p.skipped.iter().map(|&i| JsValue::from(i as f64)).collect();
+        let _ = js_sys::Reflect::set(&arg, &"skipped".into(), &list);
+        match f.call1(&JsValue::NULL, &arg) {
+            Ok(r) => r.as_bool() != Some(false),
+            Err(e) => {
+                *thrown.borrow_mut() = Some(e);
+                false
+            }
+        }
+    };
+    let needs_finder = given.iter().any(|f| f.landmarks.is_none());
+    let made = if needs_finder {
+        with_finder(|finder| {
+            Ok(enrol(
+                given,
+                &enrol_options,
+                None,
+                Some(finder),
+                &mut report,
+            ))
+        })?
+    } else {
+        enrol(given, &enrol_options, None, None, &mut report)
+    };
+    match made {
+        Ok(e) => Ok(JsModel::from(e.model)),
+        Err(e) => match thrown.take() {
+            Some(t) => Err(JsError::new(&format!(
+                "buildModel: onProgress threw: {}",
+                describe(&t)
+            ))),
+            None => Err(build_err(e)),
+        },
+    }
+}
+
+/// The frames of `buildModel`'s options, each with its landmarks or `None` (the finder's).
+fn read_frames(options: &JsValue) -> Result<Vec<EnrolFrame>, JsError> {
+    let frames = get(options, "frames")?;
     if !js_sys::Array::is_array(&frames) {
         return Err(JsError::new(&format!(
             "buildModel: 'frames' must be an array of {{ rgba, width, height }}, got {}",
@@ -173,7 +232,7 @@ pub fn build_model(
         )));
     }
     let frames = js_sys::Array::from(&frames);
-    let landmark_list = get(&options, "landmarks")?;
+    let landmark_list = get(options, "landmarks")?;
     let landmark_list = if landmark_list.is_undefined() || landmark_list.is_null() {
         None
     } else if js_sys::Array::is_array(&landmark_list) {
@@ -192,47 +251,8 @@ pub fn build_model(
             describe(&landmark_list)
         )));
     };
-    let name = get(&options, "name")?
-        .as_string()
-        .filter(|s| !s.trim().is_empty())
-        .ok_or_else(|| JsError::new("buildModel: 'name' must be a non-empty string"))?;
-    if name.len() > 256 {
-        return Err(JsError::new("buildModel: 'name' is longer than 256 bytes"));
-    }
-
-    let callback: Option<js_sys::Function> = match on_progress {
-        None => None,
-        Some(f) => {
-            let v: JsValue = f.into();
-            if v.is_undefined() || v.is_null() {
-                None
-            } else {
-                Some(v.dyn_into::<js_sys::Function>().map_err(|v| {
-                    JsError::new(&format!(
-                        "buildModel: onProgress must be a function, got {}",
-                        describe(&v)
-                    ))
-                })?)
-            }
-        }
-    };
-    let min_score = match number(&options, "minScore", "'minScore'")? {
-        None => DEFAULT_MIN_SCORE,
-        Some(s) if (0.0..=1.0).contains(&s) => s as f32,
-        Some(_) => return Err(JsError::new("buildModel: 'minScore' must be in 0..=1")),
-    };
-    let min_frames = match number(&options, "minFrames", "'minFrames'")? {
-        None => 2,
-        Some(n) if n >= 2.0 && n.fract() == 0.0 && n <= 1e6 => n as usize,
-        Some(_) => {
-            return Err(JsError::new(
-                "buildModel: 'minFrames' must be a whole number of at least 2",
-            ))
-        }
-    };
-
     // The frames, with the landmarks given (or None: the finder places them).
-    let mut given: Vec<(Image, Option<Vec<f32>>)> = Vec::with_capacity(frames.length() as usize);
+    let mut given: Vec<EnrolFrame> = Vec::with_capacity(frames.length() as usize);
     for (i, f) in frames.iter().enumerate() {
         let what = format!("frames[{i}]");
         if !f.is_object() {
@@ -259,14 +279,15 @@ pub fn build_model(
         } else {
             Some(points(&lm, &format!("buildModel: landmarks of {what}"))?)
         };
-        given.push((
-            Image {
+        given.push(EnrolFrame {
+            name: format!("frame{i}"),
+            image: Image {
                 width,
                 height,
                 data,
             },
             landmarks,
-        ));
+        });
     }
     if given.len() < 2 {
         return Err(JsError::new(&format!(
@@ -275,8 +296,36 @@ pub fn build_model(
         )));
     }
 
+    Ok(given)
+}
+
+/// The enrolment options of `buildModel`'s options, for `frames` frames.
+fn read_options(options: &JsValue, frames: usize) -> Result<EnrolOptions, JsError> {
+    let name = get(options, "name")?
+        .as_string()
+        .filter(|s| !s.trim().is_empty())
+        .ok_or_else(|| JsError::new("buildModel: 'name' must be a non-empty string"))?;
+    if name.len() > 256 {
+        return Err(JsError::new("buildModel: 'name' is longer than 256 bytes"));
+    }
+
+    let min_score = match number(options, "minScore", "'minScore'")? {
+        None => DEFAULT_MIN_SCORE,
+        Some(s) if (0.0..=1.0).contains(&s) => s as f32,
+        Some(_) => return Err(JsError::new("buildModel: 'minScore' must be in 0..=1")),
+    };
+    let min_frames = match number(options, "minFrames", "'minFrames'")? {
+        None => 2,
+        Some(n) if n >= 2.0 && n.fract() == 0.0 && n <= 1e6 => n as usize,
+        Some(_) => {
+            return Err(JsError::new(
+                "buildModel: 'minFrames' must be a whole number of at least 2",
+            ))
+        }
+    };
+
     // The reference, as an index into the frames given (before skipping and selection).
-    let reference = get(&options, "reference")?;
+    let reference = get(options, "reference")?;
     let reference_index = if reference.is_undefined()
         || reference.is_null()
         || reference.as_string().as_deref() == Some("mean")
@@ -284,19 +333,17 @@ pub fn build_model(
         None
     } else {
         match reference.as_f64() {
-            Some(x) if x >= 0.0 && x.fract() == 0.0 && (x as usize) < given.len() => {
-                Some(x as usize)
-            }
+            Some(x) if x >= 0.0 && x.fract() == 0.0 && (x as usize) < frames => Some(x as usize),
             _ => {
                 return Err(JsError::new(&format!(
                     "buildModel: 'reference' must be \"mean\" or a frame index below {}, got {}",
-                    given.len(),
+                    frames,
                     describe(&reference)
                 )))
             }
         }
     };
-    let select = match number(&options, "select", "'select'")? {
+    let select = match number(options, "select", "'select'")? {
         None => None,
         Some(n) if n >= 2.0 && n.fract() == 0.0 => Some(n as usize),
         Some(_) => {
@@ -305,118 +352,16 @@ pub fn build_model(
             ))
         }
     };
-    let rounds = match number(&options, "refine", "'refine'")? {
+    let refine_rounds = match number(options, "refine", "'refine'")? {
         None => 0,
-        Some(r) if (0.0..=3.0).contains(&r) && r.fract() == 0.0 => r as usize,
+        Some(r) if (0.0..=MAX_REFINE_ROUNDS as f64).contains(&r) && r.fract() == 0.0 => r as usize,
         Some(_) => {
             return Err(JsError::new(
                 "buildModel: 'refine' must be a whole number of rounds in 0..=3",
             ))
         }
     };
-
-    let thrown = std::cell::RefCell::new(None::<JsValue>);
-    let report = |stage: &str, done: usize, total: usize, skipped: &[usize]| -> bool {
-        let Some(f) = &callback else { return true };
-        if thrown.borrow().is_some() {
-            return false;
-        }
-        let arg = js_sys::Object::new();
-        let _ = js_sys::Reflect::set(&arg, &"stage".into(), &stage.into());
-        let _ = js_sys::Reflect::set(&arg, &"done".into(), &(done as f64).into());
-        let _ = js_sys::Reflect::set(&arg, &"total".into(), &(total as f64).into());
-        let list: js_sys::Array = skipped.iter().map(|&i| JsValue::from(i as f64)).collect();
-        let _ = js_sys::Reflect::set(&arg, &"skipped".into(), &list);
-        match f.call1(&JsValue::NULL, &arg) {
-            Ok(r) => r.as_bool() != Some(false),
-            Err(e) => {
-                *thrown.borrow_mut() = Some(e);
-                false
-            }
-        }
-    };
-    let thrown_err =
-        |t: &JsValue| JsError::new(&format!("buildModel: onProgress threw: {}", describe(t)));
-
-    // Landmarks from the face finder where none were given; frames without a confident face
-    // are skipped.
-    let to_find = given.iter().filter(|g| g.1.is_none()).count();
-    let mut skipped: Vec<usize> = Vec::new();
-    let mut images: Vec<TrainingImage> = Vec::with_capacity(given.len());
-    let mut index_of: Vec<usize> = Vec::with_capacity(given.len()); // images[k] is frames[index_of[k]]
-    let mut searched = 0;
-    for (i, (image, landmarks)) in given.into_iter().enumerate() {
-        let landmarks = match landmarks {
-            Some(l) => Some(l),
-            None => {
-                let found = with_finder(|finder| {
-                    let view = image
-                        .view()
-                        .map_err(|e| JsError::new(&format!("buildModel: frames[{i}]: {e}")))?;
-                    finder
-                        .find(&view, min_score)
-                        .map(|f| f.map(|f| f.landmarks))
-                        .map_err(|e| JsError::new(&format!("buildModel: frames[{i}]: {e}")))
-                })?;
-                searched += 1;
-                if found.is_none() {
-                    skipped.push(i);
-                }
-                if !report("landmarks", searched, to_find, &skipped) {
-                    return Err(match thrown.borrow().as_ref() {
-                        Some(t) => thrown_err(t),
-                        None => JsError::new("cancelled"),
-                    });
-                }
-                found
-            }
-        };
-        if let Some(landmarks) = landmarks {
-            images.push(TrainingImage {
-                name: format!("frame{i}"),
-                image,
-                landmarks,
-            });
-            index_of.push(i);
-        }
-    }
-    if let Some(r) = reference_index {
-        if skipped.contains(&r) {
-            return Err(JsError::new(&format!(
-                "buildModel: the reference, frames[{r}], has no confident face"
-            )));
-        }
-    }
-    let needed = min_frames.max(2);
-    if images.len() < needed {
-        return Err(JsError::new(&format!(
-            "buildModel: a face in {} of {} frames, at least {needed} are needed{}",
-            images.len(),
-            index_of.len() + skipped.len(),
-            if skipped.is_empty() {
-                String::new()
-            } else {
-                format!("; no confident face in frames {}", list_indices(&skipped))
-            }
-        )));
-    }
-
-    if let Some(n) = select {
-        let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
-        let mut keep = crate::select_varied(&shapes, n).map_err(build_err)?;
-        if let Some(r) = reference_index {
-            let k = index_of.iter().position(|&i| i == r).unwrap_or(0);
-            if !keep.contains(&k) {
-                keep.pop();
-                keep.push(k);
-            }
-        }
-        keep.sort_unstable();
-        let mut all: Vec<Option<TrainingImage>> = images.into_iter().map(Some).collect();
-        images = keep.iter().filter_map(|&i| all[i].take()).collect();
-    }
-
-    let mut o = BuildOptions {
+    let mut build = BuildOptions {
         name,
         reference: match reference_index {
             Some(i) => ReferenceChoice::Named(format!("frame{i}")),
@@ -424,34 +369,43 @@ pub fn build_model(
         },
         ..BuildOptions::default()
     };
-    if let Some(v) = number(&options, "shapeVariance", "'shapeVariance'")? {
-        o.shape_variance = v;
+    if let Some(v) = number(options, "shapeVariance", "'shapeVariance'")? {
+        build.shape_variance = v;
     }
-    if let Some(v) = number(&options, "appearanceVariance", "'appearanceVariance'")? {
-        o.appearance_variance = v;
+    if let Some(v) = number(options, "appearanceVariance", "'appearanceVariance'")? {
+        build.appearance_variance = v;
     }
-    let model = Builder::new(o).build_refined(&images, None, rounds, &mut |p| {
-        report("model", p.done, p.total, &skipped)
-    });
-    // The backdrop: the training frame closest to the model's mean, as the CLI's build.
-    let model = model.and_then(|m| crate::photo::with_default_backdrop(m, &images, None));
-    match model {
-        Ok(m) => Ok(JsModel::from(m)),
-        Err(e) => match thrown.take() {
-            Some(t) => Err(thrown_err(&t)),
-            None => Err(build_err(e)),
-        },
-    }
+    Ok(EnrolOptions {
+        build,
+        min_score,
+        min_frames,
+        select,
+        refine_rounds,
+        ..EnrolOptions::default()
+    })
 }
 
-/// The finder's score a face needs by default: none beyond the finder's own acceptance (its
-/// landmark passes must agree; no false faces on 90 images without one, docs/finding.md). On
-/// webcam-dev, models from every face found tracked better than from faces scoring 0.3 or 0.5
-/// (docs/fitting.md, "Enrolment with the face finder's landmarks").
-const DEFAULT_MIN_SCORE: f32 = 0.0;
-
-/// Boxes the enrolment finder averages (each on the image and its mirror; docs/fitting.md).
-pub(super) const ENROL_BOXES: usize = 1;
+/// `buildModel`'s progress callback (`None` when not given).
+fn progress_callback(
+    on_progress: Option<BuildProgressArg>,
+) -> Result<Option<js_sys::Function>, JsError> {
+    Ok(match on_progress {
+        None => None,
+        Some(f) => {
+            let v: JsValue = f.into();
+            if v.is_undefined() || v.is_null() {
+                None
+            } else {
+                Some(v.dyn_into::<js_sys::Function>().map_err(|v| {
+                    JsError::new(&format!(
+                        "buildModel: onProgress must be a function, got {}",
+                        describe(&v)
+                    ))
+                })?)
+            }
+        }
+    })
+}
 
 thread_local! {
     /// One enrolment finder per thread (worker), made on first use: its nets and buffers are
@@ -473,15 +427,6 @@ fn with_finder<T>(f: impl FnOnce(&mut EnrolFinder) -> Result<T, JsError>) -> Res
             None => Err(JsError::new("buildModel: face finder unavailable")),
         }
     })
-}
-
-/// "0, 3, 7" (at most 12, then "and N more").
-fn list_indices(v: &[usize]) -> String {
-    let mut s: Vec<String> = v.iter().take(12).map(|i| i.to_string()).collect();
-    if v.len() > 12 {
-        s.push(format!("and {} more", v.len() - 12));
-    }
-    s.join(", ")
 }
 
 fn build_err(e: crate::Error) -> JsError {

@@ -9,7 +9,7 @@ use super::model::{model_info, JsModel};
 use super::surface::{now_ms, paint, params_into, Ctx, RenderOptions, Sink, Stages};
 use super::{install_panic_hook, js_err, params_to_js, RenderOptionsArg};
 use crate::clone::{CloneOptions, Cloner, Method, TargetFrame};
-use crate::frame::ReferenceFrame;
+use crate::model::frame::ReferenceFrame;
 use crate::model::{Model, Params};
 use crate::render::{base_box, fit_view, picture_view, Compositor, FaceDrawer};
 
@@ -138,7 +138,7 @@ impl JsCloner {
             .image_shape(&self.source_params, &mut self.shape)
             .map_err(js_err)?;
         // Eq. 2 for the source, cache-blocked (bit-identical to `instance_unchecked`).
-        crate::appearance::synthesise(
+        crate::model::appearance::synthesise(
             &model.appearance().base,
             &model.appearance().modes,
             &self.source_params.appearance,

@@ -40,7 +40,7 @@ impl JsFaceFinder {
     #[wasm_bindgen(constructor)]
     pub fn new() -> Result<JsFaceFinder, JsError> {
         install_panic_hook();
-        EnrolFinder::new(super::build::ENROL_BOXES)
+        EnrolFinder::new(crate::ENROL_BOXES)
             .map(|inner| JsFaceFinder { inner })
             .map_err(|e| JsError::new(&format!("FaceFinder: {e}")))
     }

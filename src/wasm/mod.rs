@@ -1,7 +1,7 @@
 //! The wasm-bindgen glue (wasm32 only): the JavaScript API of the npm package `facemimic`.
 //!
 //! A thin layer over the core: [`JsModel`] (`Model` in JS) wraps [`crate::Model`] and
-//! [`crate::format`], [`JsCloner`] (`Cloner`) wraps [`crate::clone::Cloner`], and rendering goes
+//! [`crate::model::format`], [`JsCloner`] (`Cloner`) wraps [`crate::clone::Cloner`], and rendering goes
 //! through [`crate::FaceDrawer`] into a reusable tiny-skia pixmap per canvas size, then into the
 //! canvas with `putImageData`. The contract is `npm/README.md`.
 //!

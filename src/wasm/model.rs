@@ -169,7 +169,8 @@ impl JsModel {
     #[wasm_bindgen(js_name = fromBytes)]
     pub fn from_bytes(bytes: &[u8]) -> Result<JsModel, JsError> {
         install_panic_hook();
-        let (model, info) = crate::format::read_model_info(bytes).map_err(|e| js_err(e.into()))?;
+        let (model, info) =
+            crate::model::format::read_model_info(bytes).map_err(|e| js_err(e.into()))?;
         let mut m = JsModel::from(model);
         m.notice = info.backdrop_notice;
         Ok(m)
@@ -190,8 +191,9 @@ impl JsModel {
     ) -> Result<JsModel, JsError> {
         install_panic_hook();
         let image = ImageRef::new(width, height, rgba).map_err(js_err)?;
-        let frame = crate::canonical::canonical_frame();
-        let model = crate::photo::photo_model(name, &image, landmarks, frame).map_err(js_err)?;
+        let frame = crate::build::canonical::canonical_frame();
+        let model =
+            crate::build::photo::photo_model(name, &image, landmarks, frame).map_err(js_err)?;
         Ok(JsModel::from(model))
     }
 
@@ -199,7 +201,7 @@ impl JsModel {
     /// Throws (writing nothing) if the model is one `fromBytes` would reject.
     #[wasm_bindgen(js_name = toBytes)]
     pub fn to_bytes(&self) -> Result<Vec<u8>, JsError> {
-        crate::format::write_model_checked(&self.model).map_err(|e| js_err(e.into()))
+        crate::model::format::write_model_checked(&self.model).map_err(|e| js_err(e.into()))
     }
 
     /// The model's name (e.g. `"spk07"`).

@@ -120,7 +120,7 @@ impl WasmTracker {
     #[wasm_bindgen(constructor)]
     pub fn new(model_bytes: &[u8]) -> Result<WasmTracker, JsError> {
         super::install_panic_hook();
-        let model = crate::format::read_model(model_bytes).map_err(|e| err(e.into()))?;
+        let model = crate::model::format::read_model(model_bytes).map_err(|e| err(e.into()))?;
         let inner = Tracker::new(&model, FitOptions::default()).map_err(err)?;
         Ok(WasmTracker { inner })
     }

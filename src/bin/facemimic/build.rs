@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use facemimic::{
-    io, BuildOptions, Builder, EnrolFinder, FrameChoice, ReferenceChoice, Result, TrainingImage,
+    io, BuildOptions, EnrolFinder, EnrolFrame, EnrolOptions, FrameChoice, ReferenceChoice, Result,
+    TrainingImage,
 };
 
 #[derive(clap::Args)]
@@ -137,27 +138,37 @@ pub fn run(a: Args) -> Result<()> {
             "no training images given (IMAGE... or --list)".into(),
         ));
     }
-    let mut images = if a.find_faces {
-        find_faces(&paths)?
-    } else {
-        paths
-            .iter()
-            .map(|p| io::read_training_image(p))
-            .collect::<Result<Vec<_>>>()?
-    };
+    // Every frame read first (a missing or unreadable file fails before any work), with its
+    // landmark file unless the finder is to place them.
+    let frames = paths
+        .iter()
+        .map(|p| {
+            let name = p
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            if a.find_faces {
+                let image = io::read_image(p)?;
+                Ok(EnrolFrame {
+                    name,
+                    image,
+                    landmarks: None,
+                })
+            } else {
+                let t = io::read_training_image(p)?;
+                Ok(EnrolFrame {
+                    name: t.name,
+                    image: t.image,
+                    landmarks: Some(t.landmarks),
+                })
+            }
+        })
+        .collect::<Result<Vec<_>>>()?;
     if let Some(n) = a.select {
         if n < 2 {
             return Err(facemimic::Error::Training(format!(
                 "--select {n}: at least 2 frames are needed"
             )));
-        }
-        if n < images.len() {
-            let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
-            let mut keep = facemimic::select_varied(&shapes, n)?;
-            keep.sort_unstable();
-            let mut all: Vec<Option<TrainingImage>> = images.into_iter().map(Some).collect();
-            images = keep.iter().filter_map(|&i| all[i].take()).collect();
-            eprintln!("facemimic: selected {} varied frames", images.len());
         }
     }
     let frame_model = a.frame.as_deref().map(io::read_model_file).transpose()?;
@@ -166,38 +177,48 @@ pub fn run(a: Args) -> Result<()> {
         "closest" => ReferenceChoice::ClosestToFrame,
         name => ReferenceChoice::Named(name.to_string()),
     };
-    let name = model_name(&a);
-    let builder = Builder::new(BuildOptions {
-        name,
-        shape_variance: a.shape_variance,
-        appearance_variance: a.appearance_variance,
-        face_width: a.face_width,
-        reference,
-        frame: if a.own_frame {
-            FrameChoice::Own
-        } else {
-            FrameChoice::Canonical
+    let options = EnrolOptions {
+        build: BuildOptions {
+            name: model_name(&a),
+            shape_variance: a.shape_variance,
+            appearance_variance: a.appearance_variance,
+            face_width: a.face_width,
+            reference,
+            frame: if a.own_frame {
+                FrameChoice::Own
+            } else {
+                FrameChoice::Canonical
+            },
+            ..BuildOptions::default()
         },
-        ..BuildOptions::default()
-    });
-    let model = builder.build(&images, frame_model.as_ref())?;
-    let model = if a.no_backdrop {
-        model
-    } else {
-        let chosen = a
-            .backdrop
-            .as_deref()
-            .map(picture_with_landmarks)
-            .transpose()?;
-        let view = chosen.as_ref().map(|t| t.image.view()).transpose()?;
-        let pair = chosen
-            .as_ref()
-            .zip(view.as_ref())
-            .map(|(t, v)| (v, t.landmarks.as_slice()));
-        facemimic::with_default_backdrop(model, &images, pair).map_err(|e| match &a.backdrop {
-            Some(p) => e.with_context(&format!("backdrop {}", p.display())),
-            None => e,
-        })?
+        select: a.select,
+        // The default backdrop is the core's; a chosen one is put in below.
+        backdrop: !a.no_backdrop && a.backdrop.is_none(),
+        ..EnrolOptions::default()
+    };
+    let mut noted = 0;
+    let made = facemimic::enrol(frames, &options, frame_model.as_ref(), None, &mut |p| {
+        for &i in &p.skipped[noted..] {
+            eprintln!(
+                "facemimic: no face found in {}, skipped",
+                paths[i].display()
+            );
+        }
+        noted = p.skipped.len();
+        true
+    })?;
+    if made.images.len() < paths.len() - made.skipped.len() {
+        eprintln!("facemimic: selected {} varied frames", made.images.len());
+    }
+    let images = made.images;
+    let model = match &a.backdrop {
+        Some(path) => {
+            let chosen = picture_with_landmarks(path)?;
+            let view = chosen.image.view()?;
+            facemimic::with_default_backdrop(made.model, &images, Some((&view, &chosen.landmarks)))
+                .map_err(|e| e.with_context(&format!("backdrop {}", path.display())))?
+        }
+        None => made.model,
     };
     io::write_model_file_as(&a.out, &model, a.precision)?;
     eprintln!(
@@ -210,35 +231,4 @@ pub fn run(a: Args) -> Result<()> {
         a.out.display()
     );
     Ok(())
-}
-
-/// The training images with the finder's landmarks; images without a face are skipped with a
-/// note. Fewer than two faces is an error (nothing is written).
-fn find_faces(paths: &[PathBuf]) -> Result<Vec<TrainingImage>> {
-    // The finder's points averaged with a pass on the mirrored image, as the page's enrolment.
-    let mut finder = EnrolFinder::new(1)?;
-    let mut out = Vec::new();
-    for p in paths {
-        let image = io::read_image(p)?;
-        let Some(face) = finder.find(&image.view()?, 0.0)? else {
-            eprintln!("facemimic: no face found in {}, skipped", p.display());
-            continue;
-        };
-        out.push(TrainingImage {
-            name: p
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default(),
-            image,
-            landmarks: face.landmarks,
-        });
-    }
-    if out.len() < 2 {
-        return Err(facemimic::Error::Training(format!(
-            "faces found in {} of {} images: at least 2 are needed",
-            out.len(),
-            paths.len()
-        )));
-    }
-    Ok(out)
 }

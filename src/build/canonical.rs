@@ -16,7 +16,7 @@
 use std::sync::OnceLock;
 
 use crate::error::{Error, Result};
-use crate::frame::ReferenceFrame;
+use crate::model::frame::ReferenceFrame;
 
 /// The asset, embedded in the library.
 pub const CANONICAL_FRAME_TEXT: &str = include_str!("canonical_frame.txt");

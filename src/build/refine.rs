@@ -8,7 +8,7 @@
 //! across the set; the second build is then sharper and its shape modes cleaner. What this gains,
 //! measured, is in docs/fitting.md ("Refining an enrolled model").
 
-use crate::builder::{BuildProgress, Builder, TrainingImage};
+use crate::build::{BuildProgress, Builder, TrainingImage};
 use crate::error::{Error, Result};
 use crate::fit::{FitOptions, Fitter};
 use crate::model::Model;

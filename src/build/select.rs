@@ -9,7 +9,7 @@
 //! in-plane rotation do not count as variety; expression and out-of-plane pose do.
 
 use crate::error::{Error, Result};
-use crate::shape::generalised_procrustes;
+use crate::model::shape::generalised_procrustes;
 
 /// Indices of `n` varied shapes among `shapes` (each `2k` interleaved image coordinates, all of
 /// one length), in the order they were chosen. Deterministic (ties go to the lower index).

@@ -1,9 +1,9 @@
 //! The limits of the values that enter the library, and their checks (re-exported by
-//! [`crate::bounds`], which adds the model-level checks and the memory budget).
+//! [`crate::model::bounds`], which adds the model-level checks and the memory budget).
 
 use crate::error::{Error, Result};
-use crate::frame::MAX_FRAME_SIDE;
 use crate::image::MAX_IMAGE_SIDE;
+use crate::model::frame::MAX_FRAME_SIDE;
 use crate::similarity::Similarity;
 
 /// Largest magnitude of a base shape coordinate or frame origin (model coordinates): the frame
@@ -25,10 +25,12 @@ pub const MAX_POSE_SHIFT: f32 = 1e6;
 /// within a few standard deviations (at most a few thousand model units); this bound only
 /// keeps `s0 + S p` and `A0 + A lambda` far from `f32` overflow.
 pub const MAX_PARAM: f32 = 1e6;
+// Landmark files are read with the same bound (the landmark parser sits below the model).
+const _: () = assert!(MAX_PARAM == crate::landmarks::MAX_COORDINATE);
 /// Largest magnitude of a cloning gain (global or per mode) and of the constraint's `k`.
 pub const MAX_GAIN: f32 = 1e3;
 
-/// The explicit limits a model file must respect (see `docs/model-format.md`, "Limits"; [`crate::format`] checks them on read).
+/// The explicit limits a model file must respect (see `docs/model-format.md`, "Limits"; [`crate::model::format`] checks them on read).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Limits {
     /// Landmarks `n`: `3..=max_landmarks`.

@@ -1,8 +1,8 @@
 //! Sampling an image at a shape into the reference frame (the inverse piecewise-affine warp).
 
 use crate::error::{check_len, Result};
-use crate::frame::ReferenceFrame;
 use crate::image::ImageRef;
+use crate::model::frame::ReferenceFrame;
 
 /// Samples `image` at the mesh placed by `image_shape` (the frame's landmarks in image
 /// coordinates) into the frame: for every frame pixel, its barycentric coordinates in its

@@ -1,16 +1,37 @@
-//! The person-specific AAM: shape model, appearance model and reference frame together.
+//! The person-specific AAM: shape model, appearance model and reference frame together, and
+//! what holds them: the model file ([`format`]), the input limits ([`bounds`]), the backdrop
+//! and the piecewise-affine sampling through the frame.
+//!
+//! - `mod.rs`: [`Model`], [`Params`], [`ModelParts`] (a model is built by [`crate::Builder`] or
+//!   read by [`format::read_model`]).
+//! - `shape.rs` / `appearance.rs`: the two linear models (Eq. 1, Eq. 2), both a
+//!   `linear::LinearModel` with their own meaning on top.
+//! - `frame.rs`: the triangulated reference frame; `warp.rs`: sampling an image through it.
+//! - `format/`: the `.fmm` file (layout, reader, writer, appearance codec).
+//! - `limits.rs` / `bounds.rs`: the limits every input is checked against.
+//! - `backdrop.rs`: the picture a model's face is composited into.
+
+pub(crate) mod appearance;
+pub(crate) mod backdrop;
+pub mod bounds;
+pub mod format;
+pub(crate) mod frame;
+pub(crate) mod limits;
+pub(crate) mod linear;
+pub(crate) mod shape;
+pub(crate) mod warp;
 
 use serde::{Deserialize, Serialize};
 
 use std::sync::Arc;
 
-use crate::appearance::AppearanceModel;
-use crate::backdrop::Backdrop;
 use crate::error::{check_len, Error, Result};
-use crate::frame::ReferenceFrame;
 use crate::image::ImageRef;
-use crate::limits::{check_output, check_param_values, check_pose_range};
-use crate::shape::ShapeModel;
+use crate::model::appearance::AppearanceModel;
+use crate::model::backdrop::Backdrop;
+use crate::model::frame::ReferenceFrame;
+use crate::model::limits::{check_output, check_param_values, check_pose_range};
+use crate::model::shape::ShapeModel;
 use crate::similarity::Similarity;
 
 /// The landmark layout a model uses.
@@ -71,8 +92,8 @@ pub struct Params {
 /// frame's pixel count, `n` the scheme's and the frame's landmark count, one variance per
 /// mode) and every number is finite. The fields are private: a `Model` only comes from
 /// [`Model::new`] (which checks all of this), [`crate::Builder`] or
-/// [`crate::format::read_model`], so code holding one need not check it again. The value
-/// bounds of the file format ([`crate::bounds`]) are checked when a model is read or written.
+/// [`crate::model::format::read_model`], so code holding one need not check it again. The value
+/// bounds of the file format ([`crate::model::bounds`]) are checked when a model is read or written.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
     /// The parts, checked by [`Model::new`].
@@ -246,7 +267,7 @@ impl Model {
     }
 
     /// Checks that `params` fits this model: lengths, finite values within
-    /// [`crate::bounds::MAX_PARAM`], a pose within the pose bounds (see [`crate::bounds`]).
+    /// [`crate::model::bounds::MAX_PARAM`], a pose within the pose bounds (see [`crate::model::bounds`]).
     pub fn check_params(&self, params: &Params) -> Result<()> {
         check_len(
             "shape parameters",
@@ -289,7 +310,7 @@ impl Model {
             .shape
             .project_image_shape(landmarks, &mut shape)?;
         let mut g = vec![0.0; self.parts.appearance.len()];
-        crate::warp::sample_rgb(&self.parts.frame, image, landmarks, &mut g)?;
+        crate::model::warp::sample_rgb(&self.parts.frame, image, landmarks, &mut g)?;
         let mut appearance = vec![0.0; self.parts.appearance.n_modes()];
         self.parts.appearance.project(&g, &mut appearance);
         check_output("appearance parameters", &appearance)?;

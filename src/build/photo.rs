@@ -1,14 +1,14 @@
 //! Models of a single picture: a target made from one photo, and the backdrop of a built
 //! model (the picture its face is composited into).
 
-use crate::appearance::AppearanceModel;
-use crate::backdrop::Backdrop;
-use crate::builder::TrainingImage;
+use crate::build::TrainingImage;
 use crate::error::{Error, Result};
-use crate::frame::ReferenceFrame;
 use crate::image::ImageRef;
+use crate::model::appearance::AppearanceModel;
+use crate::model::backdrop::Backdrop;
+use crate::model::frame::ReferenceFrame;
+use crate::model::shape::ShapeModel;
 use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
-use crate::shape::ShapeModel;
 use crate::similarity::Similarity;
 
 /// Smallest face a photo target accepts: the landmarks' bounding box must be at least this many
@@ -40,7 +40,7 @@ pub fn photo_model(
             frame.landmarks()
         )));
     }
-    crate::limits::check_landmarks(landmarks)?;
+    crate::model::limits::check_landmarks(landmarks)?;
     let width = crate::geometry::BBox::of_points(landmarks).width;
     if !(width >= MIN_PHOTO_FACE) {
         return Err(Error::Landmarks(format!(
@@ -58,20 +58,20 @@ pub fn photo_model(
     to_model.apply_in_place(&mut base);
     // Sample the decoded backdrop, so the base appearance is the picture the model carries.
     let mut a0 = vec![0.0; 3 * frame.n_pixels()];
-    crate::warp::sample_rgb(frame, &backdrop.image(), landmarks, &mut a0)?;
+    crate::model::warp::sample_rgb(frame, &backdrop.image(), landmarks, &mut a0)?;
     let model = Model::new(ModelParts {
         name: name.to_string(),
         scheme: LandmarkScheme::for_count(landmarks.len() / 2),
-        shape: ShapeModel {
+        shape: ShapeModel(crate::model::linear::LinearModel {
             base,
             modes: Vec::new(),
             variances: Vec::new(),
-        },
-        appearance: AppearanceModel {
+        }),
+        appearance: AppearanceModel(crate::model::linear::LinearModel {
             base: a0,
             modes: Vec::new(),
             variances: Vec::new(),
-        },
+        }),
         frame: frame.clone(),
         reference: Reference::Training(name.to_string()),
         mean_pose: pose,

@@ -1,39 +1,44 @@
-//! The appearance model (Eq. 2).
+//! The linear model both halves of an AAM are: a base vector plus a weighted sum of orthonormal
+//! modes, each with its variance. The shape model (Eq. 1) and the appearance model (Eq. 2) are
+//! this type with their own meaning on top ([`crate::ShapeModel`], [`crate::AppearanceModel`]
+//! dereference to it).
 
 use crate::error::{check_len, Result};
 
-/// A linear appearance model `A(x) = A0(x) + sum_i lambda_i A_i(x)` over the reference frame's
-/// pixels (the paper's Eq. 2).
+/// A linear model `x = x0 + sum_i w_i x_i` with `k` orthonormal modes of dimension `d`.
 ///
-/// Represents: the base appearance `A0` (`3N` values, RGB in `0..=1` per frame pixel, in the
-/// frame's pixel order), `l` orthonormal modes (row-major `l x 3N`) and their variances `eta_i`.
+/// Represents: the base `x0` (`d` values), the modes row-major (`k x d`: mode `i` is
+/// `modes[i*d..(i+1)*d]`) and the variance of each mode.
+/// Requires (for the methods to mean anything): `modes.len() == k * d` with `k =
+/// variances.len()`. Ensures (when built by [`crate::Builder`] or read from a model file):
+/// modes orthonormal to within float precision, variances non-negative and descending.
 #[derive(Clone, Debug, PartialEq)]
-pub struct AppearanceModel {
-    /// Base appearance `A0`.
+pub struct LinearModel {
+    /// The base `x0` (the mean, or the chosen reference).
     pub base: Vec<f32>,
-    /// Modes, row-major `l x 3N`.
+    /// Modes, row-major `k x d`.
     pub modes: Vec<f32>,
-    /// Variance `eta_i` of each mode.
+    /// Variance of each mode.
     pub variances: Vec<f32>,
 }
 
-impl AppearanceModel {
-    /// Number of modes `l`.
+impl LinearModel {
+    /// Number of modes `k`.
     pub fn n_modes(&self) -> usize {
         self.variances.len()
     }
 
-    /// Length of an appearance vector (`3N`).
+    /// Dimension `d` of an instance.
     pub fn len(&self) -> usize {
         self.base.len()
     }
 
-    /// True when the model has no pixels (never the case for a valid model).
+    /// True when the model has dimension 0 (never the case for a valid model).
     pub fn is_empty(&self) -> bool {
         self.base.is_empty()
     }
 
-    /// Mode `i` (`3N` values); `None` when `i >= l`.
+    /// Mode `i` (`d` values); `None` when `i >= k`.
     pub fn mode(&self, i: usize) -> Option<&[f32]> {
         let d = self.base.len();
         if i >= self.n_modes() {
@@ -42,7 +47,7 @@ impl AppearanceModel {
         self.modes.get(i * d..(i + 1) * d)
     }
 
-    /// `sqrt(eta_i)` per mode.
+    /// The standard deviation `sqrt(variance)` of each mode.
     pub fn sigmas(&self) -> Vec<f32> {
         self.variances.iter().map(|v| v.sqrt()).collect()
     }
@@ -52,31 +57,37 @@ impl AppearanceModel {
         crate::pca::variance_shares(&self.variances)
     }
 
-    /// Eq. 2, `A = A0 + sum_i lambda_i A_i`, into `out` (`3N`). Allocates nothing.
-    pub fn instance(&self, lambda: &[f32], out: &mut [f32]) -> Result<()> {
-        check_len("appearance parameters", lambda, self.n_modes())?;
-        crate::limits::check_param_values("appearance parameters", lambda)?;
-        check_len("appearance buffer", out, self.base.len())?;
-        self.instance_unchecked(lambda, out);
-        crate::limits::check_output("appearance instance", out)
+    /// `x0 + sum_i w_i x_i` into `out` (`d`), checked: `w` has `k` finite values within the
+    /// parameter limit, `out` has `d` values, and the instance stays finite (`what` names the
+    /// parameters in errors). Allocates nothing.
+    pub fn instance_checked(&self, what: &'static str, w: &[f32], out: &mut [f32]) -> Result<()> {
+        check_len(what, w, self.n_modes())?;
+        crate::model::limits::check_param_values(what, w)?;
+        check_len("instance buffer", out, self.base.len())?;
+        self.instance_unchecked(w, out);
+        crate::model::limits::check_output("instance", out)
     }
 
-    /// [`AppearanceModel::instance`] without checks (hot path).
-    pub fn instance_unchecked(&self, lambda: &[f32], out: &mut [f32]) {
-        synthesise(&self.base, &self.modes, lambda, out);
+    /// `x0 + sum_i w_i x_i` into `out` without checks (hot paths that validated their input;
+    /// nothing is written when `out.len() != d`).
+    pub fn instance_unchecked(&self, w: &[f32], out: &mut [f32]) {
+        synthesise(&self.base, &self.modes, w, out);
     }
 
-    /// Projects an appearance vector: `lambda = A^T (g - A0)` into `out` (length `l`).
-    pub fn project(&self, g: &[f32], out: &mut [f32]) {
+    /// Projects a vector onto the modes: `w_i = x_i . (x - x0)` into `out` (`k` values).
+    pub fn project(&self, x: &[f32], out: &mut [f32]) {
         let d = self.base.len();
+        if d == 0 {
+            return;
+        }
         for (o, mode) in out.iter_mut().zip(self.modes.chunks_exact(d)) {
-            *o = dot_diff(mode, g, &self.base);
+            *o = dot_diff(mode, x, &self.base);
         }
     }
 }
 
 /// `out = base + sum_i w_i modes_i` (modes row-major, `base.len()` each): the linear
-/// combination behind Eq. 2 (and the mapped appearance of Eq. 3).
+/// combination behind Eq. 1 and Eq. 2 (and the mapped appearance of Eq. 3).
 ///
 /// Processed in cache-sized blocks of the output, so each block stays in L1 while every mode
 /// streams through once; zero weights are skipped. Per element the sum runs in mode order (the

@@ -1,9 +1,14 @@
 //! The shape model (Eq. 1) and generalised Procrustes alignment.
 
+use std::ops::{Deref, DerefMut};
+
 use crate::error::{check_len, Result};
+use crate::model::linear::LinearModel;
 use crate::similarity::{CentredFit, Similarity};
 
-/// A linear shape model `s = s0 + S p` (the paper's Eq. 1) in model coordinates.
+/// A linear shape model `s = s0 + S p` (the paper's Eq. 1) in model coordinates: a
+/// [`LinearModel`] (it dereferences to one for the base, the modes, the variances and the
+/// shared operations).
 ///
 /// Represents: the base shape `s0` (interleaved `2n` values, centred on the origin), `m`
 /// orthonormal modes (row-major: mode `i` is `modes[i*2n..(i+1)*2n]`, i.e. the columns of `S`),
@@ -11,81 +16,41 @@ use crate::similarity::{CentredFit, Similarity};
 /// Ensures (when built by [`crate::Builder`] or loaded from a file): modes orthonormal to
 /// within float precision, variances positive and descending.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ShapeModel {
-    /// Base shape `s0` (the mean, or the chosen reference shape).
-    pub base: Vec<f32>,
-    /// Modes, row-major `m x 2n`.
-    pub modes: Vec<f32>,
-    /// Variance `gamma_i` of each mode.
-    pub variances: Vec<f32>,
+pub struct ShapeModel(pub LinearModel);
+
+impl Deref for ShapeModel {
+    type Target = LinearModel;
+    fn deref(&self) -> &LinearModel {
+        &self.0
+    }
+}
+
+impl DerefMut for ShapeModel {
+    fn deref_mut(&mut self) -> &mut LinearModel {
+        &mut self.0
+    }
 }
 
 impl ShapeModel {
+    /// The shape model of base `s0`, modes (row-major `m x 2n`) and variances `gamma_i`.
+    pub fn new(base: Vec<f32>, modes: Vec<f32>, variances: Vec<f32>) -> ShapeModel {
+        ShapeModel(LinearModel {
+            base,
+            modes,
+            variances,
+        })
+    }
+
     /// Number of landmarks `n`.
     pub fn landmarks(&self) -> usize {
         self.base.len() / 2
-    }
-
-    /// Number of modes `m`.
-    pub fn n_modes(&self) -> usize {
-        self.variances.len()
-    }
-
-    /// Mode `i` as a slice of `2n` values; `None` when `i >= m`.
-    pub fn mode(&self, i: usize) -> Option<&[f32]> {
-        let d = self.base.len();
-        if i >= self.n_modes() {
-            return None;
-        }
-        self.modes.get(i * d..(i + 1) * d)
-    }
-
-    /// `sigma_i = sqrt(gamma_i)` of each mode.
-    pub fn sigmas(&self) -> Vec<f32> {
-        self.variances.iter().map(|v| v.sqrt()).collect()
-    }
-
-    /// Each mode's share of the kept variance (summing to 1; all 0 without variance).
-    pub fn variance_shares(&self) -> Vec<f32> {
-        crate::pca::variance_shares(&self.variances)
     }
 
     /// Eq. 1, `s = s0 + sum_i p_i s_i`, written into `out` (length `2n`). Allocates nothing.
     /// Requires `p.len() == m`, `out.len() == 2n`, finite `p` (all checked); fails with
     /// [`crate::Error::Overflow`] if the instance overflows.
     pub fn instance(&self, p: &[f32], out: &mut [f32]) -> Result<()> {
-        check_len("shape parameters", p, self.n_modes())?;
-        check_len("shape buffer", out, self.base.len())?;
-        crate::limits::check_param_values("shape parameters", p)?;
-        self.instance_unchecked(p, out);
-        crate::limits::check_output("shape instance", out)
-    }
-
-    /// [`ShapeModel::instance`] without the checks, for hot paths that already validated `p`
-    /// and `out` (crate-internal: `out.len()` must be `2n`).
-    pub(crate) fn instance_unchecked(&self, p: &[f32], out: &mut [f32]) {
-        if out.len() != self.base.len() {
-            return;
-        }
-        out.copy_from_slice(&self.base);
-        let d = self.base.len();
-        for (pi, mode) in p.iter().zip(self.modes.chunks_exact(d)) {
-            if *pi != 0.0 {
-                out.iter_mut().zip(mode).for_each(|(o, s)| *o += pi * s);
-            }
-        }
-    }
-
-    /// Projects a normalised shape onto the modes: `p = S^T (s - s0)` into `out` (length `m`).
-    pub fn project(&self, shape: &[f32], out: &mut [f32]) {
-        let d = self.base.len();
-        for (o, mode) in out.iter_mut().zip(self.modes.chunks_exact(d)) {
-            *o = mode
-                .iter()
-                .zip(shape.iter().zip(&self.base))
-                .map(|(m, (s, b))| m * (s - b))
-                .sum();
-        }
+        self.0.instance_checked("shape parameters", p, out)
     }
 
     /// Splits an image shape into pose and parameters: aligns `s0` to the image shape by least
@@ -93,7 +58,7 @@ impl ShapeModel {
     /// Returns the pose and writes `p` into `out`.
     pub fn project_image_shape(&self, image_shape: &[f32], out: &mut [f32]) -> Result<Similarity> {
         check_len("landmarks", image_shape, self.base.len())?;
-        crate::limits::check_landmarks(image_shape)?;
+        crate::model::limits::check_landmarks(image_shape)?;
         // Pose and parameters jointly by alternating least squares: the pose that places the
         // current instance `s0 + S p` best onto the landmarks, then `p` from the landmarks
         // mapped back through it, until the pose settles. (A pose fitted to `s0` alone is off

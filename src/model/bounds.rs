@@ -3,7 +3,7 @@
 //! Two promises are kept here (see `docs/model-format.md`, "Value bounds" and "Memory budget"):
 //!
 //! 1. **Finite or a typed error.** A model file may only declare values a real model can have
-//!    ([`check_model_values`], run by [`crate::format::read_model`] and before every write), and
+//!    ([`check_model_values`], run by [`crate::model::format::read_model`] and before every write), and
 //!    parameters, poses and gains are bounded on entry ([`check_param_values`],
 //!    [`check_pose_range`], [`MAX_GAIN`]). With these bounds every instance, mapping and
 //!    synthesis stays far inside the `f32` range; outputs are checked anyway where overflow is
@@ -16,7 +16,7 @@
 //!    [`MAX_IMAGE_FILE_BYTES`]). The tracker checks its precomputation against the budget before
 //!    allocating it ([`check_tracking_budget`]).
 
-pub use crate::limits::{
+pub use crate::model::limits::{
     check_gain, check_landmarks, check_output, check_param_values, check_pose_range,
     clamp_symmetric, Limits, LIMITS, MAX_APPEARANCE, MAX_GAIN, MAX_PARAM, MAX_POSE_SCALE,
     MAX_POSE_SHIFT, MAX_SHAPE_COORD, MIN_APPEARANCE, MIN_POSE_SCALE,
@@ -31,7 +31,7 @@ use crate::model::{Model, Reference};
 pub const MODEL_BYTES_FACTOR: u64 = 8;
 /// ... plus this fixed allowance (bytes).
 pub const FIXED_ALLOWANCE: u64 = 64 << 20;
-/// Loading a model: [`crate::format::read_model`] allocates at most `LOAD_BYTES_FACTOR x file
+/// Loading a model: [`crate::model::format::read_model`] allocates at most `LOAD_BYTES_FACTOR x file
 /// bytes + LOAD_ALLOWANCE` (asserted by the fuzz harness). The factor is larger than
 /// [`MODEL_BYTES_FACTOR`] because compact (version 2) files store a pixel's appearance in about
 /// 3 bytes that expand to 12 in memory, next to the frame's per-pixel tables.

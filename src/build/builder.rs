@@ -1,13 +1,13 @@
 //! Building a person-specific AAM from landmarked images.
 
-use crate::appearance::AppearanceModel;
-use crate::canonical::{canonical_frame, CANONICAL_LANDMARKS};
+use crate::build::canonical::{canonical_frame, CANONICAL_LANDMARKS};
 use crate::error::{Error, Result};
-use crate::frame::ReferenceFrame;
 use crate::image::Image;
+use crate::model::appearance::AppearanceModel;
+use crate::model::frame::ReferenceFrame;
+use crate::model::shape::{generalised_procrustes, ShapeModel};
 use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::pca::{mean, pca};
-use crate::shape::{generalised_procrustes, ShapeModel};
 use crate::similarity::{CentredFit, Similarity};
 
 /// One training example: an image and its landmarks (0-based image coordinates).
@@ -142,13 +142,6 @@ impl Builder {
         progress: &mut dyn FnMut(BuildProgress) -> bool,
     ) -> Result<Model> {
         let o = &self.options;
-        let max_name = crate::bounds::LIMITS.max_name_bytes as usize;
-        if o.name.len() > max_name {
-            return Err(Error::Training(format!(
-                "the model name is {} bytes long, the file format allows at most {max_name}",
-                o.name.len()
-            )));
-        }
         let total = images.len() + 2;
         let mut step = |done: usize| -> Result<()> {
             if progress(BuildProgress { done, total }) {
@@ -157,177 +150,21 @@ impl Builder {
                 Err(Error::Cancelled)
             }
         };
-        if images.len() < 2 {
-            return Err(Error::Training(format!(
-                "{} training image(s); at least 2 are needed (15-20 recommended)",
-                images.len()
-            )));
-        }
-        for (what, f) in [
-            ("shape", o.shape_variance),
-            ("appearance", o.appearance_variance),
-        ] {
-            if !(f > 0.0 && f <= 1.0) {
-                return Err(Error::Training(format!(
-                    "{what} variance fraction {f} not in (0, 1]"
-                )));
-            }
-        }
-        if !(o.face_width >= 8.0 && o.face_width <= 1024.0) {
-            return Err(Error::Training(format!(
-                "face width {} not in 8..=1024",
-                o.face_width
-            )));
-        }
-        let n = images[0].landmarks.len();
-        for t in images {
-            if t.landmarks.len() != n || n < 6 || n % 2 != 0 {
-                return Err(Error::Training(format!(
-                    "'{}' has {} landmarks, '{}' has {}",
-                    t.name,
-                    t.landmarks.len() / 2,
-                    images[0].name,
-                    n / 2
-                )));
-            }
-            if t.landmarks.iter().any(|v| !v.is_finite()) {
-                return Err(Error::Training(format!(
-                    "'{}' has non-finite landmarks",
-                    t.name
-                )));
-            }
-            t.image.view()?;
-        }
-        // The frame to build in and the shape the training shapes are aligned to.
-        let target: Option<(&ReferenceFrame, &[f32])> = match frame_of {
-            Some(f) => Some((f.frame(), &f.shape().base)),
-            None if o.frame == FrameChoice::Canonical && n == 2 * CANONICAL_LANDMARKS => {
-                let c = canonical_frame();
-                Some((c, c.vertices()))
-            }
-            None => None,
-        };
-        if let Some(f) = frame_of {
-            if f.shape().base.len() != n {
-                return Err(Error::Incompatible(format!(
-                    "training landmarks have {} points, the frame model '{}' has {}",
-                    n / 2,
-                    f.name(),
-                    f.landmarks()
-                )));
-            }
-        }
-
-        // Shape: Procrustes alignment into model coordinates.
-        let raw: Vec<Vec<f64>> = images
-            .iter()
-            .map(|t| t.landmarks.iter().map(|&v| v as f64).collect())
-            .collect();
-        let aligned: Vec<Vec<f64>> = match target {
-            Some((_, base)) => {
-                let r: Vec<f64> = base.iter().map(|&v| v as f64).collect();
-                let (mut aligned, mean) = generalised_procrustes(&raw, Some(&r));
-                scale_to_size_of(&mut aligned, &mean, &r);
-                aligned
-            }
-            None => {
-                let (aligned, unit_mean) = generalised_procrustes(&raw, None);
-                let xs = unit_mean.iter().step_by(2);
-                let width = xs.clone().copied().fold(f64::MIN, f64::max)
-                    - xs.copied().fold(f64::MAX, f64::min);
-                let k = o.face_width as f64 / width.max(1e-12);
-                aligned
-                    .into_iter()
-                    .map(|s| s.into_iter().map(|v| v * k).collect())
-                    .collect()
-            }
-        };
-
-        // The reference face.
-        let ref_index: Option<usize> = match &o.reference {
-            ReferenceChoice::Mean => None,
-            ReferenceChoice::Named(name) => {
-                Some(images.iter().position(|t| &t.name == name).ok_or_else(|| {
-                    Error::Training(format!(
-                        "reference image '{name}' is not among the training images"
-                    ))
-                })?)
-            }
-            ReferenceChoice::ClosestToFrame => {
-                let (_, base) = target.ok_or_else(|| {
-                    Error::Training(
-                        "the closest-to-reference choice needs a frame to be close to (the \
-                         canonical frame or --frame)"
-                            .into(),
-                    )
-                })?;
-                let d = |s: &Vec<f64>| -> f64 {
-                    s.iter()
-                        .zip(base)
-                        .map(|(a, &b)| (a - b as f64).powi(2))
-                        .sum()
-                };
-                (0..aligned.len()).min_by(|&a, &b| d(&aligned[a]).total_cmp(&d(&aligned[b])))
-            }
-        };
-        let shape_centre = match ref_index {
-            Some(i) => aligned[i].clone(),
-            None => mean(&aligned),
-        };
-        let sp = if o.symmetric_shapes && n == 2 * CANONICAL_LANDMARKS {
-            let mut both = aligned.clone();
-            both.extend(mirrored_deviations(&aligned, &shape_centre));
-            let mut sp = pca(&both, &shape_centre, o.shape_variance, o.max_shape_modes)?;
-            // `pca` divides by 2k - 1 for the 2k samples; the symmetric covariance
-            // `(C + M C M^T) / 2` of the k training shapes' `C` (denominator k - 1) has the
-            // same total variance as `C`, so the variances are rescaled to it.
-            let k = aligned.len() as f64;
-            let r = ((2.0 * k - 1.0) / (2.0 * (k - 1.0))) as f32;
-            sp.variances.iter_mut().for_each(|v| *v *= r);
-            sp.total_variance *= r as f64;
-            sp
-        } else {
-            pca(&aligned, &shape_centre, o.shape_variance, o.max_shape_modes)?
-        };
+        let n = check_inputs(o, images)?;
+        let target = frame_target(o, frame_of, n)?;
+        // Shape: Procrustes alignment into model coordinates, the reference, PCA (Eq. 1).
+        let aligned = align_shapes(o, images, target);
+        let ref_index = reference_index(o, images, &aligned, target)?;
+        let shape = shape_model(o, &aligned, ref_index, n)?;
         step(1)?;
-        let shape = ShapeModel {
-            base: shape_centre.iter().map(|&v| v as f32).collect(),
-            modes: sp.modes,
-            variances: sp.variances,
-        };
-
-        // Reference frame.
+        // The reference frame: the target's, or one of the model's own.
         let frame = match target {
             Some((f, _)) => f.clone(),
             None => ReferenceFrame::from_base(&shape.base)?,
         };
-
-        // Appearance: each image sampled at its landmarks into the frame.
-        let npx = frame.n_pixels() * 3;
-        let mut buf = vec![0f32; npx];
-        let mut samples: Vec<Vec<f64>> = Vec::with_capacity(images.len());
-        for (i, t) in images.iter().enumerate() {
-            crate::warp::sample_rgb(&frame, &t.image.view()?, &t.landmarks, &mut buf)?;
-            samples.push(buf.iter().map(|&v| v as f64).collect());
-            step(2 + i)?;
-        }
-        let app_centre = match ref_index {
-            Some(i) => samples[i].clone(),
-            None => mean(&samples),
-        };
-        let ap = pca(
-            &samples,
-            &app_centre,
-            o.appearance_variance,
-            o.max_appearance_modes,
-        )?;
+        // Appearance: each image sampled at its landmarks into the frame, PCA (Eq. 2).
+        let appearance = appearance_model(o, images, &frame, ref_index, &mut step)?;
         step(total)?;
-        let appearance = AppearanceModel {
-            base: app_centre.iter().map(|&v| v as f32).collect(),
-            modes: ap.modes,
-            variances: ap.variances,
-        };
-
         // Average pose (for placing the base face on a canvas like the training images).
         let poses: Vec<Similarity> = images
             .iter()
@@ -351,9 +188,223 @@ impl Builder {
             image_size: [images[0].image.width, images[0].image.height],
         })?;
         // The builder refuses what the reader would reject (a file it writes reads back).
-        crate::bounds::check_model_values(&model).map_err(|e| Error::Training(e.to_string()))?;
+        crate::model::bounds::check_model_values(&model)
+            .map_err(|e| Error::Training(e.to_string()))?;
         Ok(model)
     }
+}
+
+/// The frame to build in and the shape the training shapes are aligned to (`None`: a frame of
+/// the model's own).
+type Target<'a> = Option<(&'a ReferenceFrame, &'a [f32])>;
+
+/// Checks the options and the images; returns the landmark values per image (`2n`).
+fn check_inputs(o: &BuildOptions, images: &[TrainingImage]) -> Result<usize> {
+    let max_name = crate::model::bounds::LIMITS.max_name_bytes as usize;
+    if o.name.len() > max_name {
+        return Err(Error::Training(format!(
+            "the model name is {} bytes long, the file format allows at most {max_name}",
+            o.name.len()
+        )));
+    }
+    if images.len() < 2 {
+        return Err(Error::Training(format!(
+            "{} training image(s); at least 2 are needed (15-20 recommended)",
+            images.len()
+        )));
+    }
+    for (what, f) in [
+        ("shape", o.shape_variance),
+        ("appearance", o.appearance_variance),
+    ] {
+        if !(f > 0.0 && f <= 1.0) {
+            return Err(Error::Training(format!(
+                "{what} variance fraction {f} not in (0, 1]"
+            )));
+        }
+    }
+    if !(o.face_width >= 8.0 && o.face_width <= 1024.0) {
+        return Err(Error::Training(format!(
+            "face width {} not in 8..=1024",
+            o.face_width
+        )));
+    }
+    let n = images[0].landmarks.len();
+    for t in images {
+        if t.landmarks.len() != n || n < 6 || n % 2 != 0 {
+            return Err(Error::Training(format!(
+                "'{}' has {} landmarks, '{}' has {}",
+                t.name,
+                t.landmarks.len() / 2,
+                images[0].name,
+                n / 2
+            )));
+        }
+        if t.landmarks.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Training(format!(
+                "'{}' has non-finite landmarks",
+                t.name
+            )));
+        }
+        t.image.view()?;
+    }
+    Ok(n)
+}
+
+/// The frame to build in: `frame_of`'s, else the canonical frame for 68 points (unless the
+/// options ask for a frame of the model's own), else none.
+fn frame_target<'a>(o: &BuildOptions, frame_of: Option<&'a Model>, n: usize) -> Result<Target<'a>> {
+    let target: Target<'a> = match frame_of {
+        Some(f) => Some((f.frame(), &f.shape().base)),
+        None if o.frame == FrameChoice::Canonical && n == 2 * CANONICAL_LANDMARKS => {
+            let c = canonical_frame();
+            Some((c, c.vertices()))
+        }
+        None => None,
+    };
+    if let Some(f) = frame_of {
+        if f.shape().base.len() != n {
+            return Err(Error::Incompatible(format!(
+                "training landmarks have {} points, the frame model '{}' has {}",
+                n / 2,
+                f.name(),
+                f.landmarks()
+            )));
+        }
+    }
+
+    Ok(target)
+}
+
+/// The training shapes Procrustes-aligned into model coordinates: onto the target's shape, or
+/// among themselves and scaled to the options' face width.
+fn align_shapes(o: &BuildOptions, images: &[TrainingImage], target: Target<'_>) -> Vec<Vec<f64>> {
+    let raw: Vec<Vec<f64>> = images
+        .iter()
+        .map(|t| t.landmarks.iter().map(|&v| v as f64).collect())
+        .collect();
+    match target {
+        Some((_, base)) => {
+            let r: Vec<f64> = base.iter().map(|&v| v as f64).collect();
+            let (mut aligned, mean) = generalised_procrustes(&raw, Some(&r));
+            scale_to_size_of(&mut aligned, &mean, &r);
+            aligned
+        }
+        None => {
+            let (aligned, unit_mean) = generalised_procrustes(&raw, None);
+            let xs = unit_mean.iter().step_by(2);
+            let width =
+                xs.clone().copied().fold(f64::MIN, f64::max) - xs.copied().fold(f64::MAX, f64::min);
+            let k = o.face_width as f64 / width.max(1e-12);
+            aligned
+                .into_iter()
+                .map(|s| s.into_iter().map(|v| v * k).collect())
+                .collect()
+        }
+    }
+}
+
+/// Which training image is the reference face (`None`: the mean).
+fn reference_index(
+    o: &BuildOptions,
+    images: &[TrainingImage],
+    aligned: &[Vec<f64>],
+    target: Target<'_>,
+) -> Result<Option<usize>> {
+    Ok(match &o.reference {
+        ReferenceChoice::Mean => None,
+        ReferenceChoice::Named(name) => {
+            Some(images.iter().position(|t| &t.name == name).ok_or_else(|| {
+                Error::Training(format!(
+                    "reference image '{name}' is not among the training images"
+                ))
+            })?)
+        }
+        ReferenceChoice::ClosestToFrame => {
+            let (_, base) = target.ok_or_else(|| {
+                Error::Training(
+                    "the closest-to-reference choice needs a frame to be close to (the \
+                     canonical frame or --frame)"
+                        .into(),
+                )
+            })?;
+            let d = |s: &Vec<f64>| -> f64 {
+                s.iter()
+                    .zip(base)
+                    .map(|(a, &b)| (a - b as f64).powi(2))
+                    .sum()
+            };
+            (0..aligned.len()).min_by(|&a, &b| d(&aligned[a]).total_cmp(&d(&aligned[b])))
+        }
+    })
+}
+
+/// The shape model (Eq. 1): PCA of the aligned shapes about the reference (mirrored too when
+/// the options ask for symmetric shapes).
+fn shape_model(
+    o: &BuildOptions,
+    aligned: &[Vec<f64>],
+    ref_index: Option<usize>,
+    n: usize,
+) -> Result<ShapeModel> {
+    let shape_centre = match ref_index {
+        Some(i) => aligned[i].clone(),
+        None => mean(aligned),
+    };
+    let sp = if o.symmetric_shapes && n == 2 * CANONICAL_LANDMARKS {
+        let mut both = aligned.to_vec();
+        both.extend(mirrored_deviations(aligned, &shape_centre));
+        let mut sp = pca(&both, &shape_centre, o.shape_variance, o.max_shape_modes)?;
+        // `pca` divides by 2k - 1 for the 2k samples; the symmetric covariance
+        // `(C + M C M^T) / 2` of the k training shapes' `C` (denominator k - 1) has the
+        // same total variance as `C`, so the variances are rescaled to it.
+        let k = aligned.len() as f64;
+        let r = ((2.0 * k - 1.0) / (2.0 * (k - 1.0))) as f32;
+        sp.variances.iter_mut().for_each(|v| *v *= r);
+        sp.total_variance *= r as f64;
+        sp
+    } else {
+        pca(aligned, &shape_centre, o.shape_variance, o.max_shape_modes)?
+    };
+    Ok(ShapeModel(crate::model::linear::LinearModel {
+        base: shape_centre.iter().map(|&v| v as f32).collect(),
+        modes: sp.modes,
+        variances: sp.variances,
+    }))
+}
+
+/// The appearance model (Eq. 2): each image sampled through the frame at its landmarks, PCA
+/// about the reference; `step(2 + i)` after image `i`.
+fn appearance_model(
+    o: &BuildOptions,
+    images: &[TrainingImage],
+    frame: &ReferenceFrame,
+    ref_index: Option<usize>,
+    step: &mut dyn FnMut(usize) -> Result<()>,
+) -> Result<AppearanceModel> {
+    let npx = frame.n_pixels() * 3;
+    let mut buf = vec![0f32; npx];
+    let mut samples: Vec<Vec<f64>> = Vec::with_capacity(images.len());
+    for (i, t) in images.iter().enumerate() {
+        crate::model::warp::sample_rgb(frame, &t.image.view()?, &t.landmarks, &mut buf)?;
+        samples.push(buf.iter().map(|&v| v as f64).collect());
+        step(2 + i)?;
+    }
+    let app_centre = match ref_index {
+        Some(i) => samples[i].clone(),
+        None => mean(&samples),
+    };
+    let ap = pca(
+        &samples,
+        &app_centre,
+        o.appearance_variance,
+        o.max_appearance_modes,
+    )?;
+    Ok(AppearanceModel(crate::model::linear::LinearModel {
+        base: app_centre.iter().map(|&v| v as f32).collect(),
+        modes: ap.modes,
+        variances: ap.variances,
+    }))
 }
 
 /// Symmetric shape samples: each aligned shape's deviation from `centre` mirrored, added back

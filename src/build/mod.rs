@@ -1,0 +1,22 @@
+//! Building models: from landmarked images to a [`crate::Model`].
+//!
+//! - `builder.rs`: [`Builder`], the paper's model building (Procrustes, PCA of shape and of
+//!   shape-normalised appearance, the reference frame), stage by stage.
+//! - `canonical.rs`: the canonical reference frame every model is built in by default.
+//! - `select.rs`: choosing varied training frames; `refine.rs`: refining landmarks by fitting.
+//! - `enrol.rs`: the face finder's landmarks for enrolment ([`crate::EnrolFinder`]).
+//! - `pipeline.rs`: the enrolment pipeline ([`crate::enrol`]: find, select, build, refine,
+//!   backdrop) that the CLI and the wasm layer both call.
+//! - `photo.rs`: a target from a single photo.
+
+pub(crate) mod builder;
+pub mod canonical;
+pub(crate) mod enrol;
+pub(crate) mod photo;
+pub(crate) mod pipeline;
+pub(crate) mod refine;
+pub(crate) mod select;
+
+pub use builder::{
+    BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
+};

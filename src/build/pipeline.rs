@@ -1,0 +1,310 @@
+//! The enrolment pipeline: frames, with or without landmarks, to a model. One function,
+//! [`enrol`], used alike by the wasm `buildModel` and the CLI's `build`, so both give the same
+//! model from the same frames.
+//!
+//! The stages, in order:
+//! 1. **landmarks**: the face finder ([`EnrolFinder`]) places them where a frame has none;
+//!    frames without a face scoring at least [`EnrolOptions::min_score`] are skipped (and
+//!    reported);
+//! 2. **select**: when asked, [`crate::select_varied`] keeps that many varied frames, always
+//!    keeping the named reference frame;
+//! 3. **build** (and **refine**): [`Builder::build_refined`];
+//! 4. **backdrop**: the training frame closest to the model's mean, when asked.
+
+use crate::build::enrol::EnrolFinder;
+use crate::build::{BuildOptions, BuildProgress, Builder, ReferenceChoice, TrainingImage};
+use crate::error::{Error, Result};
+use crate::image::Image;
+use crate::model::Model;
+
+/// Passes the enrolment finder averages by default (each on the image and its mirror): one box.
+/// Measured on webcam-dev, more boxes did not track better (docs/fitting.md).
+pub const ENROL_BOXES: usize = 1;
+
+/// The finder's score a face needs by default: none beyond the finder's own acceptance (its
+/// landmark passes must agree; no false faces on the no-face set, docs/finding.md). On
+/// webcam-dev, models from every face found tracked better than from faces scoring 0.3 or 0.5.
+pub const DEFAULT_MIN_SCORE: f32 = 0.0;
+
+/// Most refinement rounds [`enrol`] accepts.
+pub const MAX_REFINE_ROUNDS: usize = 3;
+
+/// One frame offered for enrolment.
+#[derive(Clone, Debug)]
+pub struct EnrolFrame {
+    /// Its name (a file stem, or `frame{i}`): the reference is chosen by it.
+    pub name: String,
+    /// The picture (RGBA).
+    pub image: Image,
+    /// Its 68 landmarks (image pixels, interleaved), or `None` for the face finder's.
+    pub landmarks: Option<Vec<f32>>,
+}
+
+/// How [`enrol`] builds.
+#[derive(Clone, Debug)]
+pub struct EnrolOptions {
+    /// The build's options (name, variances, frame, reference). A named reference
+    /// ([`ReferenceChoice::Named`]) must be one of the frames; it survives the selection.
+    pub build: BuildOptions,
+    /// The finder's score (0..=1) a face needs to be used (default [`DEFAULT_MIN_SCORE`]).
+    pub min_score: f32,
+    /// Fewest frames with a face the build accepts (at least 2; default 2).
+    pub min_frames: usize,
+    /// Keep this many varied frames (at least 2); `None` keeps all.
+    pub select: Option<usize>,
+    /// Rounds of refinement (fit the model to its own frames and rebuild; 0..=3, default 0).
+    pub refine_rounds: usize,
+    /// Boxes the enrolment finder averages (default [`ENROL_BOXES`]).
+    pub boxes: usize,
+    /// Give the model a backdrop: the training frame closest to its mean (default true).
+    pub backdrop: bool,
+}
+
+impl Default for EnrolOptions {
+    fn default() -> Self {
+        EnrolOptions {
+            build: BuildOptions::default(),
+            min_score: DEFAULT_MIN_SCORE,
+            min_frames: 2,
+            select: None,
+            refine_rounds: 0,
+            boxes: ENROL_BOXES,
+            backdrop: true,
+        }
+    }
+}
+
+/// Which stage a progress report is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnrolStage {
+    /// The face finder has searched `done` of the `total` frames without landmarks.
+    Landmarks,
+    /// The model build (and refinement) has done `done` of its `total` steps.
+    Model,
+}
+
+/// A progress report of [`enrol`].
+#[derive(Clone, Copy, Debug)]
+pub struct EnrolProgress<'a> {
+    /// The stage.
+    pub stage: EnrolStage,
+    /// Steps done.
+    pub done: usize,
+    /// Steps in all.
+    pub total: usize,
+    /// Indices of the frames skipped so far (no face found).
+    pub skipped: &'a [usize],
+}
+
+/// What [`enrol`] made.
+#[derive(Debug)]
+pub struct Enrolment {
+    /// The model.
+    pub model: Model,
+    /// The frames it was built from, with their landmarks, in the order given.
+    pub images: Vec<TrainingImage>,
+    /// Indices (into the frames given) of the frames built from.
+    pub used: Vec<usize>,
+    /// Indices of the frames skipped (no face found).
+    pub skipped: Vec<usize>,
+}
+
+/// Builds a model from `frames` through the pipeline's stages (see the module). `finder` is
+/// used for frames without landmarks (one is made when needed and none is given); `frame_of`
+/// is the model whose reference frame to build in (as [`Builder::build`]). `progress` is
+/// called after each frame searched and each build step; returning `false` cancels with
+/// [`Error::Cancelled`].
+///
+/// Fails with [`Error::Training`] naming the problem: fewer than two frames, a bad option,
+/// fewer frames with a face than [`EnrolOptions::min_frames`] (listing the frames without one),
+/// a named reference that is not among the frames or has no face.
+pub fn enrol(
+    frames: Vec<EnrolFrame>,
+    options: &EnrolOptions,
+    frame_of: Option<&Model>,
+    finder: Option<&mut EnrolFinder>,
+    progress: &mut dyn FnMut(EnrolProgress<'_>) -> bool,
+) -> Result<Enrolment> {
+    check_options(options, frames.len())?;
+    let reference = match &options.build.reference {
+        ReferenceChoice::Named(name) => {
+            Some(frames.iter().position(|f| &f.name == name).ok_or_else(|| {
+                Error::Training(format!("the reference '{name}' is not among the frames"))
+            })?)
+        }
+        _ => None,
+    };
+    let total = frames.len();
+    let (images, used, skipped) = place_landmarks(frames, options, finder, progress)?;
+    if let Some(r) = reference {
+        if skipped.contains(&r) {
+            return Err(Error::Training(format!(
+                "the reference, frames[{r}], has no confident face"
+            )));
+        }
+    }
+    let needed = options.min_frames.max(2);
+    if images.len() < needed {
+        return Err(Error::Training(format!(
+            "a face in {} of {total} frames, at least {needed} are needed{}",
+            images.len(),
+            if skipped.is_empty() {
+                String::new()
+            } else {
+                format!("; no confident face in frames {}", list_indices(&skipped))
+            }
+        )));
+    }
+    let (images, used) = select(images, used, options.select, reference)?;
+    let model = Builder::new(options.build.clone()).build_refined(
+        &images,
+        frame_of,
+        options.refine_rounds,
+        &mut |p: BuildProgress| {
+            progress(EnrolProgress {
+                stage: EnrolStage::Model,
+                done: p.done,
+                total: p.total,
+                skipped: &skipped,
+            })
+        },
+    )?;
+    let model = if options.backdrop {
+        crate::build::photo::with_default_backdrop(model, &images, None)?
+    } else {
+        model
+    };
+    Ok(Enrolment {
+        model,
+        images,
+        used,
+        skipped,
+    })
+}
+
+fn check_options(o: &EnrolOptions, frames: usize) -> Result<()> {
+    if frames < 2 {
+        return Err(Error::Training(format!(
+            "{frames} frame(s); at least 2 are needed (15-20 varied ones recommended)"
+        )));
+    }
+    if !(0.0..=1.0).contains(&o.min_score) {
+        return Err(Error::Training("the minimum score must be in 0..=1".into()));
+    }
+    if o.min_frames < 2 {
+        return Err(Error::Training(
+            "the minimum number of frames must be at least 2".into(),
+        ));
+    }
+    if o.select.is_some_and(|n| n < 2) {
+        return Err(Error::Training(
+            "selecting fewer than 2 frames leaves nothing to build from".into(),
+        ));
+    }
+    if o.refine_rounds > MAX_REFINE_ROUNDS {
+        return Err(Error::Training(format!(
+            "at most {MAX_REFINE_ROUNDS} rounds of refinement"
+        )));
+    }
+    Ok(())
+}
+
+/// The frames as training images, with the finder's landmarks where none were given; returns
+/// them, their indices among the frames, and the indices of the frames without a face.
+type Placed = (Vec<TrainingImage>, Vec<usize>, Vec<usize>);
+
+fn place_landmarks(
+    frames: Vec<EnrolFrame>,
+    options: &EnrolOptions,
+    finder: Option<&mut EnrolFinder>,
+    progress: &mut dyn FnMut(EnrolProgress<'_>) -> bool,
+) -> Result<Placed> {
+    let to_find = frames.iter().filter(|f| f.landmarks.is_none()).count();
+    // A finder of our own only when frames need one and none is given.
+    let mut own = None;
+    let mut finder = finder;
+    if finder.is_none() && to_find > 0 {
+        finder = Some(own.insert(EnrolFinder::new(options.boxes)?));
+    }
+    let (mut images, mut used, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
+    let mut searched = 0;
+    for (i, frame) in frames.into_iter().enumerate() {
+        let landmarks = match frame.landmarks {
+            Some(l) => Some(l),
+            None => {
+                let Some(f) = finder.as_deref_mut() else {
+                    return Err(Error::Training(
+                        "no face finder for frames without landmarks".into(),
+                    ));
+                };
+                let found = frame
+                    .image
+                    .view()
+                    .and_then(|view| f.find(&view, options.min_score))
+                    .map_err(|e| e.with_context(&format!("frames[{i}]")))?
+                    .map(|face| face.landmarks);
+                searched += 1;
+                if found.is_none() {
+                    skipped.push(i);
+                }
+                let report = EnrolProgress {
+                    stage: EnrolStage::Landmarks,
+                    done: searched,
+                    total: to_find,
+                    skipped: &skipped,
+                };
+                if !progress(report) {
+                    return Err(Error::Cancelled);
+                }
+                found
+            }
+        };
+        if let Some(landmarks) = landmarks {
+            images.push(TrainingImage {
+                name: frame.name,
+                image: frame.image,
+                landmarks,
+            });
+            used.push(i);
+        }
+    }
+    Ok((images, used, skipped))
+}
+
+/// `n` varied images (all when `n` is `None` or not fewer), keeping the frame `reference`;
+/// in the order given.
+fn select(
+    images: Vec<TrainingImage>,
+    used: Vec<usize>,
+    n: Option<usize>,
+    reference: Option<usize>,
+) -> Result<(Vec<TrainingImage>, Vec<usize>)> {
+    let Some(n) = n.filter(|&n| n < images.len()) else {
+        return Ok((images, used));
+    };
+    let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+    let mut keep = crate::build::select::select_varied(&shapes, n)?;
+    if let Some(r) = reference {
+        let k = used.iter().position(|&i| i == r).unwrap_or(0);
+        if !keep.contains(&k) {
+            keep.pop();
+            keep.push(k);
+        }
+    }
+    keep.sort_unstable();
+    let mut all: Vec<Option<TrainingImage>> = images.into_iter().map(Some).collect();
+    let kept_used = keep.iter().map(|&k| used[k]).collect();
+    Ok((
+        keep.iter().filter_map(|&k| all[k].take()).collect(),
+        kept_used,
+    ))
+}
+
+/// "0, 3, 7" (at most 12, then "and N more").
+fn list_indices(v: &[usize]) -> String {
+    let mut s: Vec<String> = v.iter().take(12).map(|i| i.to_string()).collect();
+    if v.len() > 12 {
+        s.push(format!("and {} more", v.len() - 12));
+    }
+    s.join(", ")
+}
