@@ -2,10 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::build::TrainingImage;
 use crate::error::{Error, Result};
 use crate::image::{Image, MAX_IMAGE_SIDE};
 use crate::landmarks::{parse_asf, parse_pts};
+use crate::train::TrainingImage;
 
 /// Decodes a PNG or JPEG file into RGBA8.
 pub fn read_image(path: &Path) -> Result<Image> {
@@ -183,12 +183,12 @@ pub fn write_pixmap(path: &Path, pixmap: &tiny_skia::Pixmap) -> Result<()> {
 }
 
 /// Reads and validates a `.fmm` model file.
-pub fn read_model_file(path: &Path) -> Result<crate::Model> {
+pub fn read_model_file(path: &Path) -> Result<crate::model::Model> {
     read_model_file_info(path).map(|(model, _)| model)
 }
 
 /// Writes a model as a `.fmm` file (the default, compact storage).
-pub fn write_model_file(path: &Path, model: &crate::Model) -> Result<()> {
+pub fn write_model_file(path: &Path, model: &crate::model::Model) -> Result<()> {
     write_model_file_as(path, model, crate::model::format::Storage::default())
 }
 
@@ -196,7 +196,7 @@ pub fn write_model_file(path: &Path, model: &crate::Model) -> Result<()> {
 /// nothing) a model that [`crate::model::format::read_model`] would reject.
 pub fn write_model_file_as(
     path: &Path,
-    model: &crate::Model,
+    model: &crate::model::Model,
     storage: crate::model::format::Storage,
 ) -> Result<()> {
     let bytes = crate::model::format::write_model_checked_as(model, storage)
@@ -205,7 +205,9 @@ pub fn write_model_file_as(
 }
 
 /// Reads and validates a `.fmm` model file, also returning its version and storage.
-pub fn read_model_file_info(path: &Path) -> Result<(crate::Model, crate::model::format::FileInfo)> {
+pub fn read_model_file_info(
+    path: &Path,
+) -> Result<(crate::model::Model, crate::model::format::FileInfo)> {
     let bytes =
         crate::model::bounds::read_file_capped(path, crate::model::bounds::MAX_MODEL_FILE_BYTES)?;
     crate::model::format::read_model_info(&bytes)

@@ -28,7 +28,6 @@
 // Index loops over several parallel arrays read better than zipped iterators in the numerics.
 #![allow(clippy::needless_range_loop)]
 
-mod build;
 pub mod clone;
 mod error;
 mod filter;
@@ -44,22 +43,10 @@ pub mod numerics;
 mod pca;
 mod render;
 mod similarity;
+mod train;
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;
 
-pub use build::canonical;
-pub use build::canonical::{canonical_frame, CANONICAL_FINGERPRINT};
-pub use build::enrol::{EnrolFace, EnrolFinder};
-pub use build::photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
-pub use build::pipeline::{
-    enrol, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, Enrolment, DEFAULT_MIN_SCORE,
-    ENROL_BOXES, MAX_REFINE_ROUNDS,
-};
-pub use build::refine::refine_landmarks;
-pub use build::select::{coverage, select_varied};
-pub use build::{
-    BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
-};
 pub use error::{Error, FormatError, Result};
 pub use find::{Face, FaceFinder, FindOptions};
 pub use geometry::BBox;
@@ -80,3 +67,16 @@ pub use render::{
 };
 pub use similarity::{PoseJson, Similarity};
 pub use tiny_skia;
+pub use train::canonical;
+pub use train::canonical::{canonical_frame, CANONICAL_FINGERPRINT};
+pub use train::enrol::{EnrolFace, EnrolFinder};
+pub use train::photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
+pub use train::pipeline::{
+    enrol, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, Enrolment, DEFAULT_MIN_SCORE,
+    ENROL_BOXES, MAX_REFINE_ROUNDS,
+};
+pub use train::refine::refine_landmarks;
+pub use train::select::{coverage, select_varied};
+pub use train::{
+    BuildOptions, BuildProgress, Builder, FrameChoice, ReferenceChoice, TrainingImage,
+};

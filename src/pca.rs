@@ -25,18 +25,18 @@ pub struct Pca {
 /// Ensures: modes orthonormal (re-orthogonalised in f64), each mode's sign chosen so that its
 /// largest-magnitude component is positive (deterministic output).
 ///
-/// Fails with [`crate::Error::Training`] when a sample's length differs from the centre's or a
+/// Fails with [`crate::error::Error::Training`] when a sample's length differs from the centre's or a
 /// value is not finite.
 pub fn pca(
     samples: &[Vec<f64>],
     centre: &[f64],
     fraction: f64,
     max_modes: usize,
-) -> crate::Result<Pca> {
+) -> crate::error::Result<Pca> {
     let n = samples.len();
     let dim = centre.len();
     if let Some(i) = samples.iter().position(|s| s.len() != dim) {
-        return Err(crate::Error::Training(format!(
+        return Err(crate::error::Error::Training(format!(
             "PCA sample {i} has {} values, the centre has {dim}",
             samples[i].len()
         )));
@@ -47,7 +47,7 @@ pub fn pca(
         .chain(centre)
         .any(|v| !v.is_finite())
     {
-        return Err(crate::Error::Training(
+        return Err(crate::error::Error::Training(
             "PCA samples or centre are not finite".into(),
         ));
     }

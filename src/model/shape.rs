@@ -48,7 +48,7 @@ impl ShapeModel {
 
     /// Eq. 1, `s = s0 + sum_i p_i s_i`, written into `out` (length `2n`). Allocates nothing.
     /// Requires `p.len() == m`, `out.len() == 2n`, finite `p` (all checked); fails with
-    /// [`crate::Error::Overflow`] if the instance overflows.
+    /// [`crate::error::Error::Overflow`] if the instance overflows.
     pub fn instance(&self, p: &[f32], out: &mut [f32]) -> Result<()> {
         self.0.instance_checked("shape parameters", p, out)
     }
@@ -63,8 +63,9 @@ impl ShapeModel {
         // current instance `s0 + S p` best onto the landmarks, then `p` from the landmarks
         // mapped back through it, until the pose settles. (A pose fitted to `s0` alone is off
         // at second order in scale, so even a training shape would leave the model's span.)
-        let degenerate =
-            || crate::Error::Landmarks("landmarks are degenerate (all points coincide)".into());
+        let degenerate = || {
+            crate::error::Error::Landmarks("landmarks are degenerate (all points coincide)".into())
+        };
         let mut pose = Similarity::align(&self.base, image_shape);
         let mut normalised = image_shape.to_vec();
         let mut instance = self.base.clone();

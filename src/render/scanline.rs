@@ -227,7 +227,7 @@ impl Scanline {
         check_len("shape", image_shape, frame.vertices().len())?;
         check_finite("shape", image_shape)?;
         if self.fingerprint != Some(frame.fingerprint()) {
-            return Err(crate::Error::Incompatible(
+            return Err(crate::error::Error::Incompatible(
                 "no texture uploaded for this reference frame".into(),
             ));
         }
@@ -244,7 +244,7 @@ impl Scanline {
             .iter()
             .any(|p| !(p.x.abs() < limit && p.y.abs() < limit))
         {
-            return Err(crate::Error::Params(
+            return Err(crate::error::Error::Params(
                 "the shape is placed too far outside the canvas".into(),
             ));
         }

@@ -10,8 +10,8 @@ use wasm_bindgen::prelude::*;
 use super::install_panic_hook;
 use super::model::JsModel;
 use super::surface::describe;
-use crate::build::{BuildOptions, ReferenceChoice};
 use crate::image::{Image, ImageRef};
+use crate::train::{BuildOptions, ReferenceChoice};
 use crate::{
     enrol, EnrolFinder, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, DEFAULT_MIN_SCORE,
     ENROL_BOXES, MAX_REFINE_ROUNDS,

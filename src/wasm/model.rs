@@ -191,9 +191,9 @@ impl JsModel {
     ) -> Result<JsModel, JsError> {
         install_panic_hook();
         let image = ImageRef::new(width, height, rgba).map_err(js_err)?;
-        let frame = crate::build::canonical::canonical_frame();
+        let frame = crate::train::canonical::canonical_frame();
         let model =
-            crate::build::photo::photo_model(name, &image, landmarks, frame).map_err(js_err)?;
+            crate::train::photo::photo_model(name, &image, landmarks, frame).map_err(js_err)?;
         Ok(JsModel::from(model))
     }
 

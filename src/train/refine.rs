@@ -8,10 +8,10 @@
 //! across the set; the second build is then sharper and its shape modes cleaner. What this gains,
 //! measured, is in docs/fitting.md ("Refining an enrolled model").
 
-use crate::build::{BuildProgress, Builder, TrainingImage};
 use crate::error::{Error, Result};
 use crate::fit::{FitOptions, Fitter};
 use crate::model::Model;
+use crate::train::{BuildProgress, Builder, TrainingImage};
 
 /// Fits `model` to each training image from its landmarks; returns the fitted landmarks, or the
 /// given ones for an image whose fit did not converge to finite points. `progress(i)` is called

@@ -11,11 +11,11 @@
 //! 3. **build** (and **refine**): [`Builder::build_refined`];
 //! 4. **backdrop**: the training frame closest to the model's mean, when asked.
 
-use crate::build::enrol::EnrolFinder;
-use crate::build::{BuildOptions, BuildProgress, Builder, ReferenceChoice, TrainingImage};
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::model::Model;
+use crate::train::enrol::EnrolFinder;
+use crate::train::{BuildOptions, BuildProgress, Builder, ReferenceChoice, TrainingImage};
 
 /// Passes the enrolment finder averages by default (each on the image and its mirror): one box.
 /// Measured on webcam-dev, more boxes did not track better (docs/fitting.md).
@@ -170,7 +170,7 @@ pub fn enrol(
         },
     )?;
     let model = if options.backdrop {
-        crate::build::photo::with_default_backdrop(model, &images, None)?
+        crate::train::photo::with_default_backdrop(model, &images, None)?
     } else {
         model
     };
@@ -283,7 +283,7 @@ fn select(
         return Ok((images, used));
     };
     let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
-    let mut keep = crate::build::select::select_varied(&shapes, n)?;
+    let mut keep = crate::train::select::select_varied(&shapes, n)?;
     if let Some(r) = reference {
         let k = used.iter().position(|&i| i == r).unwrap_or(0);
         if !keep.contains(&k) {

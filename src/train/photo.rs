@@ -1,7 +1,6 @@
 //! Models of a single picture: a target made from one photo, and the backdrop of a built
 //! model (the picture its face is composited into).
 
-use crate::build::TrainingImage;
 use crate::error::{Error, Result};
 use crate::image::ImageRef;
 use crate::model::appearance::AppearanceModel;
@@ -10,6 +9,7 @@ use crate::model::frame::ReferenceFrame;
 use crate::model::shape::ShapeModel;
 use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::similarity::Similarity;
+use crate::train::TrainingImage;
 
 /// Smallest face a photo target accepts: the landmarks' bounding box must be at least this many
 /// pixels wide (smaller faces have too little appearance to show on a canvas).

@@ -1,6 +1,5 @@
 //! Building a person-specific AAM from landmarked images.
 
-use crate::build::canonical::{canonical_frame, CANONICAL_LANDMARKS};
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::model::appearance::AppearanceModel;
@@ -9,6 +8,7 @@ use crate::model::shape::{generalised_procrustes, ShapeModel};
 use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::pca::{mean, pca};
 use crate::similarity::{CentredFit, Similarity};
+use crate::train::canonical::{canonical_frame, CANONICAL_LANDMARKS};
 
 /// One training example: an image and its landmarks (0-based image coordinates).
 #[derive(Clone, Debug)]

@@ -1,4 +1,5 @@
-//! Building models: from landmarked images to a [`crate::Model`].
+//! Training models: from landmarked images (or frames the face finder landmarks) to a
+//! [`crate::Model`].
 //!
 //! - `builder.rs`: [`Builder`], the paper's model building (Procrustes, PCA of shape and of
 //!   shape-normalised appearance, the reference frame), stage by stage.

@@ -9,9 +9,9 @@
 //! landmarks lost the face in 6 of 11 runs, models from averaged ones never when every face
 //! found was used (0.0320-0.0322 against dlib).
 
+use crate::error::Result;
 use crate::find::{BBox, Face, FaceFinder};
 use crate::image::ImageRef;
-use crate::Result;
 
 /// Box shifts (x, y as fractions of the box side) and scales of the passes, first the box the
 /// finder settled on.
