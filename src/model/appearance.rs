@@ -1,7 +1,5 @@
 //! The appearance model (Eq. 2).
 
-use std::ops::{Deref, DerefMut};
-
 use crate::error::Result;
 use crate::model::linear::LinearModel;
 
@@ -14,33 +12,13 @@ use crate::model::linear::LinearModel;
 #[derive(Clone, Debug, PartialEq)]
 pub struct AppearanceModel(pub LinearModel);
 
-impl AppearanceModel {
-    /// The appearance model of base `A0`, modes (row-major `l x 3N`) and variances `eta_i`.
-    pub fn new(base: Vec<f32>, modes: Vec<f32>, variances: Vec<f32>) -> AppearanceModel {
-        AppearanceModel(LinearModel {
-            base,
-            modes,
-            variances,
-        })
-    }
+crate::model::linear::linear_newtype!(AppearanceModel);
 
+impl AppearanceModel {
     /// Eq. 2, `A = A0 + sum_i lambda_i A_i`, into `out` (`3N`). Allocates nothing.
     pub fn instance(&self, lambda: &[f32], out: &mut [f32]) -> Result<()> {
         self.0
             .instance_checked("appearance parameters", lambda, out)
-    }
-}
-
-impl Deref for AppearanceModel {
-    type Target = LinearModel;
-    fn deref(&self) -> &LinearModel {
-        &self.0
-    }
-}
-
-impl DerefMut for AppearanceModel {
-    fn deref_mut(&mut self) -> &mut LinearModel {
-        &mut self.0
     }
 }
 

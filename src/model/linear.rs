@@ -86,6 +86,37 @@ impl LinearModel {
     }
 }
 
+/// A newtype over [`LinearModel`] with its meaning on top: `new(base, modes, variances)`, and
+/// `Deref`/`DerefMut` to the linear model for the fields and the shared operations.
+macro_rules! linear_newtype {
+    ($name:ident) => {
+        impl $name {
+            /// The model of this base, these modes (row-major) and their variances.
+            pub fn new(base: Vec<f32>, modes: Vec<f32>, variances: Vec<f32>) -> $name {
+                $name($crate::model::linear::LinearModel {
+                    base,
+                    modes,
+                    variances,
+                })
+            }
+        }
+
+        impl std::ops::Deref for $name {
+            type Target = $crate::model::linear::LinearModel;
+            fn deref(&self) -> &Self::Target {
+                &self.0
+            }
+        }
+
+        impl std::ops::DerefMut for $name {
+            fn deref_mut(&mut self) -> &mut Self::Target {
+                &mut self.0
+            }
+        }
+    };
+}
+pub(crate) use linear_newtype;
+
 /// `out = base + sum_i w_i modes_i` (modes row-major, `base.len()` each): the linear
 /// combination behind Eq. 1 and Eq. 2 (and the mapped appearance of Eq. 3).
 ///

@@ -1,7 +1,5 @@
 //! The shape model (Eq. 1) and generalised Procrustes alignment.
 
-use std::ops::{Deref, DerefMut};
-
 use crate::error::{check_len, Result};
 use crate::model::linear::LinearModel;
 use crate::similarity::{CentredFit, Similarity};
@@ -18,29 +16,9 @@ use crate::similarity::{CentredFit, Similarity};
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShapeModel(pub LinearModel);
 
-impl Deref for ShapeModel {
-    type Target = LinearModel;
-    fn deref(&self) -> &LinearModel {
-        &self.0
-    }
-}
-
-impl DerefMut for ShapeModel {
-    fn deref_mut(&mut self) -> &mut LinearModel {
-        &mut self.0
-    }
-}
+crate::model::linear::linear_newtype!(ShapeModel);
 
 impl ShapeModel {
-    /// The shape model of base `s0`, modes (row-major `m x 2n`) and variances `gamma_i`.
-    pub fn new(base: Vec<f32>, modes: Vec<f32>, variances: Vec<f32>) -> ShapeModel {
-        ShapeModel(LinearModel {
-            base,
-            modes,
-            variances,
-        })
-    }
-
     /// Number of landmarks `n`.
     pub fn landmarks(&self) -> usize {
         self.base.len() / 2

@@ -518,11 +518,7 @@ impl Compositor {
         self.check_model(model)?;
         let mut appearance = std::mem::take(&mut self.appearance);
         let mut shape = std::mem::take(&mut self.shape);
-        model
-            .appearance()
-            .instance_unchecked(&params.appearance, &mut appearance);
-        model.shape().instance_unchecked(&params.shape, &mut shape);
-        params.pose.apply_in_place(&mut shape);
+        super::instance_into(model, params, &mut appearance, &mut shape);
         let r = self.draw(model, &appearance, &shape, view, target);
         self.appearance = appearance;
         self.shape = shape;

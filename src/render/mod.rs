@@ -185,6 +185,55 @@ fn instance_into(model: &Model, params: &Params, appearance: &mut [f32], shape: 
     params.pose.apply_in_place(shape);
 }
 
+/// Checks an upload: an appearance of `3N` finite values and, when given, `N` coverages.
+fn check_upload(frame: &ReferenceFrame, appearance: &[f32], alpha: Option<&[f32]>) -> Result<()> {
+    check_len("appearance", appearance, frame.n_pixels() * 3)?;
+    crate::error::check_finite("appearance", appearance)?;
+    if let Some(a) = alpha {
+        check_len("alpha", a, frame.n_pixels())?;
+    }
+    Ok(())
+}
+
+/// The texels of an appearance (`3N`, RGB in `0..=1`) with an optional coverage per pixel
+/// (`None` = opaque): `(index in the frame's grid, premultiplied RGBA8)` for every frame
+/// pixel. Both backends' textures are written from it.
+fn texels<'a>(
+    frame: &'a ReferenceFrame,
+    appearance: &'a [f32],
+    alpha: Option<&'a [f32]>,
+) -> impl Iterator<Item = (usize, [u8; 4])> + 'a {
+    let w = frame.width() as usize;
+    let to_u8 = |v: f32| (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
+    frame
+        .pixels()
+        .iter()
+        .zip(appearance.chunks_exact(3))
+        .enumerate()
+        .map(move |(i, (px, rgb))| {
+            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
+            let texel = [
+                to_u8(rgb[0] * a),
+                to_u8(rgb[1] * a),
+                to_u8(rgb[2] * a),
+                to_u8(a),
+            ];
+            (px.y as usize * w + px.x as usize, texel)
+        })
+}
+
+/// The padding ring of a frame's texture: `(grid index to write, grid index to copy from)`,
+/// so bilinear reads at the mesh border see the nearest inside pixel, not background.
+fn padding_copies(frame: &ReferenceFrame) -> impl Iterator<Item = (usize, usize)> + '_ {
+    let w = frame.width() as usize;
+    let pixels = frame.pixels();
+    frame.padding().iter().filter_map(move |&(k, src)| {
+        pixels
+            .get(src as usize)
+            .map(|px| (k as usize, px.y as usize * w + px.x as usize))
+    })
+}
+
 /// The affine map taking triangle `src` onto triangle `dst` (`None` when `src` is degenerate).
 pub fn triangle_affine(src: [Vec2; 3], dst: [Vec2; 3]) -> Option<Affine2> {
     let s = Mat2::from_cols(src[1] - src[0], src[2] - src[0]);

@@ -34,11 +34,6 @@ pub struct Scanline {
     dst: Vec<Vec2>,
 }
 
-#[inline(always)]
-fn to_u8(v: f32) -> u32 {
-    (v * 255.0 + 0.5).clamp(0.0, 255.0) as u32
-}
-
 impl Scanline {
     /// Empty state (the texture is sized by the first [`Scanline::upload`]).
     pub fn new() -> Scanline {
@@ -58,43 +53,23 @@ impl Scanline {
         appearance: &[f32],
         alpha: Option<&[f32]>,
     ) -> Result<()> {
-        check_len("appearance", appearance, frame.n_pixels() * 3)?;
-        crate::error::check_finite("appearance", appearance)?;
-        if let Some(a) = alpha {
-            check_len("alpha", a, frame.n_pixels())?;
-        }
+        super::check_upload(frame, appearance, alpha)?;
         if self.fingerprint != Some(frame.fingerprint()) {
             self.width = frame.width();
             self.height = frame.height();
             self.texture = vec![0; self.width as usize * self.height as usize];
             self.fingerprint = Some(frame.fingerprint());
         }
-        let w = self.width as usize;
         let tex = &mut self.texture;
-        for (i, (px, rgb)) in frame
-            .pixels()
-            .iter()
-            .zip(appearance.chunks_exact(3))
-            .enumerate()
-        {
-            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
-            if let Some(t) = tex.get_mut(px.y as usize * w + px.x as usize) {
-                *t = to_u8(rgb[0] * a)
-                    | (to_u8(rgb[1] * a) << 8)
-                    | (to_u8(rgb[2] * a) << 16)
-                    | (to_u8(a) << 24);
+        for (k, texel) in super::texels(frame, appearance, alpha) {
+            if let Some(t) = tex.get_mut(k) {
+                *t = u32::from_le_bytes(texel);
             }
         }
-        let pixels = frame.pixels();
-        for &(k, src) in frame.padding() {
-            if let Some(px) = pixels.get(src as usize) {
-                let value = tex
-                    .get(px.y as usize * w + px.x as usize)
-                    .copied()
-                    .unwrap_or(0);
-                if let Some(t) = tex.get_mut(k as usize) {
-                    *t = value;
-                }
+        for (d, s) in super::padding_copies(frame) {
+            let value = tex.get(s).copied().unwrap_or(0);
+            if let Some(t) = tex.get_mut(d) {
+                *t = value;
             }
         }
         Ok(())

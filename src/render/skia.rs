@@ -70,31 +70,15 @@ impl Renderer {
         alpha: Option<&[f32]>,
     ) -> Result<()> {
         self.check_frame(frame)?;
-        check_len("appearance", appearance, frame.n_pixels() * 3)?;
-        crate::error::check_finite("appearance", appearance)?;
-        if let Some(a) = alpha {
-            check_len("alpha", a, frame.n_pixels())?;
-        }
-        let w = frame.width() as usize;
+        super::check_upload(frame, appearance, alpha)?;
         let data = self.texture.data_mut();
-        for (i, (px, rgb)) in frame
-            .pixels()
-            .iter()
-            .zip(appearance.chunks_exact(3))
-            .enumerate()
-        {
-            let k = (px.y as usize * w + px.x as usize) * 4;
-            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
-            data[k] = to_u8(rgb[0] * a);
-            data[k + 1] = to_u8(rgb[1] * a);
-            data[k + 2] = to_u8(rgb[2] * a);
-            data[k + 3] = to_u8(a);
+        for (k, texel) in super::texels(frame, appearance, alpha) {
+            if let Some(d) = data.get_mut(4 * k..4 * k + 4) {
+                d.copy_from_slice(&texel);
+            }
         }
-        for &(k, src) in frame.padding() {
-            let px = frame.pixels()[src as usize];
-            let s = (px.y as usize * w + px.x as usize) * 4;
-            let d = k as usize * 4;
-            data.copy_within(s..s + 4, d);
+        for (d, s) in super::padding_copies(frame) {
+            data.copy_within(4 * s..4 * s + 4, 4 * d);
         }
         Ok(())
     }
@@ -192,9 +176,4 @@ pub(crate) fn warp_mesh(
         target.fill_path(&p, &paint, FillRule::Winding, Transform::identity(), None);
         *path = Some(p.clear());
     }
-}
-
-#[inline]
-fn to_u8(v: f32) -> u8 {
-    (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8
 }

@@ -523,17 +523,9 @@ impl JsCloner {
     ) -> Result<ImageData, JsError> {
         let i = self.check_index(index)?;
         let options = RenderOptions::from_js(&options.map(JsValue::from))?;
-        let mut out = None;
-        self.render_target_into(
-            i,
-            Sink::Image {
-                width,
-                height,
-                out: &mut out,
-            },
-            &options,
-        )?;
-        out.ok_or_else(|| JsError::new("internal error: no image produced"))
+        image_data(width, height, |sink| {
+            self.render_target_into(i, sink, &options)
+        })
     }
 
     /// Renders the source face into a new `ImageData` of the given size.
@@ -545,16 +537,9 @@ impl JsCloner {
         options: Option<RenderOptionsArg>,
     ) -> Result<ImageData, JsError> {
         let options = RenderOptions::from_js(&options.map(JsValue::from))?;
-        let mut out = None;
-        self.render_source_into(
-            Sink::Image {
-                width,
-                height,
-                out: &mut out,
-            },
-            &options,
-        )?;
-        out.ok_or_else(|| JsError::new("internal error: no image produced"))
+        image_data(width, height, |sink| {
+            self.render_source_into(sink, &options)
+        })
     }
 
     /// The compare view (the paper's Fig. 4): target `index` cloned from the current source
@@ -653,4 +638,19 @@ impl std::fmt::Debug for JsCloner {
             .field("targets", &self.cloner.n_targets())
             .finish_non_exhaustive()
     }
+}
+
+/// A new `ImageData` of `width x height` that `draw` renders into.
+fn image_data(
+    width: u32,
+    height: u32,
+    draw: impl FnOnce(Sink<'_>) -> Result<(), JsError>,
+) -> Result<ImageData, JsError> {
+    let mut out = None;
+    draw(Sink::Image {
+        width,
+        height,
+        out: &mut out,
+    })?;
+    out.ok_or_else(|| JsError::new("internal error: no image produced"))
 }
