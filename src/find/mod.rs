@@ -145,6 +145,12 @@ impl FaceFinder {
         })
     }
 
+    /// Whether the points are moved onto the dlib convention (the default); switched off only
+    /// to measure that calibration (`examples/finder_data.rs calibration`).
+    pub fn set_calibrated(&mut self, on: bool) {
+        self.calibrate = on;
+    }
+
     /// The options [`find`](Self::find) uses.
     pub fn options(&self) -> FindOptions {
         self.options

@@ -1,5 +1,6 @@
 //! The nets against TensorFlow.js: raw outputs of face-api.js's own code on the same inputs
-//! (`scripts/finder-reference.mjs`), for GRID frames (`tests/data/finder/README.md`).
+//! (`scripts/finder-reference.mjs`), for GRID frames (`tests/data/finder/README.md`). The inputs
+//! are made by `cargo run --example finder_data -- inputs`.
 
 use super::nets::{Detector, LandmarkNet, Scratch, DETECTOR_MEAN, LANDMARK_MEAN};
 use super::nn::Map;
@@ -78,45 +79,4 @@ fn landmark_outputs_match_tfjs() {
         // Outputs are fractions of the 112-pixel input: 1e-4 is a hundredth of a pixel.
         assert!(d < 1e-4, "{name}: max |diff| {d}");
     }
-}
-
-/// Regenerates the `.rgb` inputs from the GRID frames in `data/grid` (then run
-/// `scripts/finder-reference.mjs` for the outputs): `cargo test --lib find::reference --
-/// --ignored write_inputs`.
-#[test]
-#[ignore]
-fn write_inputs() {
-    use image::imageops::FilterType;
-    let root = env!("CARGO_MANIFEST_DIR");
-    let crop = |frame: &str, out: &str| {
-        let img = image::open(format!("{root}/data/grid/{frame}.jpg"))
-            .unwrap()
-            .to_rgb8();
-        let text = std::fs::read_to_string(format!("{root}/data/grid/{frame}.pts")).unwrap();
-        let pts = crate::landmarks::parse_pts(&text).unwrap();
-        let b = super::BBox::of_points(&pts);
-        let s = b.width.max(b.height) * 1.2;
-        let (x0, y0) = (
-            b.x + 0.5 * b.width - 0.5 * s,
-            b.y + 0.5 * b.height - 0.5 * s,
-        );
-        let c =
-            image::imageops::crop_imm(&img, x0 as u32, y0 as u32, s as u32, s as u32).to_image();
-        let r = image::imageops::resize(&c, 112, 112, FilterType::Triangle);
-        std::fs::write(format!("{DIR}/{out}.rgb"), r.as_raw()).unwrap();
-    };
-    crop("spk01_bbaf2n/000004", "grid-landmark-a-112");
-    crop("spk05_lrwp9a/000008", "grid-landmark-b-112");
-    let img = image::open(format!("{root}/data/grid/spk01_bbaf2n/000004.jpg"))
-        .unwrap()
-        .to_rgb8();
-    let scale = 160.0 / img.width().max(img.height()) as f32;
-    let (w, h) = (
-        (img.width() as f32 * scale) as u32,
-        (img.height() as f32 * scale) as u32,
-    );
-    let r = image::imageops::resize(&img, w, h, FilterType::Triangle);
-    let mut sq = image::RgbImage::new(160, 160);
-    image::imageops::replace(&mut sq, &r, 0, 0);
-    std::fs::write(format!("{DIR}/grid-detector-160.rgb"), sq.as_raw()).unwrap();
 }
