@@ -343,7 +343,8 @@ class VideoSource {
     }
 
     const anchor = document.querySelector('.stage .transport');
-    if (anchor) anchor.after(this.panel);
+    if (this.ctx.panelHost) this.ctx.panelHost.append(this.panel); // the call page's place for it
+    else if (anchor) anchor.after(this.panel);
     else (document.querySelector('main') || document.body).append(this.panel);
 
     // A hidden tab presents no frames: pause a clip or file (the fit would have to jump).
@@ -952,6 +953,8 @@ class VideoSource {
     }
     // Looking for the face (none yet, or lost): the worker finds faces for the tracker.
     if (this.tracker.wantsFaces && !this.media.still) this.feedFinder();
+    // The call page renders and logs every fit, lost or not (www/js/call-avatar.js).
+    if (typeof this.ctx.onFit === 'function') this.ctx.onFit(r, this.params);
 
     if (this.phase === 'tracking' && !this.media.still) {
       if (r.lost && this.lastGood === null && this.searchStart) this.say('Looking for a face…');
