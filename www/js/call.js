@@ -222,6 +222,7 @@ async function onSignalMessage(m) {
       call.peerPresent = false;
       call.peerLeft = true;
       link.close();
+      Object.assign(call.peer, { camera: null, pipelineMs: null, encodeMs: null, at: 0 });
       view.peerGone();
       break;
     case 'offer':
