@@ -123,6 +123,7 @@ export class Avatar {
       invalidate: () => {},
       onFit: (r, params) => this.onFit(r, params),
       panelHost: this.panelHost,
+      logMax: 300, // the tracking panel's own fit log: 10 s is plenty (the call keeps its FrameLog)
     };
     this.video = createSource('webcam', ctx);
     if (!this.video) {

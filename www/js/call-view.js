@@ -32,6 +32,7 @@ export class CallView {
     this.remoteFrames = 0;
     this.latencies = []; // recent per-frame latencies (ms)
     this.latencySource = null;
+    this.latencyCount = 0; // frames whose latency was measured, in all
     this.stallMax = 0; // longest gap between two presented frames since connected (ms)
     this.encodeMs = null;
     this.parts = {};
@@ -105,10 +106,15 @@ export class CallView {
   }
 
   onRemoteFrame(now, meta) {
-    if (this.lastFrameAt && this.call.link?.state === 'connected') this.stallMax = Math.max(this.stallMax, now - this.lastFrameAt);
+    // A busy main thread may miss callbacks; presentedFrames counts every frame the compositor
+    // showed. A gap spanning n frames is counted as n gaps of its mean length.
+    const n = meta.presentedFrames;
+    const inc = this.lastPresented !== undefined && n > this.lastPresented ? Math.min(n - this.lastPresented, 120) : 1;
+    this.lastPresented = n;
+    if (this.lastFrameAt && this.call.link?.state === 'connected') this.stallMax = Math.max(this.stallMax, (now - this.lastFrameAt) / inc);
     this.lastFrameAt = now;
-    this.remoteFrames++;
-    this.frameTimes.push(now);
+    this.remoteFrames += inc;
+    for (let i = 0; i < inc; i++) this.frameTimes.push(now);
     while (this.frameTimes.length && now - this.frameTimes[0] > 1000) this.frameTimes.shift();
     const shown = meta.expectedDisplayTime ?? now;
     let lat = null;
@@ -133,6 +139,7 @@ export class CallView {
     }
     if (lat !== null) {
       this.latencies.push(lat);
+      this.latencyCount++;
       if (this.latencies.length > 60) this.latencies.shift();
       this.latencySource = source;
     }
@@ -340,6 +347,8 @@ export class CallView {
       },
       latencyMs: () => v.latencyMs,
       latencySource: () => v.latencySource,
+      latencyCount: () => v.latencyCount,
+      recentLatencies: () => [...v.latencies],
       breakdown: () => ({ peerPipelineMs: c.peer.pipelineMs, peerEncodeMs: c.peer.encodeMs, ...v.parts }),
       signal: () => c.signal?.state ?? 'closed',
       signalReconnects: () => c.signal?.reconnects ?? 0,
@@ -353,6 +362,7 @@ export class CallView {
       settings: () => ({ ...(c.avatar?.settings ?? {}) }),
       camera: () => c.avatar?.camera ?? null,
       framesSent: () => c.avatar?.frames ?? 0,
+      fits: () => ({ fits: c.avatar?.fits ?? 0, lost: c.avatar?.lost ?? 0 }),
       logRows: () => c.avatar?.log?.length ?? 0,
       rejectedMessages: () => c.rejected,
       audio: () => ({ sending: Boolean(c.mic), level: v.parts.audioLevel ?? null, energy: v.parts.audioEnergy ?? null, samples: v.parts.audioSamples ?? null }),
