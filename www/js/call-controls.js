@@ -201,7 +201,9 @@ export class FrameLog {
       for (let i = 0; i < w; i++) {
         const v = this.data[o + i];
         if (i === 7) cells[i] = Number.isNaN(v) ? '' : JSON.stringify(this.avatars[v] ?? '');
-        else cells[i] = Number.isNaN(v) ? '' : i === 0 ? v.toFixed(3) : String(Math.fround(v) === v || !Number.isInteger(v) ? +v.toPrecision(7) : v);
+        else if (Number.isNaN(v)) cells[i] = '';
+        else if (i === 0 || i === 2) cells[i] = v.toFixed(3); // wall-clock times, ms
+        else cells[i] = Number.isInteger(v) ? String(v) : String(+v.toPrecision(7));
       }
       lines.push(cells.join(','));
     }
