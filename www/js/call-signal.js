@@ -66,6 +66,7 @@ export class SignalClient extends EventTarget {
     }
     this.ws = ws;
     ws.onopen = () => {
+      this.everOpen = true;
       if (this.attempt) this.reconnects++;
       this.attempt = 0;
       this.setState('open');
@@ -141,10 +142,12 @@ export class SignalClient extends EventTarget {
         reject(new Error('the signalling server does not answer'));
       }, ms);
       const on = (e) => {
-        if (e.detail !== 'open') return;
+        const never = e.detail === 'reconnecting' && !this.everOpen;
+        if (e.detail !== 'open' && !never) return;
         clearTimeout(timer);
         this.removeEventListener('state', on);
-        resolve();
+        if (never) reject(new Error('the signalling server does not answer'));
+        else resolve();
       };
       this.addEventListener('state', on);
     });

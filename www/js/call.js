@@ -250,6 +250,9 @@ function startSignal() {
   s.addEventListener('fail', (e) => {
     call.error = e.detail;
     call.joined = false;
+    // Retrying cannot cure this (an unknown or full room): stop, until the user starts again.
+    s.stop();
+    if (call.signal === s) call.signal = null;
     sessionStorage.removeItem(`facemimic-call-joined:${call.room}`);
     view.update();
     notify('error', 'Could not join the call', message(e.detail));
@@ -271,8 +274,14 @@ async function join(room) {
     await s.join(room, peerId(room));
   } catch (e) {
     call.error = e;
+    if (!s.everOpen) {
+      // No signalling server where this page comes from (a static host): say what works instead.
+      s.stop();
+      call.signal = null;
+      call.room = null;
+      notify('error', 'No signalling server answers here', 'this page may be on a static host: connect with "Without a server" (copy and paste the connection text) instead');
+    } else if (!e.code) notify('error', 'Could not join the call', message(e));
     view.update();
-    if (!e.code) notify('error', 'Could not join the call', message(e));
     return;
   }
   sessionStorage.setItem(`facemimic-call-joined:${room}`, '1');
