@@ -118,12 +118,24 @@ try {
   const first = samples.find((r) => r.t >= 60) || samples[0];
   const last = samples[samples.length - 1];
   const summary = { minutes, samples: samples.length, pages: {} };
+  // The heap's trend after the first minute (least squares over the samples): a leak shows as a
+  // slope; single samples move by about a megabyte either way (WebRTC's and the page's garbage).
+  const trend = (k) => {
+    const pts = samples.filter((r) => r.t >= first.t).map((r) => [r.t / 60, r[k].heap]);
+    const n = pts.length;
+    const mx = pts.reduce((s, p) => s + p[0], 0) / n;
+    const my = pts.reduce((s, p) => s + p[1], 0) / n;
+    const den = pts.reduce((s, p) => s + (p[0] - mx) ** 2, 0);
+    const slope = den > 0 ? pts.reduce((s, p) => s + (p[0] - mx) * (p[1] - my), 0) / den : 0; // bytes a minute
+    return { heapTrendKBPerMin: slope / 1024, heapTrendPctPer30Min: ((slope * 30) / my) * 100 };
+  };
   for (const k of ['A', 'B']) {
     const drops = samples.filter((r) => r[k].connection !== 'connected').length;
     summary.pages[k] = {
       heapAt1MinMB: first[k].heap / 1048576,
       heapEndMB: last[k].heap / 1048576,
       heapGrowthPct: ((last[k].heap - first[k].heap) / first[k].heap) * 100,
+      ...trend(k),
       heapMaxGrowthPct: Math.max(...samples.filter((r) => r.t >= first.t).map((r) => ((r[k].heap - first[k].heap) / first[k].heap) * 100)),
       wasmAt1MinMB: first[k].wasm / 1048576,
       wasmEndMB: last[k].wasm / 1048576,
