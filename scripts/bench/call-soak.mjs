@@ -6,7 +6,11 @@
 // state, the frames presented. The remote video's presented frames are timed in the page
 // (requestVideoFrameCallback): the longest gap and the gaps over 200 ms after the first minute.
 //
-//   node scripts/bench/call-soak.mjs [--minutes 30] [--every 30] [--out artifacts/call-soak.json]
+//   node scripts/bench/call-soak.mjs [--minutes 30] [--every 30] [--gc every|ends] [--out artifacts/call-soak.json]
+//
+// --gc ends forces the garbage collection only for the sample at 1 minute and the last one (the
+// heap growth is measured between those two; the samples between read the heap as it is), so the
+// collections themselves cannot cause the stalls measured.
 //
 // Prints one line per sample and a JSON summary: heap and wasm growth after the first minute
 // (last sample over the one at 1 minute), longest stall after the first minute, connection drops
@@ -24,8 +28,9 @@ const arg = (name, def) => {
 const minutes = Number(arg('minutes', 30));
 const every = Number(arg('every', 30));
 const out = path.resolve(ROOT, arg('out', 'artifacts/call-soak.json'));
-if (!(minutes > 1) || !(every > 0)) {
-  console.error('call-soak: --minutes must be over 1 and --every positive');
+const gcMode = arg('gc', 'every');
+if (!(minutes > 1) || !(every > 0) || !['every', 'ends'].includes(gcMode)) {
+  console.error('call-soak: --minutes must be over 1, --every positive, --gc every or ends');
   process.exit(2);
 }
 
@@ -73,6 +78,7 @@ try {
   const base = {};
   for (const [k, p] of Object.entries(pages)) base[k] = await status(p);
   let reset = false;
+  let firstGcDone = false;
   const end = t0 + minutes * 60000;
   for (;;) {
     const elapsed = (Date.now() - t0) / 1000;
@@ -81,8 +87,11 @@ try {
       reset = true;
     }
     const row = { t: Math.round(elapsed) };
+    const lastSample = Date.now() + every * 1000 > end;
+    row.gc = gcMode === 'every' || (reset && !firstGcDone) || lastSample;
+    if (reset && row.gc) firstGcDone = true;
     for (const [k, p] of Object.entries(pages)) {
-      await cdp[k].send('HeapProfiler.collectGarbage');
+      if (row.gc) await cdp[k].send('HeapProfiler.collectGarbage');
       const s = await status(p);
       const m = await p.evaluate(() => ({ heap: performance.memory.usedJSHeapSize, soak: { ...window.__soak, now: performance.now() } }));
       const secs = (m.soak.now - m.soak.since) / 1000;
@@ -106,22 +115,23 @@ try {
     samples.push(row);
     const f = (x) => `${(x / 1048576).toFixed(2)} MB`;
     console.log(
-      `t=${row.t}s ` +
+      `t=${row.t}s${row.gc ? ' (gc)' : ''} ` +
         Object.entries(row)
-          .filter(([k]) => k !== 't')
+          .filter(([k]) => k === 'A' || k === 'B')
           .map(([k, r]) => `${k}: ${r.state} heap ${f(r.heap)} wasm ${f(r.wasm)} fps ${r.remoteFps} (mean ${r.meanFps.toFixed(1)}) maxGap ${r.maxGap.toFixed(0)} ms gaps>200 ${r.gaps200} lat ${r.latencyMs?.toFixed(0)} ms`)
           .join(' | '),
     );
     if (Date.now() >= end) break;
     await new Promise((r) => setTimeout(r, Math.min(every * 1000, Math.max(0, end - Date.now()))));
   }
-  const first = samples.find((r) => r.t >= 60) || samples[0];
+  const first = samples.find((r) => r.t >= 60 && r.gc) || samples[0];
   const last = samples[samples.length - 1];
-  const summary = { minutes, samples: samples.length, pages: {} };
+  const summary = { minutes, gc: gcMode, samples: samples.length, pages: {} };
   // The heap's trend after the first minute (least squares over the samples): a leak shows as a
   // slope; single samples move by about a megabyte either way (WebRTC's and the page's garbage).
   const trend = (k) => {
-    const pts = samples.filter((r) => r.t >= first.t).map((r) => [r.t / 60, r[k].heap]);
+    const pts = samples.filter((r) => r.t >= first.t && r.gc).map((r) => [r.t / 60, r[k].heap]);
+    if (pts.length < 3) return { heapTrendKBPerMin: null, heapTrendPctPer30Min: null };
     const n = pts.length;
     const mx = pts.reduce((s, p) => s + p[0], 0) / n;
     const my = pts.reduce((s, p) => s + p[1], 0) / n;
@@ -136,7 +146,7 @@ try {
       heapEndMB: last[k].heap / 1048576,
       heapGrowthPct: ((last[k].heap - first[k].heap) / first[k].heap) * 100,
       ...trend(k),
-      heapMaxGrowthPct: Math.max(...samples.filter((r) => r.t >= first.t).map((r) => ((r[k].heap - first[k].heap) / first[k].heap) * 100)),
+      heapMaxGrowthPct: Math.max(...samples.filter((r) => r.t >= first.t && r.gc).map((r) => ((r[k].heap - first[k].heap) / first[k].heap) * 100)),
       wasmAt1MinMB: first[k].wasm / 1048576,
       wasmEndMB: last[k].wasm / 1048576,
       wasmGrowthPct: ((last[k].wasm - first[k].wasm) / first[k].wasm) * 100,
