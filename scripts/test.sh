@@ -26,5 +26,8 @@ bash scripts/build-models.sh
 step "wasm tests (Node, then headless Chromium)"
 cargo test --target wasm32-unknown-unknown
 
+step "signalling server tests (the call page's WebSocket endpoint, hostile clients)"
+node --test --test-concurrency=1 tests/server/
+
 step "end-to-end browser tests"
 node --test --test-concurrency=1 tests/e2e/

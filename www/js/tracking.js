@@ -134,6 +134,7 @@ class VideoSource {
     this.lastGood = null; // last fit that was not lost, this sequence
     this.state = 'idle'; // tracking | lost | searching | reinit | idle
     this.log = [];
+    this.logMax = ctx.logMax ?? LOG_MAX; // the call page keeps its own log (www/js/call-controls.js)
     this.fitTimes = [];
     this.msPerFit = 0;
     this.fits = 0;
@@ -343,7 +344,8 @@ class VideoSource {
     }
 
     const anchor = document.querySelector('.stage .transport');
-    if (anchor) anchor.after(this.panel);
+    if (this.ctx.panelHost) this.ctx.panelHost.append(this.panel); // the call page's place for it
+    else if (anchor) anchor.after(this.panel);
     else (document.querySelector('main') || document.body).append(this.panel);
 
     // A hidden tab presents no frames: pause a clip or file (the fit would have to jump).
@@ -744,7 +746,7 @@ class VideoSource {
       ({ faces, ms }) => {
         this.findBusy = false;
         this.findLog.push({ ms, faces: faces.length, wall: performance.now() - t0 });
-        if (this.findLog.length > LOG_MAX) this.findLog.shift();
+        if (this.findLog.length > this.logMax) this.findLog.shift();
         if (seq !== this.seqId || !this.running || !faces.length || !this.tracker.wantsFaces) return;
         const kFit = this.tracker.fitScale(bounds(faces[0].landmarks).h / k, this.media.width, this.media.height, this.kFit);
         try {
@@ -936,7 +938,7 @@ class VideoSource {
       ms,
       landmarks: Array.from(scaled(fit.landmarks, 1 / this.kFit)), // video pixels
     });
-    if (this.log.length > LOG_MAX) this.log.splice(0, this.log.length - LOG_MAX);
+    if (this.log.length > this.logMax) this.log.splice(0, this.log.length - this.logMax);
 
     // The face grew or shrank a lot (moving to or from the camera): carry on at a new fit scale.
     if (!r.lost && !this.media.still) {
@@ -952,6 +954,8 @@ class VideoSource {
     }
     // Looking for the face (none yet, or lost): the worker finds faces for the tracker.
     if (this.tracker.wantsFaces && !this.media.still) this.feedFinder();
+    // The call page renders and logs every fit, lost or not (www/js/call-avatar.js).
+    if (typeof this.ctx.onFit === 'function') this.ctx.onFit(r, this.params);
 
     if (this.phase === 'tracking' && !this.media.still) {
       if (r.lost && this.lastGood === null && this.searchStart) this.say('Looking for a face…');

@@ -1,0 +1,174 @@
+// The call soak (a script, not a test; issue 19's "Measures"): two headless Chromium pages in a
+// call through the demo server (node scripts/serve.mjs, a child process), each with a fake
+// camera (spk07's unseen GRID clip at 640x480, looped) and a fake microphone (a tone), for
+// --minutes (default 30). Every --every seconds, on each page, after a forced garbage collection
+// (DevTools HeapProfiler.collectGarbage): the JS heap in use, the wasm memory, the connection
+// state, the frames presented. The remote video's presented frames are timed in the page
+// (requestVideoFrameCallback): the longest gap and the gaps over 200 ms after the first minute.
+//
+//   node scripts/bench/call-soak.mjs [--minutes 30] [--every 30] [--gc every|ends] [--out artifacts/call-soak.json]
+//
+// --gc ends forces the garbage collection only for the sample at 1 minute and the last one (the
+// heap growth is measured between those two; the samples between read the heap as it is), so the
+// collections themselves cannot cause the stalls measured.
+//
+// Prints one line per sample and a JSON summary: heap and wasm growth after the first minute
+// (last sample over the one at 1 minute), longest stall after the first minute, connection drops
+// (a sample not "connected", a renegotiation, a signalling reconnection), receiver fps.
+
+import fs from 'node:fs';
+import path from 'node:path';
+import { launchBrowser, ROOT } from '../../tests/e2e/lib.mjs';
+import { fakeMedia, startDemoServer, status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
+
+const arg = (name, def) => {
+  const i = process.argv.indexOf(`--${name}`);
+  return i > 0 ? process.argv[i + 1] : def;
+};
+const minutes = Number(arg('minutes', 30));
+const every = Number(arg('every', 30));
+const out = path.resolve(ROOT, arg('out', 'artifacts/call-soak.json'));
+const gcMode = arg('gc', 'every');
+if (!(minutes > 1) || !(every > 0) || !['every', 'ends'].includes(gcMode)) {
+  console.error('call-soak: --minutes must be over 1, --every positive, --gc every or ends');
+  process.exit(2);
+}
+
+const cleanups = [];
+const args = await fakeMedia((fn) => cleanups.push(fn), 'soak');
+const browser = await launchBrowser([...args, '--enable-precise-memory-info']);
+const server = await startDemoServer();
+const t0 = Date.now();
+const samples = [];
+let exitCode = 0;
+
+/** In the page: time the remote video's presented frames. */
+function timeFrames() {
+  const v = document.getElementById('remote');
+  const w = { frames: 0, last: 0, maxGap: 0, gaps200: 0, since: performance.now() };
+  window.__soak = w;
+  let lastPresented;
+  const cb = (now, meta) => {
+    // Callbacks may be missed on a busy main thread: presentedFrames counts what was shown, and
+    // a gap spanning n presented frames counts as n gaps of its mean length.
+    const inc = lastPresented !== undefined && meta.presentedFrames > lastPresented ? meta.presentedFrames - lastPresented : 1;
+    lastPresented = meta.presentedFrames;
+    if (w.last) {
+      const gap = (now - w.last) / inc;
+      if (gap > w.maxGap) w.maxGap = gap;
+      if (gap > 200) w.gaps200 += inc;
+    }
+    w.last = now;
+    w.frames += inc;
+    v.requestVideoFrameCallback(cb);
+  };
+  v.requestVideoFrameCallback(cb);
+  window.__soakReset = () => Object.assign(w, { frames: 0, maxGap: 0, gaps200: 0, since: performance.now() });
+}
+
+try {
+  const { a, b } = await twoPages(browser, server);
+  for (const p of [a, b]) await waitCall(p, () => window.facemimicCall.state === 'connected' && window.facemimicCall.remoteFrames > 30, 60000);
+  const pages = { A: a, B: b };
+  const cdp = {};
+  for (const [k, p] of Object.entries(pages)) {
+    cdp[k] = await p.context().newCDPSession(p);
+    await p.evaluate(timeFrames);
+  }
+  const base = {};
+  for (const [k, p] of Object.entries(pages)) base[k] = await status(p);
+  let reset = false;
+  let firstGcDone = false;
+  const end = t0 + minutes * 60000;
+  for (;;) {
+    const elapsed = (Date.now() - t0) / 1000;
+    if (!reset && elapsed >= 60) {
+      for (const p of Object.values(pages)) await p.evaluate(() => window.__soakReset());
+      reset = true;
+    }
+    const row = { t: Math.round(elapsed) };
+    const lastSample = Date.now() + every * 1000 > end;
+    row.gc = gcMode === 'every' || (reset && !firstGcDone) || lastSample;
+    if (reset && row.gc) firstGcDone = true;
+    for (const [k, p] of Object.entries(pages)) {
+      if (row.gc) await cdp[k].send('HeapProfiler.collectGarbage');
+      const s = await status(p);
+      const m = await p.evaluate(() => ({ heap: performance.memory.usedJSHeapSize, soak: { ...window.__soak, now: performance.now() } }));
+      const secs = (m.soak.now - m.soak.since) / 1000;
+      row[k] = {
+        state: s.state,
+        connection: s.connection,
+        signal: s.signal,
+        negotiations: s.negotiations,
+        signalReconnects: s.signalReconnects,
+        heap: m.heap,
+        wasm: s.wasmBytes,
+        remoteFps: s.remoteFps,
+        meanFps: secs > 0 ? m.soak.frames / secs : 0,
+        maxGap: m.soak.maxGap,
+        gaps200: m.soak.gaps200,
+        latencyMs: s.latencyMs,
+        framesSent: s.framesSent,
+        camera: s.camera,
+      };
+    }
+    samples.push(row);
+    const f = (x) => `${(x / 1048576).toFixed(2)} MB`;
+    console.log(
+      `t=${row.t}s${row.gc ? ' (gc)' : ''} ` +
+        Object.entries(row)
+          .filter(([k]) => k === 'A' || k === 'B')
+          .map(([k, r]) => `${k}: ${r.state} heap ${f(r.heap)} wasm ${f(r.wasm)} fps ${r.remoteFps} (mean ${r.meanFps.toFixed(1)}) maxGap ${r.maxGap.toFixed(0)} ms gaps>200 ${r.gaps200} lat ${r.latencyMs?.toFixed(0)} ms`)
+          .join(' | '),
+    );
+    if (Date.now() >= end) break;
+    await new Promise((r) => setTimeout(r, Math.min(every * 1000, Math.max(0, end - Date.now()))));
+  }
+  const first = samples.find((r) => r.t >= 60 && r.gc) || samples[0];
+  const last = samples[samples.length - 1];
+  const summary = { minutes, gc: gcMode, samples: samples.length, pages: {} };
+  // The heap's trend after the first minute (least squares over the samples): a leak shows as a
+  // slope; single samples move by about a megabyte either way (WebRTC's and the page's garbage).
+  const trend = (k) => {
+    const pts = samples.filter((r) => r.t >= first.t && r.gc).map((r) => [r.t / 60, r[k].heap]);
+    if (pts.length < 3) return { heapTrendKBPerMin: null, heapTrendPctPer30Min: null };
+    const n = pts.length;
+    const mx = pts.reduce((s, p) => s + p[0], 0) / n;
+    const my = pts.reduce((s, p) => s + p[1], 0) / n;
+    const den = pts.reduce((s, p) => s + (p[0] - mx) ** 2, 0);
+    const slope = den > 0 ? pts.reduce((s, p) => s + (p[0] - mx) * (p[1] - my), 0) / den : 0; // bytes a minute
+    return { heapTrendKBPerMin: slope / 1024, heapTrendPctPer30Min: ((slope * 30) / my) * 100 };
+  };
+  for (const k of ['A', 'B']) {
+    const drops = samples.filter((r) => r[k].connection !== 'connected').length;
+    summary.pages[k] = {
+      heapAt1MinMB: first[k].heap / 1048576,
+      heapEndMB: last[k].heap / 1048576,
+      heapGrowthPct: ((last[k].heap - first[k].heap) / first[k].heap) * 100,
+      ...trend(k),
+      heapMaxGrowthPct: Math.max(...samples.filter((r) => r.t >= first.t && r.gc).map((r) => ((r[k].heap - first[k].heap) / first[k].heap) * 100)),
+      wasmAt1MinMB: first[k].wasm / 1048576,
+      wasmEndMB: last[k].wasm / 1048576,
+      wasmGrowthPct: ((last[k].wasm - first[k].wasm) / first[k].wasm) * 100,
+      longestStallAfter1MinMs: last[k].maxGap,
+      stallsOver200MsAfter1Min: last[k].gaps200,
+      receiverFpsMean: last[k].meanFps,
+      samplesNotConnected: drops,
+      renegotiations: last[k].negotiations - base[k].negotiations,
+      signalReconnects: last[k].signalReconnects - base[k].signalReconnects,
+      framesSent: last[k].framesSent,
+    };
+  }
+  console.log(JSON.stringify(summary, null, 2));
+  fs.mkdirSync(path.dirname(out), { recursive: true });
+  fs.writeFileSync(out, JSON.stringify({ summary, samples }, null, 1));
+  console.log(`call-soak: samples and summary in ${path.relative(ROOT, out)}`);
+} catch (e) {
+  console.error(`call-soak: ${e.stack || e}`);
+  exitCode = 1;
+} finally {
+  await browser.close();
+  await server.stop();
+  for (const fn of cleanups) fn();
+}
+process.exit(exitCode);

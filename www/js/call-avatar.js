@@ -1,0 +1,261 @@
+// One side of a call: the webcam tracked by the page's tracking source (www/js/tracking.js, the
+// same VideoSource as the main page's "Webcam"), its expression cloned onto the avatar chosen
+// (the package's Cloner) and drawn, composited, into one 640x480 canvas. That canvas is what the
+// call sends (`canvas.captureStream()`); the webcam's own picture stays in this page.
+//
+// Per fit: the tracker's parameters (pose re-centred as on the main page) -> head-motion damping
+// (PoseDamper) -> Cloner (gain) -> the avatar drawn into the canvas -> a row of the frame log.
+// A lost face draws nothing new: the avatar holds its last frame (and the other side is told).
+// Changing the avatar replaces the Cloner's target: the same canvas, the same track, no
+// renegotiation.
+
+import { createSource } from './sources.js';
+import { PoseDamper, FrameLog, clampSettings } from './call-controls.js';
+import './tracking.js'; // registers the webcam source
+
+export const WIDTH = 640;
+export const HEIGHT = 480;
+/** The bench stamp: 24 blocks of STAMP_BLOCK px along the bottom edge, one bit each. */
+export const STAMP_BITS = 24;
+export const STAMP_BLOCK = 16;
+
+/** Reads the stamp from the bottom-left of a picture's pixels (ImageData of a WIDTH x STAMP_BLOCK strip). */
+export function readStamp(img) {
+  let v = 0;
+  for (let b = 0; b < STAMP_BITS; b++) {
+    let s = 0;
+    for (let y = 4; y < STAMP_BLOCK - 4; y++) {
+      for (let x = 4; x < STAMP_BLOCK - 4; x++) {
+        const i = (y * img.width + b * STAMP_BLOCK + x) * 4;
+        s += img.data[i] + img.data[i + 1] + img.data[i + 2];
+      }
+    }
+    if (s / ((STAMP_BLOCK - 8) ** 2 * 3) > 128) v |= 1 << b;
+  }
+  return v >>> 0;
+}
+
+export class Avatar {
+  /**
+   * `fm`: the package; `canvas`: the canvas sent; `panelHost`: where the tracking panel goes;
+   * `bench`: stamp each frame's camera capture time into it (for the latency bench).
+   */
+  constructor({ fm, canvas, panelHost, bench = false, onStatus = () => {} }) {
+    this.fm = fm;
+    this.canvas = canvas;
+    canvas.width = WIDTH;
+    canvas.height = HEIGHT;
+    this.ctx = canvas.getContext('2d', { alpha: false });
+    this.panelHost = panelHost;
+    this.bench = bench;
+    this.onStatus = onStatus;
+    this.cloner = null;
+    this.source = null; // { model, info, name }
+    this.target = null; // { model, info, name }
+    this.video = null; // VideoSource
+    this.settings = { gain: 1, head: 1 };
+    this.damper = new PoseDamper();
+    this.log = null;
+    this.frames = 0; // avatar frames drawn
+    this.fits = 0;
+    this.lost = 0;
+    this.captures = new Map(); // camera frame mediaTime -> capture time (performance clock)
+    this.pipeline = []; // recent (drawn - captured) ms
+    this.camera = 'starting';
+    this.lastDrawn = 0;
+    this.drawTimes = [];
+  }
+
+  /** Avatar frames drawn in the last second. */
+  fpsNow() {
+    const now = performance.now();
+    while (this.drawTimes.length && now - this.drawTimes[0] > 1000) this.drawTimes.shift();
+    return this.drawTimes.length;
+  }
+
+  /** Source model (whose AAM tracks the webcam) and avatar (target) model. */
+  setModels(source, target) {
+    const oldCloner = this.cloner;
+    this.cloner = new this.fm.Cloner(source.model);
+    this.cloner.addTarget(target.model);
+    this.cloner.setFollowPose(true);
+    this.cloner.setMethod('map-residual');
+    this.cloner.setGain(this.settings.gain);
+    oldCloner?.free();
+    const sourceChanged = this.source?.model !== source.model;
+    this.source = source;
+    this.target = target;
+    this.resetLog();
+    if (sourceChanged) this.restartCamera();
+    this.drawParams(source.model.baseParams(), performance.now());
+  }
+
+  /** Change the avatar only (mid-call): the same canvas and track; nothing is renegotiated. */
+  setTarget(target) {
+    this.cloner.replaceTarget(0, target.model);
+    this.target = target;
+    this.resetLog();
+    this.redraw();
+  }
+
+  resetLog() {
+    const si = this.source.info;
+    const ti = this.target.info;
+    if (!this.log) {
+      this.log = new FrameLog({ shapeModes: si.shapeModes, appearanceModes: si.appearanceModes, targetShape: ti.shapeModes, targetAppearance: ti.appearanceModes });
+    } else this.log.ensure(si.shapeModes, si.appearanceModes, ti.shapeModes, ti.appearanceModes);
+  }
+
+  setSettings(s) {
+    this.settings = clampSettings({ ...this.settings, ...s });
+    this.cloner?.setGain(this.settings.gain);
+    this.redraw();
+  }
+
+  restartCamera() {
+    this.video?.stop();
+    this.camera = 'starting';
+    const ctx = {
+      wasm: this.fm,
+      sourceModel: () => this.source.model,
+      sourceInfo: () => this.source.info,
+      currentParams: () => null,
+      invalidate: () => {},
+      onFit: (r, params) => this.onFit(r, params),
+      panelHost: this.panelHost,
+      logMax: 300, // the tracking panel's own fit log: 10 s is plenty (the call keeps its FrameLog)
+    };
+    this.video = createSource('webcam', ctx);
+    if (!this.video) {
+      this.setCamera('camera-lost');
+      return;
+    }
+    this.video.start();
+    this.watchCaptures();
+    this.watchCamera();
+  }
+
+  /** Camera frames' capture times (requestVideoFrameCallback metadata), for the latency. */
+  watchCaptures() {
+    const v = this.video.video;
+    if (typeof v.requestVideoFrameCallback !== 'function') return;
+    const vs = this.video;
+    const cb = (now, meta) => {
+      if (this.video !== vs || !vs.running) return;
+      // captureTime is the camera's; without it, the moment the frame was handed to the page.
+      this.captures.set(meta.mediaTime, meta.captureTime ?? meta.receiveTime ?? now);
+      if (this.captures.size > 16) this.captures.delete(this.captures.keys().next().value);
+      v.requestVideoFrameCallback(cb);
+    };
+    v.requestVideoFrameCallback(cb);
+  }
+
+  /** The camera's state, from the tracking source's phase (polled: it has no events). */
+  watchCamera() {
+    clearInterval(this.cameraTimer);
+    this.cameraTimer = setInterval(() => {
+      const vs = this.video;
+      if (!vs) return;
+      if (vs.phase === 'error' || vs.streamEnded) this.setCamera('camera-lost');
+      else if (vs.phase === 'tracking' && vs.state === 'lost') this.setCamera('face-lost');
+      else if (vs.phase === 'tracking' && vs.last && !vs.last.lost) this.setCamera('ok');
+      else if (vs.phase === 'placing' || vs.phase === 'loading') this.setCamera(this.camera === 'ok' ? 'face-lost' : 'starting');
+    }, 250);
+  }
+
+  setCamera(state) {
+    if (this.camera === state) return;
+    this.camera = state;
+    this.onStatus(state);
+  }
+
+  onFit(r, params) {
+    this.fits++;
+    const now = performance.now();
+    const mediaTime = this.video?.lastMediaTime;
+    const captured = this.captures.get(mediaTime) ?? now;
+    if (r.lost) {
+      this.lost++;
+      this.logRow({ now, captured, lost: true, fitPose: null, sent: null });
+      this.setCamera('face-lost');
+      return;
+    }
+    this.setCamera('ok');
+    this.drawParams(params, captured, r.pose);
+  }
+
+  /** Clone and draw `params` (pose damped), stamp it in bench mode, log the frame. */
+  drawParams(params, captured, fitPose = params.pose) {
+    if (!this.cloner) return;
+    const now = performance.now();
+    const sent = this.damper.apply(params.pose, now, this.settings.head);
+    const p = { pose: sent, shape: params.shape, appearance: params.appearance };
+    this.params = params;
+    this.cloner.setSourceParams(p);
+    this.cloner.update();
+    const composite = Boolean(this.target.info.backdrop);
+    this.cloner.renderTarget(0, this.ctx, { raster: 'scanline', composite, background: '#1b1d22' });
+    if (this.bench) this.stamp(captured);
+    const drawn = performance.now();
+    this.frames++;
+    this.lastDrawn = drawn;
+    this.drawTimes.push(drawn);
+    while (this.drawTimes.length && drawn - this.drawTimes[0] > 1000) this.drawTimes.shift();
+    this.pipeline.push(drawn - captured);
+    if (this.pipeline.length > 60) this.pipeline.shift();
+    this.logRow({ now: drawn, captured, lost: false, fitPose, sent });
+  }
+
+  redraw() {
+    if (this.params) this.drawParams(this.params, performance.now());
+  }
+
+  /** Bench mode: the capture time (ms of the wall clock, mod 2^24) as black / white blocks. */
+  stamp(captured) {
+    const v = Math.round(performance.timeOrigin + captured) % 2 ** STAMP_BITS;
+    const g = this.ctx;
+    for (let b = 0; b < STAMP_BITS; b++) {
+      g.fillStyle = (v >>> b) & 1 ? '#fff' : '#000';
+      g.fillRect(b * STAMP_BLOCK, HEIGHT - STAMP_BLOCK, STAMP_BLOCK, STAMP_BLOCK);
+    }
+  }
+
+  logRow({ now, captured, lost, fitPose, sent }) {
+    if (!this.log) return;
+    let tgt = null;
+    if (!lost) {
+      try {
+        tgt = this.cloner.targetParams(0);
+      } catch {
+        tgt = null;
+      }
+    }
+    this.log.push({
+      wall: performance.timeOrigin + now,
+      frame: this.fits,
+      captureMs: performance.timeOrigin + captured,
+      renderMs: lost ? NaN : now - captured,
+      lost,
+      gain: this.settings.gain,
+      head: this.settings.head,
+      avatar: this.target.name,
+      fitPose,
+      sentPose: sent,
+      src: lost ? null : this.params,
+      tgt,
+    });
+  }
+
+  /** Median camera-capture-to-drawn time of the last frames (track + clone + render), ms. */
+  get pipelineMs() {
+    if (!this.pipeline.length) return null;
+    const s = [...this.pipeline].sort((a, b) => a - b);
+    return s[s.length >> 1];
+  }
+
+  stop() {
+    clearInterval(this.cameraTimer);
+    this.video?.stop();
+    this.video = null;
+  }
+}

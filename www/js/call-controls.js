@@ -1,0 +1,212 @@
+// The call's experimenter controls, without DOM: head-motion damping (the pose's deviation from
+// its running mean, scaled), the checks on every message that arrives over the data channel, and
+// the per-frame log (a fixed-size ring of numbers, written out as CSV).
+//
+// Everything received from the other page is untrusted: `parseControl` returns a clean message
+// or null (and why), so garbage over the data channel is counted and ignored, never thrown.
+
+/** The limits of the per-side settings (the wasm `Cloner.setGain` takes 0..2.5 as well). */
+export const GAIN_RANGE = [0, 2.5];
+/** Head motion: 0 holds the head at its running mean, 1 leaves it, above 1 exaggerates. */
+export const HEAD_RANGE = [0, 1.5];
+/** Running mean of the pose: time constant in seconds. */
+export const HEAD_TAU = 2;
+/** A data channel message longer than this is dropped unread. */
+export const MAX_CONTROL_BYTES = 4096;
+
+const clamp = (x, [lo, hi]) => Math.min(hi, Math.max(lo, x));
+const wrap = (a) => Math.atan2(Math.sin(a), Math.cos(a));
+
+/**
+ * Head-motion damping: keeps a running mean of the pose (log-scale, angle, translation;
+ * exponential, time constant HEAD_TAU) and returns mean + factor * (pose - mean).
+ */
+export class PoseDamper {
+  constructor(tau = HEAD_TAU) {
+    this.tau = tau;
+    this.mean = null;
+  }
+
+  reset() {
+    this.mean = null;
+  }
+
+  /** `pose` {scale, rotation, tx, ty}; `now` in ms; `factor` in HEAD_RANGE. */
+  apply(pose, now, factor) {
+    const ls = Math.log(pose.scale);
+    if (!this.mean) this.mean = { ls, rotation: pose.rotation, tx: pose.tx, ty: pose.ty, at: now };
+    const m = this.mean;
+    const u = 1 - Math.exp(-Math.max(0, now - m.at) / 1000 / this.tau);
+    m.ls += (ls - m.ls) * u;
+    m.rotation = wrap(m.rotation + wrap(pose.rotation - m.rotation) * u);
+    m.tx += (pose.tx - m.tx) * u;
+    m.ty += (pose.ty - m.ty) * u;
+    m.at = now;
+    if (factor === 1) return { ...pose };
+    return {
+      scale: Math.exp(m.ls + (ls - m.ls) * factor),
+      rotation: m.rotation + wrap(pose.rotation - m.rotation) * factor,
+      tx: m.tx + (pose.tx - m.tx) * factor,
+      ty: m.ty + (pose.ty - m.ty) * factor,
+    };
+  }
+}
+
+const finite = (x) => typeof x === 'number' && Number.isFinite(x);
+
+/**
+ * A data channel message, checked. Returns `{ msg }` (a fresh object with only known fields) or
+ * `{ error }`. Kinds:
+ *   {t:"set", gain?, head?, avatar?}     the experimenter sets this side's settings
+ *   {t:"status", camera, pipelineMs?, encodeMs?, avatar?, gain?, head?}   the other side's state
+ *   {t:"bye"}                            the other side hangs up
+ * `avatars`: the names an "avatar" may take.
+ */
+export function parseControl(data, avatars) {
+  if (typeof data !== 'string') return { error: 'not text' };
+  if (data.length > MAX_CONTROL_BYTES) return { error: `longer than ${MAX_CONTROL_BYTES} bytes` };
+  let m;
+  try {
+    m = JSON.parse(data);
+  } catch {
+    return { error: 'not JSON' };
+  }
+  if (!m || typeof m !== 'object' || Array.isArray(m)) return { error: 'not an object' };
+  const num = (k, range) => {
+    if (m[k] === undefined) return undefined;
+    if (!finite(m[k])) throw new Error(`${k} is not a number`);
+    if (range && (m[k] < range[0] || m[k] > range[1])) throw new Error(`${k} is outside ${range[0]}..${range[1]}`);
+    return m[k];
+  };
+  const avatar = () => {
+    if (m.avatar === undefined) return undefined;
+    if (typeof m.avatar !== 'string' || !avatars.includes(m.avatar)) throw new Error('avatar is not a bundled model');
+    return m.avatar;
+  };
+  try {
+    if (m.t === 'set') {
+      const out = { t: 'set', gain: num('gain', GAIN_RANGE), head: num('head', HEAD_RANGE), avatar: avatar() };
+      if (out.gain === undefined && out.head === undefined && out.avatar === undefined) return { error: 'set changes nothing' };
+      return { msg: out };
+    }
+    if (m.t === 'status') {
+      if (!['ok', 'face-lost', 'camera-lost', 'starting'].includes(m.camera)) return { error: 'bad camera state' };
+      const name = typeof m.avatar === 'string' ? m.avatar.slice(0, 80) : undefined;
+      return {
+        msg: {
+          t: 'status',
+          camera: m.camera,
+          pipelineMs: num('pipelineMs', [0, 60000]),
+          encodeMs: num('encodeMs', [0, 60000]),
+          gain: num('gain', GAIN_RANGE),
+          head: num('head', HEAD_RANGE),
+          avatar: name,
+        },
+      };
+    }
+    if (m.t === 'bye') return { msg: { t: 'bye' } };
+  } catch (e) {
+    return { error: e.message };
+  }
+  return { error: 'unknown kind' };
+}
+
+/** The gain and head-motion factor, clamped into their ranges. */
+export function clampSettings({ gain, head }) {
+  return { gain: clamp(gain, GAIN_RANGE), head: clamp(head, HEAD_RANGE) };
+}
+
+/**
+ * The per-frame log: a ring of `capacity` rows of numbers (allocated once, so a long call does
+ * not grow the page's memory), written out as CSV. Columns: time and frame, the pipeline's
+ * timing, the lost flag, the settings, the pose (as fitted and as sent), the source's shape and
+ * appearance parameters and the avatar's (the target's, as cloned).
+ */
+export class FrameLog {
+  constructor({ shapeModes, appearanceModes, targetShape, targetAppearance, capacity = 18000 }) {
+    this.capacity = capacity;
+    this.layout(shapeModes, appearanceModes, targetShape, targetAppearance);
+    this.rows = 0; // written in all
+    this.avatars = []; // names by index (the avatar column holds the index)
+  }
+
+  layout(ss, sa, ts, ta) {
+    this.dims = { ss, sa, ts, ta };
+    const fixed = [
+      'wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar',
+      'fit_scale', 'fit_rotation', 'fit_tx', 'fit_ty', 'sent_scale', 'sent_rotation', 'sent_tx', 'sent_ty',
+    ];
+    const seq = (p, n) => Array.from({ length: n }, (_, i) => `${p}${i + 1}`);
+    this.columns = [...fixed, ...seq('src_shape_', ss), ...seq('src_app_', sa), ...seq('tgt_shape_', ts), ...seq('tgt_app_', ta)];
+    this.data = new Float64Array(this.capacity * this.columns.length);
+    this.rows = 0;
+  }
+
+  /** A new avatar (or source) with other mode counts: the log starts again (its columns change). */
+  ensure(ss, sa, ts, ta) {
+    const d = this.dims;
+    if (d.ss === ss && d.sa === sa && d.ts >= ts && d.ta >= ta) return;
+    this.layout(ss, sa, Math.max(ts, d.ts), Math.max(ta, d.ta));
+  }
+
+  avatarIndex(name) {
+    let i = this.avatars.indexOf(name);
+    if (i < 0) i = this.avatars.push(name) - 1;
+    return i;
+  }
+
+  /** One row. `r`: { wall, frame, captureMs, renderMs, lost, gain, head, avatar, fitPose, sentPose, src, tgt }. */
+  push(r) {
+    const w = this.columns.length;
+    const o = (this.rows % this.capacity) * w;
+    const d = this.data;
+    const { ss, sa, ts, ta } = this.dims;
+    d.fill(NaN, o, o + w);
+    const fixed = [r.wall, r.frame, r.captureMs, r.renderMs, r.lost ? 1 : 0, r.gain, r.head, this.avatarIndex(r.avatar)];
+    for (let i = 0; i < fixed.length; i++) d[o + i] = fixed[i] ?? NaN;
+    const pose = (p, at) => {
+      if (!p) return;
+      d[o + at] = p.scale;
+      d[o + at + 1] = p.rotation;
+      d[o + at + 2] = p.tx;
+      d[o + at + 3] = p.ty;
+    };
+    pose(r.fitPose, 8);
+    pose(r.sentPose, 12);
+    const put = (arr, at, n) => {
+      if (!arr) return;
+      for (let i = 0; i < Math.min(n, arr.length); i++) d[o + at + i] = arr[i];
+    };
+    let at = 16;
+    put(r.src?.shape, at, ss);
+    put(r.src?.appearance, (at += ss), sa);
+    put(r.tgt?.shape, (at += sa), ts);
+    put(r.tgt?.appearance, (at += ts), ta);
+    this.rows++;
+  }
+
+  get length() {
+    return Math.min(this.rows, this.capacity);
+  }
+
+  /** The log as CSV text (oldest row first); the avatar column by name. */
+  toCSV() {
+    const w = this.columns.length;
+    const lines = [this.columns.join(',')];
+    const n = this.length;
+    const first = this.rows - n;
+    for (let k = 0; k < n; k++) {
+      const o = ((first + k) % this.capacity) * w;
+      const cells = new Array(w);
+      for (let i = 0; i < w; i++) {
+        const v = this.data[o + i];
+        if (i === 7) cells[i] = Number.isNaN(v) ? '' : JSON.stringify(this.avatars[v] ?? '');
+        else if (Number.isNaN(v)) cells[i] = '';
+        else if (i === 0 || i === 2) cells[i] = v.toFixed(3); // wall-clock times, ms
+        else cells[i] = Number.isInteger(v) ? String(v) : String(+v.toPrecision(7));
+      }
+      lines.push(cells.join(','));
+    }
+    return `${lines.join('\n')}\n`;
+  }
+}
