@@ -432,6 +432,8 @@ fn with_finder<T>(f: impl FnOnce(&mut EnrolFinder) -> Result<T, JsError>) -> Res
 fn build_err(e: crate::Error) -> JsError {
     match e {
         crate::Error::Cancelled => JsError::new("cancelled"),
+        // The pipeline's messages name the frames already ("a face in 0 of 3 frames, ...").
+        crate::Error::Training(msg) => JsError::new(&format!("buildModel: {msg}")),
         e => JsError::new(&format!("buildModel: {e}")),
     }
 }
