@@ -96,7 +96,7 @@ fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> Track {
         .collect();
     let free = convention_free_errors(&pairs);
     let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
-    let over = |v: &[f32]| v.iter().filter(|&&e| !(e <= 0.1)).count();
+    let over = |v: &[f32]| v.iter().filter(|e| e.is_nan() || **e > 0.1).count();
     Track {
         raw: mean(&raw),
         raw_over: over(&raw),

@@ -74,7 +74,7 @@ fn mean(v: &[f32]) -> f32 {
 }
 
 fn over(v: &[f32]) -> usize {
-    v.iter().filter(|&&e| !(e <= 0.1)).count()
+    v.iter().filter(|e| e.is_nan() || **e > 0.1).count()
 }
 
 /// Convention-free and raw errors of `tracked` against `truth`, frame by frame.
