@@ -12,12 +12,16 @@
 //!   model from its frames 0, 30, ..., 570); `*-finder-only` times the finder alone, so the
 //!   cold fit is the difference.
 //!
+//! - `fit/follow/grid-spk03`: the person-independent path (`Follower`): spk07's model following
+//!   spk03's GRID clip (another person; one criterion iteration = one frame, in sequence: two
+//!   landmark passes near the last face, the smoothing, the neutral and the mapping).
+//!
 //! Run: `cargo bench --bench fit`. Each tracking benchmark also prints the model sizes.
 
 use std::path::{Path, PathBuf};
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use facemimic::fit::{FitOptions, Fitter, Tracker};
+use facemimic::fit::{FitOptions, Fitter, FollowOptions, Follower, Tracker};
 use facemimic::{io, Builder, FaceFinder, Image, Model, TrainingImage};
 
 fn build(list: &Path) -> Model {
@@ -98,6 +102,12 @@ fn benches(c: &mut Criterion) {
     let grid = build(&root.join("data/grid/spk07_pwij3p/train20.txt"));
     let seq = frames(&root.join("data/grid/spk07_id2_vcd_swwp2s"), 75);
     bench_track(c, "grid-spk07", &grid, &seq);
+    bench_follow(
+        c,
+        "grid-spk03",
+        &grid,
+        &frames(&root.join("data/grid/spk03_lbax4n"), 75),
+    );
     let shared = root.join("../shared/data");
     if shared.join("franck-dev/train20.txt").is_file() {
         let model = build(&shared.join("franck-dev/train20.txt"));
@@ -118,6 +128,26 @@ fn benches(c: &mut Criterion) {
             shared.display()
         );
     }
+}
+
+/// The person-independent path following `seq` with `model` (a frame per iteration, looping).
+fn bench_follow(c: &mut Criterion, name: &str, model: &Model, seq: &[(Image, Vec<f32>)]) {
+    let mut follower = Follower::new(model, FollowOptions::default()).expect("follower");
+    let views: Vec<_> = seq.iter().map(|(i, _)| i.view().expect("view")).collect();
+    let mut group = c.benchmark_group("fit/follow");
+    group.throughput(Throughput::Elements(1));
+    let mut k = 0;
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            let r = follower
+                .track(&views[k % views.len()], 0.04)
+                .expect("follow");
+            assert!(!r.lost, "lost");
+            k += 1;
+            r.params.shape[0]
+        })
+    });
+    group.finish();
 }
 
 /// One re-acquisition: the face finder, then the cold fit from the face it found.

@@ -1,6 +1,7 @@
 //! The crate's one bilinear sampling rule and one Gaussian kernel, shared by the image
 //! sampler ([`crate::ImageRef::sample_rgb`]), the fitter's grey image and the fitter's
-//! template smoothing.
+//! template smoothing; and its one temporal filter, the One-Euro filter of the person-
+//! independent follower (`fit::follow`).
 
 /// Where a bilinear sample reads: the top-left pixel `(x, y)`, the fractions `fx`, `fy`
 /// towards the next column and row, and the steps `dx`, `dy` (0 or 1) to them (0 on the
@@ -55,6 +56,71 @@ pub(crate) fn gaussian_kernel(
     r
 }
 
+/// The One-Euro filter (Casiez, Roussel & Vogel, CHI 2012) of a vector of values: each value
+/// is low-passed with a cutoff that rises with its speed, `fc = min_cutoff + beta |dx/dt|`, so
+/// a still signal is smoothed hard (jitter removed) and a fast one followed with little lag.
+/// The speed is itself low-passed at `d_cutoff`. `scale` divides the speeds (the face's size,
+/// so one `beta` suits faces near and far).
+///
+/// Holds its state in buffers sized by [`OneEuro::reset`]; [`OneEuro::filter`] allocates
+/// nothing.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct OneEuro {
+    prev: Vec<f32>,
+    speed: Vec<f32>,
+    primed: bool,
+}
+
+/// The exponential smoothing factor of a first-order low-pass at `cutoff` Hz for a step of
+/// `dt` seconds (Casiez et al.'s `alpha`).
+#[inline]
+fn smoothing(cutoff: f32, dt: f32) -> f32 {
+    let tau = 1.0 / (2.0 * std::f32::consts::PI * cutoff.max(1e-6));
+    1.0 / (1.0 + tau / dt)
+}
+
+impl OneEuro {
+    /// Forgets the signal: the next [`OneEuro::filter`] passes its values through.
+    pub fn reset(&mut self, len: usize) {
+        self.prev.clear();
+        self.prev.resize(len, 0.0);
+        self.speed.clear();
+        self.speed.resize(len, 0.0);
+        self.primed = false;
+    }
+
+    /// Filters `x` in place, `dt` seconds after the previous call (`dt` must be positive and
+    /// finite; `x.len()` the length given to [`OneEuro::reset`], else `x` is left as is and
+    /// the filter restarts from it).
+    pub fn filter(
+        &mut self,
+        x: &mut [f32],
+        dt: f32,
+        min_cutoff: f32,
+        beta: f32,
+        d_cutoff: f32,
+        scale: f32,
+    ) {
+        if !self.primed || x.len() != self.prev.len() || !(dt > 0.0 && dt.is_finite()) {
+            if x.len() != self.prev.len() {
+                self.reset(x.len());
+            }
+            self.prev.copy_from_slice(x);
+            self.speed.iter_mut().for_each(|v| *v = 0.0);
+            self.primed = true;
+            return;
+        }
+        let ad = smoothing(d_cutoff, dt);
+        let inv = 1.0 / scale.max(1e-6);
+        for ((v, p), s) in x.iter_mut().zip(&mut self.prev).zip(&mut self.speed) {
+            *s += ad * ((*v - *p) / dt - *s);
+            let a = smoothing(min_cutoff + beta * s.abs() * inv, dt);
+            *p += a * (*v - *p);
+            *v = *p;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -79,5 +145,33 @@ mod tests {
         let b = bilinear(f32::NAN, 2.5, 1.0, 0.0, 9.0, 4.0);
         assert_eq!((b.x, b.y), (1, 2));
         assert!((b.fy - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn one_euro_smooths_jitter_and_follows_a_step() {
+        let mut f = OneEuro::default();
+        f.reset(1);
+        let mut x = [0.0f32];
+        f.filter(&mut x, 0.04, 1.0, 0.5, 1.0, 1.0);
+        assert_eq!(x[0], 0.0);
+        // Jitter of +-1 is damped to well under 1.
+        let mut worst = 0.0f32;
+        for i in 0..50 {
+            let mut v = [if i % 2 == 0 { 1.0 } else { -1.0 }];
+            f.filter(&mut v, 0.04, 1.0, 0.0, 1.0, 1.0);
+            worst = worst.max(v[0].abs());
+        }
+        assert!(worst < 0.5, "{worst}");
+        // A large step is followed within a few frames when beta is large.
+        let mut v = [0.0f32];
+        for _ in 0..5 {
+            v = [100.0];
+            f.filter(&mut v, 0.04, 1.0, 1.0, 1.0, 1.0);
+        }
+        assert!(v[0] > 90.0, "{}", v[0]);
+        // A bad step restarts from the values.
+        let mut w = [7.0f32];
+        f.filter(&mut w, f32::NAN, 1.0, 1.0, 1.0, 1.0);
+        assert_eq!(w[0], 7.0);
     }
 }

@@ -584,6 +584,79 @@ fn fit_starts_from_the_face_finder() {
     }
 }
 
+/// `fit --follow landmarks`: anyone followed with a model that is not theirs (spk07's model
+/// on spk03's GRID clip), no `--init` needed; the CSV keeps the AAM track's columns; `--init`
+/// is still needed to fit the AAM, and a bad `--fps` is refused.
+#[test]
+fn fit_follows_landmarks_with_another_persons_model() {
+    let dir = scratch("fit-follow");
+    let model = dir.join("spk07.fmm");
+    ok(&[
+        &"build",
+        &"--list",
+        &grid("spk07_pwij3p/train20.txt"),
+        &"--out",
+        &model,
+    ]);
+    let mut frames: Vec<PathBuf> = std::fs::read_dir(grid("spk03_lbax4n"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
+        .collect();
+    frames.sort();
+    frames.truncate(10);
+    let csv = dir.join("follow.csv");
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
+        &"fit",
+        &"--model",
+        &model,
+        &"--follow",
+        &"landmarks",
+        &"--out",
+        &csv,
+    ];
+    for f in &frames {
+        args.push(f);
+    }
+    let out = ok(&args);
+    assert!(out.contains("followed by landmarks"), "{out}");
+    assert!(out.contains("0 lost, 1 acquisitions"), "{out}");
+    let header = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
+    assert!(header.starts_with("frame,lost,converged,iterations,error,x0,y0"));
+    assert!(header.contains(",scale,rotation,tx,ty,p0,") && header.contains(",lambda0"));
+    for (lm, f) in csv_landmarks(&csv).iter().zip(&frames) {
+        let truth = facemimic::io::read_landmarks(&f.with_extension("pts"), 360, 288).unwrap();
+        let e = facemimic::find::landmark_error(lm, &truth);
+        assert!(e < 0.08, "{}: error {e}", f.display());
+    }
+    // The AAM still needs a start; a bad frame rate is refused.
+    let no_init = Command::new(env!("CARGO_BIN_EXE_facemimic"))
+        .args(["fit", "--model"])
+        .arg(&model)
+        .arg("--out")
+        .arg(&csv)
+        .arg(&frames[0])
+        .output()
+        .unwrap();
+    assert!(!no_init.status.success());
+    assert!(String::from_utf8_lossy(&no_init.stderr).contains("--init"));
+    let bad_fps = Command::new(env!("CARGO_BIN_EXE_facemimic"))
+        .args(["fit", "--follow", "landmarks", "--fps", "NaN", "--model"])
+        .arg(&model)
+        .arg("--out")
+        .arg(&csv)
+        .arg(&frames[0])
+        .output()
+        .unwrap();
+    assert!(!bad_fps.status.success());
+    assert!(String::from_utf8_lossy(&bad_fps.stderr).contains("--fps"));
+}
+
 #[test]
 fn a_reader_that_goes_away_is_not_an_error() {
     // `facemimic inspect M.fmm | head -c 1`: the reader closes the pipe before the JSON is

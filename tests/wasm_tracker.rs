@@ -7,10 +7,13 @@
 //!   change the `TrackPolicy`, and refuse values out of range (an `Error`, nothing changed).
 //! - `startSearching` / `wantsFaces` / `offerFaces`: faces from a `FaceFinder`-like result
 //!   (objects with `landmarks`) or plain arrays; wrong lengths or non-finite points throw.
+//! - `Follower` (the person-independent path) has the `Tracker`'s calls: `fitScale` by the same
+//!   policy, offers checked the same way, `wantsFaces`; a blank frame is lost; a NaN time step,
+//!   a bad image or box throw (nothing panics).
 //! - `recentrePose` is `Similarity::recentred`; `Model.checkParams` is `Model::check_params`
 //!   (a non-positive pose scale is refused by name).
 
-use facemimic::wasm::{recentre_pose, JsModel, WasmTracker};
+use facemimic::wasm::{recentre_pose, JsModel, WasmFollower, WasmTracker};
 use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
@@ -126,6 +129,35 @@ fn offered_faces() {
     // Plain number arrays too.
     let plain: Array = lm.iter().map(|v| JsValue::from(*v)).collect();
     t.offer_faces(Array::of1(&plain).into()).unwrap();
+}
+
+#[wasm_bindgen_test]
+fn follower_has_the_trackers_calls_and_refuses_bad_input() {
+    let model = JsModel::from_bytes(TINY).unwrap();
+    let t = WasmTracker::from_model(&model).unwrap();
+    let mut f = WasmFollower::from_model(&model).unwrap();
+    let (lm, h) = mean_landmarks(&model);
+    assert_eq!(f.path(), "landmarks");
+    assert_eq!(
+        f.fit_scale(2.0 * h, 640, 480, 0.0),
+        t.fit_scale(2.0 * h, 640, 480, 0.0)
+    );
+    assert!(f.wants_faces());
+    let short: JsValue = Array::of1(&Float32Array::from(&lm[..10]).into()).into();
+    assert!(message(f.offer_faces(short).unwrap_err()).contains("offered face landmarks"));
+    assert!(f.wants_faces());
+    // A blank frame with nothing offered: lost, no exception.
+    let blank = vec![128u8; 64 * 48 * 4];
+    let r = f.track(&blank, 64, 48, None).unwrap();
+    assert!(Reflect::get(&r, &"lost".into()).unwrap().as_bool().unwrap());
+    assert_eq!(f.lost_count(), 1);
+    // Bad input: an Error naming it.
+    assert!(message(f.track(&blank, 64, 48, Some(f32::NAN)).unwrap_err()).contains("time step"));
+    assert!(!message(f.track(&blank[..10], 64, 48, None).unwrap_err()).is_empty());
+    assert!(message(f.start_from_box(f32::NAN, 0.0, 10.0, 10.0).unwrap_err()).contains("box"));
+    assert!(!message(f.start_from_landmarks(&lm[..10]).unwrap_err()).is_empty());
+    f.start_from_landmarks(&lm).unwrap();
+    assert!(!f.wants_faces());
 }
 
 #[wasm_bindgen_test]

@@ -115,7 +115,7 @@ async function main() {
     const bytes = await fetchBytes(MODELS + manifest.source);
     const model = fm.Model.fromBytes(bytes);
     app.cloner = new fm.Cloner(model);
-    app.source = { name: model.name, file: manifest.source, model, info: model.info() };
+    app.source = { name: model.name, file: manifest.source, model, info: model.info(), bundled: true };
     app.trackKey = bytesKey(bytes);
     app.source.bytesKey = app.trackKey;
   } catch (e) {
@@ -595,7 +595,7 @@ function setSourceFromBytes(bytes, file) {
   }
   const old = app.source.model;
   const key = bytesKey(bytes);
-  Object.assign(app.source, { name: model.name, file, model, info: model.info(), bytesKey: key });
+  Object.assign(app.source, { name: model.name, file, model, info: model.info(), bytesKey: key, bundled: key === app.trackKey });
   setCardName(app.source);
   if (app.inspector.model === old) app.inspector.show(model, app.source.info, 'source');
   old.free();
@@ -830,6 +830,9 @@ const sourceCtx = {
   wasm: fm,
   sourceModel: () => app.source.model,
   sourceInfo: () => app.source.info,
+  // A bundled source model is not the person's own: live sources follow landmarks with it.
+  sourceIsOwn: () => !app.source.bundled,
+  createFace: () => app.enrol?.open(),
   currentParams: () => app.params ?? app.source.model.baseParams(),
   invalidate: () => {
     app.dirty = true;

@@ -102,6 +102,75 @@ pub fn mean_face_offsets<'a>(pairs: impl IntoIterator<Item = (&'a [f32], &'a [f3
     sum.iter().map(|v| (v / n.max(1) as f64) as f32).collect()
 }
 
+/// Per frame, the landmark error of `tracked` against `truth` (as [`super::landmark_error`]:
+/// mean point distance over the truth's outer-eye-corner distance) after each point's mean
+/// offset over all the frames is removed: the **convention-free** error.
+///
+/// Represents how far a placement wanders from the truth beyond a constant per-point
+/// difference of convention. Each frame's offsets `tracked - truth` are expressed in the
+/// truth's face frame with the eye line (points 36-45) horizontal and unit eye distance; their
+/// mean over the frames is subtracted from each frame's offsets, and the error is the mean
+/// length of what is left. A landmarker (or a model built from one) whose points sit off
+/// another's by the same amount in every face frame scores 0: cloning never sees such a
+/// constant, since it works from deviations from the model's own mean.
+///
+/// Requires 68-point shapes (136 values). Ensures one value per pair, in order: NaN for a pair
+/// of another length, with non-finite values or a degenerate truth (eye corners coinciding);
+/// such pairs do not enter the mean offset.
+pub fn convention_free_errors(pairs: &[(&[f32], &[f32])]) -> Vec<f32> {
+    // The offsets of one pair in the truth's eye frame, written into `out`; false if invalid.
+    fn eye_frame_offsets(tracked: &[f32], truth: &[f32], out: &mut [f64; 136]) -> bool {
+        if tracked.len() != 136 || !tracked.iter().chain(truth).all(|v| v.is_finite()) {
+            return false;
+        }
+        let Some([dx, dy]) = crate::landmarks::eye_line(truth) else {
+            return false;
+        };
+        let (dx, dy) = (dx as f64, dy as f64);
+        let len2 = dx * dx + dy * dy;
+        if !(len2 > 0.0 && len2.is_finite()) {
+            return false;
+        }
+        // Rotating by minus the eye line's angle and dividing by its length: the vector
+        // (dx, dy) / len2 does both in one complex product with the conjugate.
+        let (c, s) = (dx / len2, dy / len2);
+        for ((o, t), g) in out
+            .chunks_exact_mut(2)
+            .zip(tracked.chunks_exact(2))
+            .zip(truth.chunks_exact(2))
+        {
+            let (ex, ey) = ((t[0] - g[0]) as f64, (t[1] - g[1]) as f64);
+            o[0] = c * ex + s * ey;
+            o[1] = -s * ex + c * ey;
+        }
+        true
+    }
+    let mut mean = [0f64; 136];
+    let mut n = 0usize;
+    let mut o = [0f64; 136];
+    for (t, g) in pairs {
+        if eye_frame_offsets(t, g, &mut o) {
+            mean.iter_mut().zip(&o).for_each(|(m, v)| *m += v);
+            n += 1;
+        }
+    }
+    mean.iter_mut().for_each(|m| *m /= n.max(1) as f64);
+    pairs
+        .iter()
+        .map(|(t, g)| {
+            if !eye_frame_offsets(t, g, &mut o) {
+                return f32::NAN;
+            }
+            let s: f64 = o
+                .chunks_exact(2)
+                .zip(mean.chunks_exact(2))
+                .map(|(v, m)| ((v[0] - m[0]).powi(2) + (v[1] - m[1]).powi(2)).sqrt())
+                .sum();
+            (s / 68.0) as f32
+        })
+        .collect()
+}
+
 /// [`mean_face_offsets`] over owned pairs (the table's tests).
 #[cfg(all(test, not(target_arch = "wasm32")))]
 fn offsets(pairs: &[(Vec<f32>, Vec<f32>)]) -> Vec<f32> {
@@ -232,6 +301,72 @@ mod tests {
         assert!(mean_face_offsets(std::iter::empty())
             .iter()
             .all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn convention_free_errors_remove_a_constant_offset_in_the_face_frame() {
+        // A face-like ring with its eye corners 40 px apart, tilted by 0.3 rad and scaled
+        // differently in each frame; the tracked points sit off by the same offset in the face
+        // frame every time (plus, on the last frame, a wobble).
+        let base: Vec<f32> = (0..68)
+            .flat_map(|i| {
+                let a = i as f32 * 0.37;
+                [40.0 * a.cos() + 0.3 * i as f32, 50.0 * a.sin()]
+            })
+            .collect();
+        let offset: Vec<f32> = (0..136).map(|k| ((k % 5) as f32 - 2.0) * 0.03).collect();
+        let mut truths = Vec::new();
+        let mut tracked = Vec::new();
+        for f in 0..4 {
+            let (scale, angle) = (1.0 + 0.2 * f as f32, 0.3 * f as f32 - 0.4);
+            let sim = crate::Similarity::from_parts(scale, angle, 100.0 + f as f32, 80.0);
+            let mut g = base.clone();
+            sim.apply_in_place(&mut g);
+            let [dx, dy] = crate::landmarks::eye_line(&g).unwrap();
+            let iod = (dx * dx + dy * dy).sqrt();
+            let (c, s) = (dx / iod, dy / iod);
+            let mut t = g.clone();
+            for (p, o) in t.chunks_exact_mut(2).zip(offset.chunks_exact(2)) {
+                p[0] += iod * (c * o[0] - s * o[1]);
+                p[1] += iod * (s * o[0] + c * o[1]);
+            }
+            truths.push(g);
+            tracked.push(t);
+        }
+        let pairs: Vec<(&[f32], &[f32])> = tracked
+            .iter()
+            .zip(&truths)
+            .map(|(t, g)| (t.as_slice(), g.as_slice()))
+            .collect();
+        let e = convention_free_errors(&pairs);
+        assert!(e.iter().all(|v| v.abs() < 1e-4), "{e:?}");
+        // The raw error is the offset's.
+        assert!(landmark_error(&tracked[0], &truths[0]) > 0.03);
+        // A wobble on one frame is what is left (shared with the mean: 3/4 of it there).
+        let mut wobbly = tracked.clone();
+        wobbly[3][0] += 4.0;
+        let pairs: Vec<(&[f32], &[f32])> = wobbly
+            .iter()
+            .zip(&truths)
+            .map(|(t, g)| (t.as_slice(), g.as_slice()))
+            .collect();
+        let e = convention_free_errors(&pairs);
+        let [dx, dy] = crate::landmarks::eye_line(&truths[3]).unwrap();
+        let want = 0.75 * 4.0 / (dx * dx + dy * dy).sqrt() / 68.0;
+        assert!((e[3] - want).abs() < 1e-4, "{} against {want}", e[3]);
+        // Bad pairs: NaN, and left out of the mean.
+        let short = &tracked[0][..134];
+        let flat = vec![5.0f32; 136];
+        let mut nan = tracked[1].clone();
+        nan[7] = f32::NAN;
+        let e = convention_free_errors(&[
+            (short, &truths[0]),
+            (&tracked[1], &flat),
+            (&nan, &truths[1]),
+            (&tracked[2], &truths[2]),
+        ]);
+        assert!(e[0].is_nan() && e[1].is_nan() && e[2].is_nan());
+        assert!(e[3].abs() < 1e-5);
     }
 
     /// On the shared GRID frames (825, ../shared), split by speaker: offsets from speakers

@@ -11,7 +11,9 @@ mod nets;
 mod nn;
 mod weights;
 
-pub use calibration::{add_face_offsets, face_frame, face_offsets, mean_face_offsets};
+pub use calibration::{
+    add_face_offsets, convention_free_errors, face_frame, face_offsets, mean_face_offsets,
+};
 
 use crate::error::{Error, Result};
 use crate::image::ImageRef;

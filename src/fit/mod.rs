@@ -1,6 +1,8 @@
 //! AAM fitting and tracking: inverse compositional fitting of a [`crate::Model`] with the
 //! global similarity composed with the shape (Matthews & Baker, "Active Appearance Models
-//! Revisited", IJCV 2004), and a [`Tracker`] that follows a face through video.
+//! Revisited", IJCV 2004), and a [`Tracker`] that follows a face through video; and a
+//! [`Follower`], the person-independent path that follows anyone's face with a model that is not
+//! theirs (the face finder's landmarks mapped onto the model's shape modes).
 //!
 //! Design (see `docs/fitting.md` for the measurements behind it):
 //! - The fit runs on a grey-level appearance model derived once per model (luminance of `A0`
@@ -17,6 +19,7 @@
 
 mod algorithm;
 mod driver;
+mod follow;
 mod geometry;
 mod grey;
 mod linalg;
@@ -29,6 +32,7 @@ use serde::{Deserialize, Serialize};
 use crate::model::Params;
 
 pub use driver::Fitter;
+pub use follow::{expression_params, mouth_opening, neutral_update, FollowOptions, Follower};
 pub use options::{FitOptions, LevelSpec, TrackPolicy};
 pub use tracker::{FaceSource, Tracker, MIN_CONTRAST};
 

@@ -232,6 +232,47 @@ impl Default for TrackPolicy {
 }
 
 impl TrackPolicy {
+    /// The scale by which to resample a `width x height` frame before following a face
+    /// `face_height` pixels tall in it, for a model whose mean face is `model_face_height`
+    /// pixels tall: [`crate::fit::Tracker::fit_scale`] (which gives the rule) and
+    /// [`crate::fit::Follower::fit_scale`].
+    pub fn fit_scale(
+        &self,
+        model_face_height: f32,
+        face_height: f32,
+        width: u32,
+        height: u32,
+        current: f32,
+    ) -> f32 {
+        let keep = if current.is_finite() && current > 0.0 {
+            current
+        } else {
+            1.0
+        };
+        let side = width.max(height) as f32;
+        if !(face_height.is_finite() && face_height > 0.0 && side >= 1.0) {
+            return keep;
+        }
+        let p = self;
+        let want = model_face_height.max(1.0) / face_height.max(1.0);
+        let want = if want > 1.0 / p.native_band
+            && want < p.native_band
+            && side <= p.max_fit_side as f32
+        {
+            1.0
+        } else {
+            p.max_upscale
+                .min(p.max_fit_side as f32 / side)
+                .min((p.min_fit_side as f32 / side).max(want))
+        };
+        if current.is_finite() && current > 0.0 && (want / current - 1.0).abs() <= p.rescale_change
+        {
+            current
+        } else {
+            want
+        }
+    }
+
     /// Fails with [`Error::Params`] naming the first value out of range.
     pub fn check(&self) -> Result<()> {
         let bad = |m: String| Err(Error::Params(format!("tracking policy: {m}")));

@@ -152,33 +152,8 @@ impl Tracker {
     /// wanted scale differs from it by more than [`TrackPolicy::rescale_change`]. A
     /// non-finite or non-positive size gives `current` (or 1).
     pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
-        let keep = if current.is_finite() && current > 0.0 {
-            current
-        } else {
-            1.0
-        };
-        let side = width.max(height) as f32;
-        if !(face_height.is_finite() && face_height > 0.0 && side >= 1.0) {
-            return keep;
-        }
-        let p = &self.policy;
-        let want = self.model_face_height / face_height.max(1.0);
-        let want = if want > 1.0 / p.native_band
-            && want < p.native_band
-            && side <= p.max_fit_side as f32
-        {
-            1.0
-        } else {
-            p.max_upscale
-                .min(p.max_fit_side as f32 / side)
-                .min((p.min_fit_side as f32 / side).max(want))
-        };
-        if current.is_finite() && current > 0.0 && (want / current - 1.0).abs() <= p.rescale_change
-        {
-            current
-        } else {
-            want
-        }
+        self.policy
+            .fit_scale(self.model_face_height, face_height, width, height, current)
     }
 
     /// Faces found elsewhere (a face finder on another thread, on a recent frame): landmarks in

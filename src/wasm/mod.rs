@@ -27,7 +27,7 @@ pub use cloner::JsCloner;
 pub use finder::JsFaceFinder;
 pub use model::{render_mode, JsModel};
 pub use pose::{mean_pose, recentre_pose};
-pub use tracker::WasmTracker;
+pub use tracker::{WasmFollower, WasmTracker};
 
 /// Converts a library error into a JS `Error` (its message names the problem).
 pub(crate) fn js_err(e: crate::Error) -> JsError {

@@ -9,7 +9,7 @@ use wasm_bindgen::prelude::*;
 use js_sys::{Array, Float32Array, Reflect};
 use wasm_bindgen::JsCast;
 
-use crate::fit::{FitOptions, FitResult, TrackPolicy, Tracker};
+use crate::fit::{FitOptions, FitResult, FollowOptions, Follower, TrackPolicy, Tracker};
 use crate::image::ImageRef;
 use crate::similarity::PoseJson;
 
@@ -104,6 +104,31 @@ export interface TrackPolicy {
 
 fn err(e: crate::Error) -> JsError {
     JsError::new(&format!("tracker: {e}"))
+}
+
+/// `offerFaces`' argument: `FaceFinder.find`'s result (objects with `landmarks`) or arrays of
+/// `2n` numbers, as vectors (lengths and values are checked by the core).
+fn faces_from_js(faces: &JsValue, who: &str) -> Result<Vec<Vec<f32>>, JsError> {
+    if !Array::is_array(faces) {
+        return Err(JsError::new(&format!(
+            "{who}: offerFaces expects an array of faces"
+        )));
+    }
+    let key = JsValue::from_str("landmarks");
+    let mut out = Vec::new();
+    for (i, f) in Array::from(faces).iter().enumerate() {
+        let pts = match Reflect::get(&f, &key) {
+            Ok(v) if !v.is_undefined() && !v.is_null() => v,
+            _ => f,
+        };
+        if !(pts.is_object() && Reflect::has(&pts, &JsValue::from_str("length")).unwrap_or(false)) {
+            return Err(JsError::new(&format!(
+                "{who}: offerFaces: face {i} has no landmarks (an array of 2n numbers expected)"
+            )));
+        }
+        out.push(Float32Array::new(&pts).to_vec());
+    }
+    Ok(out)
 }
 
 /// Tracks one face through video frames with a model's AAM (inverse compositional fitting,
@@ -208,27 +233,7 @@ impl WasmTracker {
         #[wasm_bindgen(unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>")]
         faces: JsValue,
     ) -> Result<(), JsError> {
-        if !Array::is_array(&faces) {
-            return Err(JsError::new(
-                "tracker: offerFaces expects an array of faces",
-            ));
-        }
-        let key = JsValue::from_str("landmarks");
-        let mut out = Vec::new();
-        for (i, f) in Array::from(&faces).iter().enumerate() {
-            let pts = match Reflect::get(&f, &key) {
-                Ok(v) if !v.is_undefined() && !v.is_null() => v,
-                _ => f,
-            };
-            if !(pts.is_object()
-                && Reflect::has(&pts, &JsValue::from_str("length")).unwrap_or(false))
-            {
-                return Err(JsError::new(&format!(
-                    "tracker: offerFaces: face {i} has no landmarks (an array of 2n numbers expected)"
-                )));
-            }
-            out.push(Float32Array::new(&pts).to_vec());
-        }
+        let out = faces_from_js(&faces, "tracker")?;
         self.inner.offer_faces(out).map_err(err)
     }
 
@@ -327,6 +332,156 @@ impl WasmTracker {
 impl std::fmt::Debug for WasmTracker {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("WasmTracker")
+            .field("inner", &self.inner)
+            .finish()
+    }
+}
+
+fn follow_err(e: crate::Error) -> JsError {
+    JsError::new(&format!("follower: {e}"))
+}
+
+/// Follows anyone's face with a model that is not theirs (a bundled person's): the
+/// person-independent path ([`crate::fit::Follower`]; docs/fitting.md, "Following anyone").
+/// Each frame, the face finder's landmarks near the last face, smoothed, read as expression
+/// relative to the person's own running neutral shape and mapped onto the model's shape modes;
+/// the appearance stays at the model's mean. Same calls and results as `Tracker`, so a page
+/// drives either: `track` returns `{ landmarks, pose, shape, appearance, error, iterations,
+/// converged, lost, reacquired }` (`error`: the disagreement of the frame's two landmark
+/// passes, in eye distances; `iterations`: the passes run). Faces to start from come from
+/// `offerFaces` (a finder in a worker) unless `expectOffers(false)`, when the follower runs
+/// its own finder on the frame.
+#[wasm_bindgen(js_name = Follower)]
+pub struct WasmFollower {
+    inner: Follower,
+    /// Seconds between frames when `track` is given none.
+    dt: f32,
+}
+
+#[wasm_bindgen(js_class = Follower)]
+impl WasmFollower {
+    /// A follower driving a loaded `Model`'s shape modes. Throws for a model without the
+    /// finder's 68 landmarks.
+    #[wasm_bindgen(js_name = fromModel)]
+    pub fn from_model(model: &JsModel) -> Result<WasmFollower, JsError> {
+        super::install_panic_hook();
+        let mut inner =
+            Follower::new(model.model(), FollowOptions::default()).map_err(follow_err)?;
+        inner.set_search(false);
+        Ok(WasmFollower {
+            inner,
+            dt: 1.0 / 30.0,
+        })
+    }
+
+    /// Follows the face in the next frame (RGBA bytes, `width * height * 4`), `dt` seconds
+    /// after the previous one (default 1/30). Throws for a bad image or a `dt` that is not a
+    /// positive number.
+    pub fn track(
+        &mut self,
+        data: &[u8],
+        width: u32,
+        height: u32,
+        dt: Option<f32>,
+    ) -> Result<JsValue, JsError> {
+        let image = ImageRef::new(width, height, data).map_err(follow_err)?;
+        let r = self
+            .inner
+            .track(&image, dt.unwrap_or(self.dt))
+            .map_err(follow_err)?;
+        to_js(r)
+    }
+
+    /// The last frame's result (same shape as `track`'s).
+    pub fn last(&self) -> Result<JsValue, JsError> {
+        to_js(self.inner.last())
+    }
+
+    /// Starts a new person from their face's 68 landmarks on the next frame.
+    #[wasm_bindgen(js_name = startFromLandmarks)]
+    pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<(), JsError> {
+        self.inner
+            .start_from_landmarks(landmarks)
+            .map_err(follow_err)
+    }
+
+    /// Starts a new person from a face box (left, top, width, height) on the next frame.
+    #[wasm_bindgen(js_name = startFromBox)]
+    pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<(), JsError> {
+        self.inner.start_from_box(x, y, w, h).map_err(follow_err)
+    }
+
+    /// Starts a new person with no face yet: frames are `lost` until faces are offered.
+    #[wasm_bindgen(js_name = startSearching)]
+    pub fn start_searching(&mut self) {
+        self.inner.restart();
+    }
+
+    /// `true` (the default): faces to start from come from `offerFaces`; `false`: the
+    /// follower searches the frame itself (a finder on the main thread: tens of ms a search).
+    #[wasm_bindgen(js_name = expectOffers)]
+    pub fn expect_offers(&mut self, yes: bool) {
+        self.inner.set_search(!yes);
+    }
+
+    /// Faces found in a recent frame (as `Tracker.offerFaces`): the next search takes the one
+    /// nearest the last face. Throws for a wrong number of points or non-finite ones.
+    #[wasm_bindgen(js_name = offerFaces)]
+    pub fn offer_faces(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>")]
+        faces: JsValue,
+    ) -> Result<(), JsError> {
+        let out = faces_from_js(&faces, "follower")?;
+        self.inner.offer_faces(out).map_err(follow_err)
+    }
+
+    /// True while no face is followed and none is offered: the moment to run a finder.
+    #[wasm_bindgen(getter, js_name = wantsFaces)]
+    pub fn wants_faces(&self) -> bool {
+        self.inner.wants_faces()
+    }
+
+    /// As `Tracker.fitScale` (the same policy, the face brought to about the model's size).
+    #[wasm_bindgen(js_name = fitScale)]
+    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
+        self.inner.fit_scale(face_height, width, height, current)
+    }
+
+    /// Always 0 (a follower does not refit; kept so a page drives it as a `Tracker`).
+    #[wasm_bindgen(getter)]
+    pub fn resets(&self) -> u32 {
+        0
+    }
+
+    /// Frames with no face so far.
+    #[wasm_bindgen(getter, js_name = lostCount)]
+    pub fn lost_count(&self) -> u32 {
+        self.inner.lost_count()
+    }
+
+    /// Faces acquired so far (the first, then each face found again).
+    #[wasm_bindgen(getter)]
+    pub fn reacquisitions(&self) -> u32 {
+        self.inner.reacquisitions()
+    }
+
+    /// Frames followed so far.
+    #[wasm_bindgen(getter)]
+    pub fn frames(&self) -> u32 {
+        self.inner.frames()
+    }
+
+    /// Which path this is: `"landmarks"` (a `Tracker` has none).
+    #[wasm_bindgen(getter)]
+    pub fn path(&self) -> String {
+        "landmarks".into()
+    }
+}
+
+impl std::fmt::Debug for WasmFollower {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WasmFollower")
             .field("inner", &self.inner)
             .finish()
     }

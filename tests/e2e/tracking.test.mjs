@@ -144,6 +144,8 @@ test('the bundled clip plays and is tracked live, driving the source and the tar
   // Fit results arrive, and the source parameters change with them.
   await page.waitForFunction(() => window.facemimicTracking?.log.length >= 5, null, { timeout: 30_000 });
   assert.equal(await page.getAttribute(PANEL, 'data-phase'), 'tracking');
+  // The bundled clip shows the bundled person: their model's AAM is fitted.
+  assert.equal(await page.$eval('.trk-path', (e) => e.dataset.path), 'aam');
   const p1 = await tracking(page, () => JSON.stringify(window.facemimicTracking.paramsAt(0)));
   const target1 = await canvasDigest(page, TARGETS);
   const source1 = await canvasDigest(page, '.face-card.source canvas.face');
@@ -431,6 +433,12 @@ test('the webcam auto-starts on a face in the guide and tracks it live', async (
   assert.notEqual(await tracking(page, () => JSON.stringify(window.facemimicTracking.paramsAt(0))), p1);
   const on = await overlayDiff(page, true);
   assert.ok(on.differ > 300 && on.greenish > 200, `no mesh over the webcam picture: ${JSON.stringify(on)}`);
+  // The bundled source model is not this person's own: the face is followed by its landmarks
+  // (the package's Follower), and the panel says so and offers "Create a face".
+  assert.equal(await page.$eval('.trk-path', (e) => e.dataset.path), 'landmarks');
+  assert.match(await page.$eval('.trk-path', (e) => e.textContent), /Following landmarks/);
+  assert.equal(await page.$eval('.trk-path button', (e) => e.textContent), 'Create a face');
+  assert.equal(await tracking(page, () => window.facemimicTracking.tracker.path), 'landmarks');
   await screenshot(page, 'tracking-webcam-face', { fullPage: false });
   assert.deepEqual(errors, []);
 });

@@ -31,6 +31,7 @@ import { MediaFeed, CLIP_JSON, loadClipInfo, looksLikeImage, looksLikeVideo, ope
 import { Placement } from './placement.js';
 import { CONTOURS_68, MESH, MESH_LOST, GUIDE, bounds, scaled, drawFrame, drawLandmarks, drawBadge } from './face-draw.js';
 import { findFaces } from './finder-client.js';
+import { followPath, makeFollower, pathNotice } from './follow-path.js';
 
 /** Fit log kept for inspection (entries). */
 const LOG_MAX = 3000;
@@ -79,10 +80,11 @@ function message(e) {
 // ---------------------------------------------------------------------------------------------
 // One tracker per source model (the fitter's precomputation is done once per model).
 
-let cachedTracker = null; // { model, tracker }
+let cachedTracker = null; // { model, path, tracker }
 
-function trackerFor(wasm, model) {
-  if (cachedTracker && cachedTracker.model === model) return cachedTracker.tracker;
+/** The model's `Tracker` ("aam") or a `Follower` ("landmarks", www/js/follow-path.js). */
+function trackerFor(wasm, model, path = 'aam') {
+  if (cachedTracker && cachedTracker.model === model && cachedTracker.path === path) return cachedTracker.tracker;
   if (cachedTracker) {
     try {
       cachedTracker.tracker.free();
@@ -90,11 +92,15 @@ function trackerFor(wasm, model) {
       // already freed
     }
   }
-  const T = wasm.Tracker;
-  const tracker = typeof T.fromModel === 'function' ? T.fromModel(model) : new T(model.toBytes());
-  // Faces are found in a worker and offered: a lost face is searched for in every sequence.
-  tracker.expectOffers(true);
-  cachedTracker = { model, tracker };
+  let tracker;
+  if (path === 'landmarks') tracker = makeFollower(wasm, model);
+  else {
+    const T = wasm.Tracker;
+    tracker = typeof T.fromModel === 'function' ? T.fromModel(model) : new T(model.toBytes());
+    // Faces are found in a worker and offered: a lost face is searched for in every sequence.
+    tracker.expectOffers(true);
+  }
+  cachedTracker = { model, path, tracker };
   return tracker;
 }
 
@@ -199,9 +205,10 @@ class VideoSource {
     if (this.running) return;
     this.running = true;
     window.facemimicTracking = this;
+    this.path = followPath(this.ctx, this.mode);
     this.buildPanel();
     try {
-      this.tracker = trackerFor(this.wasm, this.model);
+      this.tracker = trackerFor(this.wasm, this.model, this.path);
     } catch (e) {
       this.fail('The tracker could not be made for this source model', e);
       return;
@@ -317,6 +324,7 @@ class VideoSource {
           el('dl', { class: 'trk-stats' }, sErr, sIt, sFps, sMs, sLost),
           el('div', { class: 'trk-buttons' }, this.startBtn, this.playBtn, this.restartBtn, this.otherBtn),
           el('div', { class: 'trk-options' }, meshLabel, ...extra),
+          pathNotice(this.path ?? 'aam', this.ctx.createFace),
           this.msgEl,
           this.fileInput,
         ),
@@ -941,7 +949,9 @@ class VideoSource {
     if (this.log.length > this.logMax) this.log.splice(0, this.log.length - this.logMax);
 
     // The face grew or shrank a lot (moving to or from the camera): carry on at a new fit scale.
-    if (!r.lost && !this.media.still) {
+    // (Not when following landmarks: the finder's passes cost the same at any size, and a
+    // restart would forget the person's neutral face.)
+    if (!r.lost && !this.media.still && this.path !== 'landmarks') {
       const want = this.tracker.fitScale(bounds(fit.landmarks).h / this.kFit, this.media.width, this.media.height, this.kFit);
       if (want !== this.kFit) {
         try {

@@ -4,8 +4,8 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use facemimic::fit::{FitOptions, Tracker};
-use facemimic::{io, Error, FaceFinder, Image, ImageRef, Result, Similarity};
+use facemimic::fit::{FitOptions, FitResult, FollowOptions, Follower, Tracker};
+use facemimic::{io, Error, FaceFinder, Image, ImageRef, Model, Result, Similarity};
 
 /// The height of the landmarks' bounding box (pixels).
 fn face_height(points: &[f32]) -> f32 {
@@ -62,6 +62,21 @@ impl Resampler {
     }
 }
 
+/// How the source face is followed (`--follow`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Follow {
+    /// Fit the model's AAM to each frame: for a model of the person in the frames (their own,
+    /// built from their frames or enrolled), the closest match.
+    Aam,
+    /// The person-independent path, for anyone with a model that is not theirs (a bundled
+    /// person's): the face finder's landmarks on every frame, smoothed, read as expression
+    /// relative to the person's own running neutral shape and mapped onto the model's shape
+    /// modes; the appearance stays at the model's mean. In the CSV, `error` is then the
+    /// disagreement of the frame's two landmark passes (eye distances), `iterations` the
+    /// landmark passes run near the last face, `converged` true on a face.
+    Landmarks,
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// The model to fit (.fmm).
@@ -69,9 +84,17 @@ pub struct Args {
     model: PathBuf,
     /// Landmarks (.pts or .asf) of the face in the first frame: the tracking starts there.
     /// `auto`: start from the face finder's face (68-landmark models), and find the face
-    /// again with it whenever it is lost.
+    /// again with it whenever it is lost. Needed with `--follow aam`; with `--follow
+    /// landmarks` optional (the finder starts; landmarks given choose the face).
     #[arg(long, value_name = "INIT.pts|auto")]
-    init: PathBuf,
+    init: Option<PathBuf>,
+    /// `aam` (default): fit the model, for a person's own model. `landmarks`: follow anyone
+    /// with a model that is not theirs (see docs/fitting.md, "Following anyone").
+    #[arg(long, value_enum, default_value_t = Follow::Aam)]
+    follow: Follow,
+    /// Frames per second of the sequence (`--follow landmarks`: the smoothing's time step).
+    #[arg(long, value_name = "FPS", default_value_t = 25.0)]
+    fps: f32,
     /// Most project-out iterations per level and frame.
     #[arg(long, value_name = "N")]
     max_iters: Option<u32>,
@@ -98,19 +121,32 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(n) = a.refine_iters {
         options.refine_iters = n;
     }
+    if !(a.fps.is_finite() && a.fps > 0.0 && a.fps <= 1000.0) {
+        return Err(Error::Params(format!("--fps {} not in (0, 1000]", a.fps)));
+    }
     // Decode everything first: the timing covers fitting only.
     let images = a
         .frames
         .iter()
         .map(|p| io::read_image(p))
         .collect::<Result<Vec<_>>>()?;
+    if a.follow == Follow::Landmarks {
+        return follow_landmarks(&a, &model, &images);
+    }
+    let Some(init_arg) = a.init.as_ref() else {
+        return Err(Error::Params(
+            "--init INIT.pts|auto is needed to fit the AAM (or follow anyone with --follow \
+             landmarks)"
+                .into(),
+        ));
+    };
     let first = &images[0];
     let mut tracker = Tracker::new(&model, options)?;
     // The fit scale (resampled pixels per frame pixel), chosen by the tracker's policy for the
     // face's size as the page and the npm package choose it: large faces are fitted in a
     // smaller copy of the frame, at about the size the model was built at.
     let mut k = 1.0f32;
-    if a.init.as_os_str() == "auto" {
+    if init_arg.as_os_str() == "auto" {
         if model.landmarks() != 68 {
             return Err(Error::Params(format!(
                 "--init auto needs a 68-landmark model (the face finder's layout); this one has {}",
@@ -120,11 +156,11 @@ pub fn run(a: Args) -> Result<()> {
         tracker.set_face_source(Box::new(FaceFinder::new()?));
         tracker.start_auto()?;
     } else {
-        let init = io::read_landmarks(&a.init, first.width, first.height)?;
+        let init = io::read_landmarks(init_arg, first.width, first.height)?;
         k = tracker.fit_scale(face_height(&init), first.width, first.height, 0.0);
         tracker
             .start_from_landmarks(&scaled(&init, k))
-            .map_err(|e| e.with_context(&a.init.display().to_string()))?;
+            .map_err(|e| e.with_context(&init_arg.display().to_string()))?;
     }
 
     let mut results = Vec::with_capacity(images.len());
@@ -160,7 +196,60 @@ pub fn run(a: Args) -> Result<()> {
         results.push(out);
     }
     let secs = t0.elapsed().as_secs_f64();
+    write_csv(&a, &model, &results)?;
 
+    let frames = results.len();
+    let iters = results.iter().map(|r| r.iterations as f64).sum::<f64>() / frames.max(1) as f64;
+    let converged = results.iter().filter(|r| r.converged).count();
+    crate::print_line(&format!(
+        "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
+         {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
+         fit scale {k:.3} -> {}",
+        frames as f64 / secs.max(1e-9),
+        1e3 * secs / frames.max(1) as f64,
+        tracker.resets(),
+        tracker.lost_count(),
+        tracker.reacquisitions(),
+        a.out.display()
+    ))
+}
+
+/// `--follow landmarks`: the person-independent [`Follower`] on every frame.
+fn follow_landmarks(a: &Args, model: &Model, images: &[Image]) -> Result<()> {
+    let mut follower = Follower::new(model, FollowOptions::default())?;
+    if let Some(init) = a.init.as_ref().filter(|p| p.as_os_str() != "auto") {
+        let first = &images[0];
+        let points = io::read_landmarks(init, first.width, first.height)?;
+        follower
+            .offer_faces(vec![points])
+            .map_err(|e| e.with_context(&init.display().to_string()))?;
+    }
+    let dt = 1.0 / a.fps;
+    let mut results = Vec::with_capacity(images.len());
+    let t0 = Instant::now();
+    for (img, path) in images.iter().zip(&a.frames) {
+        let r = follower
+            .track(&img.view()?, dt)
+            .map_err(|e| e.with_context(&path.display().to_string()))?;
+        results.push(r.clone());
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    write_csv(a, model, &results)?;
+    let frames = results.len();
+    crate::print_line(&format!(
+        "facemimic fit: {frames} frames followed by landmarks, {:.1} frames/s ({:.3} ms per \
+         frame), {} lost, {} acquisitions -> {}",
+        frames as f64 / secs.max(1e-9),
+        1e3 * secs / frames.max(1) as f64,
+        follower.lost_count(),
+        follower.reacquisitions(),
+        a.out.display()
+    ))
+}
+
+/// Writes the track CSV: one row per frame (name, lost, converged, iterations, error, the
+/// landmarks, the pose, `p` and `lambda`).
+fn write_csv(a: &Args, model: &Model, results: &[FitResult]) -> Result<()> {
     let n = model.landmarks();
     let mut csv = String::from("frame,lost,converged,iterations,error");
     for i in 0..n {
@@ -206,20 +295,5 @@ pub fn run(a: Args) -> Result<()> {
         }
         csv.push('\n');
     }
-    std::fs::write(&a.out, csv).map_err(|e| Error::Io(format!("{}: {e}", a.out.display())))?;
-
-    let frames = results.len();
-    let iters = results.iter().map(|r| r.iterations as f64).sum::<f64>() / frames.max(1) as f64;
-    let converged = results.iter().filter(|r| r.converged).count();
-    crate::print_line(&format!(
-        "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
-         {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
-         fit scale {k:.3} -> {}",
-        frames as f64 / secs.max(1e-9),
-        1e3 * secs / frames.max(1) as f64,
-        tracker.resets(),
-        tracker.lost_count(),
-        tracker.reacquisitions(),
-        a.out.display()
-    ))
+    std::fs::write(&a.out, csv).map_err(|e| Error::Io(format!("{}: {e}", a.out.display())))
 }

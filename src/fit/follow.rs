@@ -1,0 +1,764 @@
+//! The person-independent path (issue 20, item 6): anyone is followed at once, before they
+//! have a model of their own, by reading the face finder's landmarks as expression and mapping
+//! it onto a source model's shape modes. See [`Follower`] and docs/fitting.md, "Following
+//! anyone".
+
+use crate::error::{check_len, Error, Result};
+use crate::filter::OneEuro;
+use crate::find::{landmark_error, BBox, FaceFinder};
+use crate::image::ImageRef;
+use crate::model::Model;
+use crate::similarity::Similarity;
+
+use super::{FitResult, TrackPolicy};
+
+/// Tuning of a [`Follower`]. The defaults were chosen on webcam-dev frames 0-599 and measured
+/// on its unseen frames 600-1336 (docs/fitting.md).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FollowOptions {
+    /// One-Euro filter (Casiez et al. 2012): the cutoff (Hz) of a still landmark. Lower is
+    /// steadier and lags more.
+    pub min_cutoff: f32,
+    /// One-Euro filter: how fast the cutoff rises with a landmark's speed, per eye distance per
+    /// second (so near and far faces are smoothed alike).
+    pub beta: f32,
+    /// One-Euro filter: the cutoff (Hz) of the speed estimate.
+    pub d_cutoff: f32,
+    /// Frames averaged for the first estimate of the person's neutral shape.
+    pub warmup: u32,
+    /// After the warm-up, each frame moves every coordinate of the neutral shape by at most
+    /// this (model units; the canonical base face is about 150 wide) towards the frame's shape:
+    /// a running per-coordinate median, so brief expressions (an open mouth, a smile) do not
+    /// pull it and a lasting change does.
+    pub neutral_step: f32,
+    /// Only frames whose mouth is no more open than the neutral's, plus this (a fraction of
+    /// the eye distance; the opening is the inner lips' mean distance, [`mouth_opening`]),
+    /// enter the neutral shape; a frame more closed than the neutral by more than this pulls
+    /// it a fifth of the way at once. A talking person's mouth is open half the time: a
+    /// neutral with a half-open mouth would read closing it as an expression the source model
+    /// draws as lips crossing. So the neutral settles on the person's closed mouth, in
+    /// whatever convention the finder places closed lips.
+    pub mouth_margin: f32,
+    /// Mapped shape parameters are clamped to `+-max_sigmas` standard deviations of the
+    /// source model's modes.
+    pub max_sigmas: f32,
+    /// While following, two landmark passes are run on the box of the last face; when they
+    /// disagree by more than this (mean point distance over the eye distance), the face is
+    /// searched for again. The finder's own threshold by default.
+    pub max_disagreement: f32,
+    /// At least this fraction of the landmarks must lie inside the frame, else the face is
+    /// lost (it left the picture).
+    pub min_inside: f32,
+}
+
+impl Default for FollowOptions {
+    fn default() -> Self {
+        FollowOptions {
+            min_cutoff: 1.5,
+            beta: 1.0,
+            d_cutoff: 1.0,
+            warmup: 10,
+            neutral_step: 0.05,
+            mouth_margin: 0.02,
+            max_sigmas: 3.0,
+            max_disagreement: 0.05,
+            min_inside: 0.5,
+        }
+    }
+}
+
+impl FollowOptions {
+    /// Fails with [`Error::Params`] naming the first value that is not finite or out of range.
+    pub fn check(&self) -> Result<()> {
+        let positive = [
+            ("min_cutoff", self.min_cutoff),
+            ("d_cutoff", self.d_cutoff),
+            ("max_sigmas", self.max_sigmas),
+            ("max_disagreement", self.max_disagreement),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::Params(format!(
+                    "follow option {name} is {v}: a positive number is needed"
+                )));
+            }
+        }
+        for (name, v) in [
+            ("beta", self.beta),
+            ("neutral_step", self.neutral_step),
+            ("mouth_margin", self.mouth_margin),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::Params(format!(
+                    "follow option {name} is {v}: a non-negative number is needed"
+                )));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.min_inside) {
+            return Err(Error::Params(format!(
+                "follow option min_inside is {}: a fraction in 0..=1 is needed",
+                self.min_inside
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Follows anyone's face with a source model that is not theirs: the person-independent path.
+///
+/// Represents: a face finder, the state of one followed face (the finder's last points, a
+/// One-Euro filter over them, the person's running neutral shape in the source model's
+/// coordinates) and the source model's shape basis (`s0`, its orthonormal modes and their
+/// standard deviations).
+///
+/// Each frame ([`Follower::track`]):
+/// 1. **Landmarks.** While a face is followed, two landmark passes run on the box of its last
+///    points (the tracker's idea of searching near the last face, at one pass's cost each); if
+///    they disagree, or no face is followed yet, the finder searches the whole frame (or the
+///    faces offered by [`Follower::offer_faces`] are used) and the face nearest the last one is
+///    taken. No face: the frame is lost.
+/// 2. **Expression.** The pose `P` is the least-squares similarity from the neutral shape `n`
+///    onto the smoothed points, and the frame's shape in model coordinates is
+///    `x = P^-1(points)`, smoothed by a One-Euro filter (in model coordinates, so a moving
+///    head is not lagged; speeds in eye distances per second, [`FollowOptions::min_cutoff`],
+///    [`FollowOptions::beta`]; restarted when the face is acquired again); the expression is
+///    the deviation `x - n`. The neutral is the first face's shape, then the mean of the
+///    first [`FollowOptions::warmup`] frames' shapes, then a running per-coordinate median
+///    ([`FollowOptions::neutral_step`]), of the frames whose mouth is not more open than the
+///    neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`]), kept aligned to the
+///    model's `s0` ([`neutral_update`]).
+/// 3. **Mapping.** `p = S^T (x - n)`, the deviation projected onto the source model's
+///    orthonormal modes, clamped to `+-max_sigmas` ([`expression_params`]).
+///
+/// Ensures: the result has the [`FitResult`] layout of the AAM tracker, so cloning and
+/// drawing take it unchanged: `params.shape = p`; `params.pose = P ∘ align(s0 -> n)` (where the
+/// model's base face sits on the person's neutral); `params.appearance` all zeros, the model's
+/// mean appearance (the colours of the person in front of the camera say nothing about the
+/// source model's appearance modes, which describe another person's face; projecting them
+/// would drive the targets' appearance with lighting and identity, not expression);
+/// `landmarks = P(n + S p)`, the person's neutral plus the mapped deviation, posed (the face
+/// as the source model can express it); `error` = the disagreement of the frame's last two
+/// landmark passes near the last face (eye distances; 0 for a face taken from a search or an
+/// offer); `iterations` = the landmark passes run near the last face this frame (0 when a
+/// search alone gave the face; the finder's own passes are not counted). A frame with no face has `lost = true` and
+/// carries the last good result; the next frames search until a face is found
+/// (`reacquired = true` on that frame).
+///
+/// After the first search, a frame followed near the last face allocates nothing; a search
+/// allocates the finder's list of faces.
+pub struct Follower {
+    finder: FaceFinder,
+    options: FollowOptions,
+    /// The source model's base shape `s0` (model coordinates).
+    base: Vec<f32>,
+    /// The source model's modes, row-major `m x 2n` (orthonormal).
+    modes: Vec<f32>,
+    /// `sigma_i` of each mode.
+    sigmas: Vec<f32>,
+    /// Appearance parameters reported (zeros).
+    appearance_modes: usize,
+    filter: OneEuro,
+    /// The finder's points of the last face (not smoothed): where the next passes look.
+    last_raw: [f32; 136],
+    /// True while a face is followed (the next frame looks near `last_raw`).
+    following: bool,
+    /// True once a face was seen, so `neutral` and `result` hold one.
+    seen: bool,
+    /// Frames whose shape entered the neutral.
+    neutral_frames: u32,
+    /// The person's neutral shape (model coordinates, aligned to `s0`).
+    neutral: [f32; 136],
+    /// Scratch: the two landmark passes, the smoothed points, the shape in model coordinates,
+    /// the followed shape.
+    pass: [f32; 136],
+    points: [f32; 136],
+    shape: [f32; 136],
+    followed: [f32; 136],
+    /// Faces offered from elsewhere, used by the next search.
+    offered: Option<Vec<Vec<f32>>>,
+    /// Whether a search runs the finder on the frame (else it waits for offered faces).
+    search: bool,
+    /// A box to look in on the next frame ([`Follower::start_from_box`]).
+    start_box: Option<BBox>,
+    /// The resampling policy ([`Follower::fit_scale`]) and the model's face height at its
+    /// mean pose.
+    policy: TrackPolicy,
+    model_face_height: f32,
+    result: FitResult,
+    lost_count: u32,
+    reacquisitions: u32,
+    frames: u32,
+}
+
+impl std::fmt::Debug for Follower {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Follower")
+            .field("options", &self.options)
+            .field("following", &self.following)
+            .field("frames", &self.frames)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Follower {
+    /// A follower driving `model`'s shape modes, with the shipped finder.
+    ///
+    /// Requires a 68-landmark model (the finder's layout); fails with [`Error::Params`]
+    /// otherwise or when `options` are out of range ([`FollowOptions::check`]).
+    pub fn new(model: &Model, options: FollowOptions) -> Result<Follower> {
+        Self::with_finder(model, options, FaceFinder::new()?)
+    }
+
+    /// [`Follower::new`] with a finder of the caller's (its options are kept).
+    pub fn with_finder(
+        model: &Model,
+        options: FollowOptions,
+        finder: FaceFinder,
+    ) -> Result<Follower> {
+        options.check()?;
+        if model.landmarks() != 68 {
+            return Err(Error::Params(format!(
+                "following landmarks needs a 68-landmark model (the face finder's layout); \
+                 '{}' has {}",
+                model.name(),
+                model.landmarks()
+            )));
+        }
+        let shape = model.shape();
+        let base = model.base_params();
+        let mut landmarks = vec![0.0; 136];
+        model.image_shape(&base, &mut landmarks)?;
+        Ok(Follower {
+            finder,
+            options,
+            base: shape.base.clone(),
+            modes: shape.modes.clone(),
+            sigmas: shape.sigmas(),
+            appearance_modes: model.appearance().n_modes(),
+            filter: OneEuro::default(),
+            last_raw: [0.0; 136],
+            following: false,
+            seen: false,
+            neutral_frames: 0,
+            neutral: [0.0; 136],
+            pass: [0.0; 136],
+            points: [0.0; 136],
+            shape: [0.0; 136],
+            followed: [0.0; 136],
+            offered: None,
+            search: true,
+            start_box: None,
+            policy: TrackPolicy::default(),
+            model_face_height: BBox::of_points(&landmarks).height.max(1.0),
+            result: FitResult {
+                landmarks,
+                params: base,
+                error: 0.0,
+                iterations: 0,
+                converged: false,
+                lost: true,
+                reacquired: false,
+            },
+            lost_count: 0,
+            reacquisitions: 0,
+            frames: 0,
+        })
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &FollowOptions {
+        &self.options
+    }
+
+    /// Replaces the options; fails with [`Error::Params`] (keeping the old ones) when a value
+    /// is out of range.
+    pub fn set_options(&mut self, options: FollowOptions) -> Result<()> {
+        options.check()?;
+        self.options = options;
+        Ok(())
+    }
+
+    /// Whether a search runs the finder on the frame (the default) or only uses faces offered
+    /// by [`Follower::offer_faces`] (a finder on another thread; until they come, frames are
+    /// lost).
+    pub fn set_search(&mut self, yes: bool) {
+        self.search = yes;
+    }
+
+    /// Whether the follower is searching for a face and has none offered: the moment to run a
+    /// finder on a frame and [`Follower::offer_faces`].
+    pub fn wants_faces(&self) -> bool {
+        !self.following && self.offered.is_none() && self.start_box.is_none()
+    }
+
+    /// Faces found elsewhere (68 landmarks each, image coordinates, most confident first):
+    /// the next search takes the one nearest the last face instead of running the finder.
+    /// Fails with [`Error::Params`] (keeping none) when a face has another length or a
+    /// non-finite point.
+    pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
+        for f in &faces {
+            check_len("offered face landmarks", f, 136)?;
+            crate::model::bounds::check_landmarks(f)?;
+        }
+        self.offered = Some(faces);
+        Ok(())
+    }
+
+    /// Forgets the person: the next frame searches for a face, and the neutral shape is
+    /// estimated again from the first frames.
+    pub fn restart(&mut self) {
+        self.following = false;
+        self.seen = false;
+        self.neutral_frames = 0;
+        self.offered = None;
+        self.start_box = None;
+        self.result.lost = true;
+    }
+
+    /// Starts a new person from their face's 68 landmarks on the next frame (image
+    /// coordinates): [`Follower::restart`], then the landmarks offered as the face. Fails with
+    /// [`Error::Params`] (changing nothing) for another length or non-finite values.
+    pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
+        check_len("landmarks", landmarks, 136)?;
+        crate::model::bounds::check_landmarks(landmarks)?;
+        self.restart();
+        self.offered = Some(vec![landmarks.to_vec()]);
+        Ok(())
+    }
+
+    /// Starts a new person from a face box on the next frame (image coordinates: left, top,
+    /// width, height): [`Follower::restart`], then two landmark passes in the box; if they
+    /// disagree, the frame is searched as usual. Fails with [`Error::Params`] for a
+    /// non-finite box or one under 4x4.
+    pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
+        crate::model::bounds::check_param_values("box", &[x, y, w, h])?;
+        if !(w >= 4.0 && h >= 4.0) {
+            return Err(Error::Params(format!(
+                "box {w}x{h} is too small (at least 4x4)"
+            )));
+        }
+        self.restart();
+        self.start_box = Some(BBox {
+            x,
+            y,
+            width: w,
+            height: h,
+        });
+        Ok(())
+    }
+
+    /// The resampling policy ([`Follower::fit_scale`]).
+    pub fn policy(&self) -> &TrackPolicy {
+        &self.policy
+    }
+
+    /// Replaces the resampling policy; fails with [`Error::Params`] (keeping the old one) when
+    /// a value is out of range.
+    pub fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
+        policy.check()?;
+        self.policy = policy;
+        Ok(())
+    }
+
+    /// The scale by which to resample a `width x height` frame before following a face
+    /// `face_height` pixels tall in it, by the same rule as [`crate::fit::Tracker::fit_scale`]
+    /// (the face brought to about the model's size): the landmark passes cost the same at any
+    /// size, but a smaller frame is quicker to read and to downsample, and the page and the
+    /// npm package then drive both paths alike.
+    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
+        self.policy
+            .fit_scale(self.model_face_height, face_height, width, height, current)
+    }
+
+    /// Follows the face in the next frame, `dt` seconds after the previous one (the One-Euro
+    /// filter's step; `1/25` for a 25 fps clip).
+    ///
+    /// Fails with [`Error::Params`] when `dt` is not a positive finite number; otherwise the
+    /// result (see the type's documentation) has `lost = true` when no face was found.
+    pub fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::Params(format!(
+                "the time step is {dt} s: a positive number is needed"
+            )));
+        }
+        self.frames += 1;
+        let mut passes = 0u32;
+        let mut disagreement = 0.0f32;
+        let mut found = false;
+        let reacquired;
+        let start_box = self.start_box.take();
+        if self.following || start_box.is_some() {
+            // Near the last face (or in the box given): a pass on its box, then one on the box
+            // of that pass's points.
+            let first = start_box.unwrap_or_else(|| BBox::around_landmarks(&self.last_raw));
+            if self
+                .finder
+                .landmarks_into(frame, first, &mut self.pass)
+                .is_ok()
+            {
+                let second = BBox::around_landmarks(&self.pass);
+                if self
+                    .finder
+                    .landmarks_into(frame, second, &mut self.points)
+                    .is_ok()
+                {
+                    passes = 2;
+                    disagreement = landmark_error(&self.pass, &self.points);
+                    found = disagreement <= self.options.max_disagreement
+                        && self.inside(frame, &self.points);
+                }
+            }
+        }
+        if found {
+            reacquired = start_box.is_some();
+        } else {
+            found = self.search_face(frame);
+            disagreement = 0.0;
+            reacquired = found;
+        }
+        if !found {
+            self.following = false;
+            self.lost_count += 1;
+            self.result.lost = true;
+            self.result.converged = false;
+            self.result.reacquired = false;
+            self.result.iterations = passes;
+            return Ok(&self.result);
+        }
+        self.last_raw.copy_from_slice(&self.points);
+        if reacquired {
+            self.reacquisitions += 1;
+            self.filter.reset(136);
+        }
+        self.following = true;
+        self.follow_points(reacquired, disagreement, passes, dt)?;
+        Ok(&self.result)
+    }
+
+    /// Searches a lost or new face (the faces offered, else the finder on the whole frame when
+    /// [`Follower::set_search`] allows): the one nearest the last face, inside the frame, into
+    /// `self.points`. Returns whether there was one.
+    fn search_face(&mut self, frame: &ImageRef<'_>) -> bool {
+        let faces = match self.offered.take() {
+            Some(f) => f,
+            None if self.search => self
+                .finder
+                .find(frame)
+                .into_iter()
+                .map(|f| f.landmarks)
+                .collect(),
+            None => Vec::new(),
+        };
+        let centre = |s: &[f32]| {
+            let b = BBox::of_points(s);
+            (b.x + 0.5 * b.width, b.y + 0.5 * b.height)
+        };
+        let near = self.seen.then(|| centre(&self.last_raw));
+        let best = faces
+            .iter()
+            .filter(|f| f.len() == 136 && f.iter().all(|v| v.is_finite()))
+            .filter(|f| self.inside(frame, f))
+            .min_by(|a, b| {
+                let d = |s: &[f32]| match near {
+                    Some((x, y)) => {
+                        let (cx, cy) = centre(s);
+                        (cx - x).powi(2) + (cy - y).powi(2)
+                    }
+                    None => 0.0,
+                };
+                d(a).total_cmp(&d(b))
+            });
+        match best {
+            Some(f) => {
+                self.points.copy_from_slice(f);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Whether at least [`FollowOptions::min_inside`] of `points` lie inside `frame`.
+    fn inside(&self, frame: &ImageRef<'_>, points: &[f32]) -> bool {
+        let (w, h) = (frame.width() as f32, frame.height() as f32);
+        let n = points
+            .chunks_exact(2)
+            .filter(|p| p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= w - 1.0 && p[1] <= h - 1.0)
+            .count();
+        n as f32 >= self.options.min_inside * (points.len() / 2) as f32
+    }
+
+    /// Steps 2 and 3 on the frame's points in `self.points`, into `self.result`.
+    fn follow_points(
+        &mut self,
+        reacquired: bool,
+        disagreement: f32,
+        passes: u32,
+        dt: f32,
+    ) -> Result<()> {
+        if !self.seen {
+            // The first face: its shape, aligned to s0, is the first neutral (replaced by the
+            // closed-mouth frames' mean as they come).
+            let to_base = Similarity::align(&self.points, &self.base);
+            to_base.apply(&self.points, &mut self.neutral);
+            self.neutral_frames = 0;
+            self.seen = true;
+        }
+        // The pose of the neutral onto the points, and the points in model coordinates.
+        let pose = Similarity::align(&self.neutral, &self.points);
+        let Some(inv) = pose.inverse() else {
+            // Degenerate points (all in one place): no face.
+            self.following = false;
+            self.lost_count += 1;
+            self.result.lost = true;
+            self.result.reacquired = false;
+            return Ok(());
+        };
+        inv.apply(&self.points, &mut self.shape);
+        // Smoothing in model coordinates: the shape alone, so a moving head is not lagged
+        // (the pose, a least-squares fit over 68 points, is steady without it).
+        let iod = crate::landmarks::eye_line(&self.neutral)
+            .map(|[x, y]| (x * x + y * y).sqrt())
+            .unwrap_or(1.0);
+        let o = self.options;
+        self.filter
+            .filter(&mut self.shape, dt, o.min_cutoff, o.beta, o.d_cutoff, iod);
+        let moved = neutral_update(
+            &mut self.neutral,
+            &self.shape,
+            &self.base,
+            &mut self.neutral_frames,
+            o.warmup,
+            o.neutral_step,
+            o.mouth_margin,
+        );
+        // The neutral was re-aligned to s0 by `moved`: the frame's shape and pose follow it.
+        moved.apply_in_place(&mut self.shape);
+        let pose = match moved.inverse() {
+            Some(back) => pose.compose(&back),
+            None => pose,
+        };
+        let r = &mut self.result;
+        expression_params(
+            &self.shape,
+            &self.neutral,
+            &self.modes,
+            &self.sigmas,
+            self.options.max_sigmas,
+            &mut r.params.shape,
+        );
+        // The followed shape: the neutral plus the mapped deviation, posed.
+        self.followed.copy_from_slice(&self.neutral);
+        let d = self.base.len();
+        for (pi, mode) in r.params.shape.iter().zip(self.modes.chunks_exact(d)) {
+            self.followed
+                .iter_mut()
+                .zip(mode)
+                .for_each(|(o, s)| *o += pi * s);
+        }
+        pose.apply(&self.followed, &mut r.landmarks);
+        r.params.pose = pose.compose(&Similarity::align(&self.base, &self.neutral));
+        r.params.appearance.clear();
+        r.params.appearance.resize(self.appearance_modes, 0.0);
+        r.error = disagreement;
+        r.iterations = passes;
+        r.converged = true;
+        r.lost = false;
+        r.reacquired = reacquired;
+        crate::model::limits::check_output("followed landmarks", &r.landmarks)?;
+        crate::model::limits::check_output("followed shape parameters", &r.params.shape)?;
+        Ok(())
+    }
+
+    /// The last frame's result.
+    pub fn last(&self) -> &FitResult {
+        &self.result
+    }
+
+    /// The person's neutral shape as estimated so far (model coordinates, aligned to the
+    /// model's `s0`); `None` before the first face.
+    pub fn neutral(&self) -> Option<&[f32]> {
+        self.seen.then_some(&self.neutral[..])
+    }
+
+    /// Frames with no face.
+    pub fn lost_count(&self) -> u32 {
+        self.lost_count
+    }
+
+    /// Faces acquired by a search (the first face and every face found again after a loss
+    /// or a disagreement).
+    pub fn reacquisitions(&self) -> u32 {
+        self.reacquisitions
+    }
+
+    /// Frames followed since the follower was made.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+}
+
+/// The inner lips' opening of 68 points: the mean distance of the upper inner lip's points
+/// 61, 62, 63 to the lower's 67, 66, 65, over the outer-eye-corner distance (0 for another
+/// length or coinciding eye corners).
+pub fn mouth_opening(points: &[f32]) -> f32 {
+    let Some([ex, ey]) = crate::landmarks::eye_line(points) else {
+        return 0.0;
+    };
+    let iod = (ex * ex + ey * ey).sqrt();
+    if !(iod > 0.0) {
+        return 0.0;
+    }
+    let d = |i: usize, j: usize| {
+        (points[2 * i] - points[2 * j]).hypot(points[2 * i + 1] - points[2 * j + 1])
+    };
+    (d(61, 67) + d(62, 66) + d(63, 65)) / 3.0 / iod
+}
+
+/// The person's running neutral shape, updated with one frame's `shape` (model coordinates):
+/// - a frame whose mouth ([`mouth_opening`]) is more open than the neutral's by more than
+///   `mouth_margin` leaves it as it is (speech and smiles do not open the neutral's mouth);
+/// - during the first `warmup` frames that enter, the neutral is their mean;
+/// - then each coordinate moves at most `step` towards the frame's (a running median:
+///   `n += clamp(x - n, -step, step)`, which settles where half the frames lie on either
+///   side), or a fifth of the way at once when the frame's mouth is more closed than the
+///   neutral's by more than `mouth_margin` (a neutral that started with an open mouth closes
+///   within a few frames);
+/// - finally the neutral is re-aligned to `base` by a similarity so it cannot drift in pose.
+///
+/// `count` counts the frames that entered the mean. Returns the re-aligning similarity (the
+/// identity when nothing moved), so the caller can move shapes in the old neutral's
+/// coordinates with it. Requires `neutral`, `shape` and `base` of one length.
+pub fn neutral_update(
+    neutral: &mut [f32],
+    shape: &[f32],
+    base: &[f32],
+    count: &mut u32,
+    warmup: u32,
+    step: f32,
+    mouth_margin: f32,
+) -> Similarity {
+    let (open, rest) = (mouth_opening(shape), mouth_opening(neutral));
+    if open > rest + mouth_margin {
+        return Similarity::IDENTITY;
+    }
+    if *count < warmup {
+        *count += 1;
+        let w = 1.0 / *count as f32;
+        neutral
+            .iter_mut()
+            .zip(shape)
+            .for_each(|(n, x)| *n += w * (x - *n));
+    } else if open < rest - mouth_margin {
+        neutral
+            .iter_mut()
+            .zip(shape)
+            .for_each(|(n, x)| *n += 0.2 * (x - *n));
+    } else {
+        neutral
+            .iter_mut()
+            .zip(shape)
+            .for_each(|(n, x)| *n += (x - *n).clamp(-step, step));
+    }
+    let to_base = Similarity::align(neutral, base);
+    if to_base.is_valid() {
+        to_base.apply_in_place(neutral);
+        to_base
+    } else {
+        Similarity::IDENTITY
+    }
+}
+
+/// The expression of a shape read on a model's modes: `p = S^T (shape - neutral)`, each
+/// `p_i` clamped to `+-max_sigmas * sigma_i`, into `out` (resized to the number of modes).
+///
+/// Requires `modes` row-major `m x 2n` and orthonormal (a [`crate::ShapeModel`]'s), `shape`
+/// and `neutral` in the model's coordinates (`2n` values each).
+pub fn expression_params(
+    shape: &[f32],
+    neutral: &[f32],
+    modes: &[f32],
+    sigmas: &[f32],
+    max_sigmas: f32,
+    out: &mut Vec<f32>,
+) {
+    let d = neutral.len().max(1);
+    out.resize(sigmas.len(), 0.0);
+    for ((o, mode), s) in out.iter_mut().zip(modes.chunks_exact(d)).zip(sigmas) {
+        let p: f32 = mode
+            .iter()
+            .zip(shape.iter().zip(neutral))
+            .map(|(m, (x, n))| m * (x - n))
+            .sum();
+        let lim = max_sigmas * s;
+        *o = p.clamp(-lim, lim);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn expression_is_the_clamped_projection_of_the_deviation() {
+        // Two orthonormal modes on 2 points (4 values).
+        let modes = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.6, 0.8];
+        let neutral = [0.0, 0.0, 10.0, 0.0];
+        let shape = [2.0, 5.0, 10.6, 0.8];
+        let mut p = Vec::new();
+        expression_params(&shape, &neutral, &modes, &[10.0, 10.0], 3.0, &mut p);
+        assert!(
+            (p[0] - 2.0).abs() < 1e-6 && (p[1] - 1.0).abs() < 1e-6,
+            "{p:?}"
+        );
+        expression_params(&shape, &neutral, &modes, &[0.5, 10.0], 3.0, &mut p);
+        assert!((p[0] - 1.5).abs() < 1e-6, "{p:?}");
+    }
+
+    #[test]
+    fn neutral_is_a_mean_then_a_running_median() {
+        // A face-like ring of 68 points with its mouth closed (inner lips together).
+        let mut base: Vec<f32> = (0..68)
+            .flat_map(|i| {
+                let a = i as f32 * 0.37;
+                [40.0 * a.cos() + 0.3 * i as f32, 50.0 * a.sin()]
+            })
+            .collect();
+        for (u, l) in [(61, 67), (62, 66), (63, 65)] {
+            base[2 * l] = base[2 * u];
+            base[2 * l + 1] = base[2 * u + 1];
+        }
+        let mut n = base.clone();
+        let mut count = 0;
+        // Warm-up: the mean of two shapes.
+        neutral_update(&mut n, &base, &base, &mut count, 2, 0.01, 0.02);
+        neutral_update(&mut n, &base, &base, &mut count, 2, 0.01, 0.02);
+        assert_eq!(count, 2);
+        assert!(n.iter().zip(&base).all(|(a, b)| (a - b).abs() < 1e-3));
+        // A far-off shape moves each coordinate by at most the step (before re-alignment).
+        let mut far = base.clone();
+        far[5] += 10.0;
+        let before = n.clone();
+        neutral_update(&mut n, &far, &base, &mut count, 2, 0.01, 0.02);
+        let moved = n
+            .iter()
+            .zip(&before)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(moved < 0.05, "{moved}");
+        // An open mouth does not enter.
+        let mut open = base.clone();
+        for l in [67, 66, 65] {
+            open[2 * l + 1] += 20.0;
+        }
+        let before = n.clone();
+        neutral_update(&mut n, &open, &base, &mut count, 2, 0.01, 0.02);
+        assert_eq!(n, before);
+        // A neutral with an open mouth closes fast on a closed one.
+        let mut m = open.clone();
+        let mut c = 5;
+        for _ in 0..10 {
+            neutral_update(&mut m, &base, &base, &mut c, 2, 0.01, 0.02);
+        }
+        assert!(mouth_opening(&m) < 0.5 * mouth_opening(&open));
+    }
+}
