@@ -62,7 +62,7 @@ pub struct BuildOptions {
     /// model, the modes past about a dozen describe a few images each and are poorly estimated:
     /// kept, they let the fitter's appearance-aware steps push them far off (GRID spk07 at 99%
     /// of the variance, 15 modes: a reset per frame with a weak shape prior). Measured in
-    /// docs/fitting.md ("Towards franck-dev2 <= 0.016").
+    /// docs/experiments/fitting-notebook.md ("Towards franck-dev2 <= 0.016").
     pub max_shape_modes: usize,
     /// Most appearance modes kept.
     pub max_appearance_modes: usize,
@@ -75,7 +75,7 @@ pub struct BuildOptions {
     /// `mirrored_deviations`). A face
     /// turns and moves both ways; 20 frames often show a head turn or a lopsided expression one
     /// way only, and a model without the other side has no mode for it. Measured in
-    /// docs/fitting.md ("The control model").
+    /// docs/experiments/fitting-notebook.md ("The control model").
     pub symmetric_shapes: bool,
 }
 

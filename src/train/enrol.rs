@@ -5,7 +5,7 @@
 //! ([`crate::select_varied`]), which picks the most unusual shapes first, and a frame whose
 //! points the finder misplaced is unusual. One such frame gives the model a mode that describes
 //! the finder's mistake, and the tracker can then run away with it. Measured on webcam-dev
-//! (docs/fitting.md, "Enrolment with the face finder's landmarks"): models from single-pass
+//! (docs/experiments/fitting-notebook.md, "Enrolment with the face finder's landmarks"): models from single-pass
 //! landmarks lost the face in 6 of 11 runs, models from averaged ones never when every face
 //! found was used (0.0320-0.0322 against dlib).
 

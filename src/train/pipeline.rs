@@ -17,8 +17,9 @@ use crate::model::Model;
 use crate::train::enrol::EnrolFinder;
 use crate::train::{BuildOptions, BuildProgress, Builder, ReferenceChoice, TrainingImage};
 
-/// Passes the enrolment finder averages by default (each on the image and its mirror): one box.
-/// Measured on webcam-dev, more boxes did not track better (docs/fitting.md).
+/// Boxes the enrolment finder averages by default (each on the image and its mirror): one. On
+/// webcam-dev, seven shifted and scaled boxes made models that tracked no better than one box
+/// with its mirror pass, at seven times the cost (docs/experiments/fitting-notebook.md).
 pub const ENROL_BOXES: usize = 1;
 
 /// The finder's score a face needs by default: none beyond the finder's own acceptance (its

@@ -6,7 +6,7 @@
 //! appearance model (pixels sampled at the wrong places). Fitting the first model to its own
 //! training images moves each shape to where the model explains the image best, consistently
 //! across the set; the second build is then sharper and its shape modes cleaner. What this gains,
-//! measured, is in docs/fitting.md ("Refining an enrolled model").
+//! measured, is in docs/experiments/fitting-notebook.md ("Refining an enrolled model").
 
 use crate::error::{Error, Result};
 use crate::fit::{FitOptions, Fitter};

@@ -42,7 +42,7 @@ const MAX_RATIO = 1.3;
 /** Whether the ratio is asserted (it is printed either way). Off: measured 1.78-1.86 here and
  *  1.89 natively. The gap is the face finder's own convention on this face: with this person's
  *  mean offset from dlib removed (an oracle), the native enrolment is within 1.21x
- *  (tests/enrol_webcam.rs; docs/fitting.md, "Enrolment with the face finder's landmarks"). */
+ *  (tests/enrol_webcam.rs; docs/experiments/fitting-notebook.md, "Enrolment with the face finder's landmarks"). */
 const ASSERT_RATIO = false;
 /** Seconds the camera plays the 600 frames (Chromium plays an MJPEG file at 30 fps): sampling
  *  lasts at least this long so the enrolled frames come from all of 0-599. */
