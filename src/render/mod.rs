@@ -195,31 +195,17 @@ fn check_upload(frame: &ReferenceFrame, appearance: &[f32], alpha: Option<&[f32]
     Ok(())
 }
 
-/// The texels of an appearance (`3N`, RGB in `0..=1`) with an optional coverage per pixel
-/// (`None` = opaque): `(index in the frame's grid, premultiplied RGBA8)` for every frame
-/// pixel. Both backends' textures are written from it.
-fn texels<'a>(
-    frame: &'a ReferenceFrame,
-    appearance: &'a [f32],
-    alpha: Option<&'a [f32]>,
-) -> impl Iterator<Item = (usize, [u8; 4])> + 'a {
-    let w = frame.width() as usize;
+/// The premultiplied RGBA8 texel of one frame pixel of an appearance (RGB in `0..=1`) at
+/// coverage `a` (`0..=1`). Both backends' textures are written from it.
+#[inline(always)]
+fn texel(rgb: &[f32], a: f32) -> [u8; 4] {
     let to_u8 = |v: f32| (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
-    frame
-        .pixels()
-        .iter()
-        .zip(appearance.chunks_exact(3))
-        .enumerate()
-        .map(move |(i, (px, rgb))| {
-            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
-            let texel = [
-                to_u8(rgb[0] * a),
-                to_u8(rgb[1] * a),
-                to_u8(rgb[2] * a),
-                to_u8(a),
-            ];
-            (px.y as usize * w + px.x as usize, texel)
-        })
+    [
+        to_u8(rgb[0] * a),
+        to_u8(rgb[1] * a),
+        to_u8(rgb[2] * a),
+        to_u8(a),
+    ]
 }
 
 /// The padding ring of a frame's texture: `(grid index to write, grid index to copy from)`,

@@ -61,9 +61,16 @@ impl Scanline {
             self.fingerprint = Some(frame.fingerprint());
         }
         let tex = &mut self.texture;
-        for (k, texel) in super::texels(frame, appearance, alpha) {
-            if let Some(t) = tex.get_mut(k) {
-                *t = u32::from_le_bytes(texel);
+        let w = self.width as usize;
+        for (i, (px, rgb)) in frame
+            .pixels()
+            .iter()
+            .zip(appearance.chunks_exact(3))
+            .enumerate()
+        {
+            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
+            if let Some(t) = tex.get_mut(px.y as usize * w + px.x as usize) {
+                *t = u32::from_le_bytes(super::texel(rgb, a));
             }
         }
         for (d, s) in super::padding_copies(frame) {
