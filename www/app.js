@@ -9,7 +9,8 @@
 import init, * as fm from './pkg/facemimic.js';
 import { HiDpi, ctx2d } from './js/canvas.js';
 import { dropZone, hasFiles } from './js/drop.js';
-import { notify, fileError } from './js/toasts.js';
+import { notify, fileError, message } from './js/toasts.js';
+import { fetchBytes, fetchJson } from './js/fetch.js';
 import { Inspector, pct } from './js/inspector.js';
 import { composite, fileName, WebmRecorder, addDownload, webmType } from './js/recorder.js';
 import {
@@ -189,22 +190,6 @@ function fatal(title, detail) {
   p.textContent = detail;
   el.append(h, p);
   document.body.dataset.state = 'error';
-}
-
-function message(e) {
-  return e instanceof Error ? e.message : String(e);
-}
-
-async function fetchBytes(url) {
-  const r = await fetch(url);
-  if (!r.ok) throw new Error(`HTTP ${r.status} for ${url}`);
-  return new Uint8Array(await r.arrayBuffer());
-}
-
-async function fetchJson(url) {
-  const r = await fetch(url);
-  if (!r.ok) throw new Error(`HTTP ${r.status} for ${url}`);
-  return r.json();
 }
 
 /** A cheap identity for a model file's bytes (FNV-1a over a sample + the length). */

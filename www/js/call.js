@@ -8,7 +8,8 @@
 // one is made). `window.facemimicCall` is a read-only view of the call (docs/call.md).
 
 import init, * as fm from '../pkg/facemimic.js';
-import { notify } from './toasts.js';
+import { notify, message } from './toasts.js';
+import { fetchBytes } from './fetch.js';
 import { ModelStore } from './store.js';
 import { Avatar } from './call-avatar.js';
 import { SignalClient, defaultSignalUrl, randomId } from './call-signal.js';
@@ -37,16 +38,6 @@ const call = {
   mic: null,
   error: null,
 };
-
-function message(e) {
-  return e instanceof Error ? e.message : String(e);
-}
-
-async function fetchBytes(url) {
-  const r = await fetch(url);
-  if (!r.ok) throw new Error(`HTTP ${r.status} for ${url}`);
-  return new Uint8Array(await r.arrayBuffer());
-}
 
 /** A model by key (loaded once). Keys: "b:FILE" bundled, "s:ID" from the store. */
 async function modelFor(key) {

@@ -3,6 +3,8 @@
 // the current frame as RGBA at a given scale. Nothing here knows about faces or tracking; the
 // enrolment (www/js/enrol.js) and the tracking panel (www/js/tracking.js) both use it.
 
+import { message } from './toasts.js';
+
 /** The frame shown (and placed on, and searched for faces) is at most this big (longer side, px). */
 export const MAX_WORK_SIDE = 640;
 
@@ -29,10 +31,6 @@ export function mediaErrorText(err) {
       4: 'the browser cannot play this format',
     }[err.code] || 'the video failed';
   return err.message ? `${what} (${err.message})` : what;
-}
-
-function message(e) {
-  return e instanceof Error ? e.message : String(e);
 }
 
 /** What a getUserMedia failure means for the user, and what to do. */

@@ -34,9 +34,14 @@ export function notify(kind, title, detail = '') {
   return el;
 }
 
+/** The text of a thrown value: an Error's message, anything else as a string. */
+export function message(e) {
+  return e instanceof Error ? e.message : String(e);
+}
+
 /** An error notice for a file: "<file>: <reason>". */
 export function fileError(fileName, err) {
-  const reason = err instanceof Error ? err.message : String(err);
+  const reason = message(err);
   console.warn(`facemimic: ${fileName}: ${reason}`);
   return notify('error', `Could not load ${fileName}`, reason);
 }

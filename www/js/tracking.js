@@ -25,7 +25,7 @@
 // `window.facemimicTracking` (for the console and the end-to-end tests).
 
 import { registerSource } from './sources.js';
-import { notify, fileError } from './toasts.js';
+import { notify, fileError, message } from './toasts.js';
 import { dropZone } from './drop.js';
 import { MediaFeed, CLIP_JSON, loadClipInfo, looksLikeImage, looksLikeVideo, openCamera } from './media.js';
 import { Placement } from './placement.js';
@@ -71,10 +71,6 @@ function el(tag, props = {}, ...children) {
 
 function button(label, onclick, extra = {}) {
   return el('button', { type: 'button', class: 'btn', onclick, ...extra }, label);
-}
-
-function message(e) {
-  return e instanceof Error ? e.message : String(e);
 }
 
 // ---------------------------------------------------------------------------------------------
