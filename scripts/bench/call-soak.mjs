@@ -45,7 +45,7 @@ let exitCode = 0;
 /** In the page: time the remote video's presented frames. */
 function timeFrames() {
   const v = document.getElementById('remote');
-  const w = { frames: 0, last: 0, maxGap: 0, gaps200: 0, since: performance.now() };
+  const w = { frames: 0, last: 0, maxGap: 0, gaps200: 0, since: performance.now(), events: [] };
   window.__soak = w;
   let lastPresented;
   const cb = (now, meta) => {
@@ -56,14 +56,17 @@ function timeFrames() {
     if (w.last) {
       const gap = (now - w.last) / inc;
       if (gap > w.maxGap) w.maxGap = gap;
-      if (gap > 200) w.gaps200 += inc;
+      if (gap > 200) {
+        w.gaps200 += inc;
+        if (w.events.length < 2000) w.events.push({ at: performance.timeOrigin + now, ms: gap, span: now - w.last, inc });
+      }
     }
     w.last = now;
     w.frames += inc;
     v.requestVideoFrameCallback(cb);
   };
   v.requestVideoFrameCallback(cb);
-  window.__soakReset = () => Object.assign(w, { frames: 0, maxGap: 0, gaps200: 0, since: performance.now() });
+  window.__soakReset = () => Object.assign(w, { frames: 0, maxGap: 0, gaps200: 0, since: performance.now(), events: [] });
 }
 
 try {
@@ -93,7 +96,7 @@ try {
     for (const [k, p] of Object.entries(pages)) {
       if (row.gc) await cdp[k].send('HeapProfiler.collectGarbage');
       const s = await status(p);
-      const m = await p.evaluate(() => ({ heap: performance.memory.usedJSHeapSize, soak: { ...window.__soak, now: performance.now() } }));
+      const m = await p.evaluate(() => ({ heap: performance.memory.usedJSHeapSize, soak: { ...window.__soak, events: undefined, now: performance.now() } }));
       const secs = (m.soak.now - m.soak.since) / 1000;
       row[k] = {
         state: s.state,
@@ -158,6 +161,32 @@ try {
       signalReconnects: last[k].signalReconnects - base[k].signalReconnects,
       framesSent: last[k].framesSent,
     };
+  }
+  // Where each stall came from. A receiver's gap over 200 ms (wall-clock interval [at - span, at])
+  // is the sender's when the sender drew no avatar frame for most of it (its drawGaps, shifted by
+  // the receiver's median latency): "face lost" when the sender's tracker lost the face within
+  // the pause, "sender slow" otherwise; a gap the receiver saw while missing callbacks (inc > 1)
+  // is "receiver busy"; the rest is "transport" (encode, network, jitter buffer, decode).
+  for (const [k, other] of [['A', 'B'], ['B', 'A']]) {
+    const events = await pages[k].evaluate(() => window.__soak.events);
+    const gaps = await pages[other].evaluate(() => window.facemimicCall.drawGaps);
+    const lat = last[k].latencyMs ?? 0;
+    const causes = { faceLost: 0, senderSlow: 0, receiverBusy: 0, transport: 0 };
+    const worst = { faceLost: 0, senderSlow: 0, receiverBusy: 0, transport: 0 };
+    for (const e of events) {
+      const [s0, s1] = [e.at - e.span, e.at];
+      let best = null;
+      let bestOverlap = 0;
+      for (const g of gaps) {
+        const [g0, g1] = [g.at - g.ms + lat, g.at + lat];
+        const o = Math.min(s1, g1) - Math.max(s0, g0);
+        if (o > bestOverlap) [best, bestOverlap] = [g, o];
+      }
+      const cause = best && bestOverlap >= 0.5 * e.span ? (best.lost > 0 ? 'faceLost' : 'senderSlow') : e.inc > 1 ? 'receiverBusy' : 'transport';
+      causes[cause]++;
+      worst[cause] = Math.max(worst[cause], e.ms);
+    }
+    summary.pages[k].stallCauses = { counts: causes, longestMs: worst, senderDrawGapsOver150Ms: gaps.length };
   }
   console.log(JSON.stringify(summary, null, 2));
   fs.mkdirSync(path.dirname(out), { recursive: true });

@@ -18,6 +18,9 @@ export const HEIGHT = 480;
 /** The bench stamp: 24 blocks of STAMP_BLOCK px along the bottom edge, one bit each. */
 export const STAMP_BITS = 24;
 export const STAMP_BLOCK = 16;
+/** A pause between two avatar frames drawn that `drawGaps` records (ms), and how many it keeps. */
+const DRAW_GAP_MS = 150;
+const MAX_DRAW_GAPS = 500;
 
 /** Reads the stamp from the bottom-left of a picture's pixels (ImageData of a WIDTH x STAMP_BLOCK strip). */
 export function readStamp(img) {
@@ -64,6 +67,10 @@ export class Avatar {
     this.camera = 'starting';
     this.lastDrawn = 0;
     this.drawTimes = [];
+    // Gaps over DRAW_GAP_MS between two avatar frames drawn (the canvas stream sends nothing new
+    // in a gap): { at: wall-clock ms of the frame that ended it, ms, lost: fits lost within it }.
+    this.drawGaps = [];
+    this.lostAtDraw = 0;
   }
 
   /** Avatar frames drawn in the last second. */
@@ -198,6 +205,11 @@ export class Avatar {
     if (this.bench) this.stamp(captured);
     const drawn = performance.now();
     this.frames++;
+    if (this.lastDrawn && drawn - this.lastDrawn > DRAW_GAP_MS) {
+      this.drawGaps.push({ at: performance.timeOrigin + drawn, ms: drawn - this.lastDrawn, lost: this.lost - this.lostAtDraw });
+      if (this.drawGaps.length > MAX_DRAW_GAPS) this.drawGaps.shift();
+    }
+    this.lostAtDraw = this.lost;
     this.lastDrawn = drawn;
     this.drawTimes.push(drawn);
     while (this.drawTimes.length && drawn - this.drawTimes[0] > 1000) this.drawTimes.shift();

@@ -363,6 +363,7 @@ export class CallView {
       camera: () => c.avatar?.camera ?? null,
       framesSent: () => c.avatar?.frames ?? 0,
       fits: () => ({ fits: c.avatar?.fits ?? 0, lost: c.avatar?.lost ?? 0 }),
+      drawGaps: () => (c.avatar?.drawGaps ?? []).map((g) => ({ ...g })),
       logRows: () => c.avatar?.log?.length ?? 0,
       rejectedMessages: () => c.rejected,
       audio: () => ({ sending: Boolean(c.mic), level: v.parts.audioLevel ?? null, energy: v.parts.audioEnergy ?? null, samples: v.parts.audioSamples ?? null }),
