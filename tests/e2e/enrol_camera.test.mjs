@@ -28,7 +28,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraArgs, FAKE_CAMERA_ARGS } from './lib.mjs';
+import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraArgs, mjpegCamera, FAKE_CAMERA_ARGS } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -143,10 +143,9 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
     return r;
   };
   const pts = async (i) => {
-    const text = await (await get(file(i, 'pts'))).text();
-    const v = text.slice(text.indexOf('{') + 1, text.indexOf('}')).trim().split(/\s+/).map(Number);
+    const v = fm.parsePts(await (await get(file(i, 'pts'))).text()); // 0-based
     if (v.length !== 136) throw new Error(`${file(i, 'pts')}: ${v.length / 2} points`);
-    return Float32Array.from(v, (x) => x - 1); // iBUG files are 1-based
+    return v;
   };
   const jpeg = async (i) => createImageBitmap(await (await get(file(i, 'jpg'))).blob());
   const canvas = new OffscreenCanvas(1, 1);
@@ -162,12 +161,6 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
     g.imageSmoothingQuality = 'medium';
     g.drawImage(bmp, 0, 0, w, h);
     return g.getImageData(0, 0, w, h);
-  };
-  const landmarkError = (a, b) => {
-    const iod = Math.hypot(b[72] - b[90], b[73] - b[91]);
-    let s = 0;
-    for (let k = 0; k < 136; k += 2) s += Math.hypot(a[k] - b[k], a[k + 1] - b[k + 1]);
-    return s / 68 / iod;
   };
   const describe = (info) => `${info.shapeModes} shape, ${info.appearanceModes} appearance modes`;
 
@@ -232,7 +225,7 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
       r.ms += performance.now() - ts;
       if (fit.lost) r.lost++;
       if (fit.reacquired) r.acquired++;
-      r.errors.push(landmarkError(scaled(fit.landmarks, 1 / r.kFit), truth));
+      r.errors.push(fm.landmarkError(scaled(fit.landmarks, 1 / r.kFit), truth));
       if (!fit.lost) {
         // The face grew or shrank a lot: carry on at a new fit scale (tracking.js fitCurrent).
         const want = t.fitScale(bounds(fit.landmarks).h / r.kFit, W, H, r.kFit);
@@ -272,9 +265,8 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
 
 test('enrolment from the webcam: stored, survives a reload, tracks the unseen frames 600-1336 (against a dlib-landmark model), becomes the source and drives the targets', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
   // webcam-dev frames 0-599 as they are (400x300 JPEGs, one after another: an MJPEG stream).
-  const camera = path.join(os.tmpdir(), `facemimic-enrol-webcam-${process.pid}.mjpeg`);
-  fs.writeFileSync(camera, Buffer.concat(Array.from({ length: 600 }, (_, i) => fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.jpg`)))));
-  t.after(() => fs.rmSync(camera, { force: true }));
+  const jpegs = Array.from({ length: 600 }, (_, i) => fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.jpg`)));
+  const camera = mjpegCamera(t, jpegs, 'enrol-webcam');
   const browser = await launchBrowser(fakeCameraArgs(camera));
   t.after(() => browser.close());
   const { page, errors } = await open(t, browser);
