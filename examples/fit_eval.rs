@@ -40,16 +40,21 @@ fn main() {
     native::main()
 }
 
+#[cfg(not(target_arch = "wasm32"))]
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 /// Native only: the example reads files.
 #[cfg(not(target_arch = "wasm32"))]
 mod native {
     use std::path::{Path, PathBuf};
     use std::time::Instant;
 
+    use super::common::{perturb, Rng};
     use facemimic::fit::{FitOptions, Fitter, Tracker};
     use facemimic::{
         io, select_varied, BuildOptions, Builder, EnrolFinder, FaceFinder, FrameChoice, Model,
-        Similarity, TrainingImage,
+        TrainingImage,
     };
 
     fn data() -> PathBuf {
@@ -380,41 +385,9 @@ mod native {
         (ticks(11) + ticks(12)) / 100.0
     }
 
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            ((self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
-        }
-    }
-
-    fn perturb(lm: &[f32], rng: &mut Rng) -> Vec<f32> {
-        let n = lm.len() / 2;
-        let (mut cx, mut cy) = (0.0, 0.0);
-        for p in lm.chunks_exact(2) {
-            cx += p[0] / n as f32;
-            cy += p[1] / n as f32;
-        }
-        let xs = lm.iter().step_by(2);
-        let width =
-            xs.clone().copied().fold(f32::MIN, f32::max) - xs.copied().fold(f32::MAX, f32::min);
-        let (dx, dy) = (0.05 * width * rng.next(), 0.05 * width * rng.next());
-        let rot = 5f32.to_radians() * rng.next();
-        let scale = 1.0 + 0.05 * rng.next();
-        let t = Similarity::from_parts(scale, rot, 0.0, 0.0);
-        lm.chunks_exact(2)
-            .flat_map(|p| {
-                let (x, y) = t.apply_point(p[0] - cx, p[1] - cy);
-                [x + cx + dx, y + cy + dy]
-            })
-            .collect()
-    }
-
     fn basin(name: &str, model: &Model, frames: &[TrainingImage], per: usize, seed: u64) {
         let mut fitter = Fitter::new(model, options()).unwrap();
-        let mut rng = Rng(seed);
+        let mut rng = Rng::new(seed);
         let (mut good, mut total, mut sum) = (0, 0, 0f32);
         for f in frames {
             let view = f.image.view().unwrap();

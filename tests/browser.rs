@@ -10,6 +10,9 @@
 //! overlay and `renderMode` draw, and that bad input (a corrupt model file, NaN parameters,
 //! a wrong context, an unknown method) throws a JS `Error` and leaves the module working.
 
+mod common;
+
+use common::pixels::mean_abs_diff;
 use facemimic::landmarks::parse_pts;
 use facemimic::wasm::{canvas_view, render_mode, JsCloner, JsModel, RenderOptionsArg};
 use facemimic::{BuildOptions, Builder, Image, Model, Params, Similarity, TrainingImage};
@@ -267,14 +270,6 @@ fn assert_face(px: &[u8], model: &Model, shape: &[f32], w: u32, h: u32, what: &s
     );
 }
 
-fn mean_abs_diff(a: &[u8], b: &[u8]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (*x as f32 - *y as f32).abs())
-        .sum::<f32>()
-        / a.len() as f32
-}
-
 #[wasm_bindgen_test]
 fn cloner_paints_faces_without_holes_and_follows_the_source() {
     let (source, target) = models();
@@ -356,15 +351,19 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     );
     assert_eq!(cloner.method(), "substitute");
 
-    // Timings are accounted per stage.
+    // Timings are accounted per stage: each a finite duration, and the frame's work (mapping,
+    // synthesis, rasterising and blitting every face drawn since update()) took some time.
     let t = cloner.timings().unwrap();
+    let mut total = 0.0;
     for k in ["mapMs", "synthMs", "rasterMs", "blitMs"] {
         let v = js_sys::Reflect::get(&t, &k.into())
             .unwrap()
             .as_f64()
             .unwrap();
         assert!(v.is_finite() && v >= 0.0, "{k} = {v}");
+        total += v;
     }
+    assert!(total > 0.0, "no time accounted to the frame's stages");
 
     // ImageData output has the requested size and the same face.
     cloner.set_method("map").unwrap();

@@ -8,6 +8,7 @@
 //! precomputation is over its memory budget; a model name the reader would reject. After each,
 //! the module keeps working.
 
+mod common;
 #[path = "../fuzz/engine.rs"]
 #[allow(dead_code)]
 mod engine;

@@ -6,6 +6,8 @@
 
 mod common;
 
+use common::{perturb, Rng};
+
 use std::path::{Path, PathBuf};
 
 use facemimic::fit::{FitOptions, Fitter, Tracker};
@@ -79,44 +81,11 @@ fn summary(errs: &[f32]) -> (f32, f32) {
 }
 
 /// A deterministic pseudo-random generator (xorshift), uniform in [-1, 1].
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
-    }
-}
-
-/// Perturbs landmarks about their centroid: translation up to 5% of the face width (extent of
-/// the landmarks along x), rotation up to 5 degrees, scale up to 5%.
-fn perturb(lm: &[f32], rng: &mut Rng) -> Vec<f32> {
-    let n = lm.len() / 2;
-    let (mut cx, mut cy) = (0.0, 0.0);
-    for p in lm.chunks_exact(2) {
-        cx += p[0] / n as f32;
-        cy += p[1] / n as f32;
-    }
-    let xs = lm.iter().step_by(2);
-    let width = xs.clone().copied().fold(f32::MIN, f32::max) - xs.copied().fold(f32::MAX, f32::min);
-    let (dx, dy) = (0.05 * width * rng.next(), 0.05 * width * rng.next());
-    let rot = 5f32.to_radians() * rng.next();
-    let scale = 1.0 + 0.05 * rng.next();
-    let t = Similarity::from_parts(scale, rot, 0.0, 0.0);
-    lm.chunks_exact(2)
-        .flat_map(|p| {
-            let (x, y) = t.apply_point(p[0] - cx, p[1] - cy);
-            [x + cx + dx, y + cy + dy]
-        })
-        .collect()
-}
-
 /// Fits each frame from `per_frame` perturbations of its landmarks; returns the fraction of
 /// fits that end below 0.05.
 fn basin(model: &Model, frames: &[&TrainingImage], per_frame: usize, seed: u64) -> (f32, usize) {
     let mut fitter = Fitter::new(model, FitOptions::default()).unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let (mut good, mut total) = (0, 0);
     for f in frames {
         let view = f.image.view().unwrap();
