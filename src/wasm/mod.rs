@@ -75,6 +75,13 @@ extern "C" {
     /// `RenderOptions` in TypeScript (an optional plain object).
     #[wasm_bindgen(typescript_type = "RenderOptions")]
     pub type RenderOptionsArg;
+
+    /// A 2D canvas context, on screen or off (`CanvasRenderingContext2D |
+    /// OffscreenCanvasRenderingContext2D` in TypeScript): what the `render*` methods draw into.
+    #[wasm_bindgen(
+        typescript_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
+    )]
+    pub type Context2dArg;
 }
 
 #[wasm_bindgen(typescript_custom_section)]
