@@ -50,7 +50,8 @@ mod native {
     use std::path::{Path, PathBuf};
     use std::time::Instant;
 
-    use super::common::{perturb, Rng};
+    use super::common::{clip_frames, load, perturb, Rng};
+    use facemimic::find::landmark_error;
     use facemimic::fit::{FitOptions, Fitter, Tracker};
     use facemimic::{
         io, select_varied, BuildOptions, Builder, EnrolFinder, FaceFinder, FrameChoice, Model,
@@ -193,7 +194,7 @@ mod native {
                             let r = pf.fit(&f.image.view().unwrap(), &prev).unwrap();
                             println!(
                                 "  probe {i} {v}: {:.4} residual {:.4} iterations {}",
-                                norm_error(&r.landmarks, &f.landmarks),
+                                landmark_error(&r.landmarks, &f.landmarks),
                                 r.error,
                                 r.iterations
                             );
@@ -201,7 +202,7 @@ mod native {
                     }
                 }
                 let r = t.track(&f.image.view().unwrap()).unwrap();
-                let e = norm_error(&r.landmarks, &f.landmarks);
+                let e = landmark_error(&r.landmarks, &f.landmarks);
                 if std::env::var_os("FIT_EVAL_FRAMES").is_some() {
                     // The fit's shape parameters and the truth's (its projection onto the
                     // model), in standard deviations, and the projection's own error.
@@ -229,9 +230,9 @@ mod native {
                          floor {:.4} fit [{}] truth [{}]",
                         r.error,
                         r.iterations,
-                        norm_error(&c.landmarks, &f.landmarks),
+                        landmark_error(&c.landmarks, &f.landmarks),
                         c.error,
-                        norm_error(&inst, &f.landmarks),
+                        landmark_error(&inst, &f.landmarks),
                         sig(&r.params.shape),
                         sig(&p)
                     );
@@ -264,37 +265,8 @@ mod native {
         println!("  shape variances / the first: {}", rel.join(" "));
     }
 
-    fn load(paths: &[PathBuf]) -> Vec<TrainingImage> {
-        paths
-            .iter()
-            .map(|p| io::read_training_image(p).unwrap())
-            .collect()
-    }
-
-    fn all_frames(dir: &Path) -> Vec<PathBuf> {
-        let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-            .collect();
-        paths.sort();
-        paths
-    }
-
     fn numbered(dir: &Path, range: impl Iterator<Item = usize>) -> Vec<PathBuf> {
         range.map(|i| dir.join(format!("{i:06}.jpg"))).collect()
-    }
-
-    fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-        let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
-        let n = truth.len() / 2;
-        let sum: f32 = (0..n)
-            .map(|i| {
-                ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                    .sqrt()
-            })
-            .sum();
-        sum / n as f32 / iod
     }
 
     fn track(name: &str, model: &Model, seq: &[TrainingImage], auto: bool) {
@@ -333,7 +305,7 @@ mod native {
             errs.push(if r.lost {
                 f32::INFINITY
             } else {
-                norm_error(&r.landmarks, &f.landmarks)
+                landmark_error(&r.landmarks, &f.landmarks)
             });
         }
         let secs = t0.elapsed().as_secs_f64();
@@ -394,7 +366,7 @@ mod native {
             for _ in 0..per {
                 let init = perturb(&f.landmarks, &mut rng);
                 let r = fitter.fit(&view, &init).unwrap();
-                let e = norm_error(&r.landmarks, &f.landmarks);
+                let e = landmark_error(&r.landmarks, &f.landmarks);
                 total += 1;
                 sum += e;
                 if e < 0.05 {
@@ -444,7 +416,7 @@ mod native {
         // The shape model's own floor: each frame's dlib landmarks projected onto
         // the model (pose and p), and a fit started from them.
         let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
-        let seq = load(&all_frames(&d.join("franck-dev2")));
+        let seq = load(&clip_frames(&d.join("franck-dev2")));
         let mut fitter = Fitter::new(&m, options()).unwrap();
         let (mut proj, mut fit) = (0f32, 0f32);
         let mut p = vec![0f32; m.shape().n_modes()];
@@ -453,9 +425,9 @@ mod native {
             let pose = m.shape().project_image_shape(&f.landmarks, &mut p).unwrap();
             m.shape().instance(&p, &mut inst).unwrap();
             pose.apply_in_place(&mut inst);
-            proj += norm_error(&inst, &f.landmarks);
+            proj += landmark_error(&inst, &f.landmarks);
             let r = fitter.fit(&f.image.view().unwrap(), &f.landmarks).unwrap();
-            fit += norm_error(&r.landmarks, &f.landmarks);
+            fit += landmark_error(&r.landmarks, &f.landmarks);
         }
         let n = seq.len() as f32;
         println!(
@@ -570,12 +542,12 @@ mod native {
     fn grid_basin() {
         let list = repo("data/grid/spk07_pwij3p/train20.txt");
         let m = build(&io::read_list(&list).unwrap());
-        let mut held: Vec<PathBuf> = all_frames(&repo("data/grid/spk07_id2_vcd_swwp2s"))
+        let mut held: Vec<PathBuf> = clip_frames(&repo("data/grid/spk07_id2_vcd_swwp2s"))
             .into_iter()
             .step_by(3)
             .collect();
         held.extend(held_out(
-            all_frames(&repo("data/grid/spk07_pwij3p")),
+            clip_frames(&repo("data/grid/spk07_pwij3p")),
             &list,
             3,
         ));
@@ -587,7 +559,7 @@ mod native {
     fn franck_basin(d: &Path) {
         let list = d.join("franck-dev/train20.txt");
         let m = build(&io::read_list(&list).unwrap());
-        let held = held_out(all_frames(&d.join("franck-dev")), &list, 10);
+        let held = held_out(clip_frames(&d.join("franck-dev")), &list, 10);
         basin("franck-basin", &m, &load(&held), 2, 0x5eed_0002);
     }
 
@@ -602,12 +574,12 @@ mod native {
                 "grid" => {
                     let m =
                         build(&io::read_list(&repo("data/grid/spk07_pwij3p/train20.txt")).unwrap());
-                    let seq = load(&all_frames(&repo("data/grid/spk07_id2_vcd_swwp2s")));
+                    let seq = load(&clip_frames(&repo("data/grid/spk07_id2_vcd_swwp2s")));
                     track("grid", &m, &seq, false);
                 }
                 "franck2" | "franck2-auto" => {
                     let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
-                    let seq = load(&all_frames(&d.join("franck-dev2")));
+                    let seq = load(&clip_frames(&d.join("franck-dev2")));
                     track(&set, &m, &seq, set == "franck2-auto");
                 }
                 "dump-franck2" => dump_franck2(&d),

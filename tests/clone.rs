@@ -1051,17 +1051,9 @@ mod grid {
 
     /// The unseen spk07 clip: every frame with its landmarks.
     pub fn clip() -> Vec<TrainingImage> {
-        let dir = data().join("spk07_id2_vcd_swwp2s");
-        let mut frames: Vec<PathBuf> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-            .collect();
-        frames.sort();
-        frames
-            .iter()
-            .map(|p| io::read_training_image(p).unwrap())
-            .collect()
+        crate::common::load(&crate::common::clip_frames(
+            &data().join("spk07_id2_vcd_swwp2s"),
+        ))
     }
 
     fn point(s: &[f32], idx: &[usize]) -> (f32, f32) {

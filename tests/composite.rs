@@ -15,23 +15,15 @@ use facemimic::glam::Vec2;
 use facemimic::tiny_skia::Pixmap;
 use facemimic::{
     io, mean_value_weights, photo_model, with_default_backdrop, Backdrop, BuildOptions, Builder,
-    Compositor, DrawOptions, Model, Rasterizer, Similarity, TrainingImage,
+    Compositor, DrawOptions, Model, Rasterizer, Similarity,
 };
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn images(list: &str) -> Vec<TrainingImage> {
-    io::read_list(&root().join(list))
-        .unwrap()
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect()
-}
-
 fn build(list: &str, name: &str) -> Model {
-    let train = images(list);
+    let train = common::list_images(list);
     let m = Builder::new(BuildOptions {
         name: name.into(),
         ..BuildOptions::default()
@@ -382,7 +374,7 @@ fn a_version_2_file_without_sections_still_reads() {
 
 #[test]
 fn photo_targets_clone_by_substitution_and_reject_bad_photos() {
-    let t = images("data/grid/spk03_lbax4n/train20.txt").remove(0);
+    let t = common::list_images("data/grid/spk03_lbax4n/train20.txt").remove(0);
     let frame = facemimic::canonical_frame();
     let photo = photo_model("spk03-photo", &t.image.view().unwrap(), &t.landmarks, frame).unwrap();
     assert!(photo.is_photo());

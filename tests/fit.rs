@@ -6,10 +6,10 @@
 
 mod common;
 
-use common::{perturb, Rng};
-
 use std::path::{Path, PathBuf};
 
+use common::{perturb, Rng};
+use facemimic::find::landmark_error;
 use facemimic::fit::{FitOptions, Fitter, Tracker};
 use facemimic::{io, BuildOptions, Builder, FrameChoice, Image, Model, Similarity, TrainingImage};
 
@@ -33,28 +33,7 @@ fn build(list: &Path) -> (Model, Vec<String>) {
 
 /// All `NNNNNN.jpg` frames of a folder, in order, with their landmarks.
 fn frames(dir: &Path) -> Vec<TrainingImage> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-        .collect();
-    paths.sort();
-    paths
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect()
-}
-
-fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-    let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
-    let n = truth.len() / 2;
-    let sum: f32 = (0..n)
-        .map(|i| {
-            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                .sqrt()
-        })
-        .sum();
-    sum / n as f32 / iod
+    common::load(&common::clip_frames(dir))
 }
 
 /// Tracks all frames from the first frame's landmarks; returns per-frame errors and resets.
@@ -69,7 +48,7 @@ fn track_with(model: &Model, seq: &[TrainingImage], options: FitOptions) -> (Vec
     let mut errs = Vec::new();
     for f in seq {
         let r = t.track(&f.image.view().unwrap()).unwrap();
-        errs.push(norm_error(&r.landmarks, &f.landmarks));
+        errs.push(landmark_error(&r.landmarks, &f.landmarks));
     }
     (errs, t.resets(), t.lost_count())
 }
@@ -93,7 +72,7 @@ fn basin(model: &Model, frames: &[&TrainingImage], per_frame: usize, seed: u64) 
             let init = perturb(&f.landmarks, &mut rng);
             let r = fitter.fit(&view, &init).unwrap();
             total += 1;
-            if norm_error(&r.landmarks, &f.landmarks) < 0.05 {
+            if landmark_error(&r.landmarks, &f.landmarks) < 0.05 {
                 good += 1;
             }
         }
@@ -248,7 +227,7 @@ fn webcam_tracks_from_the_face_finder() {
             lost_frames.push(i);
             errs.push(f32::INFINITY);
         } else {
-            errs.push(norm_error(&r.landmarks, &f.landmarks));
+            errs.push(landmark_error(&r.landmarks, &f.landmarks));
         }
     }
     let good: Vec<f32> = errs.iter().copied().filter(|e| e.is_finite()).collect();
@@ -486,7 +465,7 @@ fn tracker_starts_from_a_box() {
     let mut errs = Vec::new();
     for f in seq.iter().take(10) {
         let r = t.track(&f.image.view().unwrap()).unwrap();
-        errs.push(norm_error(&r.landmarks, &f.landmarks));
+        errs.push(landmark_error(&r.landmarks, &f.landmarks));
     }
     println!("box start: errors {errs:?}");
     assert!(

@@ -28,8 +28,8 @@
 
 mod common;
 
-use common::following::{errors, follow, mean, over, pearson, repo, spk07};
-use common::{frame, shared_data};
+use common::following::{errors, follow, mean, over, pearson, spk07};
+use common::{frame, repo, shared_data};
 use facemimic::find::landmark_error;
 use facemimic::fit::{mouth_opening, FollowOptions, Follower};
 use facemimic::{io, FaceFinder, TrainingImage};

@@ -54,11 +54,7 @@ fn golden_path(name: &str) -> PathBuf {
 }
 
 fn build(list: &str, name: &str) -> Model {
-    let paths = io::read_list(&root().join(list)).unwrap();
-    let images: Vec<_> = paths
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
+    let images = common::list_images(list);
     Builder::new(BuildOptions {
         name: name.into(),
         ..BuildOptions::default()

@@ -1,26 +1,16 @@
 //! Following a clip with the person-independent path ([`Follower`]) and scoring it: what
 //! `tests/follow.rs` measures and `examples/follow_tune.rs` tunes with.
 
-use std::path::{Path, PathBuf};
-
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::find::{convention_free_errors, landmark_error};
 use facemimic::fit::{mouth_opening, FollowOptions, Follower};
-use facemimic::{io, Builder, Model, TrainingImage};
+use facemimic::{Builder, Model, TrainingImage};
 
-/// A path in the repository.
-pub fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
+use super::list_images;
 
 /// The model of the images listed in `list` (a repository path), named `name`.
 pub fn build(list: &str, name: &str) -> Model {
-    let images: Vec<TrainingImage> = io::read_list(&repo(list))
-        .unwrap()
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
-    let mut m = Builder::default().build(&images, None).unwrap();
+    let mut m = Builder::default().build(&list_images(list), None).unwrap();
     m.set_name(name);
     m
 }

@@ -8,6 +8,8 @@
 
 #[cfg(not(target_arch = "wasm32"))]
 pub mod following;
+#[cfg(target_arch = "wasm32")]
+pub mod js;
 pub mod pixels;
 mod rng;
 pub mod synthetic;
@@ -62,6 +64,44 @@ pub fn shared_data(name: &str) -> Option<PathBuf> {
     );
     eprintln!("SKIPPED: {} is absent", d.display());
     None
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// A path in the repository.
+pub fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The landmarked images of the list file `list` (a repository path; one image a line, e.g.
+/// `data/grid/spk07_pwij3p/train20.txt`).
+pub fn list_images(list: &str) -> Vec<TrainingImage> {
+    io::read_list(&repo(list))
+        .unwrap()
+        .iter()
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect()
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The `.jpg` frames of the clip folder `dir`, sorted by name.
+pub fn clip_frames(dir: &Path) -> Vec<PathBuf> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
+        .collect();
+    paths.sort();
+    paths
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The landmarked images at `paths`.
+pub fn load(paths: &[PathBuf]) -> Vec<TrainingImage> {
+    paths
+        .iter()
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect()
 }
 
 #[cfg(not(target_arch = "wasm32"))]

@@ -28,7 +28,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraArgs, mjpegCamera, FAKE_CAMERA_ARGS } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, fakeCameraArgs, mjpegCamera, FAKE_CAMERA_ARGS, assertPageBuilt, openPage } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -55,27 +55,22 @@ if (!HAVE_DATA) {
 let server;
 
 before(async () => {
-  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
-  assert.ok(fs.existsSync(path.join(WWW, 'models', 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  assertPageBuilt(WWW);
   server = await serveStatic(WWW, { mounts: HAVE_DATA ? { [DATA_URL]: DATA } : {} });
 });
 
 after(() => server?.close());
 
+/** Open the page in a fresh context of `browser` (lib.mjs `openPage`), every request kept on
+ *  the page's own origin. */
 async function open(t, browser, { permissions, init } = {}) {
-  const context = await browser.newContext({ viewport: { width: 1440, height: 1400 }, permissions });
-  t.after(() => context.close().catch(() => {}));
-  const page = await context.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('request', (r) => {
-    const u = r.url();
-    if (!u.startsWith(server.url) && !u.startsWith('blob:') && !u.startsWith('data:')) errors.push(`request off the origin: ${u}`);
+  const { page, errors } = await openPage(t, browser, server, {
+    context: { viewport: { width: 1440, height: 1400 }, permissions },
+    init,
+    ready: ['body[data-shelf="ready"]'],
+    console: false,
+    originErrors: true,
   });
-  if (init) await page.addInitScript(init);
-  await page.goto(server.url);
-  await ready(page);
   return { page, errors };
 }
 

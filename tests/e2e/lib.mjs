@@ -370,6 +370,56 @@ async function guideFrames({ dir, count, width = 640, height = 480, black = new 
   }
 }
 
+/** Fails (saying what to run) unless chromium, the page's wasm package and its default models
+ *  (in `www`, the page's folder) are there. */
+export function assertPageBuilt(www = path.join(ROOT, 'www')) {
+  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
+  assert.ok(fs.existsSync(path.join(www, 'pkg', 'facemimic.js')), `${www}/pkg/facemimic.js is missing: run scripts/build-wasm.sh`);
+  assert.ok(fs.existsSync(path.join(www, 'models', 'manifest.json')), `${www}/models/ is missing: run scripts/build-models.sh`);
+}
+
+/**
+ * Opens `server`'s page in a fresh context of `browser` (`context`: its options; closed after
+ * the test `t`) and waits until it has drawn (and `ready`, more selectors to wait for). Returns
+ * `{ page, errors, offOrigin, frames }`: the page errors (and console errors unless `console`
+ * is false) as they come, the requests that left the page's origin (also counted as errors
+ * with `originErrors`), and `frames(n)`, which waits for `n` animation frames (the page renders
+ * every frame while playing, and once after any change while paused).
+ */
+export async function openPage(t, browser, server, { context: options = {}, ready = [], init, console: consoleErrors = true, originErrors = false } = {}) {
+  const context = await browser.newContext({ viewport: { width: 1440, height: 900 }, ...options });
+  t.after(() => context.close().catch(() => {}));
+  const page = await context.newPage();
+  const errors = [];
+  const offOrigin = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  if (consoleErrors) {
+    page.on('console', (m) => {
+      if (m.type() === 'error') errors.push(m.text());
+    });
+  }
+  page.on('request', (r) => {
+    const u = r.url();
+    if (u.startsWith(server.url) || u.startsWith('blob:') || u.startsWith('data:')) return;
+    offOrigin.push(u);
+    if (originErrors) errors.push(`request off the origin: ${u}`);
+  });
+  if (init) await page.addInitScript(init);
+  await page.goto(server.url);
+  for (const selector of ['body[data-ready="1"]', ...ready]) await page.waitForSelector(selector, { timeout: 30_000 });
+  const frames = (n = 2) =>
+    page.evaluate(
+      (n) =>
+        new Promise((resolve) => {
+          let k = 0;
+          const step = () => (++k > n ? resolve() : requestAnimationFrame(step));
+          requestAnimationFrame(step);
+        }),
+      n,
+    );
+  return { page, errors, offOrigin, frames };
+}
+
 /** Chromium's switches for a fake camera the page may use without asking (and autoplay). */
 export const FAKE_CAMERA_ARGS = [
   '--autoplay-policy=no-user-gesture-required',
