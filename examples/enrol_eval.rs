@@ -96,33 +96,51 @@ mod native {
     /// landmarks, the passes' spread).
     type Found = (TrainingImage, Vec<f32>, f32, Vec<f32>, f32);
 
-    pub(crate) fn main() {
-        let args: Vec<String> = std::env::args().collect();
-        let own = args.iter().any(|a| a == "--own");
-        let step: usize = args
-            .iter()
-            .position(|a| a == "--step")
-            .and_then(|i| args.get(i + 1))
-            .map(|s| s.parse().unwrap())
-            .unwrap_or(5);
-        let boxes: usize = args
-            .iter()
-            .position(|a| a == "--boxes")
-            .and_then(|i| args.get(i + 1))
-            .map(|s| s.parse().unwrap())
-            .unwrap_or(1);
-        let frame = if own {
-            FrameChoice::Own
-        } else {
-            FrameChoice::Canonical
-        };
-        let dir: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
-        let read = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
-        let mut enrol = EnrolFinder::new(boxes).unwrap();
-        let t0 = std::time::Instant::now();
+    /// The command line: `--own`, `--step N` (default 5), `--boxes N` (default 1).
+    struct Args {
+        own: bool,
+        step: usize,
+        boxes: usize,
+    }
 
+    fn args() -> Args {
+        let args: Vec<String> = std::env::args().collect();
+        let value = |name: &str, default: usize| {
+            args.iter()
+                .position(|a| a == name)
+                .and_then(|i| args.get(i + 1))
+                .map(|s| s.parse().unwrap())
+                .unwrap_or(default)
+        };
+        Args {
+            own: args.iter().any(|a| a == "--own"),
+            step: value("--step", 5),
+            boxes: value("--boxes", 1),
+        }
+    }
+
+    /// The mean error per landmark over pairs of (landmarks, dlib's landmarks).
+    fn mean_point_errors<'a>(
+        pairs: impl ExactSizeIterator<Item = (&'a [f32], &'a [f32])>,
+    ) -> Vec<f32> {
+        let n = pairs.len() as f32;
+        let mut pp = vec![0.0f32; 68];
+        for (lm, truth) in pairs {
+            for (p, e) in pp.iter_mut().zip(point_errors(lm, truth)) {
+                *p += e / n;
+            }
+        }
+        pp
+    }
+
+    /// Every `step`-th frame of 0-599 searched: the frames (with dlib's landmarks) and those
+    /// with a face found.
+    fn search(
+        enrol: &mut EnrolFinder,
+        read: &dyn Fn(usize) -> TrainingImage,
+        step: usize,
+    ) -> (Vec<TrainingImage>, Vec<Found>) {
         let mut dlib = Vec::new();
-        // (dlib frame, finder landmarks, finder score, averaged landmarks, spread)
         let mut found: Vec<Found> = Vec::new();
         for i in (0..600).step_by(step) {
             let f = read(i);
@@ -141,30 +159,23 @@ mod native {
             }
             dlib.push(f);
         }
-        println!(
-            "searched {} frames of 0-599 (every {step}th), faces on {} ({:.1} s)",
-            dlib.len(),
-            found.len(),
-            t0.elapsed().as_secs_f32()
-        );
-        let confident: Vec<_> = found.iter().filter(|f| f.2 >= 0.5).collect();
-        let per = |sel: &dyn Fn(&Found) -> &Vec<f32>, set: &[&Found]| {
-            let mut pp = vec![0.0f32; 68];
-            for f in set {
-                for (p, e) in pp.iter_mut().zip(point_errors(sel(f), &f.0.landmarks)) {
-                    *p += e / set.len() as f32;
-                }
-            }
-            pp
+        (dlib, found)
+    }
+
+    /// The finder's error per landmark group on the confident faces, raw and averaged; its
+    /// scores; whether the passes' spread predicts a bad frame.
+    fn report_finder(found: &[Found], confident: &[&Found], boxes: usize) {
+        let per = |sel: &dyn Fn(&Found) -> &Vec<f32>| {
+            mean_point_errors(confident.iter().map(|f| (&sel(f)[..], &f.0.landmarks[..])))
         };
         println!(
             "finder error on the {} confident faces (score >= 0.5): {}",
             confident.len(),
-            groups(&per(&|f| &f.1, &confident))
+            groups(&per(&|f| &f.1))
         );
         println!(
             "averaged ({boxes} boxes x image + mirror):               {}",
-            groups(&per(&|f| &f.3, &confident))
+            groups(&per(&|f| &f.3))
         );
         let spreads: Vec<f32> = confident.iter().map(|f| f.4).collect();
         let errs: Vec<f32> = confident
@@ -194,15 +205,14 @@ mod native {
             "pass spread mean {ms:.4}; correlation of spread and averaged error {:.2}",
             cov / (vs * ve).sqrt()
         );
+    }
 
-        let test: Vec<TrainingImage> = (600..=1336).map(read).collect();
-        let init = enrol
-            .finder()
-            .find(&test[0].image.view().unwrap())
-            .first()
-            .expect("a face in frame 600")
-            .landmarks
-            .clone();
+    /// The training sets compared, each named.
+    fn training_sets(
+        dlib: &[TrainingImage],
+        found: &[Found],
+    ) -> Vec<(&'static str, Vec<TrainingImage>)> {
+        let confident: Vec<_> = found.iter().filter(|f| f.2 >= 0.5).collect();
         let with = |set: &[&Found], which: u8| {
             set.iter()
                 .map(|f| {
@@ -235,43 +245,74 @@ mod native {
             .collect();
         println!(
             "averaged, every face, own offset removed (oracle):  {}",
-            groups(&{
-                let mut pp = vec![0.0f32; 68];
-                for (t, f) in oracle.iter().zip(&found) {
-                    for (p, e) in pp
-                        .iter_mut()
-                        .zip(point_errors(&t.landmarks, &f.0.landmarks))
-                    {
-                        *p += e / found.len() as f32;
-                    }
-                }
-                pp
-            })
+            groups(&mean_point_errors(
+                oracle
+                    .iter()
+                    .zip(found)
+                    .map(|(t, f)| (&t.landmarks[..], &f.0.landmarks[..]))
+            ))
         );
-        let runs: Vec<(&str, Vec<TrainingImage>)> = vec![
+        let scored = |min: f32| found.iter().filter(|f| f.2 >= min).collect::<Vec<_>>();
+        vec![
             (
                 "finder averaged, every face, own offset removed (oracle)",
                 oracle,
             ),
-            ("dlib, every searched frame", dlib.clone()),
+            ("dlib, every searched frame", dlib.to_vec()),
             ("dlib, the confident frames (control)", with(&confident, 0)),
             ("finder, confident", with(&confident, 1)),
             ("finder, every face found", with(&all, 1)),
-            (
-                "finder, score >= 0.3",
-                with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 1),
-            ),
+            ("finder, score >= 0.3", with(&scored(0.3), 1)),
             ("finder averaged, confident", with(&confident, 2)),
             ("finder averaged, every face found", with(&all, 2)),
-            (
-                "finder averaged, score >= 0.3",
-                with(&found.iter().filter(|f| f.2 >= 0.3).collect::<Vec<_>>(), 2),
-            ),
+            ("finder averaged, score >= 0.3", with(&scored(0.3), 2)),
             (
                 "finder averaged, confident, 25% highest spread dropped",
                 with(&low_spread, 2),
             ),
-        ];
+        ]
+    }
+
+    /// Prints a model's tracking error over `test` from `init`.
+    fn report_model(name: &str, frames: usize, m: &Model, test: &[TrainingImage], init: &[f32]) {
+        let (e, pp, resets) = track(m, test, init);
+        println!(
+            "{name:55} ({frames} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
+            m.shape().n_modes(),
+            groups(&pp)
+        );
+    }
+
+    pub(crate) fn main() {
+        let Args { own, step, boxes } = args();
+        let frame = if own {
+            FrameChoice::Own
+        } else {
+            FrameChoice::Canonical
+        };
+        let dir: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
+        let read = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
+        let mut enrol = EnrolFinder::new(boxes).unwrap();
+        let t0 = std::time::Instant::now();
+        let (dlib, found) = search(&mut enrol, &read, step);
+        println!(
+            "searched {} frames of 0-599 (every {step}th), faces on {} ({:.1} s)",
+            dlib.len(),
+            found.len(),
+            t0.elapsed().as_secs_f32()
+        );
+        let confident: Vec<_> = found.iter().filter(|f| f.2 >= 0.5).collect();
+        report_finder(&found, &confident, boxes);
+
+        let test: Vec<TrainingImage> = (600..=1336).map(read).collect();
+        let init = enrol
+            .finder()
+            .find(&test[0].image.view().unwrap())
+            .first()
+            .expect("a face in frame 600")
+            .landmarks
+            .clone();
+        let runs = training_sets(&dlib, &found);
         println!(
             "frame: {}; tracking 600-1336 from the finder's frame-600 landmarks",
             if own { "own" } else { "canonical" }
@@ -292,23 +333,15 @@ mod native {
                 })
                 .build_refined(&chosen, None, 1, &mut |_| true)
                 .unwrap();
-                let (e, pp, resets) = track(&m, &test, &init);
-                println!(
-                    "{:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
+                report_model(
                     "finder averaged, confident, refined once",
                     set.len(),
-                    m.shape().n_modes(),
-                    groups(&pp)
+                    &m,
+                    &test,
+                    &init,
                 );
             }
-            let m = build(&set, frame);
-            let (e, pp, resets) = track(&m, &test, &init);
-            println!(
-                "{name:55} ({} frames): {e:.4} ({resets} resets; {} shape modes) [{}]",
-                set.len(),
-                m.shape().n_modes(),
-                groups(&pp)
-            );
+            report_model(name, set.len(), &build(&set, frame), &test, &init);
         }
         println!("total {:.1} s", t0.elapsed().as_secs_f32());
     }

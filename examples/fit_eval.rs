@@ -40,16 +40,22 @@ fn main() {
     native::main()
 }
 
+#[cfg(not(target_arch = "wasm32"))]
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 /// Native only: the example reads files.
 #[cfg(not(target_arch = "wasm32"))]
 mod native {
     use std::path::{Path, PathBuf};
     use std::time::Instant;
 
+    use super::common::{clip_frames, load, perturb, Rng};
+    use facemimic::find::landmark_error;
     use facemimic::fit::{FitOptions, Fitter, Tracker};
     use facemimic::{
         io, select_varied, BuildOptions, Builder, EnrolFinder, FaceFinder, FrameChoice, Model,
-        Similarity, TrainingImage,
+        TrainingImage,
     };
 
     fn data() -> PathBuf {
@@ -188,7 +194,7 @@ mod native {
                             let r = pf.fit(&f.image.view().unwrap(), &prev).unwrap();
                             println!(
                                 "  probe {i} {v}: {:.4} residual {:.4} iterations {}",
-                                norm_error(&r.landmarks, &f.landmarks),
+                                landmark_error(&r.landmarks, &f.landmarks),
                                 r.error,
                                 r.iterations
                             );
@@ -196,7 +202,7 @@ mod native {
                     }
                 }
                 let r = t.track(&f.image.view().unwrap()).unwrap();
-                let e = norm_error(&r.landmarks, &f.landmarks);
+                let e = landmark_error(&r.landmarks, &f.landmarks);
                 if std::env::var_os("FIT_EVAL_FRAMES").is_some() {
                     // The fit's shape parameters and the truth's (its projection onto the
                     // model), in standard deviations, and the projection's own error.
@@ -224,9 +230,9 @@ mod native {
                          floor {:.4} fit [{}] truth [{}]",
                         r.error,
                         r.iterations,
-                        norm_error(&c.landmarks, &f.landmarks),
+                        landmark_error(&c.landmarks, &f.landmarks),
                         c.error,
-                        norm_error(&inst, &f.landmarks),
+                        landmark_error(&inst, &f.landmarks),
                         sig(&r.params.shape),
                         sig(&p)
                     );
@@ -259,37 +265,8 @@ mod native {
         println!("  shape variances / the first: {}", rel.join(" "));
     }
 
-    fn load(paths: &[PathBuf]) -> Vec<TrainingImage> {
-        paths
-            .iter()
-            .map(|p| io::read_training_image(p).unwrap())
-            .collect()
-    }
-
-    fn all_frames(dir: &Path) -> Vec<PathBuf> {
-        let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-            .collect();
-        paths.sort();
-        paths
-    }
-
     fn numbered(dir: &Path, range: impl Iterator<Item = usize>) -> Vec<PathBuf> {
         range.map(|i| dir.join(format!("{i:06}.jpg"))).collect()
-    }
-
-    fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-        let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
-        let n = truth.len() / 2;
-        let sum: f32 = (0..n)
-            .map(|i| {
-                ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                    .sqrt()
-            })
-            .sum();
-        sum / n as f32 / iod
     }
 
     fn track(name: &str, model: &Model, seq: &[TrainingImage], auto: bool) {
@@ -328,7 +305,7 @@ mod native {
             errs.push(if r.lost {
                 f32::INFINITY
             } else {
-                norm_error(&r.landmarks, &f.landmarks)
+                landmark_error(&r.landmarks, &f.landmarks)
             });
         }
         let secs = t0.elapsed().as_secs_f64();
@@ -380,48 +357,16 @@ mod native {
         (ticks(11) + ticks(12)) / 100.0
     }
 
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            ((self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
-        }
-    }
-
-    fn perturb(lm: &[f32], rng: &mut Rng) -> Vec<f32> {
-        let n = lm.len() / 2;
-        let (mut cx, mut cy) = (0.0, 0.0);
-        for p in lm.chunks_exact(2) {
-            cx += p[0] / n as f32;
-            cy += p[1] / n as f32;
-        }
-        let xs = lm.iter().step_by(2);
-        let width =
-            xs.clone().copied().fold(f32::MIN, f32::max) - xs.copied().fold(f32::MAX, f32::min);
-        let (dx, dy) = (0.05 * width * rng.next(), 0.05 * width * rng.next());
-        let rot = 5f32.to_radians() * rng.next();
-        let scale = 1.0 + 0.05 * rng.next();
-        let t = Similarity::from_parts(scale, rot, 0.0, 0.0);
-        lm.chunks_exact(2)
-            .flat_map(|p| {
-                let (x, y) = t.apply_point(p[0] - cx, p[1] - cy);
-                [x + cx + dx, y + cy + dy]
-            })
-            .collect()
-    }
-
     fn basin(name: &str, model: &Model, frames: &[TrainingImage], per: usize, seed: u64) {
         let mut fitter = Fitter::new(model, options()).unwrap();
-        let mut rng = Rng(seed);
+        let mut rng = Rng::new(seed);
         let (mut good, mut total, mut sum) = (0, 0, 0f32);
         for f in frames {
             let view = f.image.view().unwrap();
             for _ in 0..per {
                 let init = perturb(&f.landmarks, &mut rng);
                 let r = fitter.fit(&view, &init).unwrap();
-                let e = norm_error(&r.landmarks, &f.landmarks);
+                let e = landmark_error(&r.landmarks, &f.landmarks);
                 total += 1;
                 sum += e;
                 if e < 0.05 {
@@ -444,6 +389,180 @@ mod native {
             .collect()
     }
 
+    /// `dump-franck2`: the franck model and franck-dev2 frames 3800-4099 as raw RGBA.
+    fn dump_franck2(d: &Path) {
+        // For the wasm benchmark (scripts/fit-bench-wasm.cjs): the franck model and
+        // franck-dev2 frames 3800-4099 as raw RGBA, frame 3800's landmarks.
+        let out =
+            PathBuf::from(std::env::var("FIT_EVAL_DUMP").unwrap_or("target/fit-bench".into()));
+        std::fs::create_dir_all(&out).unwrap();
+        let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
+        std::fs::write(out.join("model.fmm"), facemimic::format::write_model(&m)).unwrap();
+        for i in 3800..4100 {
+            let f = io::read_training_image(&d.join(format!("franck-dev2/{i:06}.jpg"))).unwrap();
+            let [w, h] = [f.image.width, f.image.height];
+            std::fs::write(out.join(format!("{i}.rgba")), &f.image.data).unwrap();
+            if i == 3800 {
+                let s: Vec<String> = f.landmarks.iter().map(|v| v.to_string()).collect();
+                std::fs::write(out.join("init.txt"), s.join(" ")).unwrap();
+                std::fs::write(out.join("size.txt"), format!("{w} {h}")).unwrap();
+            }
+        }
+        println!("dump-franck2: model and 300 frames in {}", out.display());
+    }
+
+    /// `franck2-floor`: the shape model's own floor on franck-dev2.
+    fn franck2_floor(d: &Path) {
+        // The shape model's own floor: each frame's dlib landmarks projected onto
+        // the model (pose and p), and a fit started from them.
+        let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
+        let seq = load(&clip_frames(&d.join("franck-dev2")));
+        let mut fitter = Fitter::new(&m, options()).unwrap();
+        let (mut proj, mut fit) = (0f32, 0f32);
+        let mut p = vec![0f32; m.shape().n_modes()];
+        let mut inst = vec![0f32; m.shape().base.len()];
+        for f in &seq {
+            let pose = m.shape().project_image_shape(&f.landmarks, &mut p).unwrap();
+            m.shape().instance(&p, &mut inst).unwrap();
+            pose.apply_in_place(&mut inst);
+            proj += landmark_error(&inst, &f.landmarks);
+            let r = fitter.fit(&f.image.view().unwrap(), &f.landmarks).unwrap();
+            fit += landmark_error(&r.landmarks, &f.landmarks);
+        }
+        let n = seq.len() as f32;
+        println!(
+            "franck2-floor: {} shape modes, projection {:.4}, fit from the truth {:.4}",
+            p.len(),
+            proj / n,
+            fit / n
+        );
+    }
+
+    /// `webcam-fps` and `enrol`: a model of webcam-dev 0-599 (every 5th frame; `enrol`: the finder's landmarks), tracked from the finder's landmarks on frame 600.
+    fn webcam_enrol(set: &str, d: &Path) {
+        let w = d.join("webcam-dev");
+        let mut finder = EnrolFinder::new(1).unwrap();
+        let mut train = load(&numbered(&w, (0..600).step_by(5)));
+        if set == "enrol" {
+            train.retain_mut(
+                |f| match finder.find(&f.image.view().unwrap(), 0.0).unwrap() {
+                    Some(face) => {
+                        f.landmarks = face.landmarks;
+                        true
+                    }
+                    None => false,
+                },
+            );
+        }
+        let m = build_varied(train);
+        let seq = load(&numbered(&w, 600..1337));
+        let init = finder
+            .finder()
+            .find(&seq[0].image.view().unwrap())
+            .first()
+            .map(|f| f.landmarks.clone())
+            .expect("a face in frame 600");
+        track_from(set, &m, &seq, &init, 600..700);
+    }
+
+    /// `control`: the control row of `examples/enrol_eval.rs`.
+    fn control(set: &str, d: &Path) {
+        // The control row of `examples/enrol_eval.rs`: the dlib landmarks of the
+        // frames of webcam-dev 0-599 (every 5th) the finder scores >= 0.5, 20 chosen
+        // by farthest-point sampling, built in that order; tracked over 600-1336 from
+        // the finder's landmarks on frame 600 (1190-1289, the hand, reported apart).
+        let w = d.join("webcam-dev");
+        let mut enrol = EnrolFinder::new(1).unwrap();
+        // `CONTROL_KEEP=490,495` keeps those frames whatever their score.
+        let extra: Vec<String> = std::env::var("CONTROL_KEEP")
+            .unwrap_or_default()
+            .split(',')
+            .filter(|k| !k.is_empty())
+            .map(|k| format!("{:06}", k.parse::<usize>().expect("CONTROL_KEEP")))
+            .collect();
+        let (mut train, mut dropped) = (Vec::new(), Vec::new());
+        for f in load(&numbered(&w, (0..600).step_by(5))) {
+            let view = f.image.view().unwrap();
+            let faces = enrol.finder().find(&view);
+            let Some(face) = faces.first() else { continue };
+            if enrol.average(&view, face).unwrap().is_some() {
+                if face.score >= 0.5 || extra.contains(&f.name) {
+                    train.push(f);
+                } else {
+                    dropped.push(f);
+                }
+            }
+        }
+        let shapes: Vec<&[f32]> = train.iter().map(|t| t.landmarks.as_slice()).collect();
+        let mut keep = select_varied(&shapes, 20).unwrap();
+        keep.sort_unstable();
+        let chosen: Vec<TrainingImage> = keep.iter().map(|&i| train[i].clone()).collect();
+        println!(
+            "control: {} frames (score >= 0.5 or kept), chose {:?}",
+            train.len(),
+            keep.iter()
+                .map(|&i| train[i].name.clone())
+                .collect::<Vec<_>>()
+        );
+        let m = build_images(&chosen);
+        // The frames left out (score < 0.5) in the model's standard deviations.
+        let v = &m.shape().variances;
+        let mut p = vec![0f32; v.len()];
+        for f in &dropped {
+            m.shape().project_image_shape(&f.landmarks, &mut p).unwrap();
+            let z: Vec<String> = p
+                .iter()
+                .zip(v)
+                .map(|(x, s)| format!("{:+.1}", x / s.sqrt()))
+                .collect();
+            println!("  left out {}: [{}]", f.name, z.join(" "));
+        }
+        let seq = load(&numbered(&w, 600..1337));
+        let init = enrol
+            .finder()
+            .find(&seq[0].image.view().unwrap())
+            .first()
+            .map(|f| f.landmarks.clone())
+            .expect("a face in frame 600");
+        track_from(set, &m, &seq, &init, 590..690);
+    }
+
+    /// Every `every`-th frame of `frames` whose stem is not in the training list `list`.
+    fn held_out(frames: Vec<PathBuf>, list: &Path, every: usize) -> Vec<PathBuf> {
+        let train = stems(list);
+        frames
+            .into_iter()
+            .filter(|p| !train.contains(&p.file_stem().unwrap().to_string_lossy().into_owned()))
+            .step_by(every)
+            .collect()
+    }
+
+    /// `grid-basin`: spk07's unseen clip (every 3rd frame) and its training clip's frames
+    /// left out of the model (every 3rd), 4 perturbed starts each.
+    fn grid_basin() {
+        let list = repo("data/grid/spk07_pwij3p/train20.txt");
+        let m = build(&io::read_list(&list).unwrap());
+        let mut held: Vec<PathBuf> = clip_frames(&repo("data/grid/spk07_id2_vcd_swwp2s"))
+            .into_iter()
+            .step_by(3)
+            .collect();
+        held.extend(held_out(
+            clip_frames(&repo("data/grid/spk07_pwij3p")),
+            &list,
+            3,
+        ));
+        basin("grid-basin", &m, &load(&held), 4, 0x5eed_0001);
+    }
+
+    /// `franck-basin`: franck-dev's frames left out of the model (every 10th), 2 perturbed
+    /// starts each.
+    fn franck_basin(d: &Path) {
+        let list = d.join("franck-dev/train20.txt");
+        let m = build(&io::read_list(&list).unwrap());
+        let held = held_out(clip_frames(&d.join("franck-dev")), &list, 10);
+        basin("franck-basin", &m, &load(&held), 2, 0x5eed_0002);
+    }
+
     pub(crate) fn main() {
         let mut sets: Vec<String> = std::env::args().skip(1).collect();
         if sets.is_empty() {
@@ -455,190 +574,26 @@ mod native {
                 "grid" => {
                     let m =
                         build(&io::read_list(&repo("data/grid/spk07_pwij3p/train20.txt")).unwrap());
-                    let seq = load(&all_frames(&repo("data/grid/spk07_id2_vcd_swwp2s")));
+                    let seq = load(&clip_frames(&repo("data/grid/spk07_id2_vcd_swwp2s")));
                     track("grid", &m, &seq, false);
                 }
                 "franck2" | "franck2-auto" => {
                     let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
-                    let seq = load(&all_frames(&d.join("franck-dev2")));
+                    let seq = load(&clip_frames(&d.join("franck-dev2")));
                     track(&set, &m, &seq, set == "franck2-auto");
                 }
-                "dump-franck2" => {
-                    // For the wasm benchmark (scripts/fit-bench-wasm.cjs): the franck model and
-                    // franck-dev2 frames 3800-4099 as raw RGBA, frame 3800's landmarks.
-                    let out = PathBuf::from(
-                        std::env::var("FIT_EVAL_DUMP").unwrap_or("target/fit-bench".into()),
-                    );
-                    std::fs::create_dir_all(&out).unwrap();
-                    let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
-                    std::fs::write(out.join("model.fmm"), facemimic::format::write_model(&m))
-                        .unwrap();
-                    for i in 3800..4100 {
-                        let f = io::read_training_image(&d.join(format!("franck-dev2/{i:06}.jpg")))
-                            .unwrap();
-                        let [w, h] = [f.image.width, f.image.height];
-                        std::fs::write(out.join(format!("{i}.rgba")), &f.image.data).unwrap();
-                        if i == 3800 {
-                            let s: Vec<String> =
-                                f.landmarks.iter().map(|v| v.to_string()).collect();
-                            std::fs::write(out.join("init.txt"), s.join(" ")).unwrap();
-                            std::fs::write(out.join("size.txt"), format!("{w} {h}")).unwrap();
-                        }
-                    }
-                    println!("dump-franck2: model and 300 frames in {}", out.display());
-                }
-                "franck2-floor" => {
-                    // The shape model's own floor: each frame's dlib landmarks projected onto
-                    // the model (pose and p), and a fit started from them.
-                    let m = build(&io::read_list(&d.join("franck-dev/train20.txt")).unwrap());
-                    let seq = load(&all_frames(&d.join("franck-dev2")));
-                    let mut fitter = Fitter::new(&m, options()).unwrap();
-                    let (mut proj, mut fit) = (0f32, 0f32);
-                    let mut p = vec![0f32; m.shape().n_modes()];
-                    let mut inst = vec![0f32; m.shape().base.len()];
-                    for f in &seq {
-                        let pose = m.shape().project_image_shape(&f.landmarks, &mut p).unwrap();
-                        m.shape().instance(&p, &mut inst).unwrap();
-                        pose.apply_in_place(&mut inst);
-                        proj += norm_error(&inst, &f.landmarks);
-                        let r = fitter.fit(&f.image.view().unwrap(), &f.landmarks).unwrap();
-                        fit += norm_error(&r.landmarks, &f.landmarks);
-                    }
-                    let n = seq.len() as f32;
-                    println!(
-                        "franck2-floor: {} shape modes, projection {:.4}, fit from the truth {:.4}",
-                        p.len(),
-                        proj / n,
-                        fit / n
-                    );
-                }
+                "dump-franck2" => dump_franck2(&d),
+                "franck2-floor" => franck2_floor(&d),
                 "webcam" | "webcam-auto" => {
                     let w = d.join("webcam-dev");
                     let m = build(&numbered(&w, (0..600).step_by(30)));
                     let seq = load(&numbered(&w, 600..1337));
                     track(&set, &m, &seq, set == "webcam-auto");
                 }
-                "webcam-fps" | "enrol" => {
-                    let w = d.join("webcam-dev");
-                    let mut finder = EnrolFinder::new(1).unwrap();
-                    let mut train = load(&numbered(&w, (0..600).step_by(5)));
-                    if set == "enrol" {
-                        train.retain_mut(|f| {
-                            match finder.find(&f.image.view().unwrap(), 0.0).unwrap() {
-                                Some(face) => {
-                                    f.landmarks = face.landmarks;
-                                    true
-                                }
-                                None => false,
-                            }
-                        });
-                    }
-                    let m = build_varied(train);
-                    let seq = load(&numbered(&w, 600..1337));
-                    let init = finder
-                        .finder()
-                        .find(&seq[0].image.view().unwrap())
-                        .first()
-                        .map(|f| f.landmarks.clone())
-                        .expect("a face in frame 600");
-                    track_from(&set, &m, &seq, &init, 600..700);
-                }
-                "control" => {
-                    // The control row of `examples/enrol_eval.rs`: the dlib landmarks of the
-                    // frames of webcam-dev 0-599 (every 5th) the finder scores >= 0.5, 20 chosen
-                    // by farthest-point sampling, built in that order; tracked over 600-1336 from
-                    // the finder's landmarks on frame 600 (1190-1289, the hand, reported apart).
-                    let w = d.join("webcam-dev");
-                    let mut enrol = EnrolFinder::new(1).unwrap();
-                    // `CONTROL_KEEP=490,495` keeps those frames whatever their score.
-                    let extra: Vec<String> = std::env::var("CONTROL_KEEP")
-                        .unwrap_or_default()
-                        .split(',')
-                        .filter(|k| !k.is_empty())
-                        .map(|k| format!("{:06}", k.parse::<usize>().expect("CONTROL_KEEP")))
-                        .collect();
-                    let (mut train, mut dropped) = (Vec::new(), Vec::new());
-                    for f in load(&numbered(&w, (0..600).step_by(5))) {
-                        let view = f.image.view().unwrap();
-                        let faces = enrol.finder().find(&view);
-                        let Some(face) = faces.first() else { continue };
-                        if enrol.average(&view, face).unwrap().is_some() {
-                            if face.score >= 0.5 || extra.contains(&f.name) {
-                                train.push(f);
-                            } else {
-                                dropped.push(f);
-                            }
-                        }
-                    }
-                    let shapes: Vec<&[f32]> =
-                        train.iter().map(|t| t.landmarks.as_slice()).collect();
-                    let mut keep = select_varied(&shapes, 20).unwrap();
-                    keep.sort_unstable();
-                    let chosen: Vec<TrainingImage> =
-                        keep.iter().map(|&i| train[i].clone()).collect();
-                    println!(
-                        "control: {} frames (score >= 0.5 or kept), chose {:?}",
-                        train.len(),
-                        keep.iter()
-                            .map(|&i| train[i].name.clone())
-                            .collect::<Vec<_>>()
-                    );
-                    let m = build_images(&chosen);
-                    // The frames left out (score < 0.5) in the model's standard deviations.
-                    let v = &m.shape().variances;
-                    let mut p = vec![0f32; v.len()];
-                    for f in &dropped {
-                        m.shape().project_image_shape(&f.landmarks, &mut p).unwrap();
-                        let z: Vec<String> = p
-                            .iter()
-                            .zip(v)
-                            .map(|(x, s)| format!("{:+.1}", x / s.sqrt()))
-                            .collect();
-                        println!("  left out {}: [{}]", f.name, z.join(" "));
-                    }
-                    let seq = load(&numbered(&w, 600..1337));
-                    let init = enrol
-                        .finder()
-                        .find(&seq[0].image.view().unwrap())
-                        .first()
-                        .map(|f| f.landmarks.clone())
-                        .expect("a face in frame 600");
-                    track_from(&set, &m, &seq, &init, 590..690);
-                }
-                "grid-basin" => {
-                    let list = repo("data/grid/spk07_pwij3p/train20.txt");
-                    let m = build(&io::read_list(&list).unwrap());
-                    let train = stems(&list);
-                    let mut held: Vec<PathBuf> =
-                        all_frames(&repo("data/grid/spk07_id2_vcd_swwp2s"))
-                            .into_iter()
-                            .step_by(3)
-                            .collect();
-                    held.extend(
-                        all_frames(&repo("data/grid/spk07_pwij3p"))
-                            .into_iter()
-                            .filter(|p| {
-                                !train.contains(
-                                    &p.file_stem().unwrap().to_string_lossy().into_owned(),
-                                )
-                            })
-                            .step_by(3),
-                    );
-                    basin("grid-basin", &m, &load(&held), 4, 0x5eed_0001);
-                }
-                "franck-basin" => {
-                    let list = d.join("franck-dev/train20.txt");
-                    let m = build(&io::read_list(&list).unwrap());
-                    let train = stems(&list);
-                    let held: Vec<PathBuf> = all_frames(&d.join("franck-dev"))
-                        .into_iter()
-                        .filter(|p| {
-                            !train.contains(&p.file_stem().unwrap().to_string_lossy().into_owned())
-                        })
-                        .step_by(10)
-                        .collect();
-                    basin("franck-basin", &m, &load(&held), 2, 0x5eed_0002);
-                }
+                "webcam-fps" | "enrol" => webcam_enrol(&set, &d),
+                "control" => control(&set, &d),
+                "grid-basin" => grid_basin(),
+                "franck-basin" => franck_basin(&d),
                 other => panic!("unknown set {other}"),
             }
         }

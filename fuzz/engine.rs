@@ -1,6 +1,7 @@
 //! The mutation fuzzing engine behind `examples/fuzz.rs` (long runs) and `tests/fuzz.rs` (a
-//! short deterministic run in the test suite). Stable Rust, no dependency: its own
-//! xorshift64* generator, byte-level mutations (flips, interesting numbers, splices,
+//! short deterministic run in the test suite). Stable Rust, no dependency: the tests' xorshift64*
+//! generator and synthetic training set (`tests/common`, which the including crate declares as
+//! `mod common`), byte-level mutations (flips, interesting numbers, splices,
 //! truncation, extension) and structure-aware ones (header fields and array values of valid
 //! `.fmm` models with the checksum repaired, numeric tokens of landmark files and parameter
 //! JSON replaced by interesting numbers).
@@ -28,6 +29,9 @@ use facemimic::{
     BuildOptions, Builder, DrawOptions, FaceDrawer, FrameChoice, Image, Model, Params, Similarity,
     TrainingImage,
 };
+
+use crate::common::synthetic;
+pub use crate::common::Rng;
 
 // ------------------------------------------------------------------------------------------
 // Counting allocator.
@@ -75,35 +79,6 @@ fn measured<T>(f: impl FnOnce() -> T) -> (T, u64) {
     PEAK.store(base, Ordering::Relaxed);
     let r = f();
     (r, PEAK.load(Ordering::Relaxed).saturating_sub(base))
-}
-
-// ------------------------------------------------------------------------------------------
-// Random numbers.
-
-/// xorshift64*.
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    pub fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next() % n as u64) as usize
-        }
-    }
-    /// Uniform in `[-1, 1)`.
-    pub fn sym(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 23) as f32 - 1.0
-    }
-    fn chance(&mut self, one_in: usize) -> bool {
-        self.below(one_in) == 0
-    }
 }
 
 /// Interesting floats: non-finite, extremes, limits' neighbours, signed zero, subnormals.
@@ -165,48 +140,9 @@ fn float(rng: &mut Rng) -> f32 {
 // ------------------------------------------------------------------------------------------
 // Seeds.
 
-/// `n` face-like landmarks: a Fermat-spiral point set (well spread over an ellipse) under two
-/// smooth deformations (a smile, a squash) and a random similarity: scale `scale` (+-8%), a
-/// small rotation, centre `centre` (+-`jitter` in x and y). Returns the interleaved points and
-/// the centre.
-pub fn face_landmarks(
-    rng: &mut Rng,
-    n: usize,
-    scale: f32,
-    centre: f32,
-    jitter: f32,
-) -> (Vec<f32>, [f32; 2]) {
-    let (smile, squash) = (rng.sym(), rng.sym());
-    let scale = scale * (1.0 + 0.08 * rng.sym());
-    let rot = 0.12 * rng.sym();
-    let (tx, ty) = (centre + jitter * rng.sym(), centre + jitter * rng.sym());
-    let mut landmarks = Vec::with_capacity(2 * n);
-    for i in 0..n {
-        let r = ((i as f32 + 0.5) / n as f32).sqrt();
-        let th = i as f32 * 2.399_963;
-        let (x, y) = (r * th.cos(), 1.2 * r * th.sin());
-        let y = y + 0.15 * smile * x * x;
-        let x = x * (1.0 + 0.1 * squash * y);
-        let (c, s) = (rot.cos(), rot.sin());
-        landmarks.push(scale * (c * x - s * y) + tx);
-        landmarks.push(scale * (s * x + c * y) + ty);
-    }
-    (landmarks, [tx, ty])
-}
-
 /// `count` synthetic face-like training images with `n` landmarks on 64x64 images.
 pub fn training_set(n: usize, count: usize, seed: u64) -> Vec<TrainingImage> {
-    let mut rng = Rng(seed);
-    (0..count)
-        .map(|k| {
-            let (landmarks, _) = face_landmarks(&mut rng, n, 20.0, 32.0, 3.0);
-            TrainingImage {
-                name: format!("t{k}"),
-                image: texture(64, 64, rng.sym() * 3.0),
-                landmarks,
-            }
-        })
-        .collect()
+    synthetic::training_set(n, count, seed, 64, "t")
 }
 
 /// A model small on disk whose tracker would need far more memory than its file's budget:
@@ -233,25 +169,6 @@ pub fn over_budget_model() -> Model {
     }
     parts.shape.variances = vec![1.0; k];
     Model::new(parts).unwrap()
-}
-
-/// A 64x64-ish RGBA test image.
-fn texture(w: u32, h: u32, phase: f32) -> Image {
-    let mut data = Vec::with_capacity((w * h * 4) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            let (xf, yf) = (x as f32, y as f32);
-            let r = 128.0 + 90.0 * (0.3 * xf + phase).sin();
-            let g = 128.0 + 90.0 * (0.2 * yf - phase).cos();
-            let b = 64.0 + ((xf - 32.0) * (yf - 32.0) * 0.05).abs().min(180.0);
-            data.extend_from_slice(&[r as u8, g as u8, b as u8, 255]);
-        }
-    }
-    Image {
-        width: w,
-        height: h,
-        data,
-    }
 }
 
 /// The seed inputs: small valid models, landmark files and parameter JSON.
@@ -317,7 +234,7 @@ impl Seeds {
             pts,
             asf,
             params,
-            image: texture(64, 64, 0.7),
+            image: synthetic::texture(64, 0.7, 0.0, [32.0, 32.0]),
         }
     }
 }
@@ -402,7 +319,7 @@ pub fn mutate_model(rng: &mut Rng, seeds: &Seeds) -> Vec<u8> {
             // Extend with junk.
             6 => {
                 for _ in 0..1 + rng.below(64) {
-                    b.push(rng.next() as u8);
+                    b.push(rng.next_u64() as u8);
                 }
             }
             // Splice with another seed.
@@ -417,7 +334,7 @@ pub fn mutate_model(rng: &mut Rng, seeds: &Seeds) -> Vec<u8> {
             // Random byte.
             _ => {
                 let i = rng.below(len);
-                b[i] = rng.next() as u8;
+                b[i] = rng.next_u64() as u8;
             }
         }
         if b.is_empty() {
@@ -677,7 +594,7 @@ impl Fuzzer {
     pub fn new(seed: u64) -> Fuzzer {
         Fuzzer {
             seeds: Seeds::new(),
-            rng: Rng(seed.max(1)),
+            rng: Rng::new(seed),
             stats: Stats::default(),
         }
     }

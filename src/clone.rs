@@ -305,20 +305,10 @@ fn pose_in_range(p: &Similarity) -> bool {
     p.is_valid() && p.scale() < MAX && p.tx.abs() < MAX && p.ty.abs() < MAX
 }
 
+/// `base + modes^T w` into `acc`, in f64.
 fn linear_f64(base: &[f32], modes: &[f32], w: &[f32], acc: &mut [f64]) {
-    let d = acc.len();
     acc.iter_mut().zip(base).for_each(|(a, &b)| *a = b as f64);
-    if d == 0 {
-        return;
-    }
-    for (&wi, row) in w.iter().zip(modes.chunks_exact(d)) {
-        if wi != 0.0 {
-            let wi = wi as f64;
-            acc.iter_mut()
-                .zip(row)
-                .for_each(|(a, &v)| *a += wi * v as f64);
-        }
-    }
+    add_residual(modes, w, acc);
 }
 
 fn dot64(a: &[f32], b: &[f32]) -> f64 {

@@ -266,6 +266,13 @@ impl TryFrom<PoseJson> for Similarity {
 mod tests {
     use super::*;
 
+    /// Fails unless the two poses' four numbers agree within 1e-4.
+    fn assert_close(p: &Similarity, q: &Similarity) {
+        for (a, b) in [(p.a, q.a), (p.b, q.b), (p.tx, q.tx), (p.ty, q.ty)] {
+            assert!((a - b).abs() < 1e-4, "{p:?} != {q:?}");
+        }
+    }
+
     #[test]
     fn mean_of_poses_is_geometric_in_scale_and_circular_in_angle() {
         let deg = |d: f32| d.to_radians();
@@ -296,28 +303,14 @@ mod tests {
         let target = Similarity::from_parts(0.9, -0.05, 180.0, 144.0);
         // The anchor itself lands on the target...
         let r = anchor.recentred(&anchor, &target).unwrap();
-        for (a, b) in [
-            (r.a, target.a),
-            (r.b, target.b),
-            (r.tx, target.tx),
-            (r.ty, target.ty),
-        ] {
-            assert!((a - b).abs() < 1e-4, "{r:?} != {target:?}");
-        }
+        assert_close(&r, &target);
         // ...and a pose moved from the anchor keeps its motion relative to it: the same point
         // maps to the same place relative to where the anchor / target map it.
         let moved = Similarity::from_parts(1.8, 0.25, 45.0, 20.0);
         let m = moved.recentred(&anchor, &target).unwrap();
         let rel = anchor.inverse().unwrap().compose(&moved);
         let rel2 = target.inverse().unwrap().compose(&m);
-        for (a, b) in [
-            (rel.a, rel2.a),
-            (rel.b, rel2.b),
-            (rel.tx, rel2.tx),
-            (rel.ty, rel2.ty),
-        ] {
-            assert!((a - b).abs() < 1e-4, "{rel:?} != {rel2:?}");
-        }
+        assert_close(&rel, &rel2);
         let degenerate = Similarity {
             a: 0.0,
             b: 0.0,

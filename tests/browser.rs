@@ -10,13 +10,16 @@
 //! overlay and `renderMode` draw, and that bad input (a corrupt model file, NaN parameters,
 //! a wrong context, an unknown method) throws a JS `Error` and leaves the module working.
 
+mod common;
+
+use common::js::{message, offscreen_ctx, params_js};
+use common::pixels::mean_abs_diff;
 use facemimic::landmarks::parse_pts;
 use facemimic::wasm::{canvas_view, render_mode, JsCloner, JsModel, RenderOptionsArg};
 use facemimic::{BuildOptions, Builder, Image, Model, Params, Similarity, TrainingImage};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
-use web_sys::{OffscreenCanvas, OffscreenCanvasRenderingContext2d};
 
 wasm_bindgen_test_configure!(run_in_browser);
 
@@ -110,17 +113,6 @@ fn models() -> (Model, Model) {
     (source, target)
 }
 
-fn offscreen_ctx(w: u32, h: u32) -> (OffscreenCanvas, OffscreenCanvasRenderingContext2d) {
-    let canvas = OffscreenCanvas::new(w, h).expect("OffscreenCanvas");
-    let ctx = canvas
-        .get_context("2d")
-        .expect("getContext")
-        .expect("a 2d context")
-        .dyn_into::<OffscreenCanvasRenderingContext2d>()
-        .expect("an OffscreenCanvasRenderingContext2D");
-    (canvas, ctx)
-}
-
 /// Options with the default rasteriser (no `raster` key).
 fn options(background: &str, mesh: bool) -> Option<RenderOptionsArg> {
     options_with(background, mesh, "")
@@ -135,17 +127,6 @@ fn options_with(background: &str, mesh: bool, raster: &str) -> Option<RenderOpti
     js_sys::Reflect::set(&o, &"background".into(), &background.into()).unwrap();
     js_sys::Reflect::set(&o, &"mesh".into(), &mesh.into()).unwrap();
     Some(JsValue::from(o).unchecked_into())
-}
-
-fn message(e: JsError) -> String {
-    let v: JsValue = e.into();
-    v.dyn_into::<js_sys::Error>()
-        .map(|e| String::from(e.message()))
-        .unwrap_or_default()
-}
-
-fn params_js(p: &Params) -> JsValue {
-    serde_wasm_bindgen::to_value(p).unwrap()
 }
 
 /// Distance from `p` to segment `ab`.
@@ -267,14 +248,6 @@ fn assert_face(px: &[u8], model: &Model, shape: &[f32], w: u32, h: u32, what: &s
     );
 }
 
-fn mean_abs_diff(a: &[u8], b: &[u8]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (*x as f32 - *y as f32).abs())
-        .sum::<f32>()
-        / a.len() as f32
-}
-
 #[wasm_bindgen_test]
 fn cloner_paints_faces_without_holes_and_follows_the_source() {
     let (source, target) = models();
@@ -288,7 +261,7 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     let (_c, ctx) = offscreen_ctx(W, H);
     let ctx: JsValue = ctx.into();
     cloner
-        .render_target(0, ctx.clone(), options("#ff00ff", false))
+        .render_target(0, ctx.clone().unchecked_into(), options("#ff00ff", false))
         .expect("render target");
     let base = read_pixels(&ctx);
     assert_face(
@@ -303,7 +276,7 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     let (_c2, sctx) = offscreen_ctx(W, H);
     let sctx: JsValue = sctx.into();
     cloner
-        .render_source(sctx.clone(), options("#ff00ff", false))
+        .render_source(sctx.clone().unchecked_into(), options("#ff00ff", false))
         .expect("render source");
     let mut shape = vec![0.0; source.shape().base.len()];
     source
@@ -320,7 +293,7 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     cloner.set_source_params(params_js(&p)).expect("params");
     cloner.update().expect("update");
     cloner
-        .render_target(0, ctx.clone(), options("#ff00ff", false))
+        .render_target(0, ctx.clone().unchecked_into(), options("#ff00ff", false))
         .expect("render");
     let moved = read_pixels(&ctx);
     assert_face(
@@ -338,7 +311,7 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     cloner.set_method("substitute").expect("method");
     cloner.update().unwrap();
     cloner
-        .render_target(0, ctx.clone(), options("#ff00ff", false))
+        .render_target(0, ctx.clone().unchecked_into(), options("#ff00ff", false))
         .unwrap();
     let substituted = read_pixels(&ctx);
     assert!(
@@ -346,7 +319,12 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
         "substitute looks like map"
     );
     cloner
-        .render_target_with_method(0, "map", ctx.clone(), options("#ff00ff", false))
+        .render_target_with_method(
+            0,
+            "map",
+            ctx.clone().unchecked_into(),
+            options("#ff00ff", false),
+        )
         .unwrap();
     let compare_map = read_pixels(&ctx);
     assert_eq!(
@@ -356,15 +334,19 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     );
     assert_eq!(cloner.method(), "substitute");
 
-    // Timings are accounted per stage.
+    // Timings are accounted per stage: each a finite duration, and the frame's work (mapping,
+    // synthesis, rasterising and blitting every face drawn since update()) took some time.
     let t = cloner.timings().unwrap();
+    let mut total = 0.0;
     for k in ["mapMs", "synthMs", "rasterMs", "blitMs"] {
         let v = js_sys::Reflect::get(&t, &k.into())
             .unwrap()
             .as_f64()
             .unwrap();
         assert!(v.is_finite() && v >= 0.0, "{k} = {v}");
+        total += v;
     }
+    assert!(total > 0.0, "no time accounted to the frame's stages");
 
     // ImageData output has the requested size and the same face.
     cloner.set_method("map").unwrap();
@@ -384,7 +366,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
     // A canvas at 2x device pixels: the face scales with the canvas.
     let ctx = html_ctx(2 * W, 2 * H);
     cloner
-        .render_source(ctx.clone(), options("#ff00ff", false))
+        .render_source(ctx.clone().unchecked_into(), options("#ff00ff", false))
         .expect("html canvas");
     let plain = read_pixels(&ctx);
     let mut shape = vec![0.0; source.shape().base.len()];
@@ -394,7 +376,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
     assert_face(&plain, &source, &shape, 2 * W, 2 * H, "html canvas 2x");
 
     cloner
-        .render_source(ctx.clone(), options("#ff00ff", true))
+        .render_source(ctx.clone().unchecked_into(), options("#ff00ff", true))
         .unwrap();
     let meshed = read_pixels(&ctx);
     let changed = plain
@@ -412,7 +394,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
         "shape",
         0,
         0.0,
-        octx.clone(),
+        octx.clone().unchecked_into(),
         options("#ff00ff", false),
     )
     .unwrap();
@@ -426,7 +408,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
         "shape",
         0,
         3.0,
-        octx.clone(),
+        octx.clone().unchecked_into(),
         options("#ff00ff", false),
     )
     .unwrap();
@@ -440,7 +422,7 @@ fn html_canvas_mesh_overlay_and_render_mode() {
             "appearance",
             0,
             3.0,
-            octx.clone(),
+            octx.clone().unchecked_into(),
             options("#ff00ff", false),
         )
         .unwrap();
@@ -449,14 +431,30 @@ fn html_canvas_mesh_overlay_and_render_mode() {
             "appearance mode 0 changes nothing"
         );
     }
-    let e = render_mode(&model, "shape", 999, 1.0, octx.clone(), None).unwrap_err();
+    let e = render_mode(
+        &model,
+        "shape",
+        999,
+        1.0,
+        octx.clone().unchecked_into(),
+        None,
+    )
+    .unwrap_err();
     assert!(message(e).contains("out of range"));
-    let e = render_mode(&model, "colour", 0, 1.0, octx.clone(), None).unwrap_err();
+    let e = render_mode(
+        &model,
+        "colour",
+        0,
+        1.0,
+        octx.clone().unchecked_into(),
+        None,
+    )
+    .unwrap_err();
     assert!(message(e).contains("kind"));
 
     // Transparent background: straight alpha, transparent corners.
     cloner
-        .render_source(octx.clone(), options("transparent", false))
+        .render_source(octx.clone().unchecked_into(), options("transparent", false))
         .unwrap();
     let px = read_pixels(&octx);
     assert_eq!(px[3], 0, "corner not transparent");
@@ -523,16 +521,19 @@ fn bad_input_throws_and_the_module_keeps_working() {
 
     // Wrong context, bad options, bad indices.
     let e = cloner
-        .render_source(JsValue::from_f64(3.0), None)
+        .render_source(JsValue::from_f64(3.0).unchecked_into(), None)
         .unwrap_err();
     assert!(message(e).contains("CanvasRenderingContext2D"));
     let e = cloner
-        .render_source(ctx.clone(), options("red", false))
+        .render_source(ctx.clone().unchecked_into(), options("red", false))
         .unwrap_err();
     assert!(message(e).contains("background"));
-    assert!(
-        message(cloner.render_target(0, ctx.clone(), None).unwrap_err()).contains("out of range")
-    );
+    assert!(message(
+        cloner
+            .render_target(0, ctx.clone().unchecked_into(), None)
+            .unwrap_err()
+    )
+    .contains("out of range"));
     assert!(cloner.remove_target(3).is_err());
     let e = cloner
         .render_source_image_data(8000, 8000, None)
@@ -559,7 +560,7 @@ fn bad_input_throws_and_the_module_keeps_working() {
     cloner.add_target(&JsModel::from(target.clone())).unwrap();
     cloner.update().unwrap();
     cloner
-        .render_target(0, ctx.clone(), options("#ff00ff", false))
+        .render_target(0, ctx.clone().unchecked_into(), options("#ff00ff", false))
         .unwrap();
     assert_face(
         &read_pixels(&ctx),
@@ -586,15 +587,23 @@ fn scanline_and_tiny_skia_rasterisers_agree() {
     let (_b, b) = offscreen_ctx(W, H);
     let (a, b): (JsValue, JsValue) = (a.into(), b.into());
     cloner
-        .render_target(0, a.clone(), options_with("#ff00ff", false, "scanline"))
+        .render_target(
+            0,
+            a.clone().unchecked_into(),
+            options_with("#ff00ff", false, "scanline"),
+        )
         .unwrap();
     cloner
-        .render_target(0, b.clone(), options_with("#ff00ff", false, "tiny-skia"))
+        .render_target(
+            0,
+            b.clone().unchecked_into(),
+            options_with("#ff00ff", false, "tiny-skia"),
+        )
         .unwrap();
     let (pa, pb) = (read_pixels(&a), read_pixels(&b));
     // The default is tiny-skia.
     cloner
-        .render_target(0, a.clone(), options("#ff00ff", false))
+        .render_target(0, a.clone().unchecked_into(), options("#ff00ff", false))
         .unwrap();
     assert!(
         read_pixels(&a) == pb,
@@ -626,7 +635,11 @@ fn scanline_and_tiny_skia_rasterisers_agree() {
     let mean = diff / both as f64;
     assert!(mean < 1.5, "colours differ by {mean:.2} levels on average");
     let e = cloner
-        .render_target(0, a.clone(), options_with("#000", false, "gpu"))
+        .render_target(
+            0,
+            a.clone().unchecked_into(),
+            options_with("#000", false, "gpu"),
+        )
         .unwrap_err();
     assert!(message(e).contains("raster"));
 }

@@ -9,13 +9,16 @@
 //! The source is spk07 built in the test from 8 of its GRID training frames
 //! (`data/grid/spk07_pwij3p`).
 
+mod common;
+
+use common::js::{message, params_js};
 use facemimic::landmarks::parse_pts;
 use facemimic::wasm::{JsCloner, JsModel, RenderOptionsArg};
-use facemimic::{BuildOptions, Builder, Image, Model, Params, TrainingImage};
+use facemimic::{BuildOptions, Builder, Image, Model, TrainingImage};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
-use web_sys::{OffscreenCanvas, OffscreenCanvasRenderingContext2d};
+use web_sys::OffscreenCanvas;
 
 wasm_bindgen_test_configure!(run_in_browser);
 
@@ -109,14 +112,9 @@ fn photo(name: &str, landmarks: &[f32]) -> Result<JsModel, JsError> {
     )
 }
 
+/// A `w`x`h` offscreen canvas and its 2D context as a JS value.
 fn offscreen_ctx(w: u32, h: u32) -> (OffscreenCanvas, JsValue) {
-    let canvas = OffscreenCanvas::new(w, h).expect("OffscreenCanvas");
-    let ctx = canvas
-        .get_context("2d")
-        .expect("getContext")
-        .expect("a 2d context")
-        .dyn_into::<OffscreenCanvasRenderingContext2d>()
-        .expect("an OffscreenCanvasRenderingContext2D");
+    let (canvas, ctx) = common::js::offscreen_ctx(w, h);
     (canvas, ctx.into())
 }
 
@@ -125,13 +123,6 @@ fn options(composite: bool) -> Option<RenderOptionsArg> {
     js_sys::Reflect::set(&o, &"background".into(), &"#ff00ff".into()).unwrap();
     js_sys::Reflect::set(&o, &"composite".into(), &composite.into()).unwrap();
     Some(JsValue::from(o).unchecked_into())
-}
-
-fn message(e: JsError) -> String {
-    let v: JsValue = e.into();
-    v.dyn_into::<js_sys::Error>()
-        .map(|e| String::from(e.message()))
-        .unwrap_or_default()
 }
 
 fn get(v: &JsValue, key: &str) -> JsValue {
@@ -154,10 +145,6 @@ fn border_background_share(px: &[u8], w: u32, h: u32) -> f32 {
         }
     }
     bg as f32 / all as f32
-}
-
-fn params_js(p: &Params) -> JsValue {
-    serde_wasm_bindgen::to_value(p).unwrap()
 }
 
 #[wasm_bindgen_test]
@@ -183,12 +170,12 @@ fn a_photo_target_is_composited_into_its_photo_and_follows_the_source() {
 
     // Face only: the background all round; composited: the photo all round.
     cloner
-        .render_target(0, ctx.clone(), options(false))
+        .render_target(0, ctx.clone().unchecked_into(), options(false))
         .expect("face only");
     let face = read_pixels(&ctx);
     assert!(border_background_share(&face, W, H) > 0.95);
     cloner
-        .render_target(0, ctx.clone(), options(true))
+        .render_target(0, ctx.clone().unchecked_into(), options(true))
         .expect("composite");
     let still = read_pixels(&ctx);
     assert_eq!(border_background_share(&still, W, H), 0.0);
@@ -216,7 +203,7 @@ fn a_photo_target_is_composited_into_its_photo_and_follows_the_source() {
     cloner.set_method("map").expect("map");
     cloner.update().expect("update");
     cloner
-        .render_target(0, ctx.clone(), options(true))
+        .render_target(0, ctx.clone().unchecked_into(), options(true))
         .expect("composite");
     let moved = read_pixels(&ctx);
     assert_ne!(moved, still, "the expression did not reach the photo");
@@ -230,7 +217,7 @@ fn a_photo_target_is_composited_into_its_photo_and_follows_the_source() {
     cloner.set_source_params(params_js(&q)).expect("params");
     cloner.update().expect("update");
     cloner
-        .render_target(0, ctx.clone(), options(true))
+        .render_target(0, ctx.clone().unchecked_into(), options(true))
         .expect("composite");
     let followed = read_pixels(&ctx);
     assert_ne!(followed, moved, "the head did not follow the pose");
@@ -290,7 +277,7 @@ fn bad_photos_throw_and_a_damaged_backdrop_is_a_notice() {
     cloner.update().expect("update");
     let (_c, ctx) = offscreen_ctx(W, H);
     cloner
-        .render_target(0, ctx.clone(), options(true))
+        .render_target(0, ctx.clone().unchecked_into(), options(true))
         .expect("face only");
     assert!(border_background_share(&read_pixels(&ctx), W, H) > 0.95);
 }

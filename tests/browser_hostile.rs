@@ -8,29 +8,18 @@
 //! precomputation is over its memory budget; a model name the reader would reject. After each,
 //! the module keeps working.
 
+mod common;
 #[path = "../fuzz/engine.rs"]
 #[allow(dead_code)]
 mod engine;
 
+use common::js::{message, params_js};
 use facemimic::format::write_model;
 use facemimic::wasm::{JsCloner, JsModel, WasmTracker};
-use facemimic::{Model, ModelParts, Params, Similarity};
-use wasm_bindgen::prelude::*;
-use wasm_bindgen::JsCast;
+use facemimic::{Model, ModelParts, Similarity};
 use wasm_bindgen_test::*;
 
 wasm_bindgen_test_configure!(run_in_browser);
-
-fn message(e: JsError) -> String {
-    let v: JsValue = e.into();
-    v.dyn_into::<js_sys::Error>()
-        .map(|e| String::from(e.message()))
-        .unwrap_or_default()
-}
-
-fn params_js(p: &Params) -> JsValue {
-    serde_wasm_bindgen::to_value(p).unwrap()
-}
 
 fn seeds() -> &'static engine::Seeds {
     static S: std::sync::OnceLock<engine::Seeds> = std::sync::OnceLock::new();

@@ -3,32 +3,27 @@
 //! feathered edge), the extended mesh (no folding for the head motions of a conversation, the
 //! room untouched), backdrops in model files, photo targets and their bad input.
 
+mod common;
+
 use std::path::Path;
 use std::sync::OnceLock;
 
+use common::pixels::pixel_diff;
 use facemimic::clone::{effective_method, CloneOptions, Cloner, Method};
 use facemimic::format::{read_model_info, write_model, SECTION_BACKDROP};
 use facemimic::glam::Vec2;
 use facemimic::tiny_skia::Pixmap;
 use facemimic::{
     io, mean_value_weights, photo_model, with_default_backdrop, Backdrop, BuildOptions, Builder,
-    Compositor, DrawOptions, Model, Rasterizer, Similarity, TrainingImage,
+    Compositor, DrawOptions, Model, Rasterizer, Similarity,
 };
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn images(list: &str) -> Vec<TrainingImage> {
-    io::read_list(&root().join(list))
-        .unwrap()
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect()
-}
-
 fn build(list: &str, name: &str) -> Model {
-    let train = images(list);
+    let train = common::list_images(list);
     let m = Builder::new(BuildOptions {
         name: name.into(),
         ..BuildOptions::default()
@@ -379,7 +374,7 @@ fn a_version_2_file_without_sections_still_reads() {
 
 #[test]
 fn photo_targets_clone_by_substitution_and_reject_bad_photos() {
-    let t = images("data/grid/spk03_lbax4n/train20.txt").remove(0);
+    let t = common::list_images("data/grid/spk03_lbax4n/train20.txt").remove(0);
     let frame = facemimic::canonical_frame();
     let photo = photo_model("spk03-photo", &t.image.view().unwrap(), &t.landmarks, frame).unwrap();
     assert!(photo.is_photo());
@@ -469,16 +464,12 @@ fn both_rasterisers_composite_alike() {
             .unwrap();
         outs.push(facemimic::demultiply(&pixmap));
     }
-    let worst_share = outs[0]
-        .iter()
-        .zip(&outs[1])
-        .filter(|(a, b)| (**a as i32 - **b as i32).abs() > 3)
-        .count() as f64
-        / outs[0].len() as f64;
+    // Value by value (one channel at a time).
+    let diff = pixel_diff(&outs[0], &outs[1], 1, 3);
     assert!(
-        worst_share < 0.01,
+        diff.share() < 0.01,
         "{:.2}% of the values differ by more than 3",
-        worst_share * 100.0
+        diff.share() * 100.0
     );
 }
 

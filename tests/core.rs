@@ -7,6 +7,9 @@
 //! test (a deterministic RNG, a 68-point template compiled in with `include_str!`), no files
 //! are read at run time.
 
+mod common;
+
+use common::Rng;
 use facemimic::numerics::pca;
 use facemimic::tiny_skia::Pixmap;
 use facemimic::{
@@ -16,28 +19,6 @@ use wasm_bindgen_test::wasm_bindgen_test;
 
 /// A real 68-point iBUG annotation (GRID spk07, frame 0), used as the face template.
 const TEMPLATE_PTS: &str = include_str!("../data/grid/spk07_pwij3p/000000.pts");
-
-/// xorshift64*: a small deterministic generator (same numbers natively and in wasm).
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    /// Uniform in `[lo, hi)`.
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
-    }
-    /// Standard normal (Box-Muller).
-    fn normal(&mut self) -> f64 {
-        let u = self.uniform(1e-12, 1.0);
-        let v = self.uniform(0.0, 1.0);
-        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
-    }
-}
 
 /// The template, centred on its centroid (0-based pixel units, ~70 px wide).
 fn template() -> Vec<f64> {

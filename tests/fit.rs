@@ -8,6 +8,8 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::{perturb, Rng};
+use facemimic::find::landmark_error;
 use facemimic::fit::{FitOptions, Fitter, Tracker};
 use facemimic::{io, BuildOptions, Builder, FrameChoice, Image, Model, Similarity, TrainingImage};
 
@@ -31,28 +33,7 @@ fn build(list: &Path) -> (Model, Vec<String>) {
 
 /// All `NNNNNN.jpg` frames of a folder, in order, with their landmarks.
 fn frames(dir: &Path) -> Vec<TrainingImage> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-        .collect();
-    paths.sort();
-    paths
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect()
-}
-
-fn norm_error(fit: &[f32], truth: &[f32]) -> f32 {
-    let iod = ((truth[90] - truth[72]).powi(2) + (truth[91] - truth[73]).powi(2)).sqrt();
-    let n = truth.len() / 2;
-    let sum: f32 = (0..n)
-        .map(|i| {
-            ((fit[2 * i] - truth[2 * i]).powi(2) + (fit[2 * i + 1] - truth[2 * i + 1]).powi(2))
-                .sqrt()
-        })
-        .sum();
-    sum / n as f32 / iod
+    common::load(&common::clip_frames(dir))
 }
 
 /// Tracks all frames from the first frame's landmarks; returns per-frame errors and resets.
@@ -67,7 +48,7 @@ fn track_with(model: &Model, seq: &[TrainingImage], options: FitOptions) -> (Vec
     let mut errs = Vec::new();
     for f in seq {
         let r = t.track(&f.image.view().unwrap()).unwrap();
-        errs.push(norm_error(&r.landmarks, &f.landmarks));
+        errs.push(landmark_error(&r.landmarks, &f.landmarks));
     }
     (errs, t.resets(), t.lost_count())
 }
@@ -79,44 +60,11 @@ fn summary(errs: &[f32]) -> (f32, f32) {
 }
 
 /// A deterministic pseudo-random generator (xorshift), uniform in [-1, 1].
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
-    }
-}
-
-/// Perturbs landmarks about their centroid: translation up to 5% of the face width (extent of
-/// the landmarks along x), rotation up to 5 degrees, scale up to 5%.
-fn perturb(lm: &[f32], rng: &mut Rng) -> Vec<f32> {
-    let n = lm.len() / 2;
-    let (mut cx, mut cy) = (0.0, 0.0);
-    for p in lm.chunks_exact(2) {
-        cx += p[0] / n as f32;
-        cy += p[1] / n as f32;
-    }
-    let xs = lm.iter().step_by(2);
-    let width = xs.clone().copied().fold(f32::MIN, f32::max) - xs.copied().fold(f32::MAX, f32::min);
-    let (dx, dy) = (0.05 * width * rng.next(), 0.05 * width * rng.next());
-    let rot = 5f32.to_radians() * rng.next();
-    let scale = 1.0 + 0.05 * rng.next();
-    let t = Similarity::from_parts(scale, rot, 0.0, 0.0);
-    lm.chunks_exact(2)
-        .flat_map(|p| {
-            let (x, y) = t.apply_point(p[0] - cx, p[1] - cy);
-            [x + cx + dx, y + cy + dy]
-        })
-        .collect()
-}
-
 /// Fits each frame from `per_frame` perturbations of its landmarks; returns the fraction of
 /// fits that end below 0.05.
 fn basin(model: &Model, frames: &[&TrainingImage], per_frame: usize, seed: u64) -> (f32, usize) {
     let mut fitter = Fitter::new(model, FitOptions::default()).unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let (mut good, mut total) = (0, 0);
     for f in frames {
         let view = f.image.view().unwrap();
@@ -124,7 +72,7 @@ fn basin(model: &Model, frames: &[&TrainingImage], per_frame: usize, seed: u64) 
             let init = perturb(&f.landmarks, &mut rng);
             let r = fitter.fit(&view, &init).unwrap();
             total += 1;
-            if norm_error(&r.landmarks, &f.landmarks) < 0.05 {
+            if landmark_error(&r.landmarks, &f.landmarks) < 0.05 {
                 good += 1;
             }
         }
@@ -279,7 +227,7 @@ fn webcam_tracks_from_the_face_finder() {
             lost_frames.push(i);
             errs.push(f32::INFINITY);
         } else {
-            errs.push(norm_error(&r.landmarks, &f.landmarks));
+            errs.push(landmark_error(&r.landmarks, &f.landmarks));
         }
     }
     let good: Vec<f32> = errs.iter().copied().filter(|e| e.is_finite()).collect();
@@ -517,7 +465,7 @@ fn tracker_starts_from_a_box() {
     let mut errs = Vec::new();
     for f in seq.iter().take(10) {
         let r = t.track(&f.image.view().unwrap()).unwrap();
-        errs.push(norm_error(&r.landmarks, &f.landmarks));
+        errs.push(landmark_error(&r.landmarks, &f.landmarks));
     }
     println!("box start: errors {errs:?}");
     assert!(

@@ -9,7 +9,7 @@
 //! model is spk07's, built from GRID (`data/grid/spk07_pwij3p/train20.txt`, as
 //! `scripts/build-models.sh` builds `www/models/spk07.fmm`), so no webcam-dev frame is in it;
 //! the follower's options were chosen on webcam-dev frames 0-599 only
-//! (`tune_on_frames_0_599`, ignored); the figures are measured on the unseen frames
+//! (`cargo run --release --example follow_tune`); the figures are measured on the unseen frames
 //! 600-1336 (737 frames), the follower started with no landmarks on frame 600. Measured:
 //! 1. the followed landmarks against dlib's: mean error (mean landmark distance / outer eye
 //!    corner distance) judged **convention-free** (each point's mean offset from dlib's point
@@ -28,106 +28,11 @@
 
 mod common;
 
-use std::path::Path;
-
-use common::{frame, shared_data};
-use facemimic::clone::{CloneOptions, Cloner, Method};
-use facemimic::find::{convention_free_errors, landmark_error};
+use common::following::{errors, follow, mean, over, pearson, spk07};
+use common::{frame, repo, shared_data};
+use facemimic::find::landmark_error;
 use facemimic::fit::{mouth_opening, FollowOptions, Follower};
-use facemimic::{io, Builder, FaceFinder, Model, TrainingImage};
-
-fn repo(p: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-fn build(list: &str, name: &str) -> Model {
-    let images: Vec<TrainingImage> = io::read_list(&repo(list))
-        .unwrap()
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
-    let mut m = Builder::default().build(&images, None).unwrap();
-    m.set_name(name);
-    m
-}
-
-fn spk07() -> Model {
-    build("data/grid/spk07_pwij3p/train20.txt", "spk07")
-}
-
-fn pearson(a: &[f32], b: &[f32]) -> f32 {
-    let n = a.len() as f64;
-    let ma = a.iter().map(|&v| v as f64).sum::<f64>() / n;
-    let mb = b.iter().map(|&v| v as f64).sum::<f64>() / n;
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (&x, &y) in a.iter().zip(b) {
-        let (x, y) = (x as f64 - ma, y as f64 - mb);
-        sab += x * y;
-        saa += x * x;
-        sbb += y * y;
-    }
-    (sab / (saa * sbb).sqrt()) as f32
-}
-
-fn mean(v: &[f32]) -> f32 {
-    v.iter().sum::<f32>() / v.len() as f32
-}
-
-fn over(v: &[f32]) -> usize {
-    v.iter().filter(|e| e.is_nan() || **e > 0.1).count()
-}
-
-/// Convention-free and raw errors of `tracked` against `truth`, frame by frame.
-fn errors(tracked: &[Vec<f32>], truth: &[TrainingImage]) -> (Vec<f32>, Vec<f32>) {
-    let pairs: Vec<(&[f32], &[f32])> = tracked
-        .iter()
-        .zip(truth)
-        .map(|(t, g)| (t.as_slice(), g.landmarks.as_slice()))
-        .collect();
-    let raw = pairs.iter().map(|(t, g)| landmark_error(t, g)).collect();
-    (convention_free_errors(&pairs), raw)
-}
-
-/// What following a clip gave.
-struct Followed {
-    landmarks: Vec<Vec<f32>>,
-    /// spk02's mouth opening, cloned by `map`, per frame.
-    target_mouth: Vec<f32>,
-    lost: u32,
-    reacquisitions: u32,
-    ms_per_frame: f64,
-}
-
-fn follow(source: &Model, frames: &[TrainingImage], options: FollowOptions) -> Followed {
-    let mut f = Follower::new(source, options).unwrap();
-    let mut cloner = Cloner::new(source.clone()).unwrap();
-    cloner
-        .add_target(build("data/grid/spk02_brbk7n/train20.txt", "spk02"))
-        .unwrap();
-    let clone_options = CloneOptions {
-        method: Method::Map,
-        ..CloneOptions::default()
-    };
-    let mut landmarks = Vec::with_capacity(frames.len());
-    let mut target_mouth = Vec::with_capacity(frames.len());
-    let mut secs = 0.0;
-    for t in frames {
-        let view = t.image.view().unwrap();
-        let t0 = std::time::Instant::now();
-        let r = f.track(&view, 1.0 / 25.0).unwrap();
-        secs += t0.elapsed().as_secs_f64();
-        landmarks.push(r.landmarks.clone());
-        cloner.clone_frame(&r.params, &clone_options).unwrap();
-        target_mouth.push(mouth_opening(cloner.target_shape(0)));
-    }
-    Followed {
-        landmarks,
-        target_mouth,
-        lost: f.lost_count(),
-        reacquisitions: f.reacquisitions(),
-        ms_per_frame: 1e3 * secs / frames.len() as f64,
-    }
-}
+use facemimic::{io, FaceFinder, TrainingImage};
 
 /// The figures of one clip followed with spk07's model.
 struct Figures {
@@ -272,48 +177,6 @@ fn follows_franck_dev2_with_spk07_as_the_source() {
          0.75 (0.79 measured; the issue's aim is 0.8)",
         f.r_mouth
     );
-}
-
-/// Chooses the follower's smoothing and neutral rate on webcam-dev frames 0-599 only (the
-/// measured frames 600-1336 stay unseen): prints each setting's convention-free error and
-/// mouth correlation. `cargo test --release --test follow tune -- --ignored --nocapture`.
-#[test]
-#[ignore = "prints the tuning grid on webcam-dev 0-599 (a few minutes)"]
-fn tune_on_frames_0_599() {
-    let Some(dir) = shared_data("webcam-dev") else {
-        return;
-    };
-    let source = spk07();
-    let frames: Vec<TrainingImage> = (0..600).map(|i| frame(&dir, i)).collect();
-    let person_mouth: Vec<f32> = frames.iter().map(|t| mouth_opening(&t.landmarks)).collect();
-    for (min_cutoff, beta, neutral_step) in [
-        (1.5, 1.0, 0.05),
-        (0.7, 1.0, 0.05),
-        (3.0, 1.0, 0.05),
-        (1.5, 0.3, 0.05),
-        (1.5, 3.0, 0.05),
-        (1.5, 1.0, 0.02),
-        (1.5, 1.0, 0.1),
-        (1000.0, 0.0, 0.05),
-    ] {
-        let options = FollowOptions {
-            min_cutoff,
-            beta,
-            neutral_step,
-            ..FollowOptions::default()
-        };
-        let f = follow(&source, &frames, options);
-        let (free, raw) = errors(&f.landmarks, &frames);
-        println!(
-            "min_cutoff {min_cutoff}, beta {beta}, neutral_step {neutral_step}: \
-             convention-free {:.4} ({} over 0.1), raw {:.4}, mouth r {:.3}, {} lost",
-            mean(&free),
-            over(&free),
-            mean(&raw),
-            pearson(&f.target_mouth, &person_mouth),
-            f.lost
-        );
-    }
 }
 
 /// On the committed GRID frames: spk03's clip followed with spk07's model (another person's),

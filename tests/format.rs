@@ -6,62 +6,29 @@
 //! numeric tests also run under wasm (`cargo test --target wasm32-unknown-unknown --test
 //! format`). The allocation-counting test is native only.
 
+mod common;
 #[path = "../fuzz/engine.rs"]
 #[allow(dead_code)]
 mod engine;
 
 use std::sync::OnceLock;
 
-use engine::Rng;
+use common::Rng;
 
 use facemimic::format::{
     crc32, offsets, read_model, read_model_info, write_model, write_model_as, FileInfo,
     FormatError, Storage, FORMAT_VERSION, HEADER_LEN, LIMITS, MAGIC, OLDEST_VERSION,
 };
 use facemimic::{
-    BuildOptions, Builder, FrameChoice, Image, Model, Reference, ReferenceChoice, TrainingImage,
+    BuildOptions, Builder, FrameChoice, Model, Reference, ReferenceChoice, TrainingImage,
 };
 
 // ------------------------------------------------------------------------------------------
 // Synthetic models.
 
-/// `count` face-like training images with `n` landmarks: a Fermat-spiral point set (well spread
-/// over an ellipse) under a random similarity and two smooth deformations, on 96x96 RGBA images
-/// with a pose-dependent texture.
+/// `count` synthetic training images (`common::synthetic`) with `n` landmarks on 96x96 images.
 fn training_set(n: usize, count: usize, seed: u64, prefix: &str) -> Vec<TrainingImage> {
-    let mut rng = Rng(seed);
-    (0..count)
-        .map(|k| {
-            let (landmarks, [tx, ty]) = engine::face_landmarks(&mut rng, n, 30.0, 48.0, 4.0);
-            let (w, h) = (96u32, 96u32);
-            let phase = rng.sym() * 3.0;
-            let bright = 40.0 * rng.sym();
-            let mut data = Vec::with_capacity((w * h * 4) as usize);
-            for y in 0..h {
-                for x in 0..w {
-                    let (xf, yf) = (x as f32, y as f32);
-                    let r = 128.0 + 90.0 * (0.2 * xf + phase).sin() + bright;
-                    let g = 128.0 + 90.0 * (0.15 * yf - phase).cos();
-                    let b = 64.0 + ((xf - tx) * (yf - ty) * 0.05).abs().min(180.0);
-                    data.extend_from_slice(&[
-                        r.clamp(0.0, 255.0) as u8,
-                        g.clamp(0.0, 255.0) as u8,
-                        b.clamp(0.0, 255.0) as u8,
-                        255,
-                    ]);
-                }
-            }
-            TrainingImage {
-                name: format!("{prefix}{k}"),
-                image: Image {
-                    width: w,
-                    height: h,
-                    data,
-                },
-                landmarks,
-            }
-        })
-        .collect()
+    common::synthetic::training_set(n, count, seed, 96, prefix)
 }
 
 struct Models {
@@ -1384,7 +1351,7 @@ fn random_bytes_and_mutations_never_panic() {
     // 1. Random buffers: plain noise, noise behind the magic, noise behind a valid header.
     for i in 0..3000 {
         let len = rng.below(if i % 10 == 0 { 4000 } else { 400 });
-        let mut x: Vec<u8> = (0..len).map(|_| rng.next() as u8).collect();
+        let mut x: Vec<u8> = (0..len).map(|_| rng.next_u64() as u8).collect();
         match i % 3 {
             0 => {}
             1 => {
@@ -1423,7 +1390,7 @@ fn random_bytes_and_mutations_never_panic() {
             1 => {
                 let off = 8 + 4 * rng.below((HEADER_LEN - 8) / 4);
                 let val = if rng.below(2) == 0 {
-                    rng.next() as u32
+                    rng.next_u64() as u32
                 } else {
                     specials[rng.below(specials.len())]
                 };
@@ -1439,7 +1406,7 @@ fn random_bytes_and_mutations_never_panic() {
             _ => {
                 // An array value replaced by a random bit pattern (NaNs, huge, tiny, negative).
                 let k = HEADER_LEN + 4 * rng.below((x.len() - HEADER_LEN - 4) / 4);
-                set_u32(&mut x, k, rng.next() as u32);
+                set_u32(&mut x, k, rng.next_u64() as u32);
             }
         }
         if i % 2 == 0 && x.len() >= HEADER_LEN + 4 {

@@ -27,9 +27,12 @@
 //! pixels may differ. Regenerate (after an intended change only) with
 //! `FACEMIMIC_BLESS=1 cargo test --release --test golden`, and look at the images.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use common::pixels::{pixel_diff, PixelDiff};
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::tiny_skia::{Color, Pixmap};
 use facemimic::{
@@ -51,11 +54,7 @@ fn golden_path(name: &str) -> PathBuf {
 }
 
 fn build(list: &str, name: &str) -> Model {
-    let paths = io::read_list(&root().join(list)).unwrap();
-    let images: Vec<_> = paths
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
+    let images = common::list_images(list);
     Builder::new(BuildOptions {
         name: name.into(),
         ..BuildOptions::default()
@@ -246,24 +245,12 @@ fn check_sized(name: &str, got: &[u8], size: (u32, u32)) {
         size,
         "{name}: golden image size"
     );
-    let (mut differing, mut worst) = (0usize, 0i32);
-    let mut background = 0usize;
-    for (a, b) in got.chunks_exact(4).zip(golden.data.chunks_exact(4)) {
-        let d = a
-            .iter()
-            .zip(b)
-            .map(|(x, y)| (*x as i32 - *y as i32).abs())
-            .max()
-            .unwrap();
-        worst = worst.max(d);
-        if d > TOLERANCE {
-            differing += 1;
-        }
-        if a == BACKGROUND {
-            background += 1;
-        }
-    }
-    let total = (size.0 * size.1) as usize;
+    let PixelDiff {
+        pixels: total,
+        differing,
+        worst,
+    } = pixel_diff(got, &golden.data, 4, TOLERANCE);
+    let background = got.chunks_exact(4).filter(|p| *p == BACKGROUND).count();
     let share = differing as f64 / total as f64;
     println!(
         "{name}: {differing} of {total} pixels differ by more than {TOLERANCE} (worst {worst})"

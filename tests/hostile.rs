@@ -4,6 +4,7 @@
 //! read back, multi-line or misleading errors, and public helpers that panicked. The models are
 //! the fuzz harness's small synthetic seeds (`fuzz/engine.rs`).
 
+mod common;
 #[path = "../fuzz/engine.rs"]
 #[allow(dead_code)]
 mod engine;

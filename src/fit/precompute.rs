@@ -197,24 +197,23 @@ fn grid_gradient(grid: &[f64], w: usize, h: usize, x: usize, y: usize) -> (f64, 
     )
 }
 
-impl Level {
-    /// Precomputes a level. `smooth` is the number of 3x3 box-blur passes applied to the
-    /// template images before taking gradients (coarse levels see a smoother template).
-    pub(crate) fn new(
-        model: &Model,
-        basis: &ShapeBasis,
-        step: u32,
-        sigma: f32,
-        gain_bias: bool,
-        shape_prior: f32,
-        channels: usize,
-    ) -> Result<Level> {
-        let weights = channel_weights(channels);
-        let nc = weights.len();
+/// The frame pixels a level fits: every `step`-th pixel in x and y whose triangle the base
+/// shape keeps in shape, with its triangle's vertices, its barycentric coordinates and the
+/// matrix turning a frame-grid gradient into one in the base shape's coordinates.
+struct LevelPixels {
+    /// Indices into the frame's pixels.
+    sel: Vec<usize>,
+    verts: Vec<[u32; 3]>,
+    bary: Vec<[f32; 3]>,
+    grad_map: Vec<[f64; 4]>,
+}
+
+impl LevelPixels {
+    /// Selects the pixels of a level with `nc` channels for `k` parameters; an error when they
+    /// are too few, or when the base shape folds most of the frame's mesh.
+    fn select(model: &Model, step: u32, nc: usize, k: usize) -> Result<LevelPixels> {
         let f = &model.frame();
-        let (w, h) = (f.width() as usize, f.height() as usize);
         let npx = f.n_pixels();
-        let step = step.max(1);
         let tris = f.triangles();
         // Template gradients are taken on the frame's pixel grid, but the warp is
         // parameterised on the base shape `s0`: per triangle, the matrix turning a frame-grid
@@ -230,11 +229,10 @@ impl Level {
             .map(|(i, _)| i)
             .collect();
         let np = sel.len();
-        let n = np * nc;
-        if np < basis.k * 4 {
+        if np < k * 4 {
             return Err(Error::Params(format!(
-                "fitting level with step {step} has only {n} pixels for {} parameters",
-                basis.k
+                "fitting level with step {step} has only {} pixels for {k} parameters",
+                np * nc
             )));
         }
         let kept = (0..npx).filter(|&i| in_fit(i)).count();
@@ -244,16 +242,47 @@ impl Level {
                  frame pixels lie in triangles it keeps in shape"
             )));
         }
-        let verts: Vec<[u32; 3]> = sel
-            .iter()
-            .map(|&i| tris[f.pixels()[i].triangle as usize])
-            .collect();
-        let bary: Vec<[f32; 3]> = sel.iter().map(|&i| f.pixels()[i].bary).collect();
-        let grad_map: Vec<[f64; 4]> = sel
-            .iter()
-            .map(|&i| to_base[f.pixels()[i].triangle as usize].unwrap_or([1.0, 0.0, 0.0, 1.0]))
-            .collect();
+        let pixel = |i: usize| f.pixels()[i];
+        Ok(LevelPixels {
+            verts: sel
+                .iter()
+                .map(|&i| tris[pixel(i).triangle as usize])
+                .collect(),
+            bary: sel.iter().map(|&i| pixel(i).bary).collect(),
+            grad_map: sel
+                .iter()
+                .map(|&i| to_base[pixel(i).triangle as usize].unwrap_or([1.0, 0.0, 0.0, 1.0]))
+                .collect(),
+            sel,
+        })
+    }
+}
 
+/// The grey template of a level: `A0` and the orthonormalised appearance basis (gain and bias
+/// images first when `gain_bias`, then each mode) sampled at the level's pixels after a
+/// Gaussian of `sigma` frame pixels, with their gradients in the base shape's coordinates.
+struct Template {
+    a0: Vec<f64>,
+    a0_gx: Vec<f64>,
+    a0_gy: Vec<f64>,
+    /// The basis images, and per image its x and y gradients.
+    vecs: Vec<Vec<f64>>,
+    comps: Vec<Vec<Vec<f64>>>,
+}
+
+impl Template {
+    fn new(
+        model: &Model,
+        pixels: &LevelPixels,
+        weights: &[[f32; 3]],
+        sigma: f32,
+        gain_bias: bool,
+    ) -> Template {
+        let nc = weights.len();
+        let f = &model.frame();
+        let (w, h) = (f.width() as usize, f.height() as usize);
+        let npx = f.n_pixels();
+        let n = pixels.sel.len() * nc;
         // Channel images on the full frame (channel-major): A0 and each RGB mode.
         let app = &model.appearance();
         let grey = |v: &[f32]| -> Vec<f64> {
@@ -290,7 +319,7 @@ impl Level {
                 if sigma > 0.0 {
                     blur_grid(&mut grid, w, h, sigma as f64);
                 }
-                for (&i, m) in sel.iter().zip(&grad_map) {
+                for (&i, m) in pixels.sel.iter().zip(&pixels.grad_map) {
                     let p = f.pixels()[i];
                     v.push(grid[p.y as usize * w + p.x as usize]);
                     let (a, b) = grid_gradient(&grid, w, h, p.x as usize, p.y as usize);
@@ -309,55 +338,98 @@ impl Level {
             comps.push(vec![gx, gy]);
         }
         gram_schmidt(&mut vecs, &mut comps, 1e-3);
-        let la = vecs.len();
+        Template {
+            a0,
+            a0_gx,
+            a0_gy,
+            vecs,
+            comps,
+        }
+    }
+}
+
+/// The warp Jacobians `dW/dc_j` (x and y parts, row-major `k x n`) at each of the `n` values
+/// of a level whose `np` pixels have triangles `verts` and barycentric coordinates `bary`.
+fn warp_jacobians(basis: &ShapeBasis, d: usize, pixels: &LevelPixels, n: usize) -> [Vec<f32>; 2] {
+    let (k, np) = (basis.k, pixels.sel.len());
+    let mut jx = vec![0f32; k * n];
+    let mut jy = vec![0f32; k * n];
+    for j in 0..k {
+        let b = &basis.vectors[j * d..(j + 1) * d];
+        for i in 0..n {
+            let (t, w3) = (pixels.verts[i % np], pixels.bary[i % np]);
+            let (mut x, mut y) = (0f32, 0f32);
+            for c in 0..3 {
+                x += w3[c] * b[2 * t[c] as usize];
+                y += w3[c] * b[2 * t[c] as usize + 1];
+            }
+            jx[j * n + i] = x;
+            jy[j * n + i] = y;
+        }
+    }
+    [jx, jy]
+}
+
+/// The project-out steepest-descent images (f64 for the projection: the template gradient
+/// along each Jacobian, the appearance basis projected out) and their Hessian `SD^T SD`.
+fn project_out(
+    template: &Template,
+    [jx, jy]: &[Vec<f32>; 2],
+    k: usize,
+    n: usize,
+) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let (gx, gy) = (&template.a0_gx, &template.a0_gy);
+    let mut sd: Vec<Vec<f64>> = (0..k)
+        .map(|j| {
+            (0..n)
+                .map(|i| gx[i] * jx[j * n + i] as f64 + gy[i] * jy[j * n + i] as f64)
+                .collect()
+        })
+        .collect();
+    for s in &mut sd {
+        for _ in 0..2 {
+            for u in &template.vecs {
+                let dd: f64 = s.iter().zip(u).map(|(a, b)| a * b).sum();
+                s.iter_mut().zip(u).for_each(|(a, b)| *a -= dd * b);
+            }
+        }
+    }
+    let mut h_po = vec![0f64; k * k];
+    for a in 0..k {
+        for b in 0..=a {
+            let v: f64 = sd[a].iter().zip(&sd[b]).map(|(x, y)| x * y).sum();
+            h_po[a * k + b] = v;
+            h_po[b * k + a] = v;
+        }
+    }
+    (sd, h_po)
+}
+
+impl Level {
+    /// Precomputes a level. `smooth` is the number of 3x3 box-blur passes applied to the
+    /// template images before taking gradients (coarse levels see a smoother template).
+    pub(crate) fn new(
+        model: &Model,
+        basis: &ShapeBasis,
+        step: u32,
+        sigma: f32,
+        gain_bias: bool,
+        shape_prior: f32,
+        channels: usize,
+    ) -> Result<Level> {
+        let weights = channel_weights(channels);
+        let nc = weights.len();
+        let npx = model.frame().n_pixels();
+        let step = step.max(1);
+        let pixels = LevelPixels::select(model, step, nc, basis.k)?;
+        let np = pixels.sel.len();
+        let n = np * nc;
+        let template = Template::new(model, &pixels, weights, sigma, gain_bias);
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
-        let app_v: Vec<f32> = vecs.iter().flat_map(|v| to32(v)).collect();
-        let app_gx: Vec<f32> = comps.iter().flat_map(|c| to32(&c[0])).collect();
-        let app_gy: Vec<f32> = comps.iter().flat_map(|c| to32(&c[1])).collect();
-
-        // Warp Jacobians dW/dc_j at each level pixel.
         let k = basis.k;
-        let d = model.shape().base.len();
-        let mut jx = vec![0f32; k * n];
-        let mut jy = vec![0f32; k * n];
-        for j in 0..k {
-            let b = &basis.vectors[j * d..(j + 1) * d];
-            for i in 0..n {
-                let (t, w3) = (verts[i % np], bary[i % np]);
-                let (mut x, mut y) = (0f32, 0f32);
-                for c in 0..3 {
-                    x += w3[c] * b[2 * t[c] as usize];
-                    y += w3[c] * b[2 * t[c] as usize + 1];
-                }
-                jx[j * n + i] = x;
-                jy[j * n + i] = y;
-            }
-        }
-
-        // Project-out steepest-descent images (f64 for the projection), Hessian.
-        let mut sd: Vec<Vec<f64>> = (0..k)
-            .map(|j| {
-                (0..n)
-                    .map(|i| a0_gx[i] * jx[j * n + i] as f64 + a0_gy[i] * jy[j * n + i] as f64)
-                    .collect()
-            })
-            .collect();
-        for s in &mut sd {
-            for _ in 0..2 {
-                for u in &vecs {
-                    let dd: f64 = s.iter().zip(u).map(|(a, b)| a * b).sum();
-                    s.iter_mut().zip(u).for_each(|(a, b)| *a -= dd * b);
-                }
-            }
-        }
-        let mut h_po = vec![0f64; k * k];
-        for a in 0..k {
-            for b in 0..=a {
-                let v: f64 = sd[a].iter().zip(&sd[b]).map(|(x, y)| x * y).sum();
-                h_po[a * k + b] = v;
-                h_po[b * k + a] = v;
-            }
-        }
+        let jacobians = warp_jacobians(basis, model.shape().base.len(), &pixels, n);
+        let (sd, h_po) = project_out(&template, &jacobians, k, n);
+        let [jx, jy] = jacobians;
         // Shape prior: w_j = rho * (N_level / N_frame) / sigma_j^2 on the shape parameters.
         let frac = n as f64 / npx as f64;
         let prior: Vec<f64> = basis
@@ -378,6 +450,7 @@ impl Level {
                 "the fitting Hessian of level {step} is singular (is the appearance flat?)"
             )));
         }
+        let a0 = &template.a0;
         let a0_std = {
             let m = a0.iter().sum::<f64>() / n as f64;
             (a0.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt() as f32
@@ -387,15 +460,15 @@ impl Level {
             a0_std,
             sigma,
             n,
-            verts,
-            bary,
-            a0: to32(&a0),
-            la,
-            app: app_v,
-            a0_gx: to32(&a0_gx),
-            a0_gy: to32(&a0_gy),
-            app_gx,
-            app_gy,
+            verts: pixels.verts,
+            bary: pixels.bary,
+            a0: to32(a0),
+            la: template.vecs.len(),
+            app: template.vecs.iter().flat_map(|v| to32(v)).collect(),
+            a0_gx: to32(&template.a0_gx),
+            a0_gy: to32(&template.a0_gy),
+            app_gx: template.comps.iter().flat_map(|c| to32(&c[0])).collect(),
+            app_gy: template.comps.iter().flat_map(|c| to32(&c[1])).collect(),
             jx,
             jy,
             sd_po: sd.iter().flat_map(|s| to32(s)).collect(),

@@ -384,8 +384,7 @@ pub struct Compositor {
     smooth: Vec<f32>,
     offsets: Vec<f32>,
     rgb: Vec<f32>,
-    appearance: Vec<f32>,
-    shape: Vec<f32>,
+    instance: super::Instance,
     path: Option<tiny_skia::PathBuilder>,
     /// Per face triangle, whether the face covers it opaquely (every pixel in it is at least
     /// twice the feather's width inside the border): the head warp skips it.
@@ -477,8 +476,7 @@ impl Compositor {
             cache: None,
             offsets: vec![0.0; 3 * nv],
             rgb: vec![0.0; 3 * n_px],
-            appearance: vec![0.0; 3 * n_px],
-            shape: vec![0.0; v.len()],
+            instance: super::Instance::new(frame),
             path: Some(tiny_skia::PathBuilder::new()),
             opaque,
             draw_list: Vec::with_capacity(mesh_triangles),
@@ -516,12 +514,9 @@ impl Compositor {
     ) -> Result<()> {
         model.check_params(params)?;
         self.check_model(model)?;
-        let mut appearance = std::mem::take(&mut self.appearance);
-        let mut shape = std::mem::take(&mut self.shape);
-        super::instance_into(model, params, &mut appearance, &mut shape);
-        let r = self.draw(model, &appearance, &shape, view, target);
-        self.appearance = appearance;
-        self.shape = shape;
+        let instance = super::Instance::synthesise(&mut self.instance, model, params)?;
+        let r = self.draw(model, &instance.appearance, &instance.shape, view, target);
+        self.instance = instance;
         r
     }
 

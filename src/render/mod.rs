@@ -64,8 +64,7 @@ pub struct FaceDrawer {
     skia: Renderer,
     scanline: Scanline,
     overlay: MeshOverlay,
-    appearance: Vec<f32>,
-    shape: Vec<f32>,
+    instance: Instance,
 }
 
 impl FaceDrawer {
@@ -76,8 +75,7 @@ impl FaceDrawer {
             skia: Renderer::new(frame)?,
             scanline: Scanline::new(),
             overlay: MeshOverlay::new(),
-            appearance: vec![0.0; frame.n_pixels() * 3],
-            shape: vec![0.0; frame.vertices().len()],
+            instance: Instance::new(frame),
         })
     }
 
@@ -159,19 +157,48 @@ impl FaceDrawer {
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
         model.check_params(params)?;
+        let instance = Instance::synthesise(&mut self.instance, model, params)?;
+        let r = self.draw(
+            model.frame(),
+            &instance.appearance,
+            &instance.shape,
+            view,
+            target,
+        );
+        self.instance = instance;
+        r
+    }
+}
+
+/// The scratch of one model instance: its appearance (Eq. 2, `3N` values) and its posed shape
+/// (Eq. 1, image coordinates), sized for a frame once.
+#[derive(Debug, Default)]
+struct Instance {
+    appearance: Vec<f32>,
+    shape: Vec<f32>,
+}
+
+impl Instance {
+    fn new(frame: &ReferenceFrame) -> Instance {
+        Instance {
+            appearance: vec![0.0; frame.n_pixels() * 3],
+            shape: vec![0.0; frame.vertices().len()],
+        }
+    }
+
+    /// Takes the scratch out of `slot` (so its owner can draw with it; the caller puts it
+    /// back) and synthesises `params`' instance of `model` into it. Fails when the scratch was
+    /// sized for another frame.
+    fn synthesise(slot: &mut Instance, model: &Model, params: &Params) -> Result<Instance> {
         check_len(
             "appearance scratch",
-            &self.appearance,
+            &slot.appearance,
             model.appearance().len(),
         )?;
-        check_len("shape scratch", &self.shape, model.shape().base.len())?;
-        let mut appearance = std::mem::take(&mut self.appearance);
-        let mut shape = std::mem::take(&mut self.shape);
-        instance_into(model, params, &mut appearance, &mut shape);
-        let r = self.draw(model.frame(), &appearance, &shape, view, target);
-        self.appearance = appearance;
-        self.shape = shape;
-        r
+        check_len("shape scratch", &slot.shape, model.shape().base.len())?;
+        let mut instance = std::mem::take(slot);
+        instance_into(model, params, &mut instance.appearance, &mut instance.shape);
+        Ok(instance)
     }
 }
 
@@ -206,6 +233,29 @@ fn texel(rgb: &[f32], a: f32) -> [u8; 4] {
         to_u8(rgb[2] * a),
         to_u8(a),
     ]
+}
+
+/// Calls `put(index in the frame's grid, texel)` for every frame pixel of an appearance (`3N`,
+/// RGB in `0..=1`) with an optional coverage per pixel (`None` = opaque): both backends write
+/// their textures through it. Inlined with `put`, it is the loop written out (an iterator of
+/// texels had made the upload half as slow again).
+#[inline(always)]
+fn for_each_texel(
+    frame: &ReferenceFrame,
+    appearance: &[f32],
+    alpha: Option<&[f32]>,
+    mut put: impl FnMut(usize, [u8; 4]),
+) {
+    let w = frame.width() as usize;
+    for (i, (px, rgb)) in frame
+        .pixels()
+        .iter()
+        .zip(appearance.chunks_exact(3))
+        .enumerate()
+    {
+        let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
+        put(px.y as usize * w + px.x as usize, texel(rgb, a));
+    }
 }
 
 /// The padding ring of a frame's texture: `(grid index to write, grid index to copy from)`,

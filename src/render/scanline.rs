@@ -61,18 +61,11 @@ impl Scanline {
             self.fingerprint = Some(frame.fingerprint());
         }
         let tex = &mut self.texture;
-        let w = self.width as usize;
-        for (i, (px, rgb)) in frame
-            .pixels()
-            .iter()
-            .zip(appearance.chunks_exact(3))
-            .enumerate()
-        {
-            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
-            if let Some(t) = tex.get_mut(px.y as usize * w + px.x as usize) {
-                *t = u32::from_le_bytes(super::texel(rgb, a));
+        super::for_each_texel(frame, appearance, alpha, |k, texel| {
+            if let Some(t) = tex.get_mut(k) {
+                *t = u32::from_le_bytes(texel);
             }
-        }
+        });
         for (d, s) in super::padding_copies(frame) {
             let value = tex.get(s).copied().unwrap_or(0);
             if let Some(t) = tex.get_mut(d) {
@@ -105,29 +98,23 @@ fn bilerp(p00: u32, p10: u32, p01: u32, p11: u32, wx: u32, wy: u32) -> u32 {
     // [p00, p01] and [p10, p11] as 16-bit lanes: one horizontal blend for both rows.
     let left = u16x8_extend_low_u8x16(v);
     let right = u16x8_extend_high_u8x16(v);
-    let round = u16x8_splat(128);
-    let rows = u16x8_shr(
-        u16x8_add(
+    // (a * (256 - w) + b * w + 128) >> 8 in every 16-bit lane.
+    let lerp = |a: v128, b: v128, w: u32| {
+        u16x8_shr(
             u16x8_add(
-                u16x8_mul(left, u16x8_splat((256 - wx) as u16)),
-                u16x8_mul(right, u16x8_splat(wx as u16)),
+                u16x8_add(
+                    u16x8_mul(a, u16x8_splat((256 - w) as u16)),
+                    u16x8_mul(b, u16x8_splat(w as u16)),
+                ),
+                u16x8_splat(128),
             ),
-            round,
-        ),
-        8,
-    );
+            8,
+        )
+    };
+    let rows = lerp(left, right, wx);
     // [top, bottom] -> [bottom, top]: the vertical blend of the two rows.
     let swapped = i16x8_shuffle::<4, 5, 6, 7, 0, 1, 2, 3>(rows, rows);
-    let out = u16x8_shr(
-        u16x8_add(
-            u16x8_add(
-                u16x8_mul(rows, u16x8_splat((256 - wy) as u16)),
-                u16x8_mul(swapped, u16x8_splat(wy as u16)),
-            ),
-            round,
-        ),
-        8,
-    );
+    let out = lerp(rows, swapped, wy);
     u32x4_extract_lane::<0>(u8x16_narrow_i16x8(out, out))
 }
 

@@ -72,21 +72,13 @@ impl Renderer {
         self.check_frame(frame)?;
         super::check_upload(frame, appearance, alpha)?;
         let data = self.texture.data_mut();
-        let w = frame.width() as usize;
-        for (i, (px, rgb)) in frame
-            .pixels()
-            .iter()
-            .zip(appearance.chunks_exact(3))
-            .enumerate()
-        {
-            let k = (px.y as usize * w + px.x as usize) * 4;
-            let a = alpha.map_or(1.0, |a| a[i].clamp(0.0, 1.0));
-            let t = super::texel(rgb, a);
+        super::for_each_texel(frame, appearance, alpha, |k, t| {
+            let k = 4 * k;
             data[k] = t[0];
             data[k + 1] = t[1];
             data[k + 2] = t[2];
             data[k + 3] = t[3];
-        }
+        });
         for (d, s) in super::padding_copies(frame) {
             data.copy_within(4 * s..4 * s + 4, 4 * d);
         }

@@ -7,7 +7,7 @@ use web_sys::ImageData;
 
 use super::model::{model_info, JsModel};
 use super::surface::{now_ms, paint, params_into, Ctx, RenderOptions, Sink, Stages};
-use super::{install_panic_hook, js_err, params_to_js, RenderOptionsArg};
+use super::{install_panic_hook, js_err, params_to_js, Context2dArg, RenderOptionsArg};
 use crate::clone::{CloneOptions, Cloner, Method, TargetFrame};
 use crate::model::frame::ReferenceFrame;
 use crate::model::{Model, Params};
@@ -483,10 +483,7 @@ impl JsCloner {
     #[wasm_bindgen(js_name = renderSource)]
     pub fn render_source(
         &mut self,
-        #[wasm_bindgen(
-            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
-        )]
-        ctx: JsValue,
+        ctx: Context2dArg,
         options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let ctx = Ctx::from_js(&ctx)?;
@@ -499,10 +496,7 @@ impl JsCloner {
     pub fn render_target(
         &mut self,
         index: u32,
-        #[wasm_bindgen(
-            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
-        )]
-        ctx: JsValue,
+        ctx: Context2dArg,
         options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let i = self.check_index(index)?;
@@ -551,10 +545,7 @@ impl JsCloner {
         &mut self,
         index: u32,
         #[wasm_bindgen(unchecked_param_type = "Method")] method: &str,
-        #[wasm_bindgen(
-            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
-        )]
-        ctx: JsValue,
+        ctx: Context2dArg,
         options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let i = self.check_index(index)?;

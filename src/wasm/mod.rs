@@ -17,6 +17,7 @@ use crate::model::Params;
 mod build;
 mod cloner;
 mod finder;
+mod landmarks;
 mod model;
 mod pose;
 mod surface;
@@ -25,6 +26,7 @@ mod tracker;
 pub use build::{build_model, enrol_face};
 pub use cloner::JsCloner;
 pub use finder::JsFaceFinder;
+pub use landmarks::{landmark_error, parse_pts};
 pub use model::{render_mode, JsModel};
 pub use pose::{mean_pose, recentre_pose};
 pub use tracker::{WasmFollower, WasmTracker};
@@ -61,16 +63,6 @@ pub fn version() -> String {
     env!("CARGO_PKG_VERSION").to_string()
 }
 
-/// Parses an iBUG `.pts` file (the crate's parser, as the CLI reads them): its 1-based points as
-/// 0-based image coordinates (`2n` values). Throws for a malformed file, a non-finite value or
-/// more points than the limit.
-#[wasm_bindgen(js_name = parsePts)]
-pub fn parse_pts(text: &str) -> Result<js_sys::Float32Array, JsError> {
-    install_panic_hook();
-    let v = crate::landmarks::parse_pts(text).map_err(js_err)?;
-    Ok(js_sys::Float32Array::from(&v[..]))
-}
-
 /// Installs (once) `console_error_panic_hook`, which reports any panic (a bug: the API
 /// validates its input) with its message and stack on the console before the module traps.
 /// Called by the constructors.
@@ -83,6 +75,13 @@ extern "C" {
     /// `RenderOptions` in TypeScript (an optional plain object).
     #[wasm_bindgen(typescript_type = "RenderOptions")]
     pub type RenderOptionsArg;
+
+    /// A 2D canvas context, on screen or off (`CanvasRenderingContext2D |
+    /// OffscreenCanvasRenderingContext2D` in TypeScript): what the `render*` methods draw into.
+    #[wasm_bindgen(
+        typescript_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
+    )]
+    pub type Context2dArg;
 }
 
 #[wasm_bindgen(typescript_custom_section)]

@@ -7,7 +7,9 @@ use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
 use super::surface::{paint, Ctx, RenderOptions, Sink};
-use super::{install_panic_hook, js_err, params_from_js, params_to_js, RenderOptionsArg};
+use super::{
+    install_panic_hook, js_err, params_from_js, params_to_js, Context2dArg, RenderOptionsArg,
+};
 use crate::image::ImageRef;
 use crate::model::{Model, Params, Reference};
 use crate::render::{base_box, fit_view, FaceDrawer};
@@ -285,10 +287,7 @@ impl JsModel {
     pub fn render(
         &self,
         #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
-        #[wasm_bindgen(
-            unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
-        )]
-        ctx: JsValue,
+        ctx: Context2dArg,
         options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let params = params_from_js(&params)?;
@@ -322,10 +321,7 @@ pub fn render_mode(
     #[wasm_bindgen(unchecked_param_type = "\"shape\" | \"appearance\"")] kind: &str,
     mode: u32,
     sigmas: f32,
-    #[wasm_bindgen(
-        unchecked_param_type = "CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D"
-    )]
-    ctx: JsValue,
+    ctx: Context2dArg,
     options: Option<RenderOptionsArg>,
 ) -> Result<(), JsError> {
     let shape = mode_kind(kind)?;

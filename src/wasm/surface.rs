@@ -198,23 +198,24 @@ impl RenderOptions {
                 }
             };
         }
-        let mesh = get("mesh")?;
-        if !(mesh.is_undefined() || mesh.is_null()) {
-            o.draw.mesh = mesh.as_bool().ok_or_else(|| {
+        // A boolean option: `None` when absent (`undefined` or `null`).
+        let flag = |key: &str| -> Result<Option<bool>, JsError> {
+            let v = get(key)?;
+            if v.is_undefined() || v.is_null() {
+                return Ok(None);
+            }
+            v.as_bool().map(Some).ok_or_else(|| {
                 JsError::new(&format!(
-                    "render options: mesh must be a boolean, got {}",
-                    describe(&mesh)
+                    "render options: {key} must be a boolean, got {}",
+                    describe(&v)
                 ))
-            })?;
+            })
+        };
+        if let Some(mesh) = flag("mesh")? {
+            o.draw.mesh = mesh;
         }
-        let composite = get("composite")?;
-        if !(composite.is_undefined() || composite.is_null()) {
-            o.composite = composite.as_bool().ok_or_else(|| {
-                JsError::new(&format!(
-                    "render options: composite must be a boolean, got {}",
-                    describe(&composite)
-                ))
-            })?;
+        if let Some(composite) = flag("composite")? {
+            o.composite = composite;
         }
         let raster = get("raster")?;
         if !(raster.is_undefined() || raster.is_null()) {

@@ -1,11 +1,53 @@
-//! Helpers shared by the integration tests that read the research data in `../shared` (see
-//! the README, "The research data in `../shared`").
+//! What the integration tests, the examples, the benchmarks and the fuzz harness share: the one
+//! random number generator ([`Rng`]), the landmark perturbation of the fitting measures
+//! ([`perturb`]), the synthetic training set ([`synthetic`]), the image comparison
+//! ([`pixels`]) and, natively, the research data in `../shared` ([`shared_data`]; see the
+//! README, "The quick loop"). Included with `mod common;` (tests) or
+//! `#[path = "../tests/common/mod.rs"] mod common;` (examples, benchmarks).
 #![allow(dead_code)]
 
+#[cfg(not(target_arch = "wasm32"))]
+pub mod following;
+#[cfg(target_arch = "wasm32")]
+pub mod js;
+pub mod pixels;
+mod rng;
+pub mod synthetic;
+
+pub use rng::Rng;
+
+#[cfg(not(target_arch = "wasm32"))]
 use std::path::{Path, PathBuf};
 
+use facemimic::Similarity;
+#[cfg(not(target_arch = "wasm32"))]
 use facemimic::{io, select_varied, TrainingImage};
 
+/// Perturbs landmarks about their centroid: translation up to 5% of the face width (extent of
+/// the landmarks along x) in x and y, rotation up to 5 degrees, scale up to 5%; the cold starts
+/// of the fitter's convergence-basin measures.
+pub fn perturb(lm: &[f32], rng: &mut Rng) -> Vec<f32> {
+    let n = lm.len() / 2;
+    let (mut cx, mut cy) = (0.0, 0.0);
+    for p in lm.chunks_exact(2) {
+        cx += p[0] / n as f32;
+        cy += p[1] / n as f32;
+    }
+    let xs = lm.iter().step_by(2);
+    let width = xs.clone().copied().fold(f32::MIN, f32::max) - xs.copied().fold(f32::MAX, f32::min);
+    let (dx, dy) = (0.05 * width * rng.sym(), 0.05 * width * rng.sym());
+    let rot = 5f32.to_radians() * rng.sym();
+    let scale = 1.0 + 0.05 * rng.sym();
+    let t = Similarity::from_parts(scale, rot, 0.0, 0.0);
+    lm.chunks_exact(2)
+        .flat_map(|p| {
+            let (x, y) = t.apply_point(p[0] - cx, p[1] - cy);
+            [x + cx + dx, y + cy + dy]
+        })
+        .collect()
+}
+
+#[cfg(not(target_arch = "wasm32"))]
 /// `../shared/data/NAME` beside the repository, or `None` after a visible "SKIPPED" message
 /// when it is absent. Under `CI` its absence is a failure: CI always has `../shared`.
 pub fn shared_data(name: &str) -> Option<PathBuf> {
@@ -24,11 +66,51 @@ pub fn shared_data(name: &str) -> Option<PathBuf> {
     None
 }
 
+#[cfg(not(target_arch = "wasm32"))]
+/// A path in the repository.
+pub fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The landmarked images of the list file `list` (a repository path; one image a line, e.g.
+/// `data/grid/spk07_pwij3p/train20.txt`).
+pub fn list_images(list: &str) -> Vec<TrainingImage> {
+    io::read_list(&repo(list))
+        .unwrap()
+        .iter()
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect()
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The `.jpg` frames of the clip folder `dir`, sorted by name.
+pub fn clip_frames(dir: &Path) -> Vec<PathBuf> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
+        .collect();
+    paths.sort();
+    paths
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The landmarked images at `paths`.
+pub fn load(paths: &[PathBuf]) -> Vec<TrainingImage> {
+    paths
+        .iter()
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect()
+}
+
+#[cfg(not(target_arch = "wasm32"))]
 /// Frame `i` of the clip in `dir` (`NNNNNN.jpg` and its landmarks).
 pub fn frame(dir: &Path, i: usize) -> TrainingImage {
     io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap()
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 /// The `n` most varied of `images` (farthest-point sampling of their aligned shapes,
 /// [`select_varied`]), in the order chosen.
 pub fn varied(images: &[TrainingImage], n: usize) -> Vec<TrainingImage> {

@@ -13,7 +13,7 @@ import os from 'node:os';
 import path from 'node:path';
 import zlib from 'node:zlib';
 import { pathToFileURL } from 'node:url';
-import { ROOT } from './lib.mjs';
+import { ROOT, readPts } from './lib.mjs';
 
 const PKG = path.join(ROOT, 'pkg');
 const CLI = path.join(process.env.CARGO_TARGET_DIR || path.join(ROOT, 'target'), 'release', 'facemimic');
@@ -31,7 +31,7 @@ async function loadPackage() {
   return fm;
 }
 
-// --- PNG writing (RGBA8, no filter) and .pts reading ------------------------------------
+// --- PNG writing (RGBA8, no filter) ------------------------------------------------------
 const CRC_TABLE = Array.from({ length: 256 }, (_, n) => {
   let c = n;
   for (let k = 0; k < 8; k++) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
@@ -66,13 +66,6 @@ function png(rgba, width, height) {
     chunk('IEND', Buffer.alloc(0)),
   ]);
 }
-/** iBUG .pts (1-based) -> 0-based interleaved Float32Array. */
-function readPts(file) {
-  const text = fs.readFileSync(file, 'utf8');
-  const body = text.slice(text.indexOf('{') + 1, text.indexOf('}'));
-  const v = body.trim().split(/\s+/).map(Number).map((x) => x - 1);
-  return Float32Array.from(v);
-}
 
 /** Deterministic textured frames (360x288) with GRID spk02's real landmarks: the builder needs
  *  no real face to be compared, only identical inputs on both sides. */
@@ -97,7 +90,7 @@ function makeFrames(count) {
         rgba[k + 3] = 255;
       }
     }
-    return { name: pts.replace('.pts', ''), rgba, width: W, height: H, landmarks: readPts(path.join(CLIP, pts)) };
+    return { name: pts.replace('.pts', ''), rgba, width: W, height: H, landmarks: Float32Array.from(readPts(path.join(CLIP, pts))) };
   });
 }
 

@@ -14,15 +14,15 @@ import path from 'node:path';
 import zlib from 'node:zlib';
 import {
   ROOT,
-  CHROMIUM,
   serveStatic,
   launchBrowser,
-  haveChromium,
   screenshot,
   canvasStats,
   canvasPixels,
   meanAbsDiff,
   cornerDistances,
+  assertPageBuilt,
+  openPage,
 } from './lib.mjs';
 
 const WWW = path.resolve(ROOT, process.env.FACEMIMIC_WWW || 'www');
@@ -40,9 +40,7 @@ let browser;
 let manifest;
 
 before(async () => {
-  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/facemimic.js is missing: run scripts/build-wasm.sh');
-  assert.ok(fs.existsSync(path.join(MODELS, 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  assertPageBuilt(WWW);
   assert.ok(fs.existsSync(PHOTO), `${PHOTO} is missing`);
   manifest = JSON.parse(fs.readFileSync(path.join(MODELS, 'manifest.json'), 'utf8'));
   server = await serveStatic(WWW);
@@ -54,33 +52,9 @@ after(async () => {
   await server?.close();
 });
 
-/** Open the page in a fresh context; collects page errors. */
-async function openPage(t, { width = 1440, height = 900 } = {}) {
-  const context = await browser.newContext({ viewport: { width, height }, deviceScaleFactor: 1, acceptDownloads: true });
-  const page = await context.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => {
-    if (m.type() === 'error') errors.push(m.text());
-  });
-  t.after(() => context.close());
-  await page.goto(server.url);
-  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
-  return {
-    page,
-    errors,
-    async frames(n = 2) {
-      await page.evaluate(
-        (n) =>
-          new Promise((resolve) => {
-            let k = 0;
-            const step = () => (++k > n ? resolve() : requestAnimationFrame(step));
-            requestAnimationFrame(step);
-          }),
-        n,
-      );
-    },
-  };
+/** Open the page in a fresh context (lib.mjs `openPage`). */
+function open(t, { width = 1440, height = 900 } = {}) {
+  return openPage(t, browser, server, { context: { viewport: { width, height }, deviceScaleFactor: 1, acceptDownloads: true } });
 }
 
 /** Drop files (`{ name, bytes, type? }`) on an element through a synthetic DataTransfer. */
@@ -157,7 +131,7 @@ async function assertFaceOnly(page, selector, what) {
 }
 
 test('targets open composited into their pictures; "Face only" shows the faces alone, Reset brings the pictures back', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   const n = manifest.targets.length;
   assert.equal(await targetCount(page), n);
   assert.equal(await page.isChecked('#face-only'), false, 'Face only is off by default');
@@ -184,7 +158,7 @@ test('targets open composited into their pictures; "Face only" shows the faces a
 });
 
 test('a photo dropped on "Add a target" becomes a photo target, animated by the track and kept in Your models', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   const n0 = await targetCount(page);
   await dropFiles(page, '#add-card', [file(PHOTO)]);
   await page.waitForFunction((n) => document.querySelectorAll('.face-card.target').length === n, n0 + 1, { timeout: 60_000 });
@@ -251,7 +225,7 @@ test('a photo dropped on "Add a target" becomes a photo target, animated by the 
 });
 
 test('a photo with its .pts uses those landmarks; a photo dropped on a target replaces it', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   const n0 = await targetCount(page);
   await dropFiles(page, '#add-card', [file(PHOTO), file(PHOTO_PTS, 'text/plain')]);
   await page.waitForFunction((n) => document.querySelectorAll('.face-card.target').length === n, n0 + 1, { timeout: 60_000 });
@@ -276,7 +250,7 @@ test('a photo with its .pts uses those landmarks; a photo dropped on a target re
 });
 
 test('with several faces in a photo the user picks one; Cancel adds nothing', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   const n0 = await targetCount(page);
   // Two GRID frames side by side: two faces, in a 640x400 picture.
   const twoFaces = await makeImage(
@@ -310,7 +284,7 @@ test('with several faces in a photo the user picks one; Cancel adds nothing', as
 });
 
 test('a photo without a face, or with a face too small, gives an error naming the file; the page keeps running', async (t) => {
-  const { page, frames } = await openPage(t);
+  const { page, frames } = await open(t);
   const n0 = await targetCount(page);
   const flat = await makeImage(page, { width: 320, height: 240 }, "g.fillStyle = '#8a8f99'; g.fillRect(0, 0, width, height);");
   await dropFiles(page, '#add-card', [{ name: 'flat-grey.png', bytes: flat, type: 'image/png' }]);
@@ -339,7 +313,7 @@ test('a photo without a face, or with a face too small, gives an error naming th
 });
 
 test('a photo dropped on the source still drives the source (tracking), not a target', async (t) => {
-  const { page, frames } = await openPage(t);
+  const { page, frames } = await open(t);
   const n0 = await targetCount(page);
   await dropFiles(page, '.face-card.source', [file(PHOTO)]);
   await page.waitForFunction(() => document.querySelector('#source-kind').value === 'video-file', null, { timeout: 30_000 });
@@ -361,7 +335,7 @@ function damagedBackdrop(bytes) {
 }
 
 test('a model whose backdrop is damaged says so once and is drawn face only', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   const spare = (manifest.library || []).find((f) => !manifest.targets.includes(f));
   const bad = damagedBackdrop(fs.readFileSync(path.join(MODELS, spare)));
   const n0 = await targetCount(page);
@@ -382,7 +356,7 @@ test('a model whose backdrop is damaged says so once and is drawn face only', as
 });
 
 test('the PNG snapshot and the WebM recording hold the pictures as shown', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   await dropFiles(page, '#add-card', [file(PHOTO), file(PHOTO_PTS, 'text/plain')]);
   await page.waitForFunction((n) => document.querySelectorAll('.face-card.target').length === n, manifest.targets.length + 1, { timeout: 60_000 });
   await frames(2);

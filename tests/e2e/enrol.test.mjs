@@ -9,7 +9,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraFile, fakeCameraArgs } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, fakeCameraFile, fakeCameraArgs, assertPageBuilt } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const TRAIN = path.join(ROOT, 'data', 'grid', 'spk07_pwij3p');
@@ -18,9 +18,7 @@ const UNSEEN = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
 let server;
 
 before(async () => {
-  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
-  assert.ok(fs.existsSync(path.join(WWW, 'models', 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  assertPageBuilt(WWW);
   server = await serveStatic(WWW);
 });
 

@@ -28,7 +28,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasDigest, canvasStats, screenshot, fakeCameraArgs, FAKE_CAMERA_ARGS } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, fakeCameraArgs, mjpegCamera, FAKE_CAMERA_ARGS, assertPageBuilt, openPage } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -55,27 +55,22 @@ if (!HAVE_DATA) {
 let server;
 
 before(async () => {
-  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
-  assert.ok(fs.existsSync(path.join(WWW, 'models', 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  assertPageBuilt(WWW);
   server = await serveStatic(WWW, { mounts: HAVE_DATA ? { [DATA_URL]: DATA } : {} });
 });
 
 after(() => server?.close());
 
+/** Open the page in a fresh context of `browser` (lib.mjs `openPage`), every request kept on
+ *  the page's own origin. */
 async function open(t, browser, { permissions, init } = {}) {
-  const context = await browser.newContext({ viewport: { width: 1440, height: 1400 }, permissions });
-  t.after(() => context.close().catch(() => {}));
-  const page = await context.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('request', (r) => {
-    const u = r.url();
-    if (!u.startsWith(server.url) && !u.startsWith('blob:') && !u.startsWith('data:')) errors.push(`request off the origin: ${u}`);
+  const { page, errors } = await openPage(t, browser, server, {
+    context: { viewport: { width: 1440, height: 1400 }, permissions },
+    init,
+    ready: ['body[data-shelf="ready"]'],
+    console: false,
+    originErrors: true,
   });
-  if (init) await page.addInitScript(init);
-  await page.goto(server.url);
-  await ready(page);
   return { page, errors };
 }
 
@@ -143,10 +138,9 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
     return r;
   };
   const pts = async (i) => {
-    const text = await (await get(file(i, 'pts'))).text();
-    const v = text.slice(text.indexOf('{') + 1, text.indexOf('}')).trim().split(/\s+/).map(Number);
+    const v = fm.parsePts(await (await get(file(i, 'pts'))).text()); // 0-based
     if (v.length !== 136) throw new Error(`${file(i, 'pts')}: ${v.length / 2} points`);
-    return Float32Array.from(v, (x) => x - 1); // iBUG files are 1-based
+    return v;
   };
   const jpeg = async (i) => createImageBitmap(await (await get(file(i, 'jpg'))).blob());
   const canvas = new OffscreenCanvas(1, 1);
@@ -162,12 +156,6 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
     g.imageSmoothingQuality = 'medium';
     g.drawImage(bmp, 0, 0, w, h);
     return g.getImageData(0, 0, w, h);
-  };
-  const landmarkError = (a, b) => {
-    const iod = Math.hypot(b[72] - b[90], b[73] - b[91]);
-    let s = 0;
-    for (let k = 0; k < 136; k += 2) s += Math.hypot(a[k] - b[k], a[k + 1] - b[k + 1]);
-    return s / 68 / iod;
   };
   const describe = (info) => `${info.shapeModes} shape, ${info.appearanceModes} appearance modes`;
 
@@ -232,7 +220,7 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
       r.ms += performance.now() - ts;
       if (fit.lost) r.lost++;
       if (fit.reacquired) r.acquired++;
-      r.errors.push(landmarkError(scaled(fit.landmarks, 1 / r.kFit), truth));
+      r.errors.push(fm.landmarkError(scaled(fit.landmarks, 1 / r.kFit), truth));
       if (!fit.lost) {
         // The face grew or shrank a lot: carry on at a new fit scale (tracking.js fitCurrent).
         const want = t.fitScale(bounds(fit.landmarks).h / r.kFit, W, H, r.kFit);
@@ -272,9 +260,8 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
 
 test('enrolment from the webcam: stored, survives a reload, tracks the unseen frames 600-1336 (against a dlib-landmark model), becomes the source and drives the targets', { skip: !HAVE_DATA && 'webcam-dev is absent' }, async (t) => {
   // webcam-dev frames 0-599 as they are (400x300 JPEGs, one after another: an MJPEG stream).
-  const camera = path.join(os.tmpdir(), `facemimic-enrol-webcam-${process.pid}.mjpeg`);
-  fs.writeFileSync(camera, Buffer.concat(Array.from({ length: 600 }, (_, i) => fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.jpg`)))));
-  t.after(() => fs.rmSync(camera, { force: true }));
+  const jpegs = Array.from({ length: 600 }, (_, i) => fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.jpg`)));
+  const camera = mjpegCamera(t, jpegs, 'enrol-webcam');
   const browser = await launchBrowser(fakeCameraArgs(camera));
   t.after(() => browser.close());
   const { page, errors } = await open(t, browser);

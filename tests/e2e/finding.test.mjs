@@ -13,7 +13,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, screenshot, readPts, fakeCameraFile, fakeCameraArgs, landmarkError } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, screenshot, readPts, fakeCameraFile, fakeCameraArgs, landmarkError, assertPageBuilt, openPage } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const UNSEEN = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
@@ -23,9 +23,7 @@ let server;
 let browser;
 
 before(async () => {
-  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
-  assert.ok(fs.existsSync(path.join(WWW, 'models', 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  assertPageBuilt(WWW);
   server = await serveStatic(WWW);
   browser = await launchBrowser(['--autoplay-policy=no-user-gesture-required']);
 });
@@ -35,18 +33,9 @@ after(async () => {
   await server?.close();
 });
 
-async function openPage(t) {
-  const context = await browser.newContext({ viewport: { width: 1440, height: 1400 } });
-  const page = await context.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => {
-    if (m.type() === 'error') errors.push(m.text());
-  });
-  t.after(() => context.close());
-  await page.goto(server.url);
-  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
-  return { page, errors };
+/** Open the page in a fresh context (lib.mjs `openPage`). */
+function open(t) {
+  return openPage(t, browser, server, { context: { viewport: { width: 1440, height: 1400 } } });
 }
 
 /** Drop files (`[{ name, type, b64 }]`) on an element of the page (default: the body). */
@@ -69,7 +58,7 @@ const normError = landmarkError;
 const src = () => window.facemimicTracking;
 
 test('a photo dropped on the page shows the faces found, with their landmarks, in the placement step', async (t) => {
-  const { page, errors } = await openPage(t);
+  const { page, errors } = await open(t);
   const jpg = fs.readFileSync(path.join(UNSEEN, '000030.jpg'));
   const truth = readPts(path.join(UNSEEN, '000030.pts'));
   // Dropped anywhere on the page (not on a panel): the video / photo source opens it.
@@ -123,7 +112,7 @@ test('a photo dropped on the page shows the faces found, with their landmarks, i
 });
 
 test('several faces: the most confident is preselected, and a click picks another', async (t) => {
-  const { page, errors } = await openPage(t);
+  const { page, errors } = await open(t);
   await page.selectOption('#source-kind', 'video-file');
   await page.waitForSelector(PANEL);
   // Two faces side by side: the clip's frame 30 at full size and frame 60 smaller.
@@ -177,7 +166,7 @@ async function pairFromFiles(page) {
 }
 
 test('a dropped video starts tracking by itself', async (t) => {
-  const { page, errors } = await openPage(t);
+  const { page, errors } = await open(t);
   const webm = fs.readFileSync(path.join(WWW, 'media', 'spk07-clip.webm'));
   // Dropped anywhere on the page: nobody presses Start, the face found is tracked.
   await drop(page, [{ name: 'clip.webm', type: 'video/webm', b64: webm.toString('base64') }]);

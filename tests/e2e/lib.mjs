@@ -11,12 +11,31 @@ import fs from 'node:fs';
 import fsp from 'node:fs/promises';
 import os from 'node:os';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { fileURLToPath, pathToFileURL } from 'node:url';
+import assert from 'node:assert/strict';
 import zlib from 'node:zlib';
 import { chromium } from 'playwright-core';
 
 /** The repository root (two levels above this file). */
 export const ROOT = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
+
+/** The npm package as the page loads it (www/pkg, built by scripts/build-wasm.sh). */
+const WWW_PKG = path.join(ROOT, 'www', 'pkg');
+const pkgModule = fs.existsSync(path.join(WWW_PKG, 'facemimic.js'))
+  ? await import(pathToFileURL(path.join(WWW_PKG, 'facemimic.js')).href)
+  : null;
+let pkgReady = false;
+
+/** The npm package in Node (www/pkg), its wasm instantiated on first use: the tests measure and
+ *  parse with the core's own functions, not copies of them. */
+export function pkg() {
+  assert.ok(pkgModule, 'www/pkg/ is missing: run scripts/build-wasm.sh');
+  if (!pkgReady) {
+    pkgModule.initSync({ module: fs.readFileSync(path.join(WWW_PKG, 'facemimic_bg.wasm')) });
+    pkgReady = true;
+  }
+  return pkgModule;
+}
 
 /** Where screenshots and other test outputs go (gitignored). */
 export const ARTIFACTS = path.join(ROOT, 'artifacts');
@@ -289,14 +308,10 @@ export async function faceBox(page, selector, bg, tol = 24) {
   );
 }
 
-/** Read an iBUG `.pts` file (1-based) as 0-based image coordinates `[x0, y0, ...]`. */
+/** Read an iBUG `.pts` file (1-based) as 0-based image coordinates `[x0, y0, ...]` (the
+ *  package's parser, the CLI's). */
 export function readPts(file) {
-  const text = fs.readFileSync(file, 'utf8');
-  const body = text.slice(text.indexOf('{') + 1, text.indexOf('}'));
-  return body
-    .trim()
-    .split(/\s+/)
-    .map((v) => Number(v) - 1);
+  return Array.from(pkg().parsePts(fs.readFileSync(file, 'utf8')));
 }
 
 /**
@@ -355,6 +370,56 @@ async function guideFrames({ dir, count, width = 640, height = 480, black = new 
   }
 }
 
+/** Fails (saying what to run) unless chromium, the page's wasm package and its default models
+ *  (in `www`, the page's folder) are there. */
+export function assertPageBuilt(www = path.join(ROOT, 'www')) {
+  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
+  assert.ok(fs.existsSync(path.join(www, 'pkg', 'facemimic.js')), `${www}/pkg/facemimic.js is missing: run scripts/build-wasm.sh`);
+  assert.ok(fs.existsSync(path.join(www, 'models', 'manifest.json')), `${www}/models/ is missing: run scripts/build-models.sh`);
+}
+
+/**
+ * Opens `server`'s page in a fresh context of `browser` (`context`: its options; closed after
+ * the test `t`) and waits until it has drawn (and `ready`, more selectors to wait for). Returns
+ * `{ page, errors, offOrigin, frames }`: the page errors (and console errors unless `console`
+ * is false) as they come, the requests that left the page's origin (also counted as errors
+ * with `originErrors`), and `frames(n)`, which waits for `n` animation frames (the page renders
+ * every frame while playing, and once after any change while paused).
+ */
+export async function openPage(t, browser, server, { context: options = {}, ready = [], init, console: consoleErrors = true, originErrors = false } = {}) {
+  const context = await browser.newContext({ viewport: { width: 1440, height: 900 }, ...options });
+  t.after(() => context.close().catch(() => {}));
+  const page = await context.newPage();
+  const errors = [];
+  const offOrigin = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  if (consoleErrors) {
+    page.on('console', (m) => {
+      if (m.type() === 'error') errors.push(m.text());
+    });
+  }
+  page.on('request', (r) => {
+    const u = r.url();
+    if (u.startsWith(server.url) || u.startsWith('blob:') || u.startsWith('data:')) return;
+    offOrigin.push(u);
+    if (originErrors) errors.push(`request off the origin: ${u}`);
+  });
+  if (init) await page.addInitScript(init);
+  await page.goto(server.url);
+  for (const selector of ['body[data-ready="1"]', ...ready]) await page.waitForSelector(selector, { timeout: 30_000 });
+  const frames = (n = 2) =>
+    page.evaluate(
+      (n) =>
+        new Promise((resolve) => {
+          let k = 0;
+          const step = () => (++k > n ? resolve() : requestAnimationFrame(step));
+          requestAnimationFrame(step);
+        }),
+      n,
+    );
+  return { page, errors, offOrigin, frames };
+}
+
 /** Chromium's switches for a fake camera the page may use without asking (and autoplay). */
 export const FAKE_CAMERA_ARGS = [
   '--autoplay-policy=no-user-gesture-required',
@@ -368,28 +433,33 @@ export function fakeCameraArgs(file) {
 }
 
 /**
- * The landmark error used throughout the project's figures: the mean point-to-point distance
- * between `a` and `truth` (interleaved x, y) over `truth`'s outer-eye-corner distance
- * (landmarks 36 and 45 of the 68-point scheme).
+ * The landmark error used throughout the project's figures (the package's `landmarkError`, the
+ * core's `find::landmark_error`): the mean point-to-point distance between `a` and `truth`
+ * (68 points, interleaved x, y) over `truth`'s outer-eye-corner distance (landmarks 36 and 45).
  */
 export function landmarkError(a, truth) {
-  let s = 0;
-  const n = truth.length / 2;
-  for (let i = 0; i < n; i++) s += Math.hypot(a[2 * i] - truth[2 * i], a[2 * i + 1] - truth[2 * i + 1]);
-  return s / n / Math.hypot(truth[72] - truth[90], truth[73] - truth[91]);
+  return pkg().landmarkError(a, truth);
 }
 
 /**
- * A fake camera for Chromium (`--use-file-for-fake-video-capture=FILE`): the frames of a GRID
- * clip folder as a 640x480 MJPEG with the face in the webcam guide, written to the temporary
- * folder (removed after the test `t`; never committed). Returns the file's path.
+ * A fake camera for Chromium (`--use-file-for-fake-video-capture=FILE`, which plays an MJPEG file
+ * like a .y4m): `jpegs` (buffers) one after another, written to the temporary folder (removed
+ * after the test `t`; never committed). Returns the file's path.
+ */
+export function mjpegCamera(t, jpegs, name = 'camera') {
+  const file = path.join(os.tmpdir(), `facemimic-${name}-${process.pid}.mjpeg`);
+  fs.writeFileSync(file, Buffer.concat(jpegs));
+  t.after(() => fs.rmSync(file, { force: true }));
+  return file;
+}
+
+/**
+ * A fake camera (`mjpegCamera`) playing the frames of a GRID clip folder as a 640x480 MJPEG
+ * with the face in the webcam guide. Returns the file's path.
  */
 export async function fakeCameraFile(t, dir, { name = 'camera', black } = {}) {
   const jpegs = await guideFrames({ dir, black });
-  const file = path.join(os.tmpdir(), `facemimic-${name}-${process.pid}.mjpeg`);
-  fs.writeFileSync(file, Buffer.concat(jpegs.map((b) => Buffer.from(b, 'base64'))));
-  t.after(() => fs.rmSync(file, { force: true }));
-  return file;
+  return mjpegCamera(t, jpegs.map((b) => Buffer.from(b, 'base64')), name);
 }
 
 /**

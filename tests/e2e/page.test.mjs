@@ -12,16 +12,16 @@ import path from 'node:path';
 import { execFileSync } from 'node:child_process';
 import {
   ROOT,
-  CHROMIUM,
   serveStatic,
   launchBrowser,
-  haveChromium,
   screenshot,
   canvasStats,
   canvasPixels,
   meanAbsDiff,
   faceBox,
   cornerDistances,
+  assertPageBuilt,
+  openPage,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
@@ -33,12 +33,7 @@ let browser;
 let manifest;
 
 before(async () => {
-  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  assert.ok(
-    fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')),
-    'www/pkg/facemimic.js is missing: run scripts/build-wasm.sh',
-  );
-  assert.ok(fs.existsSync(path.join(MODELS, 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  assertPageBuilt(WWW);
   manifest = JSON.parse(fs.readFileSync(path.join(MODELS, 'manifest.json'), 'utf8'));
   server = await serveStatic(WWW);
   browser = await launchBrowser();
@@ -49,50 +44,11 @@ after(async () => {
   await server?.close();
 });
 
-/** Open the page in a fresh context; fail on page errors and on any request off the origin. */
-async function openPage(t, { width = 1440, height = 900, dpr = 1, autoplay = true } = {}) {
-  const context = await browser.newContext({
-    viewport: { width, height },
-    deviceScaleFactor: dpr,
-    acceptDownloads: true,
-    reducedMotion: autoplay ? 'no-preference' : 'reduce',
+/** Open the page in a fresh context (lib.mjs `openPage`); `autoplay` false asks for reduced motion. */
+function open(t, { width = 1440, height = 900, dpr = 1, autoplay = true } = {}) {
+  return openPage(t, browser, server, {
+    context: { viewport: { width, height }, deviceScaleFactor: dpr, acceptDownloads: true, reducedMotion: autoplay ? 'no-preference' : 'reduce' },
   });
-  const page = await context.newPage();
-  const errors = [];
-  const offOrigin = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => {
-    if (m.type() === 'error') errors.push(m.text());
-  });
-  page.on('request', (r) => {
-    const u = r.url();
-    if (!u.startsWith(server.url) && !u.startsWith('blob:') && !u.startsWith('data:')) offOrigin.push(u);
-  });
-  t.after(async () => {
-    await context.close();
-  });
-  await page.goto(server.url);
-  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
-  return {
-    page,
-    errors,
-    offOrigin,
-    /**
-     * Let the page draw: wait for `n` animation frames (the page renders every frame while
-     * playing, and once after any change while paused).
-     */
-    async frames(n = 2) {
-      await page.evaluate(
-        (n) =>
-          new Promise((resolve) => {
-            let k = 0;
-            const step = () => (++k > n ? resolve() : requestAnimationFrame(step));
-            requestAnimationFrame(step);
-          }),
-        n,
-      );
-    },
-  };
 }
 
 const TARGETS = '.face-card.target canvas.face';
@@ -173,7 +129,7 @@ function modelBytes(file) {
 }
 
 test('the page opens playing, with the source painted as a face and every default target as its picture', async (t) => {
-  const { page, errors, offOrigin, frames } = await openPage(t);
+  const { page, errors, offOrigin, frames } = await open(t);
   const nTargets = manifest.targets.length;
   assert.ok(nTargets >= 4, `the manifest lists ${nTargets} default targets`);
   assert.equal(await page.locator(TARGETS).count(), nTargets);
@@ -198,7 +154,7 @@ test('the page opens playing, with the source painted as a face and every defaul
 });
 
 test('backing stores are the CSS size times devicePixelRatio, and the phone layout fits', async (t) => {
-  const { page, errors, frames } = await openPage(t, { width: 390, height: 844, dpr: 2 });
+  const { page, errors, frames } = await open(t, { width: 390, height: 844, dpr: 2 });
   await frames(2);
   const sizes = await page.$$eval('canvas.face', (cs) =>
     cs
@@ -229,7 +185,7 @@ test('backing stores are the CSS size times devicePixelRatio, and the phone layo
 });
 
 test('moving a slider pauses the track and changes the targets; so does the method', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   await frames(2);
   await setSlider(page, 'p-shape-0', 0);
   await frames(2);
@@ -271,7 +227,7 @@ test('moving a slider pauses the track and changes the targets; so does the meth
 });
 
 test('play advances the track at 25 fps and the sliders follow it; space toggles', async (t) => {
-  const { page, errors } = await openPage(t);
+  const { page, errors } = await open(t);
   await pause(page);
   await page.$eval('#scrub', (el) => {
     el.value = '0';
@@ -308,7 +264,7 @@ test('play advances the track at 25 fps and the sliders follow it; space toggles
 });
 
 test('dropping valid models adds and replaces targets; removing one works', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   const loaded = new Set(manifest.targets);
   const spare = (manifest.library || []).filter((f) => !loaded.has(f));
   assert.ok(spare.length >= 2, 'the library needs two models that are not default targets');
@@ -340,7 +296,7 @@ test('dropping valid models adds and replaces targets; removing one works', asyn
 });
 
 test('dropping a model on the source swaps the source; the track comes back with the bundled one', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   const other = (manifest.library || []).find((f) => !manifest.targets.includes(f));
   assert.ok(other, 'no spare model in the library');
   const before = await page.$$eval('#shape-sliders input', (els) => els.length);
@@ -374,7 +330,7 @@ test('dropping a model on the source swaps the source; the track comes back with
 });
 
 test('bad files show an error naming the file and the reason; the page keeps rendering', async (t) => {
-  const { page, frames } = await openPage(t);
+  const { page, frames } = await open(t);
   const n0 = await page.locator(TARGETS).count();
   const good = modelBytes(manifest.targets[0]);
 
@@ -432,7 +388,7 @@ test('a model built in another reference frame is refused as a target', async (t
   execFileSync(bin, ['build', '--own-frame', '--name', 'own-frame', '--out', out, '--list', path.join(clip, 'train20.txt')], {
     stdio: 'pipe',
   });
-  const { page } = await openPage(t);
+  const { page } = await open(t);
   const n0 = await page.locator(TARGETS).count();
   await dropFiles(page, '#add-card', [{ name: 'own-frame.fmm', bytes: fs.readFileSync(out) }]);
   const toast = page.locator('.toast.error', { hasText: 'own-frame.fmm' });
@@ -442,7 +398,7 @@ test('a model built in another reference frame is refused as a target', async (t
 });
 
 test('the compare view shows the three methods on one target as three different faces', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   await page.check('#compare-on');
   await page.selectOption('#compare-target', '1');
   await frames(3);
@@ -467,7 +423,7 @@ test('the compare view shows the three methods on one target as three different 
 });
 
 test('the inspector animates a mode and lists the variance shares', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   // The page draws only what is on screen: bring the inspector into view.
   await page.locator('#inspect-mode').scrollIntoViewIfNeeded();
   await frames(3);
@@ -491,7 +447,7 @@ test('the inspector animates a mode and lists the variance shares', async (t) =>
 });
 
 test('PNG snapshot and WebM recording produce downloads', async (t) => {
-  const { page, errors } = await openPage(t);
+  const { page, errors } = await open(t);
   const [png] = await Promise.all([page.waitForEvent('download'), page.click('#snapshot')]);
   assert.match(png.suggestedFilename(), /^facemimic-.*\.png$/);
   const pngPath = await png.path();
@@ -512,7 +468,7 @@ test('PNG snapshot and WebM recording produce downloads', async (t) => {
 });
 
 test('"Fast raster" (the scanline warp) is on by default; off, tiny-skia draws the same faces', async (t) => {
-  const { page, errors, frames } = await openPage(t);
+  const { page, errors, frames } = await open(t);
   await frames(2);
   assert.ok(await page.isChecked('#fast-raster'), '"Fast raster" is not on by default');
   await setSlider(page, 'p-shape-0', 1.5); // pauses on a fixed expression

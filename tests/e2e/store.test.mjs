@@ -13,7 +13,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, CHROMIUM, serveStatic, launchBrowser, haveChromium, canvasStats, canvasDigest, screenshot } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, canvasStats, canvasDigest, screenshot, assertPageBuilt, openPage } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const MODELS = path.join(WWW, 'models');
@@ -23,9 +23,7 @@ let server;
 let browser;
 
 before(async () => {
-  assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  assert.ok(fs.existsSync(path.join(WWW, 'pkg', 'facemimic.js')), 'www/pkg/ is missing: run scripts/build-wasm.sh');
-  assert.ok(fs.existsSync(path.join(MODELS, 'manifest.json')), 'www/models/ is missing: run scripts/build-models.sh');
+  assertPageBuilt(WWW);
   server = await serveStatic(WWW);
   browser = await launchBrowser();
 });
@@ -35,20 +33,16 @@ after(async () => {
   await server?.close();
 });
 
+/** Open the page in a fresh context (lib.mjs `openPage`): no motion, every request kept on the
+ *  page's own origin (nothing leaves the machine), prompts answered with `page.nextName`. */
 async function open(t, { viewport = { width: 1440, height: 900 }, ...options } = {}) {
-  const context = await browser.newContext({ viewport, reducedMotion: 'reduce', ...options });
-  const page = await context.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  // Nothing leaves the machine: every request goes to the page's own origin (or is local).
-  page.on('request', (r) => {
-    const u = r.url();
-    if (!u.startsWith(server.url) && !u.startsWith('blob:') && !u.startsWith('data:')) errors.push(`request off the origin: ${u}`);
+  const { page, errors } = await openPage(t, browser, server, {
+    context: { viewport, reducedMotion: 'reduce', ...options },
+    ready: ['body[data-shelf="ready"]'],
+    console: false,
+    originErrors: true,
   });
   page.on('dialog', (d) => (d.type() === 'prompt' ? d.accept(page.nextName || '') : d.accept()));
-  t.after(() => context.close());
-  await page.goto(server.url);
-  await ready(page);
   return { page, errors };
 }
 

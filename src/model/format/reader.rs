@@ -125,6 +125,15 @@ impl Header {
     /// Parses and validates the header: magic, version, flags, every dimension against its
     /// limit, the tags, and the consistency of the dimensions.
     fn parse(b: &[u8]) -> Result<Header, FormatError> {
+        let h = Header::read(b)?;
+        h.check_limits(u32_at(b, OFF_CHANNELS))?;
+        h.check_consistency()?;
+        Ok(h)
+    }
+
+    /// Reads the header's fields after checking the magic, the version, the length and the
+    /// storage flags.
+    fn read(b: &[u8]) -> Result<Header, FormatError> {
         let avail = b.len() as u64;
         let prefix = b.len().min(MAGIC.len());
         if b[..prefix] != MAGIC[..prefix] {
@@ -147,8 +156,7 @@ impl Header {
             });
         }
         let storage = parse_storage_field(version, u32_at(b, OFF_FLAGS))?;
-        let lim = &LIMITS;
-        let h = Header {
+        Ok(Header {
             version,
             storage,
             file_length: u64_at(b, OFF_FILE_LENGTH),
@@ -172,72 +180,81 @@ impl Header {
             },
             image_size: [u32_at(b, OFF_IMAGE_WIDTH), u32_at(b, OFF_IMAGE_HEIGHT)],
             fingerprint: u64_at(b, OFF_FINGERPRINT),
-        };
-        check_range("landmarks", h.n, 3, lim.max_landmarks)?;
-        check_range("triangles", h.t, 1, lim.max_triangles)?;
-        check_range("frame width", h.width, 1, lim.max_frame_side)?;
-        check_range("frame height", h.height, 1, lim.max_frame_side)?;
-        if !h.origin[0].is_finite() || !h.origin[1].is_finite() {
-            let index = if h.origin[0].is_finite() { 1 } else { 0 };
+        })
+    }
+
+    /// Every dimension against its limit (and `channels`, the file's channel count, against 3),
+    /// the finite origin and pose, the tags.
+    fn check_limits(&self, channels: u32) -> Result<(), FormatError> {
+        let lim = &LIMITS;
+        check_range("landmarks", self.n, 3, lim.max_landmarks)?;
+        check_range("triangles", self.t, 1, lim.max_triangles)?;
+        check_range("frame width", self.width, 1, lim.max_frame_side)?;
+        check_range("frame height", self.height, 1, lim.max_frame_side)?;
+        if !self.origin[0].is_finite() || !self.origin[1].is_finite() {
+            let index = if self.origin[0].is_finite() { 1 } else { 0 };
             return Err(FormatError::NonFinite {
                 array: "frame origin",
                 index,
             });
         }
-        check_range("frame pixels", h.pixels, 1, lim.max_pixels)?;
-        let channels = u32_at(b, OFF_CHANNELS);
+        check_range("frame pixels", self.pixels, 1, lim.max_pixels)?;
         if channels != 3 {
             return Err(FormatError::UnsupportedChannels { found: channels });
         }
-        check_range("shape modes", h.m, 0, lim.max_shape_modes)?;
-        check_range("appearance modes", h.l, 0, lim.max_appearance_modes)?;
-        match h.scheme {
+        check_range("shape modes", self.m, 0, lim.max_shape_modes)?;
+        check_range("appearance modes", self.l, 0, lim.max_appearance_modes)?;
+        match self.scheme {
             SCHEME_GENERIC => {}
-            SCHEME_IBUG68 if h.n == 68 => {}
+            SCHEME_IBUG68 if self.n == 68 => {}
             SCHEME_IBUG68 => {
                 return Err(FormatError::InconsistentDimensions(format!(
                     "the iBUG-68 scheme needs 68 landmarks, the header has {}",
-                    h.n
+                    self.n
                 )))
             }
             tag => return Err(FormatError::BadSchemeTag { tag }),
         }
-        match h.reference {
-            REFERENCE_MEAN if h.ref_name_len != 0 => {
+        match self.reference {
+            REFERENCE_MEAN if self.ref_name_len != 0 => {
                 return Err(FormatError::InconsistentDimensions(format!(
                     "the reference is the mean but a reference name of {} bytes is given",
-                    h.ref_name_len
+                    self.ref_name_len
                 )))
             }
             REFERENCE_MEAN | REFERENCE_TRAINING => {}
             tag => return Err(FormatError::BadReferenceTag { tag }),
         }
-        check_range("model name length", h.name_len, 0, lim.max_name_bytes)?;
+        check_range("model name length", self.name_len, 0, lim.max_name_bytes)?;
         check_range(
             "reference name length",
-            h.ref_name_len,
+            self.ref_name_len,
             0,
             lim.max_reference_name_bytes,
         )?;
-        let pose = [h.pose.a, h.pose.b, h.pose.tx, h.pose.ty];
+        let pose = [self.pose.a, self.pose.b, self.pose.tx, self.pose.ty];
         if let Some(i) = pose.iter().position(|v| !v.is_finite()) {
             return Err(FormatError::NonFinite {
                 array: "mean pose",
                 index: i as u64,
             });
         }
-        check_range("image width", h.image_size[0], 1, lim.max_image_side)?;
-        check_range("image height", h.image_size[1], 1, lim.max_image_side)?;
+        check_range("image width", self.image_size[0], 1, lim.max_image_side)?;
+        check_range("image height", self.image_size[1], 1, lim.max_image_side)?;
+        Ok(())
+    }
 
-        // Consistency of the dimensions (all products fit in u64: the factors are limited).
-        let area = h.width as u64 * h.height as u64;
-        if h.pixels as u64 > area {
+    /// The consistency of the dimensions (all products fit in u64: the factors are limited).
+    fn check_consistency(&self) -> Result<(), FormatError> {
+        let lim = &LIMITS;
+        let area = self.width as u64 * self.height as u64;
+        if self.pixels as u64 > area {
             return Err(FormatError::InconsistentDimensions(format!(
                 "{} frame pixels do not fit a {}x{} grid",
-                h.pixels, h.width, h.height
+                self.pixels, self.width, self.height
             )));
         }
-        let area_limit = lim.area_per_pixel * h.pixels as u64 + lim.area_slack;
+        let area_limit = lim.area_per_pixel * self.pixels as u64 + lim.area_slack;
         if area > area_limit {
             return Err(FormatError::LimitExceeded {
                 what: "frame area (width x height) for the pixel count",
@@ -245,33 +262,39 @@ impl Header {
                 limit: area_limit,
             });
         }
-        if h.m as u64 > 2 * h.n as u64 {
+        if self.m as u64 > 2 * self.n as u64 {
             return Err(FormatError::InconsistentDimensions(format!(
                 "{} shape modes for {} shape values (at most one mode per value)",
-                h.m,
-                2 * h.n
+                self.m,
+                2 * self.n
             )));
         }
-        if h.l as u64 > 3 * h.pixels as u64 {
+        if self.l as u64 > 3 * self.pixels as u64 {
             return Err(FormatError::InconsistentDimensions(format!(
                 "{} appearance modes for {} appearance values (at most one mode per value)",
-                h.l,
-                3 * h.pixels as u64
+                self.l,
+                3 * self.pixels as u64
             )));
         }
-        Ok(h)
+        Ok(())
     }
 
-    /// The file length the dimensions imply, with checked arithmetic (`None` on overflow,
-    /// which the limits make impossible).
-    fn implied_length(&self) -> Option<u64> {
-        let (n2, m, t, px3, l) = (
+    /// The arrays' sizes: shape values `2n`, shape modes `m`, triangles `t`, appearance values
+    /// `3 x pixels`, appearance modes `l`.
+    fn counts(&self) -> [u64; 5] {
+        [
             2 * self.n as u64,
             self.m as u64,
             self.t as u64,
             3 * self.pixels as u64,
             self.l as u64,
-        );
+        ]
+    }
+
+    /// The file length the dimensions imply, with checked arithmetic (`None` on overflow,
+    /// which the limits make impossible).
+    fn implied_length(&self) -> Option<u64> {
+        let [n2, m, t, px3, l] = self.counts();
         let names = self.name_len as u64 + self.ref_name_len as u64;
         let shape = n2.checked_mul(m)?.checked_add(2 * n2)?.checked_add(m)?;
         let words = shape.checked_add(t.checked_mul(3)?)?;
@@ -392,13 +415,7 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
         pos: HEADER_LEN,
     };
     let (name, ref_name) = read_names(&mut c, &h)?;
-    let (n2, m, t, px3, l) = (
-        2 * h.n as usize,
-        h.m as usize,
-        h.t as usize,
-        3 * h.pixels as usize,
-        h.l as usize,
-    );
+    let [n2, m, t, px3, l] = h.counts().map(|v| v as usize);
     let shape_base = c.f32s(n2, "shape base")?;
     let shape_modes = c.f32s(n2 * m, "shape modes")?;
     let shape_variances = c.f32s(m, "shape variances")?;

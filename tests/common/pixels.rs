@@ -1,0 +1,50 @@
+//! Comparing rendered images: the golden images, the two rasterisers, the canvas paths.
+
+/// How two images of interleaved 8-bit values differ.
+pub struct PixelDiff {
+    /// Pixels compared.
+    pub pixels: usize,
+    /// Pixels with a value that differs by more than the tolerance.
+    pub differing: usize,
+    /// The largest difference of one value, in levels.
+    pub worst: i32,
+}
+
+impl PixelDiff {
+    /// The share of the pixels that differ.
+    pub fn share(&self) -> f64 {
+        self.differing as f64 / self.pixels.max(1) as f64
+    }
+}
+
+/// Compares `a` and `b` (`channels` values a pixel, equal lengths) pixel by pixel: a pixel differs
+/// when one of its values differs by more than `tolerance` levels.
+pub fn pixel_diff(a: &[u8], b: &[u8], channels: usize, tolerance: i32) -> PixelDiff {
+    assert_eq!(a.len(), b.len(), "images of different sizes");
+    let (mut differing, mut worst) = (0, 0);
+    for (p, q) in a.chunks_exact(channels).zip(b.chunks_exact(channels)) {
+        let d = p
+            .iter()
+            .zip(q)
+            .map(|(x, y)| (*x as i32 - *y as i32).abs())
+            .max()
+            .unwrap_or(0);
+        worst = worst.max(d);
+        differing += usize::from(d > tolerance);
+    }
+    PixelDiff {
+        pixels: a.len() / channels,
+        differing,
+        worst,
+    }
+}
+
+/// The mean absolute difference of the values of `a` and `b`, in levels.
+pub fn mean_abs_diff(a: &[u8], b: &[u8]) -> f32 {
+    assert_eq!(a.len(), b.len(), "images of different sizes");
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (*x as f32 - *y as f32).abs())
+        .sum::<f32>()
+        / a.len().max(1) as f32
+}
