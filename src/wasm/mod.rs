@@ -26,7 +26,7 @@ pub use build::{build_model, enrol_face};
 pub use cloner::JsCloner;
 pub use finder::JsFaceFinder;
 pub use model::{render_mode, JsModel};
-pub use pose::{mean_pose, recentre_pose};
+pub use pose::{lerp_pose, mean_pose, recentre_pose};
 pub use tracker::{WasmFollower, WasmTracker};
 
 /// Converts a library error into a JS `Error` (its message names the problem).
