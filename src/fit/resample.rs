@@ -104,8 +104,8 @@ impl Taps {
 pub(crate) struct Resampler {
     x: Taps,
     y: Taps,
-    /// The horizontal pass: `dst_w x src_h` RGB.
-    rows: Vec<f32>,
+    /// One output row's source rows blended (`src_w` RGBA).
+    acc: Vec<f32>,
     out: Vec<u8>,
     /// The stamp, scale and size of the image in `out`.
     made: Option<(u32, u32, u32, u32)>,
@@ -131,39 +131,35 @@ impl Resampler {
         self.made = None;
         self.x.make(sw, dw, k);
         self.y.make(sh, dh, k);
-        let (sw, dw, dh) = (sw as usize, dw as usize, dh as usize);
+        let (sw, dw) = (sw as usize, dw as usize);
         let src = frame.data();
-        self.rows.resize(dw * sh as usize * 3, 0.0);
-        for (y, row) in self.rows.chunks_exact_mut(dw * 3).enumerate() {
-            let line = &src[y * sw * 4..(y + 1) * sw * 4];
-            for (x, o) in row.chunks_exact_mut(3).enumerate() {
-                let (first, w) = self.x.of(x);
-                let (mut r, mut g, mut b) = (0.0f32, 0.0f32, 0.0f32);
-                for (p, w) in line[first * 4..].chunks_exact(4).zip(w) {
-                    r += w * p[0] as f32;
-                    g += w * p[1] as f32;
-                    b += w * p[2] as f32;
-                }
-                o[0] = r;
-                o[1] = g;
-                o[2] = b;
-            }
-        }
-        self.out.resize(dw * dh * 4, 255);
-        let stride = dw * 3;
+        self.out.resize(dw * dh as usize * 4, 255);
+        let stride = sw * 4;
+        self.acc.resize(stride, 0.0);
         for (y, line) in self.out.chunks_exact_mut(dw * 4).enumerate() {
-            let (first, w) = self.y.of(y);
+            // The output row's source rows blended, whole rows at a time (contiguous: the loop
+            // vectorises)...
+            let (first, wy) = self.y.of(y);
+            self.acc.fill(0.0);
+            for (j, w) in wy.iter().enumerate() {
+                let row = &src[(first + j) * stride..(first + j + 1) * stride];
+                self.acc
+                    .iter_mut()
+                    .zip(row)
+                    .for_each(|(a, v)| *a += w * *v as f32);
+            }
+            // ...then along the row, a pixel's four channels at a time.
             for (x, o) in line.chunks_exact_mut(4).enumerate() {
-                let (mut r, mut g, mut b) = (0.0f32, 0.0f32, 0.0f32);
-                for (j, w) in w.iter().enumerate() {
-                    let p = &self.rows[(first + j) * stride + x * 3..];
-                    r += w * p[0];
-                    g += w * p[1];
-                    b += w * p[2];
+                let (first, wx) = self.x.of(x);
+                let mut p = [0.0f32; 4];
+                for (q, w) in self.acc[first * 4..].chunks_exact(4).zip(wx) {
+                    for (p, q) in p.iter_mut().zip(q) {
+                        *p += w * q;
+                    }
                 }
-                o[0] = (r + 0.5).clamp(0.0, 255.0) as u8;
-                o[1] = (g + 0.5).clamp(0.0, 255.0) as u8;
-                o[2] = (b + 0.5).clamp(0.0, 255.0) as u8;
+                o[0] = (p[0] + 0.5).clamp(0.0, 255.0) as u8;
+                o[1] = (p[1] + 0.5).clamp(0.0, 255.0) as u8;
+                o[2] = (p[2] + 0.5).clamp(0.0, 255.0) as u8;
                 o[3] = 255;
             }
         }
