@@ -164,7 +164,7 @@ impl Resampler {
             }
         }
         self.made = Some((stamp, k.to_bits(), frame.width(), frame.height()));
-        ImageRef::new(dw as u32, dh as u32, &self.out)
+        ImageRef::new(dw as u32, dh, &self.out)
     }
 }
 
