@@ -97,11 +97,62 @@ fn bench_track(c: &mut Criterion, name: &str, model: &Model, seq: &[(Image, Vec<
     group.finish();
 }
 
+/// `fit/track` on frames enlarged twice (each pixel a 2x2 block): the tracker fits a copy
+/// resampled by about 0.5, so against `grid-spk07` this is the cost of its resampling.
+fn bench_track_doubled(c: &mut Criterion, name: &str, model: &Model, seq: &[(Image, Vec<f32>)]) {
+    let doubled: Vec<(Image, Vec<f32>)> = seq
+        .iter()
+        .map(|(img, lm)| {
+            let (w, h) = (img.width * 2, img.height * 2);
+            let mut data = vec![0u8; (w * h * 4) as usize];
+            for y in 0..h {
+                for x in 0..w {
+                    let s = (((y / 2) * img.width + x / 2) * 4) as usize;
+                    let d = ((y * w + x) * 4) as usize;
+                    data[d..d + 4].copy_from_slice(&img.data[s..s + 4]);
+                }
+            }
+            let lm = lm.iter().map(|v| 2.0 * (v + 0.5) - 0.5).collect();
+            (
+                Image {
+                    width: w,
+                    height: h,
+                    data,
+                },
+                lm,
+            )
+        })
+        .collect();
+    let mut group = c.benchmark_group("fit/track");
+    group.throughput(Throughput::Elements(1));
+    let mut tracker = Tracker::new(model, FitOptions::default()).expect("tracker");
+    tracker.start_from_landmarks(&doubled[0].1).expect("start");
+    let views: Vec<_> = doubled
+        .iter()
+        .map(|(img, _)| img.view().expect("view"))
+        .collect();
+    let mut i = 0usize;
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            if i == views.len() {
+                i = 0;
+                tracker.start_from_landmarks(&doubled[0].1).expect("start");
+            }
+            let r = tracker.track(&views[i]).expect("track");
+            i += 1;
+            r.error
+        })
+    });
+    group.finish();
+    println!("{name}: fitted at scale {}", tracker.scale());
+}
+
 fn benches(c: &mut Criterion) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let grid = build(&root.join("data/grid/spk07_pwij3p/train20.txt"));
     let seq = frames(&root.join("data/grid/spk07_id2_vcd_swwp2s"), 75);
     bench_track(c, "grid-spk07", &grid, &seq);
+    bench_track_doubled(c, "grid-spk07-x2", &grid, &seq);
     bench_follow(
         c,
         "grid-spk03",

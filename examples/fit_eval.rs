@@ -258,7 +258,7 @@ mod native {
             mean(&rest),
             errs.iter().filter(|&&e| e > 0.1).count(),
             t.resets(),
-            t.lost_count()
+            t.sequence().lost_count()
         );
         let v = &model.shape().variances;
         let rel: Vec<String> = v.iter().map(|x| format!("{:.3}", x / v[0])).collect();
@@ -322,9 +322,9 @@ mod native {
              (lost counted), lost {}, resets {}, reacquisitions {}, {:.1} iterations, {:.0} fits/s \
              ({:.0} fits/s of CPU time)",
             errs.len(),
-            t.lost_count(),
+            t.sequence().lost_count(),
             t.resets(),
-            t.reacquisitions(),
+            t.sequence().reacquisitions(),
             iters as f64 / errs.len() as f64,
             errs.len() as f64 / secs,
             errs.len() as f64 / cpu.max(1e-9)

@@ -147,6 +147,26 @@ impl Similarity {
         ))
     }
 
+    /// The pose `u` of the way from `self` to `to` (`u` in `0..=1`), in the convention of
+    /// [`Similarity::mean`]: the scale geometrically (its logarithm linearly), the rotation the
+    /// short way round (-179 to 179 degrees passes through 180), the translation linearly. The
+    /// tracker's pose anchor follows the head this way, and the page blends recorded frames
+    /// with it (the wasm `lerpPose`). Either pose invalid: `to`.
+    pub fn lerp(&self, to: &Similarity, u: f32) -> Similarity {
+        if !(self.is_valid() && to.is_valid()) {
+            return *to;
+        }
+        let (s0, s1) = (self.scale().ln(), to.scale().ln());
+        let (r0, r1) = (self.rotation(), to.rotation());
+        let dr = (r1 - r0).sin().atan2((r1 - r0).cos());
+        Similarity::from_parts(
+            (s0 + (s1 - s0) * u).exp(),
+            r0 + dr * u,
+            self.tx + (to.tx - self.tx) * u,
+            self.ty + (to.ty - self.ty) * u,
+        )
+    }
+
     /// True when all four numbers are finite and the scale is non-zero.
     pub fn is_valid(&self) -> bool {
         [self.a, self.b, self.tx, self.ty]
@@ -295,6 +315,31 @@ mod tests {
         assert!(Similarity::mean(&[]).is_none());
         assert!(Similarity::mean(&[one, Similarity { a: f32::NAN, ..one }]).is_none());
         assert!(Similarity::mean(&[p(1.0, 0.0, 0.0, 0.0), p(1.0, 180.0, 0.0, 0.0)]).is_none());
+    }
+
+    #[test]
+    fn lerp_is_geometric_in_scale_and_short_way_round_in_angle() {
+        let deg = |d: f32| d.to_radians();
+        let a = Similarity::from_parts(1.0, deg(179.0), 0.0, 10.0);
+        let b = Similarity::from_parts(4.0, deg(-179.0), 10.0, 20.0);
+        let m = a.lerp(&b, 0.5);
+        assert!((m.scale() - 2.0).abs() < 1e-5, "{}", m.scale());
+        assert!(
+            (m.rotation().abs() - deg(180.0)).abs() < 1e-4,
+            "{}",
+            m.rotation()
+        );
+        assert!((m.tx - 5.0).abs() < 1e-5 && (m.ty - 15.0).abs() < 1e-5);
+        // Halfway is the mean of the two.
+        let mean = Similarity::mean(&[a, b]).unwrap();
+        assert!((m.a - mean.a).abs() < 1e-5 && (m.b - mean.b).abs() < 1e-5);
+        // The ends are the poses.
+        let e = a.lerp(&b, 1.0);
+        assert!((e.a - b.a).abs() < 1e-5 && (e.b - b.b).abs() < 1e-5 && e.tx == b.tx);
+        let s = a.lerp(&b, 0.0);
+        assert!((s.a - a.a).abs() < 1e-5 && (s.b - a.b).abs() < 1e-5);
+        let bad = Similarity { a: f32::NAN, ..a };
+        assert_eq!(bad.lerp(&b, 0.5), b);
     }
 
     #[test]

@@ -966,3 +966,81 @@ fn backdrops_photo_targets_and_composites() {
     assert!(e.contains("9000"), "{e}");
     assert!(!dir.join("x.fmm").exists(), "a failed build wrote a file");
 }
+
+/// The track the CLI and the npm package must agree on: the tiny model
+/// (`tests/data/tiny-v1.fmm`) on the first six frames of spk07's unseen clip enlarged twice
+/// (nearest: each pixel a 2x2 block, 720x576), so the tracker fits a copy resampled to about the
+/// model's size and maps the fit back: the pixel convention is exercised, not only the fit.
+const GOLDEN_TRACK: &str = "tests/data/tiny-track.csv";
+
+/// `img` enlarged twice (each pixel a 2x2 block), as `tests/wasm_tracker.rs` does it.
+fn doubled(img: &facemimic::Image) -> image::RgbaImage {
+    image::RgbaImage::from_fn(img.width * 2, img.height * 2, |x, y| {
+        let i = (((y / 2) * img.width + x / 2) * 4) as usize;
+        image::Rgba([img.data[i], img.data[i + 1], img.data[i + 2], 255])
+    })
+}
+
+/// `fit` gives the golden track, number for number (landmarks, pose, parameters and the
+/// placement, `placed_*`), that `tests/wasm_tracker.rs` (`tracks_the_golden_frames_as_the_cli`)
+/// checks the npm package's `Tracker` against: the CLI and the page call one core tracker
+/// the same way. `FACEMIMIC_BLESS=1` rewrites the golden file (look at what changed).
+#[test]
+fn fit_gives_the_golden_track_the_npm_package_gives() {
+    let dir = scratch("fit-golden");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let model = root.join("tests/data/tiny-v1.fmm");
+    let frames: Vec<PathBuf> = (0..6)
+        .map(|i| {
+            let jpeg = grid(&format!("spk07_id2_vcd_swwp2s/{i:06}.jpg"));
+            let png = dir.join(format!("{i:06}.png"));
+            doubled(&facemimic::io::read_image(&jpeg).unwrap())
+                .save(&png)
+                .unwrap();
+            png
+        })
+        .collect();
+    let lm =
+        facemimic::io::read_landmarks(&grid("spk07_id2_vcd_swwp2s/000000.pts"), 360, 288).unwrap();
+    let lm2: Vec<f32> = lm.iter().map(|v| 2.0 * (v + 0.5) - 0.5).collect();
+    let init = dir.join("init2.pts");
+    std::fs::write(&init, facemimic::landmarks::write_pts(&lm2)).unwrap();
+    let csv = dir.join("track.csv");
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
+        &"fit", &"--model", &model, &"--init", &init, &"--fps", &"25", &"--out", &csv,
+    ];
+    for f in &frames {
+        args.push(f);
+    }
+    let out = ok(&args);
+    let k: f32 = out
+        .split("fit scale ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no fit scale in {out}"));
+    assert!(k < 0.9, "the frames should be fitted resampled: {out}");
+    let got = std::fs::read_to_string(&csv).unwrap();
+    let golden = root.join(GOLDEN_TRACK);
+    if std::env::var_os("FACEMIMIC_BLESS").is_some_and(|v| v == "1") {
+        std::fs::write(&golden, &got).unwrap();
+    }
+    let want = std::fs::read_to_string(&golden).unwrap();
+    let (got, want): (Vec<&str>, Vec<&str>) = (got.lines().collect(), want.lines().collect());
+    assert_eq!(got.len(), want.len());
+    assert_eq!(got[0], want[0], "header");
+    assert!(got[0].ends_with(",placed_scale,placed_rotation,placed_tx,placed_ty"));
+    for (g, w) in got[1..].iter().zip(&want[1..]) {
+        let (g, w): (Vec<&str>, Vec<&str>) = (g.split(',').collect(), w.split(',').collect());
+        assert_eq!(g[..3], w[..3], "frame, lost, converged");
+        for (i, (a, b)) in g[3..].iter().zip(&w[3..]).enumerate() {
+            let (a, b): (f32, f32) = (a.parse().unwrap(), b.parse().unwrap());
+            assert!(
+                (a - b).abs() <= 1e-3 * (1.0 + b.abs()),
+                "{}: column {}: {a} vs golden {b}",
+                g[0],
+                i + 3
+            );
+        }
+    }
+}

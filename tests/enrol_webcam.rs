@@ -102,7 +102,7 @@ fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> Track {
         raw_over: over(&raw),
         free: mean(&free),
         free_over: over(&free),
-        lost: t.lost_count(),
+        lost: t.sequence().lost_count(),
         resets: t.resets(),
     }
 }

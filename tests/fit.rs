@@ -50,7 +50,7 @@ fn track_with(model: &Model, seq: &[TrainingImage], options: FitOptions) -> (Vec
         let r = t.track(&f.image.view().unwrap()).unwrap();
         errs.push(landmark_error(&r.landmarks, &f.landmarks));
     }
-    (errs, t.resets(), t.lost_count())
+    (errs, t.resets(), t.sequence().lost_count())
 }
 
 fn summary(errs: &[f32]) -> (f32, f32) {
@@ -236,7 +236,7 @@ fn webcam_tracks_from_the_face_finder() {
     println!(
         "webcam-dev 600-1336 from the face finder: mean {mean:.4}, max {max:.4}, {over} frames \
          above 0.1 (lost included), lost {lost_frames:?}, re-acquisitions {}, resets {}",
-        t.reacquisitions(),
+        t.sequence().reacquisitions(),
         t.resets()
     );
     assert!(!errs[0].is_infinite(), "no face found on frame 600");

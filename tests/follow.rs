@@ -214,8 +214,8 @@ fn follows_another_speaker_and_recovers_after_a_blank_frame() {
         source.image_shape(&r.params, &mut posed).unwrap();
         assert!(landmark_error(&posed, &t.landmarks) < 0.25);
     }
-    assert_eq!(f.lost_count(), 1);
-    assert_eq!(f.reacquisitions(), 2);
+    assert_eq!(f.sequence().lost_count(), 1);
+    assert_eq!(f.sequence().reacquisitions(), 2);
     assert!(f.neutral().is_some());
     // Bad input: a clear error, no result changed.
     for dt in [f32::NAN, 0.0, -1.0, f32::INFINITY] {

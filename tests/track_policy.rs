@@ -115,6 +115,14 @@ fn the_policy_is_checked() {
             rescale_change: f32::INFINITY,
             ..TrackPolicy::default()
         },
+        TrackPolicy {
+            recentre_tau: f32::NAN,
+            ..TrackPolicy::default()
+        },
+        TrackPolicy {
+            recentre_tau: -1.0,
+            ..TrackPolicy::default()
+        },
     ] {
         let e = t.set_policy(bad.clone()).unwrap_err().to_string();
         assert!(e.contains("tracking policy"), "{bad:?}: {e}");
@@ -228,7 +236,7 @@ fn offered_faces_start_and_recover_a_sequence() {
         "not re-acquired from the offered faces"
     );
     assert!(landmark_error(&r.landmarks, &f5.landmarks) < 0.06);
-    assert_eq!(t.reacquisitions(), 2);
+    assert_eq!(t.sequence().reacquisitions(), 2);
     // Tracking then goes on from the fit, with no faces wanted.
     let f6 = frame(UNSEEN, 6);
     let r = t.track(&f6.image.view().unwrap()).unwrap();
@@ -276,7 +284,7 @@ fn an_offered_face_on_a_frame_without_one_is_not_acquired() {
             "a face was acquired on a {what} frame"
         );
         assert!(t.wants_faces(), "no more faces wanted after a {what} frame");
-        assert_eq!(t.reacquisitions(), 0);
+        assert_eq!(t.sequence().reacquisitions(), 0);
     }
 }
 
@@ -318,4 +326,94 @@ fn a_lost_face_awaiting_offers_is_refitted_without_retries() {
         assert!(t.track(&black.view().unwrap()).unwrap().lost);
     }
     assert_eq!(t.resets(), 3);
+}
+
+/// `img` enlarged `n` times (nearest: each pixel an `n x n` block), its landmarks mapped in
+/// the crate's convention (`(v + 0.5) n - 0.5`).
+fn enlarged(img: &Image, landmarks: &[f32], n: u32) -> (Image, Vec<f32>) {
+    let (w, h) = (img.width * n, img.height * n);
+    let mut data = vec![0u8; (w * h * 4) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let s = (((y / n) * img.width + x / n) * 4) as usize;
+            let d = ((y * w + x) * 4) as usize;
+            data[d..d + 4].copy_from_slice(&img.data[s..s + 4]);
+        }
+    }
+    let lm = landmarks
+        .iter()
+        .map(|v| (v + 0.5) * n as f32 - 0.5)
+        .collect();
+    (
+        Image {
+            width: w,
+            height: h,
+            data,
+        },
+        lm,
+    )
+}
+
+#[test]
+fn frames_go_in_at_their_size_and_the_track_comes_back_in_their_pixels() {
+    // spk07's unseen clip enlarged 3x: the tracker chooses to fit a copy resampled to about
+    // the model's size, and reports in the large frames' pixels; the track matches the track of
+    // the original frames mapped to the large ones, and the placement (the pose re-centred on
+    // the model's mean pose about a fixed anchor) is the same for both.
+    let fixed = TrackPolicy {
+        recentre_tau: 0.0,
+        ..TrackPolicy::default()
+    };
+    let mut small = Tracker::new(model(), FitOptions::default()).unwrap();
+    let mut large = Tracker::new(model(), FitOptions::default()).unwrap();
+    small.set_policy(fixed.clone()).unwrap();
+    large.set_policy(fixed).unwrap();
+    let f0 = frame(UNSEEN, 0);
+    small.start_from_landmarks(&f0.landmarks).unwrap();
+    let (_, lm3) = enlarged(&f0.image, &f0.landmarks, 3);
+    large.start_from_landmarks(&lm3).unwrap();
+    assert_eq!(large.scale(), 0.0, "the scale is chosen on the first frame");
+    for i in 0..8 {
+        let f = frame(UNSEEN, i);
+        let (big, truth3) = enlarged(&f.image, &f.landmarks, 3);
+        let s = small
+            .track_timed(&f.image.view().unwrap(), 0.04)
+            .unwrap()
+            .clone();
+        let b = large
+            .track_timed(&big.view().unwrap(), 0.04)
+            .unwrap()
+            .clone();
+        assert!(!s.lost && !b.lost, "frame {i} lost");
+        let e = landmark_error(&b.landmarks, &truth3);
+        assert!(e < 0.06, "frame {i}: large-frame error {e}");
+        let (sp, bp) = (small.sequence().placed(), large.sequence().placed());
+        // The placement is about the anchor, so the frame's size does not show in it.
+        assert!(
+            (sp.scale() / bp.scale() - 1.0).abs() < 0.03
+                && (sp.rotation() - bp.rotation()).abs() < 0.03,
+            "frame {i}: placed {sp:?} vs {bp:?}"
+        );
+        // The pose maps shapes into the large frame: its landmarks follow from it.
+        let pose = b.params.pose;
+        assert!(
+            (pose.scale() / s.params.pose.scale() - 3.0).abs() < 0.2,
+            "frame {i}: {pose:?}"
+        );
+    }
+    assert!(
+        (0.25..0.45).contains(&large.scale()),
+        "fit scale {} (about a third expected)",
+        large.scale()
+    );
+    assert_eq!(small.scale(), 1.0);
+    assert_eq!(
+        (large.sequence().frames(), large.sequence().lost_count()),
+        (8, 0)
+    );
+    // The fixed anchor is the first pose: a bad time step is refused.
+    assert!(large.sequence().anchor().is_some());
+    assert!(large
+        .track_timed(&frame(UNSEEN, 8).image.view().unwrap(), f32::NAN)
+        .is_err());
 }

@@ -10,10 +10,13 @@
 //! - `Follower` (the person-independent path) has the `Tracker`'s calls: `fitScale` by the same
 //!   policy, offers checked the same way, `wantsFaces`; a blank frame is lost; a NaN time step,
 //!   a bad image or box throw (nothing panics).
-//! - `recentrePose` is `Similarity::recentred`; `Model.checkParams` is `Model::check_params`
-//!   (a non-positive pose scale is refused by name).
+//! - `recentrePose` is `Similarity::recentred`, `lerpPose` is `Similarity::lerp`;
+//!   `Model.checkParams` is `Model::check_params` (a non-positive pose scale is refused by name).
+//! - `Tracker.track` on frames at their own size gives the CLI's track: the golden file
+//!   `tests/data/tiny-track.csv` that `tests/cli.rs` checks `facemimic fit` against (landmarks,
+//!   pose and `placed` in the frame's pixels, the fit scale chosen by the tracker).
 
-use facemimic::wasm::{recentre_pose, JsModel, WasmFollower, WasmTracker};
+use facemimic::wasm::{lerp_pose, recentre_pose, JsModel, WasmFollower, WasmTracker};
 use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
@@ -98,6 +101,94 @@ fn fit_scale_and_policy() {
         );
     }
     assert_eq!(get(&t.policy().unwrap(), "maxUpscale"), 1.5);
+    // The pose anchor's time constant.
+    assert_eq!(get(&t.policy().unwrap(), "recentreTau"), 4.0);
+    t.set_policy(obj(&[("recentreTau", 0.0.into())])).unwrap();
+    assert_eq!(get(&t.policy().unwrap(), "recentreTau"), 0.0);
+    assert!(t
+        .set_policy(obj(&[("recentreTau", (-1.0).into())]))
+        .is_err());
+}
+
+/// The frames of the golden track (`tests/cli.rs`, `GOLDEN_TRACK`).
+const GOLDEN_FRAMES: [&[u8]; 6] = [
+    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000000.jpg"),
+    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000001.jpg"),
+    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000002.jpg"),
+    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000003.jpg"),
+    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000004.jpg"),
+    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000005.jpg"),
+];
+
+#[wasm_bindgen_test]
+fn tracks_the_golden_frames_as_the_cli() {
+    let golden = include_str!("data/tiny-track.csv");
+    // The CLI's frames: enlarged twice, each pixel a 2x2 block (tests/cli.rs `doubled`).
+    let doubled = |jpeg: &[u8]| {
+        let img = image::load_from_memory(jpeg).unwrap().to_rgba8();
+        image::RgbaImage::from_fn(img.width() * 2, img.height() * 2, |x, y| {
+            let p = img.get_pixel(x / 2, y / 2);
+            image::Rgba([p[0], p[1], p[2], 255])
+        })
+    };
+    let init: Vec<f32> = facemimic::landmarks::parse_pts(include_str!(
+        "../data/grid/spk07_id2_vcd_swwp2s/000000.pts"
+    ))
+    .unwrap()
+    .iter()
+    .map(|v| 2.0 * (v + 0.5) - 0.5)
+    .collect();
+    let model = JsModel::from_bytes(TINY).unwrap();
+    let mut t = WasmTracker::from_model(&model).unwrap();
+    t.start_from_landmarks(&init).unwrap();
+    let mut lines = golden.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let mut worst = 0.0f64;
+    for (i, (jpeg, line)) in GOLDEN_FRAMES.iter().zip(lines).enumerate() {
+        let img = doubled(jpeg);
+        let r = t
+            .track(img.as_raw(), img.width(), img.height(), Some(1.0 / 25.0))
+            .unwrap();
+        let want: Vec<&str> = line.split(',').collect();
+        let lost = Reflect::get(&r, &"lost".into()).unwrap().as_bool().unwrap();
+        assert_eq!(lost.to_string(), want[1], "frame {i}: lost");
+        let lm = Float32Array::new(&Reflect::get(&r, &"landmarks".into()).unwrap()).to_vec();
+        for (j, v) in lm.iter().enumerate() {
+            let w: f64 = want[col("x0") + j].parse().unwrap();
+            worst = worst.max((*v as f64 - w).abs());
+        }
+        let (pose, placed) = (
+            Reflect::get(&r, &"pose".into()).unwrap(),
+            Reflect::get(&r, &"placed".into()).unwrap(),
+        );
+        for (o, prefix) in [(&pose, ""), (&placed, "placed_")] {
+            for k in ["scale", "rotation", "tx", "ty"] {
+                let w: f64 = want[col(&format!("{prefix}{k}"))].parse().unwrap();
+                let d = (get(o, k) - w).abs();
+                assert!(
+                    d <= 1e-4 * (1.0 + w.abs()),
+                    "frame {i}: {prefix}{k} {} vs the CLI's {w}",
+                    get(o, k)
+                );
+            }
+        }
+    }
+    // The same decoder, resampler and fit on another target: the same numbers (the CSV
+    // prints every f32 exactly).
+    assert!(worst < 0.001, "landmarks {worst} px off the CLI's");
+    assert!(
+        t.scale() > 0.0 && t.scale() < 0.9,
+        "fit scale {}",
+        t.scale()
+    );
+    // A bad time step is refused by name.
+    let img = doubled(GOLDEN_FRAMES[0]);
+    let e = message(
+        t.track(img.as_raw(), img.width(), img.height(), Some(f32::NAN))
+            .unwrap_err(),
+    );
+    assert!(e.contains("time step"), "{e}");
 }
 
 #[wasm_bindgen_test]
@@ -172,6 +263,13 @@ fn recentre_pose_and_check_params() {
         recentre_pose(pose(-1.0, 0.0, 0.0, 0.0), anchor, pose(1.0, 0.0, 0.0, 0.0)).unwrap_err(),
     );
     assert!(e.contains("pose.scale"), "{e}");
+    // lerpPose: halfway between 179 and -179 degrees is 180, the scale geometric.
+    let (a, b) = (pose(1.0, 3.124, 0.0, 10.0), pose(4.0, -3.124, 10.0, 20.0));
+    let m = lerp_pose(a.clone(), b, 0.5).unwrap();
+    assert!((get(&m, "scale") - 2.0).abs() < 1e-5);
+    assert!((get(&m, "rotation").abs() - std::f64::consts::PI).abs() < 1e-4);
+    assert!((get(&m, "tx") - 5.0).abs() < 1e-5);
+    assert!(!message(lerp_pose(a.clone(), a, f32::NAN).unwrap_err()).is_empty());
 
     let model = JsModel::from_bytes(TINY).unwrap();
     let p = model.base_params().unwrap();

@@ -125,9 +125,9 @@ async function benchFinder() {
   }
 }
 
-/** The bundled clip's frames (spk07, 360x288) as ImageData at `k` fitted px per video px, and its
- *  description (first frame's landmarks, fps). */
-async function clipFrames(fit) {
+/** The bundled clip's frames (spk07, 360x288) as ImageData at their own size (the tracker chooses
+ *  its fit scale and resamples itself, as for the page), and its first frame's landmarks. */
+async function clipFrames() {
   const info = await (await fetchOk('./media/spk07-clip.json')).json();
   const video = document.createElement('video');
   video.muted = true;
@@ -137,17 +137,9 @@ async function clipFrames(fit) {
     video.onerror = () => reject(new Error(`media/${info.video}: cannot decode`));
   });
   const init = Float32Array.from(info.initLandmarks);
-  let y0 = Infinity;
-  let y1 = -Infinity;
-  for (let i = 1; i < init.length; i += 2) {
-    y0 = Math.min(y0, init[i]);
-    y1 = Math.max(y1, init[i]);
-  }
-  // The fit scale the page's clip source uses (tracking.js openClip).
-  const k = fit.fitScale(y1 - y0, video.videoWidth, video.videoHeight, 0);
   const c = document.createElement('canvas');
-  c.width = Math.max(1, Math.round(video.videoWidth * k));
-  c.height = Math.max(1, Math.round(video.videoHeight * k));
+  c.width = video.videoWidth;
+  c.height = video.videoHeight;
   const ctx = c.getContext('2d', { willReadFrequently: true });
   ctx.imageSmoothingQuality = 'medium';
   const frames = [];
@@ -157,7 +149,7 @@ async function clipFrames(fit) {
     ctx.drawImage(video, 0, 0, c.width, c.height);
     frames.push(ctx.getImageData(0, 0, c.width, c.height));
   }
-  return { frames, init: init.map((v) => v * k), k };
+  return { frames, init };
 }
 
 // Tracking as the page's sources do (`Tracker` with faces offered by the finder worker,
@@ -175,7 +167,7 @@ async function benchTracking(source) {
   const fit = Tracker.fromModel(source);
   try {
     fit.expectOffers(true);
-    const { frames, init, k } = await clipFrames(fit);
+    const { frames, init } = await clipFrames();
     const { width, height } = frames[0];
     const black = new ImageData(width, height);
     for (let i = 3; i < black.data.length; i += 4) black.data[i] = 255;
@@ -261,7 +253,7 @@ async function benchTracking(source) {
     const l = summary(all);
     const a = summary(around);
     return {
-      clip: `${frames.length} frames at ${width}x${height} (fit scale ${k.toFixed(3)})`,
+      clip: `${frames.length} frames at ${width}x${height} (fit scale ${fit.scale.toFixed(3)})`,
       passes: TRACK_PASSES,
       trackedMs: t,
       fitsPerSecond: Math.round(1000 / t.median),

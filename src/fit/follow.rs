@@ -10,6 +10,7 @@ use crate::image::ImageRef;
 use crate::model::Model;
 use crate::similarity::Similarity;
 
+use super::anchor::Sequence;
 use super::{FitResult, TrackPolicy};
 
 /// Tuning of a [`Follower`]. The defaults were chosen on webcam-dev frames 0-599 and measured
@@ -185,9 +186,8 @@ pub struct Follower {
     policy: TrackPolicy,
     model_face_height: f32,
     result: FitResult,
-    lost_count: u32,
-    reacquisitions: u32,
-    frames: u32,
+    /// The counters and the pose anchor.
+    seq: Sequence,
 }
 
 impl std::fmt::Debug for Follower {
@@ -195,7 +195,7 @@ impl std::fmt::Debug for Follower {
         f.debug_struct("Follower")
             .field("options", &self.options)
             .field("following", &self.following)
-            .field("frames", &self.frames)
+            .field("frames", &self.seq.frames())
             .finish_non_exhaustive()
     }
 }
@@ -250,6 +250,7 @@ impl Follower {
             start_box: None,
             policy: TrackPolicy::default(),
             model_face_height: BBox::of_points(&landmarks).height.max(1.0),
+            seq: Sequence::new(base.pose),
             result: FitResult {
                 landmarks,
                 params: base,
@@ -259,9 +260,6 @@ impl Follower {
                 lost: true,
                 reacquired: false,
             },
-            lost_count: 0,
-            reacquisitions: 0,
-            frames: 0,
         })
     }
 
@@ -313,6 +311,7 @@ impl Follower {
         self.offered = None;
         self.start_box = None;
         self.result.lost = true;
+        self.seq.restart();
     }
 
     /// Starts a new person from their face's 68 landmarks on the next frame (image
@@ -381,7 +380,17 @@ impl Follower {
                 "the time step is {dt} s: a positive number is needed"
             )));
         }
-        self.frames += 1;
+        self.step(frame, dt)?;
+        let r = &self.result;
+        let pose = (!r.lost).then_some(r.params.pose);
+        let reacquired = !r.lost && r.reacquired;
+        self.seq
+            .frame(pose.as_ref(), dt, self.policy.recentre_tau, reacquired);
+        Ok(&self.result)
+    }
+
+    /// One frame of [`Follower::track`] into `self.result` (the counters left to it).
+    fn step(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<()> {
         let mut passes = 0u32;
         let mut disagreement = 0.0f32;
         let mut found = false;
@@ -418,21 +427,18 @@ impl Follower {
         }
         if !found {
             self.following = false;
-            self.lost_count += 1;
             self.result.lost = true;
             self.result.converged = false;
             self.result.reacquired = false;
             self.result.iterations = passes;
-            return Ok(&self.result);
+            return Ok(());
         }
         self.last_raw.copy_from_slice(&self.points);
         if reacquired {
-            self.reacquisitions += 1;
             self.filter.reset(136);
         }
         self.following = true;
-        self.follow_points(reacquired, disagreement, passes, dt)?;
-        Ok(&self.result)
+        self.follow_points(reacquired, disagreement, passes, dt)
     }
 
     /// Searches a lost or new face (the faces offered, else the finder on the whole frame when
@@ -508,7 +514,6 @@ impl Follower {
         let Some(inv) = pose.inverse() else {
             // Degenerate points (all in one place): no face.
             self.following = false;
-            self.lost_count += 1;
             self.result.lost = true;
             self.result.reacquired = false;
             return Ok(());
@@ -580,20 +585,10 @@ impl Follower {
         self.seen.then_some(&self.neutral[..])
     }
 
-    /// Frames with no face.
-    pub fn lost_count(&self) -> u32 {
-        self.lost_count
-    }
-
-    /// Faces acquired by a search (the first face and every face found again after a loss
-    /// or a disagreement).
-    pub fn reacquisitions(&self) -> u32 {
-        self.reacquisitions
-    }
-
-    /// Frames followed since the follower was made.
-    pub fn frames(&self) -> u32 {
-        self.frames
+    /// The sequence's counters and pose anchor, as [`crate::fit::Tracker::sequence`]:
+    /// [`Sequence::placed`] is the last face's pose re-centred on the model's mean pose.
+    pub fn sequence(&self) -> &Sequence {
+        &self.seq
     }
 }
 

@@ -18,6 +18,7 @@
 //! - A Tikhonov prior on `p / sigma` conditions the shape update.
 
 mod algorithm;
+mod anchor;
 mod driver;
 mod follow;
 mod geometry;
@@ -25,16 +26,18 @@ mod grey;
 mod linalg;
 mod options;
 mod precompute;
+mod resample;
 mod tracker;
 
 use serde::{Deserialize, Serialize};
 
 use crate::model::Params;
 
+pub use anchor::Sequence;
 pub use driver::Fitter;
 pub use follow::{expression_params, mouth_opening, neutral_update, FollowOptions, Follower};
 pub use options::{FitOptions, LevelSpec, TrackPolicy};
-pub use tracker::{FaceSource, Tracker, MIN_CONTRAST};
+pub use tracker::{FaceSource, Tracker, DEFAULT_TIME_STEP, MIN_CONTRAST};
 
 /// The result of one fit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -196,6 +196,7 @@ pub struct LevelSpec {
 /// is resampled before fitting, and how the tracked parameters are bounded. `Default` is what
 /// the page and the package use.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct TrackPolicy {
     /// Tracked appearance parameters are clamped to `+-appearance_limit` standard deviations
     /// of the model ([`crate::clone::constrain`]): another person's face (a webcam, a dropped
@@ -216,6 +217,12 @@ pub struct TrackPolicy {
     /// differs from the current one by more than this fraction (a face moving to or from the
     /// camera), so the resampling does not flicker between nearby scales.
     pub rescale_change: f32,
+    /// The time constant (seconds) with which the pose anchor follows the head
+    /// ([`crate::fit::Sequence`]): the placement a tracked face drives is its pose re-centred
+    /// on the model's mean pose about the anchor, so a face anywhere in the picture ends up
+    /// centred. 0: the anchor stays at the sequence's first pose (a clip's motion reproduced
+    /// exactly).
+    pub recentre_tau: f32,
 }
 
 impl Default for TrackPolicy {
@@ -227,6 +234,7 @@ impl Default for TrackPolicy {
             max_upscale: 2.0,
             native_band: 1.33,
             rescale_change: 0.3,
+            recentre_tau: 4.0,
         }
     }
 }
@@ -306,6 +314,12 @@ impl TrackPolicy {
             return bad(format!(
                 "rescale_change = {} must be in 0..=4",
                 self.rescale_change
+            ));
+        }
+        if !(0.0..=3600.0).contains(&self.recentre_tau) {
+            return bad(format!(
+                "recentre_tau = {} must be in 0..=3600 (seconds)",
+                self.recentre_tau
             ));
         }
         Ok(())

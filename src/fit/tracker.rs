@@ -7,7 +7,12 @@ use crate::image::ImageRef;
 use crate::model::Model;
 use crate::similarity::Similarity;
 
+use super::anchor::Sequence;
+use super::resample::{from_scaled, pose_from_scaled, to_scaled, Resampler};
 use super::{FitOptions, FitResult, Fitter, TrackPolicy};
+
+/// The time step [`Tracker::track`] assumes (seconds): 30 frames a second.
+pub const DEFAULT_TIME_STEP: f32 = 1.0 / 30.0;
 
 /// A fit whose image contrast under the mesh is below this fraction of the template's (or
 /// above its inverse) is a lost face: see [`Fitter::contrast`].
@@ -58,24 +63,45 @@ impl FaceSource for crate::find::FaceFinder {
 /// from no landmarks at all. With faces offered from elsewhere instead
 /// ([`Tracker::expect_offers`]), a lost face is searched for with the faces offered; until
 /// they come, each frame gets only the ordinary fit from the last good fit (no retry).
+///
+/// **One pixel convention.** Frames come in at their own size, and everything going in and
+/// out (start landmarks and boxes, offered faces, what a [`FaceSource`] finds, the results'
+/// landmarks and poses) is in that frame's pixels. The tracker decides at what scale it fits
+/// ([`Tracker::fit_scale`], under the [`TrackPolicy`]: a large face is fitted in a smaller copy
+/// of the frame, at about the size the model was built at): the scale is chosen on the first
+/// frame of a sequence from the start landmarks, on an acquisition from the face acquired, and
+/// after every good fit from the face's size (a face moving to or from the camera), and the
+/// tracker resamples the frame itself (a triangle filter, [`Tracker::scale`]) with pixel
+/// centres on integers, so a frame point `v` is `(v + 0.5) k - 0.5` in the fitted copy.
+///
+/// **The placement.** Each good fit's pose also moves the sequence's pose anchor
+/// ([`Sequence`], [`Tracker::sequence`]), and [`Sequence::placed`] is the pose re-centred on
+/// the model's mean pose: what the page draws the driven face with.
 pub struct Tracker {
     fitter: Fitter,
-    /// Where the next fit starts (landmarks, image coordinates).
+    /// Where the next fit starts (landmarks, frame pixels).
     start: Vec<f32>,
+    /// Scratch: a fit's start in the fitted copy's pixels.
+    fit_start: Vec<f32>,
+    /// The fit scale in use (fitted pixels per frame pixel); 0 until the sequence's first
+    /// frame decides it.
+    k: f32,
+    resampler: Resampler,
+    /// The fitter's last result in frame pixels.
+    fitted: FitResult,
     /// True once a sequence has been started.
     started: bool,
     /// True when the next fit starts from a rough guess (a box) and should work harder.
     cold: bool,
     last_good: Option<FitResult>,
     last: Option<FitResult>,
-    lost_count: u32,
     resets: u32,
-    frames: u32,
+    /// The counters and the pose anchor.
+    seq: Sequence,
     /// Where faces are found to start from or to come back to.
     source: Option<Box<dyn FaceSource>>,
     /// True while the next frame must be acquired from the source (auto start, or lost).
     searching: bool,
-    reacquisitions: u32,
     /// Whether the previous frame was lost.
     was_lost: bool,
     /// Running mean of the good fits' errors (0 before the first).
@@ -104,19 +130,30 @@ impl Tracker {
         let mut mean = vec![0.0; n2];
         model.image_shape(&model.base_params(), &mut mean)?;
         let model_face_height = extent(&mean).1.max(1.0);
+        let base = model.base_params();
         Ok(Tracker {
-            fitter,
             start: vec![0.0; n2],
+            fit_start: vec![0.0; n2],
+            k: 0.0,
+            resampler: Resampler::default(),
+            fitted: FitResult {
+                landmarks: mean,
+                params: base.clone(),
+                error: 0.0,
+                iterations: 0,
+                converged: false,
+                lost: true,
+                reacquired: false,
+            },
+            seq: Sequence::new(base.pose),
+            fitter,
             started: false,
             cold: false,
             last_good: None,
             last: None,
-            lost_count: 0,
             resets: 0,
-            frames: 0,
             source: None,
             searching: false,
-            reacquisitions: 0,
             was_lost: false,
             typical_error: 0.0,
             frame_size: (0.0, 0.0),
@@ -141,8 +178,9 @@ impl Tracker {
         Ok(())
     }
 
-    /// The scale by which to resample a `width x height` frame before tracking a face
-    /// `face_height` pixels tall in it (resampled pixels per frame pixel), under the
+    /// The scale at which the tracker fits a `width x height` frame with a face
+    /// `face_height` pixels tall in it (resampled pixels per frame pixel; the tracker asks it
+    /// itself, [`Tracker::scale`] is the one in use), under the
     /// [`TrackPolicy`]: the fit's cost grows with the face's size in pixels (a face twice the
     /// model's size costs about 3 times more), so the face is brought to about the size the
     /// model was built at; a face within [`TrackPolicy::native_band`] of it is fitted at the
@@ -157,7 +195,7 @@ impl Tracker {
     }
 
     /// Faces found elsewhere (a face finder on another thread, on a recent frame): landmarks in
-    /// image coordinates, `2n` values each, most confident first. The next acquisition (the
+    /// frame pixels, `2n` values each, most confident first. The next acquisition (the
     /// start of [`Tracker::start_searching`], or a lost face) fits from the one nearest the
     /// last good position instead of asking the source; they are used once. Fails with
     /// [`Error::Params`] (keeping none) when a face has the wrong length or non-finite points.
@@ -204,7 +242,8 @@ impl Tracker {
         &self.fitter
     }
 
-    /// Starts a new sequence from landmarks on the next frame (image coordinates, `2n`).
+    /// Starts a new sequence from landmarks on the next frame (frame pixels, `2n`); the fit
+    /// scale is chosen on that frame for their size.
     pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
         check_len("landmarks", landmarks, self.start.len())?;
         crate::model::bounds::check_landmarks(landmarks)?;
@@ -219,7 +258,7 @@ impl Tracker {
         Ok(())
     }
 
-    /// Starts a new sequence from a face box (image coordinates: left, top, width, height):
+    /// Starts a new sequence from a face box (frame pixels: left, top, width, height):
     /// the base shape is scaled to the box's width and centred in it.
     pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
         crate::model::bounds::check_param_values("box", &[x, y, w, h])?;
@@ -246,6 +285,8 @@ impl Tracker {
 
     fn begin(&mut self, cold: bool) {
         self.started = true;
+        self.k = 0.0;
+        self.seq.restart();
         self.offered = None;
         self.cold = cold;
         self.searching = false;
@@ -280,9 +321,9 @@ impl Tracker {
         Ok(())
     }
 
-    /// Asks the source for the faces in `frame` and fits from the one nearest the last good
-    /// position (or the most confident one). Returns whether the fit is plausible (then it is
-    /// the fitter's result).
+    /// Asks the source for the faces in `frame` (or takes the faces offered) and fits from the
+    /// one nearest the last good position (or the most confident one), at the fit scale for
+    /// its size. Returns whether the fit is plausible (then it is in `fitted`).
     fn acquire(&mut self, frame: &ImageRef<'_>) -> Result<bool> {
         let faces = match (self.offered.take(), self.source.as_mut()) {
             (Some(faces), _) => faces,
@@ -316,28 +357,92 @@ impl Tracker {
         let Some(face) = best else {
             return Ok(false);
         };
+        // The scale for the face acquired (kept when near the one in use).
+        self.k = self.fit_scale(extent(face).1, frame.width(), frame.height(), self.k);
         let opts = self.fitter.options();
         let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
         let starts = opts.coarse_starts;
-        match self.fitter.fit_with(frame, face, Some(cold_iters), starts) {
-            Ok(_) => Ok(self.plausible(self.fitter.result(), false)),
+        match self.fit(frame, From::Face(face), Some(cold_iters), starts) {
+            Ok(()) => Ok(self.plausible(&self.fitted, false)),
             // A degenerate found face is no face.
             Err(Error::Params(_)) => Ok(false),
             Err(e) => Err(e),
         }
     }
 
-    /// Fits the next frame, starting from the previous result (or the sequence's start).
-    ///
-    /// Fails with [`Error::Params`] if no sequence was started. The result's `lost` flag says
-    /// whether the face was lost on this frame (then the result is the last good fit).
+    /// Fits `frame` at the fit scale (deciding it from the start when there is none yet) from
+    /// `from` (frame pixels); the result, in frame pixels, goes to `fitted`.
+    fn fit(
+        &mut self,
+        frame: &ImageRef<'_>,
+        from: From<'_>,
+        iters: Option<(u32, u32)>,
+        starts: u32,
+    ) -> Result<()> {
+        let src: &[f32] = match from {
+            From::Start => &self.start,
+            From::LastGood => self
+                .last_good
+                .as_ref()
+                .map_or(&self.start[..], |g| &g.landmarks[..]),
+            From::Face(f) => f,
+        };
+        if !(self.k > 0.0) {
+            let h = extent(src).1;
+            self.k = self.policy.fit_scale(
+                self.model_face_height,
+                h,
+                frame.width(),
+                frame.height(),
+                0.0,
+            );
+        }
+        let k = self.k;
+        to_scaled(src, k, &mut self.fit_start);
+        if k == 1.0 {
+            self.fitter
+                .fit_with(frame, &self.fit_start, iters, starts)?;
+        } else {
+            let view = self.resampler.resample(frame, k, self.seq.frames())?;
+            self.fitter
+                .fit_with(&view, &self.fit_start, iters, starts)?;
+        }
+        let r = self.fitter.result();
+        copy_result(&mut self.fitted, r);
+        if k != 1.0 {
+            from_scaled(&mut self.fitted.landmarks, k);
+            self.fitted.params.pose = pose_from_scaled(&r.params.pose, k);
+        }
+        Ok(())
+    }
+
+    /// Fits the next frame (at its own size; everything in its pixels), starting from the
+    /// previous result (or the sequence's start), [`DEFAULT_TIME_STEP`] after the previous
+    /// one: [`Tracker::track_timed`].
     pub fn track(&mut self, frame: &ImageRef<'_>) -> Result<&FitResult> {
+        self.track_timed(frame, DEFAULT_TIME_STEP)
+    }
+
+    /// Fits the next frame, `dt` seconds after the previous one (the pose anchor's time step,
+    /// as [`crate::fit::Follower::track`] takes it), starting from the previous result (or the
+    /// sequence's start). The frame comes at its own size: the tracker fits a resampled copy
+    /// when the face is far from the model's size, and the result's landmarks and pose are in
+    /// the frame's pixels (see the type's documentation).
+    ///
+    /// Fails with [`Error::Params`] if no sequence was started or `dt` is not a finite
+    /// non-negative number. The result's `lost` flag says whether the face was lost on this
+    /// frame (then the result is the last good fit).
+    pub fn track_timed(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
         if !self.started {
             return Err(Error::Params(
                 "the tracker has no start: call start_from_landmarks or start_from_box".into(),
             ));
         }
-        self.frames += 1;
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(Error::Params(format!(
+                "the time step is {dt} s: a finite non-negative number is needed"
+            )));
+        }
         self.frame_size = (frame.width() as f32, frame.height() as f32);
         let mut reacquired = false;
         // Without a source, a search with nothing offered yet refits from the last good fit
@@ -347,22 +452,13 @@ impl Tracker {
             reacquired = self.acquire(frame)?;
             reacquired
         } else {
-            let opts = self.fitter.options().clone();
+            let opts = self.fitter.options();
             let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
+            let (coarse, tracking) = (opts.coarse_starts, opts.tracking_starts);
             let first = if self.cold { Some(cold_iters) } else { None };
-            let start = std::mem::take(&mut self.start);
-            let starts = if first.is_some() {
-                opts.coarse_starts
-            } else {
-                opts.tracking_starts
-            };
-            let r = self
-                .fitter
-                .fit_with(frame, &start, first, starts)
-                .map(|_| ());
-            self.start = start;
-            r?;
-            let mut ok = self.plausible(self.fitter.result(), true);
+            let starts = if first.is_some() { coarse } else { tracking };
+            self.fit(frame, From::Start, first, starts)?;
+            let mut ok = self.plausible(&self.fitted, true);
             // Searching here means the face was lost on an earlier frame and the faces to
             // acquire it from are awaited from elsewhere (`offer_faces`: a finder on another
             // thread; no source, nothing offered yet). Then the ordinary fit from the last good
@@ -373,14 +469,8 @@ impl Tracker {
             if !ok && self.last_good.is_some() && !awaiting_offers {
                 self.resets += 1;
                 // Retry from the last good fit, working harder (more appearance-aware steps).
-                let from = self
-                    .last_good
-                    .as_ref()
-                    .map(|g| g.landmarks.clone())
-                    .unwrap_or_default();
-                self.fitter
-                    .fit_with(frame, &from, Some(cold_iters), opts.coarse_starts)?;
-                ok = self.plausible(self.fitter.result(), true);
+                self.fit(frame, From::LastGood, Some(cold_iters), coarse)?;
+                ok = self.plausible(&self.fitted, true);
             }
             if !ok && (self.source.is_some() || self.offered.is_some()) {
                 reacquired = self.acquire(frame)?;
@@ -388,49 +478,58 @@ impl Tracker {
             }
             ok
         };
-        let result = if ok {
+        let tau = self.policy.recentre_tau;
+        if ok {
             self.cold = false;
             self.searching = false;
-            let mut r = self.fitter.result().clone();
+            let mut r = std::mem::replace(&mut self.fitted, empty_result());
             self.bound_appearance(&mut r);
             // A face found again after lost frames (or the first face of an auto start).
             r.reacquired = reacquired && (self.was_lost || self.last_good.is_none());
-            if r.reacquired {
-                self.reacquisitions += 1;
-            }
+            r.lost = false;
             // A slow running mean, restarted by a (re-)acquisition.
             self.typical_error = if self.typical_error > 0.0 && !r.reacquired {
                 0.95 * self.typical_error + 0.05 * r.error
             } else {
                 r.error
             };
-            self.last_good = Some(r.clone());
+            self.seq.frame(Some(&r.params.pose), dt, tau, r.reacquired);
+            store(&mut self.last_good, &r);
             self.start.copy_from_slice(&r.landmarks);
-            r
+            // The face grew or shrank a lot (moving to or from the camera): the next frame is
+            // fitted at a new scale.
+            self.k = self.fit_scale(
+                extent(&r.landmarks).1,
+                frame.width(),
+                frame.height(),
+                self.k,
+            );
+            store(&mut self.last, &r);
+            self.fitted = r;
         } else {
-            self.lost_count += 1;
+            self.seq.frame(None, dt, tau, false);
             self.searching = self.source.is_some() || self.offers;
             match &self.last_good {
                 Some(g) => {
                     self.start.copy_from_slice(&g.landmarks);
-                    let mut r = g.clone();
-                    r.lost = true;
-                    r.converged = false;
-                    r.reacquired = false;
-                    r
+                    store(&mut self.last, g);
+                    let last = self.last.as_mut().expect("just stored");
+                    last.lost = true;
+                    last.converged = false;
+                    last.reacquired = false;
                 }
                 None => {
                     // Nothing good yet (a bad box, or no face found): report the attempt.
-                    let mut r = self.fitter.result().clone();
+                    let mut r = std::mem::replace(&mut self.fitted, empty_result());
                     r.lost = true;
                     r.reacquired = false;
                     self.bound_appearance(&mut r);
-                    r
+                    store(&mut self.last, &r);
+                    self.fitted = r;
                 }
             }
-        };
-        self.was_lost = result.lost;
-        self.last = Some(result);
+        }
+        self.was_lost = !ok;
         Ok(self.last.as_ref().expect("just set"))
     }
 
@@ -512,26 +611,22 @@ impl Tracker {
         self.last_good.as_ref()
     }
 
-    /// Frames reported lost (`lost = true`: even the retry from the last good fit failed).
-    pub fn lost_count(&self) -> u32 {
-        self.lost_count
-    }
-
     /// Re-initialisations: frames whose fit was judged implausible, so that the tracker
     /// re-initialised from the last good result and fitted again.
     pub fn resets(&self) -> u32 {
         self.resets
     }
 
-    /// Faces acquired from the face source: the first face of an auto start and every face
-    /// found again after lost frames.
-    pub fn reacquisitions(&self) -> u32 {
-        self.reacquisitions
+    /// The sequence's counters and pose anchor: [`Sequence::placed`] is the last good pose
+    /// re-centred on the model's mean pose (what the driven face is drawn with).
+    pub fn sequence(&self) -> &Sequence {
+        &self.seq
     }
 
-    /// Frames tracked since the tracker was made.
-    pub fn frames(&self) -> u32 {
-        self.frames
+    /// The fit scale in use (fitted pixels per frame pixel; 1: the frame is fitted as it
+    /// comes), or 0 before a sequence's first frame decides it.
+    pub fn scale(&self) -> f32 {
+        self.k
     }
 }
 
@@ -547,4 +642,52 @@ impl std::fmt::Debug for Tracker {
 fn extent(points: &[f32]) -> (f32, f32) {
     let b = crate::geometry::BBox::of_points(points);
     (b.width.max(0.0), b.height.max(0.0))
+}
+
+/// Where a fit starts.
+enum From<'a> {
+    /// The sequence's start (the last good fit while tracking).
+    Start,
+    /// The last good fit (the sequence's start before one).
+    LastGood,
+    /// A face found or offered.
+    Face(&'a [f32]),
+}
+
+/// A result with nothing in it (no allocation): a placeholder while one is moved out.
+fn empty_result() -> FitResult {
+    FitResult {
+        landmarks: Vec::new(),
+        params: crate::model::Params {
+            pose: Similarity::IDENTITY,
+            shape: Vec::new(),
+            appearance: Vec::new(),
+        },
+        error: 0.0,
+        iterations: 0,
+        converged: false,
+        lost: false,
+        reacquired: false,
+    }
+}
+
+/// Copies `src` into `dst`, reusing its buffers.
+fn copy_result(dst: &mut FitResult, src: &FitResult) {
+    dst.landmarks.clone_from(&src.landmarks);
+    dst.params.pose = src.params.pose;
+    dst.params.shape.clone_from(&src.params.shape);
+    dst.params.appearance.clone_from(&src.params.appearance);
+    dst.error = src.error;
+    dst.iterations = src.iterations;
+    dst.converged = src.converged;
+    dst.lost = src.lost;
+    dst.reacquired = src.reacquired;
+}
+
+/// Stores `src` in `slot`, reusing the buffers of what it held.
+fn store(slot: &mut Option<FitResult>, src: &FitResult) {
+    match slot {
+        Some(d) => copy_result(d, src),
+        None => *slot = Some(src.clone()),
+    }
 }

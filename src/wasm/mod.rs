@@ -28,7 +28,7 @@ pub use cloner::JsCloner;
 pub use finder::JsFaceFinder;
 pub use landmarks::{landmark_error, parse_pts};
 pub use model::{render_mode, JsModel};
-pub use pose::{mean_pose, recentre_pose};
+pub use pose::{lerp_pose, mean_pose, recentre_pose};
 pub use tracker::{WasmFollower, WasmTracker};
 
 /// Converts a library error into a JS `Error` (its message names the problem).

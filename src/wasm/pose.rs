@@ -42,3 +42,24 @@ pub fn recentre_pose(
     serde_wasm_bindgen::to_value(&PoseJson::from(r))
         .map_err(|e| JsError::new(&format!("pose: {e}")))
 }
+
+/// The pose `u` of the way from `from` to `to` (`Similarity::lerp`: the scale geometrically,
+/// the rotation the short way round, the translation linearly; the convention of `meanPose`).
+/// Throws for a pose that is not `{ scale > 0, rotation, tx, ty }` with finite values, or a
+/// `u` that is not finite.
+#[wasm_bindgen(js_name = lerpPose, unchecked_return_type = "Pose")]
+pub fn lerp_pose(
+    #[wasm_bindgen(unchecked_param_type = "Pose")] from: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "Pose")] to: JsValue,
+    u: f32,
+) -> Result<JsValue, JsError> {
+    let from = pose_from_js("from", from)?;
+    let to = pose_from_js("to", to)?;
+    if !u.is_finite() {
+        return Err(JsError::new(&format!(
+            "lerpPose: u is {u}, not a finite number"
+        )));
+    }
+    serde_wasm_bindgen::to_value(&PoseJson::from(from.lerp(&to, u)))
+        .map_err(|e| JsError::new(&format!("pose: {e}")))
+}

@@ -9,7 +9,10 @@ use wasm_bindgen::prelude::*;
 use js_sys::{Array, Float32Array, Reflect};
 use wasm_bindgen::JsCast;
 
-use crate::fit::{FitOptions, FitResult, FollowOptions, Follower, TrackPolicy, Tracker};
+use crate::fit::{
+    FitOptions, FitResult, FollowOptions, Follower, Sequence, TrackPolicy, Tracker,
+    DEFAULT_TIME_STEP,
+};
 use crate::image::ImageRef;
 use crate::similarity::PoseJson;
 
@@ -18,9 +21,15 @@ use super::model::JsModel;
 /// What `Tracker.track` returns (a plain JS object).
 #[derive(Serialize)]
 struct TrackJs<'a> {
-    /// Landmarks, image coordinates, `[x0, y0, x1, y1, ...]`.
+    /// Landmarks, the frame's pixels, `[x0, y0, x1, y1, ...]`.
     landmarks: &'a [f32],
+    /// The fit's pose, the frame's pixels.
     pose: PoseJson,
+    /// The last good pose re-centred on the model's mean pose about the sequence's anchor
+    /// (`Sequence::placed`): the head placement to drive the source face with.
+    placed: PoseJson,
+    /// The fit scale in use (fitted pixels per frame pixel; 1 for a follower).
+    scale: f32,
     shape: &'a [f32],
     appearance: &'a [f32],
     error: f32,
@@ -32,10 +41,12 @@ struct TrackJs<'a> {
     reacquired: bool,
 }
 
-fn to_js(r: &FitResult) -> Result<JsValue, JsError> {
+fn to_js(r: &FitResult, seq: &Sequence, scale: f32) -> Result<JsValue, JsError> {
     let v = TrackJs {
         landmarks: &r.landmarks,
         pose: r.params.pose.into(),
+        placed: seq.placed().into(),
+        scale,
         shape: &r.params.shape,
         appearance: &r.params.appearance,
         error: r.error,
@@ -57,6 +68,7 @@ struct PolicyJs {
     max_upscale: f32,
     native_band: f32,
     rescale_change: f32,
+    recentre_tau: f32,
 }
 
 impl From<&TrackPolicy> for PolicyJs {
@@ -68,6 +80,7 @@ impl From<&TrackPolicy> for PolicyJs {
             max_upscale: p.max_upscale,
             native_band: p.native_band,
             rescale_change: p.rescale_change,
+            recentre_tau: p.recentre_tau,
         }
     }
 }
@@ -82,6 +95,7 @@ struct PolicyPatch {
     max_upscale: Option<f32>,
     native_band: Option<f32>,
     rescale_change: Option<f32>,
+    recentre_tau: Option<f32>,
 }
 
 #[wasm_bindgen(typescript_custom_section)]
@@ -99,6 +113,8 @@ export interface TrackPolicy {
   nativeBand: number;
   /** `fitScale`: the current scale is kept unless the wanted one differs by more than this fraction. */
   rescaleChange: number;
+  /** Seconds in which the pose anchor follows the head (`placed`); 0: it stays at the sequence's first pose. */
+  recentreTau: number;
 }
 "##;
 
@@ -189,20 +205,38 @@ impl WasmTracker {
         self.inner.start_auto().map_err(err)
     }
 
-    /// Fits the next frame (RGBA bytes, e.g. `ImageData.data`, `width * height * 4`). Returns
-    /// `{ landmarks, pose, shape, appearance, error, iterations, converged, lost, reacquired }`.
-    pub fn track(&mut self, data: &[u8], width: u32, height: u32) -> Result<JsValue, JsError> {
+    /// Fits the next frame (RGBA bytes at the frame's own size, e.g. `ImageData.data`,
+    /// `width * height * 4`), `dt` seconds after the previous one (default 1/30; the pose
+    /// anchor's time step). The tracker chooses the fit scale and resamples the frame itself.
+    /// Returns `{ landmarks, pose, placed, scale, shape, appearance, error, iterations,
+    /// converged, lost, reacquired }`, landmarks and poses in the frame's pixels; `placed` is
+    /// the pose re-centred on the model's mean pose (what to drive the source face with).
+    /// Throws for a bad image or a `dt` that is not a finite non-negative number.
+    pub fn track(
+        &mut self,
+        data: &[u8],
+        width: u32,
+        height: u32,
+        dt: Option<f32>,
+    ) -> Result<JsValue, JsError> {
         let image = ImageRef::new(width, height, data).map_err(err)?;
-        let r = self.inner.track(&image).map_err(err)?;
-        to_js(r)
+        let dt = dt.unwrap_or(DEFAULT_TIME_STEP);
+        self.inner.track_timed(&image, dt).map_err(err)?;
+        self.last()
     }
 
     /// The last frame's result (same shape as `track`'s), or `null` before the first frame.
     pub fn last(&self) -> Result<JsValue, JsError> {
         match self.inner.last() {
-            Some(r) => to_js(r),
+            Some(r) => to_js(r, self.inner.sequence(), self.inner.scale()),
             None => Ok(JsValue::NULL),
         }
+    }
+
+    /// The fit scale in use (fitted pixels per frame pixel; 0 before a sequence's first frame).
+    #[wasm_bindgen(getter)]
+    pub fn scale(&self) -> f32 {
+        self.inner.scale()
     }
 
     /// Starts a sequence with no landmarks, with faces given by `offerFaces` (e.g. from a
@@ -223,37 +257,6 @@ impl WasmTracker {
         self.inner.expect_offers(yes);
     }
 
-    /// Faces found in a recent frame, in this tracker's image coordinates, most confident
-    /// first: `FaceFinder.find`'s result (objects with `landmarks`) or arrays of `2n` values.
-    /// The next acquisition fits from the one nearest the last good position. Throws for a
-    /// wrong number of points or non-finite ones (nothing is kept then).
-    #[wasm_bindgen(js_name = offerFaces)]
-    pub fn offer_faces(
-        &mut self,
-        #[wasm_bindgen(unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>")]
-        faces: JsValue,
-    ) -> Result<(), JsError> {
-        let out = faces_from_js(&faces, "tracker")?;
-        self.inner.offer_faces(out).map_err(err)
-    }
-
-    /// True while the tracker looks for a face (searching, or lost with offers expected) and
-    /// has no offered faces left to try: the moment to run a finder and `offerFaces`.
-    #[wasm_bindgen(getter, js_name = wantsFaces)]
-    pub fn wants_faces(&self) -> bool {
-        self.inner.wants_faces()
-    }
-
-    /// The scale by which to resample a `width x height` frame before tracking a face
-    /// `faceHeight` pixels tall in it, so the face is about the model's own size (the fit's
-    /// cost grows with the face's size); 1 when it already is. `current` (0 for none) is the
-    /// scale in use: it is kept unless the wanted one differs by more than the policy's
-    /// `rescaleChange`.
-    #[wasm_bindgen(js_name = fitScale)]
-    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
-        self.inner.fit_scale(face_height, width, height, current)
-    }
-
     /// The tracking policy (`{ appearanceLimit, maxFitSide, minFitSide, maxUpscale, nativeBand,
     /// rescaleChange }`).
     #[wasm_bindgen(getter, unchecked_return_type = "TrackPolicy")]
@@ -269,13 +272,14 @@ impl WasmTracker {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "Partial<TrackPolicy>")] policy: JsValue,
     ) -> Result<(), JsError> {
-        const KEYS: [&str; 6] = [
+        const KEYS: [&str; 7] = [
             "appearanceLimit",
             "maxFitSide",
             "minFitSide",
             "maxUpscale",
             "nativeBand",
             "rescaleChange",
+            "recentreTau",
         ];
         if !policy.is_object() {
             return Err(JsError::new("tracker: setPolicy expects an object"));
@@ -299,6 +303,7 @@ impl WasmTracker {
             max_upscale: patch.max_upscale.unwrap_or(base.max_upscale),
             native_band: patch.native_band.unwrap_or(base.native_band),
             rescale_change: patch.rescale_change.unwrap_or(base.rescale_change),
+            recentre_tau: patch.recentre_tau.unwrap_or(base.recentre_tau),
         };
         self.inner.set_policy(p).map_err(err)
     }
@@ -307,25 +312,6 @@ impl WasmTracker {
     #[wasm_bindgen(getter)]
     pub fn resets(&self) -> u32 {
         self.inner.resets()
-    }
-
-    /// Frames reported lost so far.
-    #[wasm_bindgen(getter, js_name = lostCount)]
-    pub fn lost_count(&self) -> u32 {
-        self.inner.lost_count()
-    }
-
-    /// Faces acquired from the face finder so far (the first of `startAuto`, then each face
-    /// found again after lost frames).
-    #[wasm_bindgen(getter)]
-    pub fn reacquisitions(&self) -> u32 {
-        self.inner.reacquisitions()
-    }
-
-    /// Frames tracked so far.
-    #[wasm_bindgen(getter)]
-    pub fn frames(&self) -> u32 {
-        self.inner.frames()
     }
 }
 
@@ -385,16 +371,21 @@ impl WasmFollower {
         dt: Option<f32>,
     ) -> Result<JsValue, JsError> {
         let image = ImageRef::new(width, height, data).map_err(follow_err)?;
-        let r = self
-            .inner
+        self.inner
             .track(&image, dt.unwrap_or(self.dt))
             .map_err(follow_err)?;
-        to_js(r)
+        self.last()
     }
 
     /// The last frame's result (same shape as `track`'s).
     pub fn last(&self) -> Result<JsValue, JsError> {
-        to_js(self.inner.last())
+        to_js(self.inner.last(), self.inner.sequence(), 1.0)
+    }
+
+    /// Always 1: a follower reads the frame at its own size.
+    #[wasm_bindgen(getter)]
+    pub fn scale(&self) -> f32 {
+        1.0
     }
 
     /// Starts a new person from their face's 68 landmarks on the next frame.
@@ -424,52 +415,10 @@ impl WasmFollower {
         self.inner.set_search(!yes);
     }
 
-    /// Faces found in a recent frame (as `Tracker.offerFaces`): the next search takes the one
-    /// nearest the last face. Throws for a wrong number of points or non-finite ones.
-    #[wasm_bindgen(js_name = offerFaces)]
-    pub fn offer_faces(
-        &mut self,
-        #[wasm_bindgen(unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>")]
-        faces: JsValue,
-    ) -> Result<(), JsError> {
-        let out = faces_from_js(&faces, "follower")?;
-        self.inner.offer_faces(out).map_err(follow_err)
-    }
-
-    /// True while no face is followed and none is offered: the moment to run a finder.
-    #[wasm_bindgen(getter, js_name = wantsFaces)]
-    pub fn wants_faces(&self) -> bool {
-        self.inner.wants_faces()
-    }
-
-    /// As `Tracker.fitScale` (the same policy, the face brought to about the model's size).
-    #[wasm_bindgen(js_name = fitScale)]
-    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
-        self.inner.fit_scale(face_height, width, height, current)
-    }
-
     /// Always 0 (a follower does not refit; kept so a page drives it as a `Tracker`).
     #[wasm_bindgen(getter)]
     pub fn resets(&self) -> u32 {
         0
-    }
-
-    /// Frames with no face so far.
-    #[wasm_bindgen(getter, js_name = lostCount)]
-    pub fn lost_count(&self) -> u32 {
-        self.inner.lost_count()
-    }
-
-    /// Faces acquired so far (the first, then each face found again).
-    #[wasm_bindgen(getter)]
-    pub fn reacquisitions(&self) -> u32 {
-        self.inner.reacquisitions()
-    }
-
-    /// Frames followed so far.
-    #[wasm_bindgen(getter)]
-    pub fn frames(&self) -> u32 {
-        self.inner.frames()
     }
 
     /// Which path this is: `"landmarks"` (a `Tracker` has none).
@@ -486,3 +435,72 @@ impl std::fmt::Debug for WasmFollower {
             .finish()
     }
 }
+
+/// The calls a `Tracker` and a `Follower` share, read from their core's `Sequence` and policy
+/// (one definition for both classes).
+macro_rules! shared_calls {
+    ($class:ident, $js:ident, $err:ident, $who:literal) => {
+        #[wasm_bindgen(js_class = $js)]
+        impl $class {
+            /// Faces found in a recent frame, in the frame's pixels, most confident first:
+            /// `FaceFinder.find`'s result (objects with `landmarks`) or arrays of `2n` values.
+            /// The next acquisition takes the one nearest the last face. Throws for a wrong
+            /// number of points or non-finite ones (nothing is kept then).
+            #[wasm_bindgen(js_name = offerFaces)]
+            pub fn offer_faces(
+                &mut self,
+                #[wasm_bindgen(
+                    unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>"
+                )]
+                faces: JsValue,
+            ) -> Result<(), JsError> {
+                let out = faces_from_js(&faces, $who)?;
+                self.inner.offer_faces(out).map_err($err)
+            }
+
+            /// True while a face is looked for (a search, or a lost face with offers
+            /// expected) and no offered faces are left to try: the moment to run a finder and
+            /// `offerFaces`.
+            #[wasm_bindgen(getter, js_name = wantsFaces)]
+            pub fn wants_faces(&self) -> bool {
+                self.inner.wants_faces()
+            }
+
+            /// The scale at which the tracker fits a `width x height` frame with a face
+            /// `faceHeight` pixels tall (the policy's rule; `track` applies it itself).
+            /// `current` (0 for none) is kept unless the wanted scale differs by more than the
+            /// policy's `rescaleChange`.
+            #[wasm_bindgen(js_name = fitScale)]
+            pub fn fit_scale(
+                &self,
+                face_height: f32,
+                width: u32,
+                height: u32,
+                current: f32,
+            ) -> f32 {
+                self.inner.fit_scale(face_height, width, height, current)
+            }
+
+            /// Frames reported lost so far.
+            #[wasm_bindgen(getter, js_name = lostCount)]
+            pub fn lost_count(&self) -> u32 {
+                self.inner.sequence().lost_count()
+            }
+
+            /// Faces acquired so far (the first face of a search, then each face found again).
+            #[wasm_bindgen(getter)]
+            pub fn reacquisitions(&self) -> u32 {
+                self.inner.sequence().reacquisitions()
+            }
+
+            /// Frames followed so far.
+            #[wasm_bindgen(getter)]
+            pub fn frames(&self) -> u32 {
+                self.inner.sequence().frames()
+            }
+        }
+    };
+}
+
+shared_calls!(WasmTracker, Tracker, err, "tracker");
+shared_calls!(WasmFollower, Follower, follow_err, "follower");

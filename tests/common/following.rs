@@ -96,8 +96,8 @@ pub fn follow(source: &Model, frames: &[TrainingImage], options: FollowOptions) 
     Followed {
         landmarks,
         target_mouth,
-        lost: f.lost_count(),
-        reacquisitions: f.reacquisitions(),
+        lost: f.sequence().lost_count(),
+        reacquisitions: f.sequence().reacquisitions(),
         ms_per_frame: 1e3 * secs / frames.len() as f64,
     }
 }

@@ -120,8 +120,7 @@ async function frameRate(page, fn) {
  * `select` frames of 0..trainEnd (every `step`-th, farthest-point sampled), each with the package's
  * Tracker driven as the page's tracking source drives it (tracking.js): expecting offered faces,
  * started searching, faces found by the page's finder worker when the tracker wants them and
- * offered at the fit scale the tracker asks for (`fitScale`), the fit scale followed as the face
- * grows or shrinks. Error per frame: mean point distance over the outer-eye-corner distance
+ * offered, every frame given at its own size (the tracker chooses its fit scale). Error per frame: mean point distance over the outer-eye-corner distance
  * (points 36 and 45) of the dlib landmarks (`landmark_error` in src/find/mod.rs); a lost frame
  * counts with the landmarks the tracker reports (the last good fit).
  */
@@ -130,7 +129,6 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
   const fm = await import('./pkg/facemimic.js');
   await fm.default();
   const { findFaces } = await import('./js/finder-client.js');
-  const { bounds, scaled } = await import('./js/face-draw.js');
   const file = (i, ext) => `${base}${String(i).padStart(6, '0')}.${ext}`;
   const get = async (url) => {
     const r = await fetch(url);
@@ -190,7 +188,7 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
     const tracker = fm.Tracker.fromModel(model);
     tracker.expectOffers(true);
     tracker.startSearching();
-    return { label, tracker, kFit: 1, errors: [], ms: 0, lost: 0, finds: 0, acquired: 0 };
+    return { label, tracker, errors: [], ms: 0, lost: 0, finds: 0, acquired: 0 };
   });
   // Frames fetched and decoded a few ahead (the browser decodes off the main thread).
   const AHEAD = 12;
@@ -200,35 +198,21 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
   for (let i = first; i <= last; i++) {
     const [bmp, truth] = await queue.shift();
     if (i + AHEAD <= last) queue.push(load(i + AHEAD));
-    const W = bmp.width;
-    const H = bmp.height;
+    const im = pixels(bmp, 1);
     for (const r of runs) {
       const t = r.tracker;
       if (t.wantsFaces) {
-        // The page's feedFinder: faces found in the frame (worker), offered at the fit scale.
+        // The page's feedFinder: faces found in the frame (worker), offered.
         r.finds++;
-        const { faces } = await findFaces(pixels(bmp, 1));
-        if (faces.length) {
-          const kFit = t.fitScale(bounds(faces[0].landmarks).h, W, H, r.kFit);
-          t.offerFaces(faces.map((f) => scaled(f.landmarks, kFit)));
-          r.kFit = kFit;
-        }
+        const { faces } = await findFaces(im);
+        if (faces.length) t.offerFaces(faces);
       }
-      const im = pixels(bmp, r.kFit);
       const ts = performance.now();
-      const fit = t.track(im.data, im.width, im.height);
+      const fit = t.track(im.data, im.width, im.height, 1 / 30);
       r.ms += performance.now() - ts;
       if (fit.lost) r.lost++;
       if (fit.reacquired) r.acquired++;
-      r.errors.push(fm.landmarkError(scaled(fit.landmarks, 1 / r.kFit), truth));
-      if (!fit.lost) {
-        // The face grew or shrank a lot: carry on at a new fit scale (tracking.js fitCurrent).
-        const want = t.fitScale(bounds(fit.landmarks).h / r.kFit, W, H, r.kFit);
-        if (want !== r.kFit) {
-          t.startFromLandmarks(scaled(fit.landmarks, want / r.kFit));
-          r.kFit = want;
-        }
-      }
+      r.errors.push(fm.landmarkError(fit.landmarks, truth));
     }
     bmp.close();
   }

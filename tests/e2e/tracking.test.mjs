@@ -421,10 +421,11 @@ test('the webcam auto-starts on a face in the guide and tracks it live', async (
   const meanErr = log.reduce((s, l) => s + l.error, 0) / log.length;
   console.log(`# face camera: auto-started, ${log.length} fits, ${lost} lost, fit error mean ${meanErr.toFixed(4)}`);
   assert.equal(lost, 0, 'frames lost tracking the face camera');
-  // The face is ~1.9x the model's size in the camera picture: it is fitted on a frame scaled down
-  // to about the model's size (fitting cost grows with the face's size in pixels).
-  const kFit = await tracking(page, () => window.facemimicTracking.kFit);
-  assert.ok(kFit > 0.4 && kFit < 0.7, `fit scale ${kFit} (about 0.53 expected)`);
+  // The page gives the follower the work canvas as it is (640x480 here): its landmark passes cost
+  // the same at any face size, so it does not resample (the AAM tracker's own choice of scale is
+  // checked in tests/track_policy.rs and tests/cli.rs).
+  const scale = await tracking(page, () => window.facemimicTracking.tracker.scale);
+  assert.equal(scale, 1, 'the follower resampled the frame');
   assert.ok(meanErr < 0.06, `fit error mean ${meanErr}`);
   assert.equal(await page.$eval('.trk-state', (e) => e.dataset.state), 'tracking');
   // The source face follows: its parameters change, it stays centred (pose re-centred).

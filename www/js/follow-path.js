@@ -9,8 +9,10 @@
 //                to the person's own neutral face and mapped onto the model's shape modes; the
 //                appearance stays the model's. The panel says so and offers "Create a face".
 //
-// The `Follower` has the `Tracker`'s calls (start, offerFaces, wantsFaces, fitScale, track, the
-// counters), so tracking.js drives either the same way.
+// The `Follower` has the `Tracker`'s calls and convention (start, offerFaces, wantsFaces,
+// `track(data, width, height, dt)` on the frame at its own size returning landmarks and poses in
+// its pixels with `placed`, the head re-centred about the same kind of anchor, the counters), so
+// tracking.js drives either the same way.
 
 /** "landmarks" when a live source (webcam, video file) drives a bundled source model. */
 export function followPath(ctx, mode) {

@@ -10,7 +10,7 @@
 // The tracking work adds video-file and webcam sources (driven by the package's `Tracker`) by
 // calling `registerSource` from its own module; the page lists them only when they are registered.
 
-import { meanPose as averagePose, recentrePose } from '../pkg/facemimic.js';
+import { lerpPose, meanPose as averagePose, recentrePose } from '../pkg/facemimic.js';
 
 /** Registered source factories, in menu order: kind -> { label, create(ctx) }. */
 const registry = new Map();
@@ -47,12 +47,13 @@ export function cloneParams(p) {
   };
 }
 
-/** Linear blend of two Params with the same lengths (u in [0, 1]). */
+/**
+ * Blend of two Params with the same lengths (u in [0, 1]): the pose the package's way
+ * (`lerpPose`: log-scale, the angle the short way round, as its pose average), the modes
+ * linearly.
+ */
 function lerpParams(a, b, u, out) {
-  out.pose.scale = a.pose.scale + (b.pose.scale - a.pose.scale) * u;
-  out.pose.rotation = a.pose.rotation + (b.pose.rotation - a.pose.rotation) * u;
-  out.pose.tx = a.pose.tx + (b.pose.tx - a.pose.tx) * u;
-  out.pose.ty = a.pose.ty + (b.pose.ty - a.pose.ty) * u;
+  out.pose = lerpPose(a.pose, b.pose, u);
   for (let i = 0; i < out.shape.length; i++) out.shape[i] = a.shape[i] + (b.shape[i] - a.shape[i]) * u;
   for (let i = 0; i < out.appearance.length; i++) {
     out.appearance[i] = a.appearance[i] + (b.appearance[i] - a.appearance[i]) * u;
@@ -95,7 +96,7 @@ export function recentreTrack(frames, meanPose) {
 /**
  * The recorded track: `frames` (Params at `fps`) played in a loop. It owns a transport:
  * `playing`, `play()`, `pause()`, `seek(frame)`, `frame` (the current integer frame),
- * `frameCount`. Between frames the parameters are blended linearly, so playback is smooth at any
+ * `frameCount`. Between frames the parameters are blended (`lerpParams`), so playback is smooth at any
  * display rate while the track time advances at exactly `fps` frames per second.
  */
 export class TrackSource {

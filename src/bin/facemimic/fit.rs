@@ -5,62 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use facemimic::fit::{FitOptions, FitResult, FollowOptions, Follower, Tracker};
-use facemimic::{io, Error, FaceFinder, Image, ImageRef, Model, Result, Similarity};
-
-/// The height of the landmarks' bounding box (pixels).
-fn face_height(points: &[f32]) -> f32 {
-    facemimic::BBox::of_points(points).height
-}
-
-/// `points` in a copy of the frame resampled by `k` (pixel centres on integers, the
-/// resampled pixels covering the same picture).
-fn scaled(points: &[f32], k: f32) -> Vec<f32> {
-    points.iter().map(|v| (v + 0.5) * k - 0.5).collect()
-}
-
-/// Resamples frames by the fit scale into one buffer kept between frames (a triangle filter
-/// widened when shrinking, so a large face is not aliased; the page's canvas does the same
-/// job): tracking a long clip at a scale below 1 allocates nothing per frame.
-struct Resampler {
-    resizer: fast_image_resize::Resizer,
-    out: Vec<u8>,
-}
-
-impl Resampler {
-    fn new() -> Self {
-        Resampler {
-            resizer: fast_image_resize::Resizer::new(),
-            out: Vec::new(),
-        }
-    }
-
-    /// `img` resampled by `k`, borrowed from the kept buffer.
-    fn resample(&mut self, img: &Image, k: f32) -> Result<ImageRef<'_>> {
-        use fast_image_resize::{images, FilterType, PixelType, ResizeAlg, ResizeOptions};
-        let (w, h) = (
-            ((img.width as f32 * k).round() as u32).max(1),
-            ((img.height as f32 * k).round() as u32).max(1),
-        );
-        let fail = |e: &dyn std::fmt::Display| {
-            Error::Image(format!(
-                "resampling {}x{} to {w}x{h}: {e}",
-                img.width, img.height
-            ))
-        };
-        let src = images::ImageRef::new(img.width, img.height, &img.data, PixelType::U8x4)
-            .map_err(|e| fail(&e))?;
-        self.out.resize(w as usize * h as usize * 4, 0);
-        let mut dst = images::Image::from_slice_u8(w, h, &mut self.out, PixelType::U8x4)
-            .map_err(|e| fail(&e))?;
-        let options = ResizeOptions::new()
-            .resize_alg(ResizeAlg::Convolution(FilterType::Bilinear))
-            .use_alpha(false);
-        self.resizer
-            .resize(&src, &mut dst, &options)
-            .map_err(|e| fail(&e))?;
-        ImageRef::new(w, h, &self.out)
-    }
-}
+use facemimic::{io, Error, FaceFinder, Image, Model, Result, Similarity};
 
 /// How the source face is followed (`--follow`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -92,7 +37,8 @@ pub struct Args {
     /// with a model that is not theirs (see docs/fitting.md, "Following anyone").
     #[arg(long, value_enum, default_value_t = Follow::Aam)]
     follow: Follow,
-    /// Frames per second of the sequence (`--follow landmarks`: the smoothing's time step).
+    /// Frames per second of the sequence: the time step of the pose anchor (the CSV's
+    /// `placed_*` columns) and, with `--follow landmarks`, of the smoothing.
     #[arg(long, value_name = "FPS", default_value_t = 25.0)]
     fps: f32,
     /// Most project-out iterations per level and frame.
@@ -142,10 +88,9 @@ pub fn run(a: Args) -> Result<()> {
     };
     let first = &images[0];
     let mut tracker = Tracker::new(&model, options)?;
-    // The fit scale (resampled pixels per frame pixel), chosen by the tracker's policy for the
-    // face's size as the page and the npm package choose it: large faces are fitted in a
-    // smaller copy of the frame, at about the size the model was built at.
-    let mut k = 1.0f32;
+    // Frames go in at their size: the tracker chooses the fit scale for the face's size (large
+    // faces are fitted in a smaller copy of the frame, at about the size the model was built
+    // at) and reports in the frame's pixels, as it does for the page and the npm package.
     if init_arg.as_os_str() == "auto" {
         if model.landmarks() != 68 {
             return Err(Error::Params(format!(
@@ -157,59 +102,35 @@ pub fn run(a: Args) -> Result<()> {
         tracker.start_auto()?;
     } else {
         let init = io::read_landmarks(init_arg, first.width, first.height)?;
-        k = tracker.fit_scale(face_height(&init), first.width, first.height, 0.0);
         tracker
-            .start_from_landmarks(&scaled(&init, k))
+            .start_from_landmarks(&init)
             .map_err(|e| e.with_context(&init_arg.display().to_string()))?;
     }
 
+    let dt = 1.0 / a.fps;
     let mut results = Vec::with_capacity(images.len());
-    let mut resampler = Resampler::new();
     let t0 = Instant::now();
     for (img, path) in images.iter().zip(&a.frames) {
         let context = |e: Error| e.with_context(&path.display().to_string());
-        let view = if k == 1.0 {
-            img.view()?
-        } else {
-            resampler.resample(img, k).map_err(context)?
-        };
-        let r = tracker.track(&view).map_err(context)?;
-        // Back to frame pixels.
-        let mut out = r.clone();
-        if k != 1.0 {
-            out.landmarks = scaled(&r.landmarks, 1.0 / k);
-            let p = r.params.pose;
-            out.params.pose =
-                Similarity::from_parts(p.scale() / k, p.rotation(), p.tx / k, p.ty / k);
-        }
-        // The face grew or shrank a lot: carry on at a new scale.
-        if !r.lost {
-            let want = tracker.fit_scale(face_height(&out.landmarks), img.width, img.height, k);
-            if want != k
-                && tracker
-                    .start_from_landmarks(&scaled(&out.landmarks, want))
-                    .is_ok()
-            {
-                k = want;
-            }
-        }
-        results.push(out);
+        let r = tracker.track_timed(&img.view()?, dt).map_err(context)?;
+        results.push((r.clone(), tracker.sequence().placed()));
     }
     let secs = t0.elapsed().as_secs_f64();
     write_csv(&a, &model, &results)?;
 
     let frames = results.len();
-    let iters = results.iter().map(|r| r.iterations as f64).sum::<f64>() / frames.max(1) as f64;
-    let converged = results.iter().filter(|r| r.converged).count();
+    let iters = results.iter().map(|r| r.0.iterations as f64).sum::<f64>() / frames.max(1) as f64;
+    let converged = results.iter().filter(|r| r.0.converged).count();
     crate::print_line(&format!(
         "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
          {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
-         fit scale {k:.3} -> {}",
+         fit scale {:.3} -> {}",
         frames as f64 / secs.max(1e-9),
         1e3 * secs / frames.max(1) as f64,
         tracker.resets(),
-        tracker.lost_count(),
-        tracker.reacquisitions(),
+        tracker.sequence().lost_count(),
+        tracker.sequence().reacquisitions(),
+        tracker.scale(),
         a.out.display()
     ))
 }
@@ -231,7 +152,7 @@ fn follow_landmarks(a: &Args, model: &Model, images: &[Image]) -> Result<()> {
         let r = follower
             .track(&img.view()?, dt)
             .map_err(|e| e.with_context(&path.display().to_string()))?;
-        results.push(r.clone());
+        results.push((r.clone(), follower.sequence().placed()));
     }
     let secs = t0.elapsed().as_secs_f64();
     write_csv(a, model, &results)?;
@@ -241,15 +162,16 @@ fn follow_landmarks(a: &Args, model: &Model, images: &[Image]) -> Result<()> {
          frame), {} lost, {} acquisitions -> {}",
         frames as f64 / secs.max(1e-9),
         1e3 * secs / frames.max(1) as f64,
-        follower.lost_count(),
-        follower.reacquisitions(),
+        follower.sequence().lost_count(),
+        follower.sequence().reacquisitions(),
         a.out.display()
     ))
 }
 
 /// Writes the track CSV: one row per frame (name, lost, converged, iterations, error, the
-/// landmarks, the pose, `p` and `lambda`).
-fn write_csv(a: &Args, model: &Model, results: &[FitResult]) -> Result<()> {
+/// landmarks, the pose, `p`, `lambda`, and the placement: the pose re-centred on the model's
+/// mean pose about the sequence's anchor, [`facemimic::fit::Sequence::placed`]).
+fn write_csv(a: &Args, model: &Model, results: &[(FitResult, Similarity)]) -> Result<()> {
     let n = model.landmarks();
     let mut csv = String::from("frame,lost,converged,iterations,error");
     for i in 0..n {
@@ -262,8 +184,8 @@ fn write_csv(a: &Args, model: &Model, results: &[FitResult]) -> Result<()> {
     for i in 0..model.appearance().n_modes() {
         let _ = write!(csv, ",lambda{i}");
     }
-    csv.push('\n');
-    for (r, path) in results.iter().zip(&a.frames) {
+    csv.push_str(",placed_scale,placed_rotation,placed_tx,placed_ty\n");
+    for ((r, placed), path) in results.iter().zip(&a.frames) {
         let name = path
             .file_name()
             .map(|s| s.to_string_lossy().into_owned())
@@ -293,7 +215,14 @@ fn write_csv(a: &Args, model: &Model, results: &[FitResult]) -> Result<()> {
         for v in r.params.shape.iter().chain(&r.params.appearance) {
             let _ = write!(csv, ",{v}");
         }
-        csv.push('\n');
+        let _ = writeln!(
+            csv,
+            ",{},{},{},{}",
+            placed.scale(),
+            placed.rotation(),
+            placed.tx,
+            placed.ty
+        );
     }
     std::fs::write(&a.out, csv).map_err(|e| Error::Io(format!("{}: {e}", a.out.display())))
 }

@@ -1,0 +1,145 @@
+//! The head placement a followed face drives: its pose re-centred on the model's mean pose
+//! about an anchor that follows the head slowly, and what the [`crate::fit::Tracker`] and the
+//! [`crate::fit::Follower`] share (counters, the anchor).
+
+use crate::similarity::Similarity;
+
+/// What a tracker and a follower keep of a sequence beside the fit: the frame counters and the
+/// pose anchor. Both expose it as `sequence()`, so their counters and placement are read
+/// the same way.
+///
+/// The placement ([`Sequence::placed`]) is `mean ∘ anchor⁻¹ ∘ pose` ([`Similarity::recentred`]):
+/// the tracked pose moved so that where the anchor puts the face, the model's mean pose does.
+/// The anchor is the sequence's first good pose; with a time constant `tau > 0`
+/// ([`crate::fit::TrackPolicy::recentre_tau`]) it then follows the head with
+/// [`Similarity::lerp`] by `1 - exp(-dt / tau)` a good frame (`dt`: the seconds since the
+/// last good frame), so a face anywhere in the picture ends up centred while its motion shows;
+/// with `tau = 0` it stays (a clip's motion reproduced exactly). All poses are in the frame's
+/// pixels.
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    /// The model's mean pose (where the anchor's face is placed).
+    target: Similarity,
+    anchor: Option<Similarity>,
+    /// Seconds since the anchor last moved (lost frames included).
+    since: f32,
+    placed: Similarity,
+    lost_count: u32,
+    reacquisitions: u32,
+    frames: u32,
+}
+
+impl Sequence {
+    /// A sequence placing faces about `target` (the model's mean pose).
+    pub fn new(target: Similarity) -> Sequence {
+        Sequence {
+            target,
+            anchor: None,
+            since: 0.0,
+            placed: target,
+            lost_count: 0,
+            reacquisitions: 0,
+            frames: 0,
+        }
+    }
+
+    /// Forgets the anchor (a new sequence: the next good pose becomes it). The counters and
+    /// the last placement stay.
+    pub fn restart(&mut self) {
+        self.anchor = None;
+        self.since = 0.0;
+    }
+
+    /// Counts a frame `dt` seconds after the previous one: `pose` is its good fit's pose, or
+    /// `None` for a lost frame (the placement stays); `reacquired` counts an acquisition.
+    /// `tau`: the anchor's time constant (seconds, 0: fixed).
+    pub fn frame(&mut self, pose: Option<&Similarity>, dt: f32, tau: f32, reacquired: bool) {
+        self.frames += 1;
+        if reacquired {
+            self.reacquisitions += 1;
+        }
+        let dt = if dt.is_finite() { dt.max(0.0) } else { 0.0 };
+        self.since += dt;
+        let Some(pose) = pose.filter(|p| p.is_valid()) else {
+            self.lost_count += 1;
+            return;
+        };
+        let anchor = match self.anchor {
+            None => *pose,
+            Some(a) if tau > 0.0 => a.lerp(pose, 1.0 - (-self.since / tau).exp()),
+            Some(a) => a,
+        };
+        self.anchor = Some(anchor);
+        self.since = 0.0;
+        if let Some(p) = pose.recentred(&anchor, &self.target) {
+            self.placed = p;
+        }
+    }
+
+    /// The last good pose re-centred on the model's mean pose about the anchor: the head
+    /// placement to draw the driven face with (the model's mean pose before any good frame).
+    pub fn placed(&self) -> Similarity {
+        self.placed
+    }
+
+    /// The anchor (frame pixels), `None` before the sequence's first good frame.
+    pub fn anchor(&self) -> Option<Similarity> {
+        self.anchor
+    }
+
+    /// The model's mean pose, where the anchor's face is placed.
+    pub fn target(&self) -> Similarity {
+        self.target
+    }
+
+    /// Frames reported lost.
+    pub fn lost_count(&self) -> u32 {
+        self.lost_count
+    }
+
+    /// Faces acquired by a search (the first face of a search and every face found again).
+    pub fn reacquisitions(&self) -> u32 {
+        self.reacquisitions
+    }
+
+    /// Frames followed since the tracker or follower was made.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_anchor_starts_at_the_first_pose_and_follows_slowly() {
+        let target = Similarity::from_parts(1.0, 0.0, 100.0, 100.0);
+        let mut s = Sequence::new(target);
+        assert_eq!(s.placed(), target);
+        let p0 = Similarity::from_parts(2.0, 0.1, 300.0, 200.0);
+        s.frame(Some(&p0), 0.04, 4.0, true);
+        // The first pose is the anchor: it is placed on the target.
+        let d = s.placed();
+        assert!((d.a - target.a).abs() < 1e-5 && (d.tx - target.tx).abs() < 1e-3);
+        // A moved head: the anchor moves a little towards it (1 - exp(-dt / tau)).
+        let p1 = Similarity::from_parts(2.0, 0.1, 340.0, 200.0);
+        s.frame(None, 1.0, 4.0, false);
+        s.frame(Some(&p1), 1.0, 4.0, false);
+        let a = s.anchor().unwrap();
+        let u = 1.0 - (-2.0f32 / 4.0).exp();
+        assert!((a.tx - (300.0 + 40.0 * u)).abs() < 1e-3, "{a:?}");
+        assert_eq!((s.frames(), s.lost_count(), s.reacquisitions()), (3, 1, 1));
+        // A fixed anchor (tau 0) stays at the first pose.
+        let mut f = Sequence::new(target);
+        f.frame(Some(&p0), 0.04, 0.0, false);
+        f.frame(Some(&p1), 10.0, 0.0, false);
+        assert_eq!(f.anchor(), Some(p0));
+        let want = p1.recentred(&p0, &target).unwrap();
+        assert!((f.placed().tx - want.tx).abs() < 1e-3);
+        // A restart forgets the anchor.
+        f.restart();
+        f.frame(Some(&p1), 0.04, 0.0, false);
+        assert_eq!(f.anchor(), Some(p1));
+    }
+}

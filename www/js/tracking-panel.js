@@ -1,0 +1,378 @@
+// The tracking panel of a video source (www/js/tracking.js): its DOM (the picture, the readout,
+// the buttons), the phase it shows, the fit's display (the mesh over the picture, the figures),
+// and the pointer and keyboard on the frame. Methods of `VideoSource`, mixed into it by
+// tracking.js; they read the source's state and draw it, and change nothing the tracker keeps.
+
+import { notify, message } from './toasts.js';
+import { dropZone } from './drop.js';
+import { MESH, MESH_LOST, GUIDE, drawFrame, drawLandmarks, drawBadge } from './face-draw.js';
+import { pathNotice } from './follow-path.js';
+
+// Load the panel's styles with the module (before any panel exists).
+{
+  const href = new URL('./tracking.css', import.meta.url).href;
+  if (![...document.styleSheets].some((s) => s.href === href)) {
+    const link = document.createElement('link');
+    link.rel = 'stylesheet';
+    link.href = href;
+    document.head.append(link);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Small DOM helpers
+
+function el(tag, props = {}, ...children) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(props)) {
+    if (k === 'class') e.className = v;
+    else if (k === 'text') e.textContent = v;
+    else if (k.startsWith('on')) e.addEventListener(k.slice(2), v);
+    else if (k in e && typeof v !== 'string') e[k] = v;
+    else e.setAttribute(k, v);
+  }
+  e.append(...children);
+  return e;
+}
+
+function button(label, onclick, extra = {}) {
+  return el('button', { type: 'button', class: 'btn', onclick, ...extra }, label);
+}
+
+/** The panel's methods (`this` is the `VideoSource`). */
+export const panelMethods = {
+  buildPanel() {
+    const id = `trk-${this.mode}`;
+    this.video.classList.add('trk-video');
+    this.canvas = el('canvas', { class: 'trk-canvas', role: 'img', 'aria-label': `${this.label}: video with the fitted face mesh` });
+    this.stateEl = el('span', { class: 'trk-state', 'data-state': 'idle', text: 'starting' });
+    this.msgEl = el('p', { class: 'trk-msg', role: 'status', 'aria-live': 'polite' });
+    const stat = (key, label, title) => {
+      const dd = el('dd', { 'data-k': key, text: '–' });
+      return [el('div', { title }, el('dt', { text: label }), dd), dd];
+    };
+    const [sErr, dErr] = stat('error', 'fit error', 'RMS grey-level residual of the last fit (0..1)');
+    const [sIt, dIt] = stat('iterations', 'iterations', 'Iterations of the last fit (converged or not)');
+    const [sFps, dFps] = stat('fps', 'fits / s', 'Frames fitted in the last second');
+    const [sMs, dMs] = stat('ms', 'ms / fit', 'Time per fit (smoothed), reading the frame excluded');
+    const [sLost, dLost] = stat('lost', 'lost · reinit', 'Frames reported lost · re-initialisations, this sequence');
+    this.readout = { error: dErr, iterations: dIt, fps: dFps, ms: dMs, lost: dLost };
+
+    this.playBtn = button('Pause', () => this.togglePlay(), { class: 'btn primary', 'aria-keyshortcuts': 'Space', title: 'Pause / play (space)' });
+    this.restartBtn = button('Re-start', () => this.restart(), { title: 'Place the face again and start a new sequence' });
+    this.startBtn = button('Start tracking', () => this.startTracking(), { class: 'btn primary' });
+    this.chooseBtn = button('Choose a video or image…', () => this.fileInput.click());
+    this.otherBtn = button('Other file…', () => this.fileInput.click(), { title: 'Track another video, or fit another image (or drop one on this panel)' });
+    this.fileInput = el('input', { type: 'file', accept: 'video/*,image/*,.webm,.mp4,.mov,.m4v,.ogv,.mkv', hidden: true });
+    this.fileInput.addEventListener('change', () => {
+      const f = this.fileInput.files?.[0];
+      this.fileInput.value = '';
+      if (f) this.openFile(f);
+    });
+    this.meshCheck = el('input', { type: 'checkbox', checked: true });
+    this.meshCheck.addEventListener('change', () => this.draw());
+    const meshLabel = el('label', { class: 'check' }, this.meshCheck, el('span', { text: 'Mesh overlay' }));
+    const extra = [];
+    if (this.mode !== 'clip') {
+      this.autoCheck = el('input', { type: 'checkbox', checked: this.autoStart });
+      this.autoCheck.addEventListener('change', () => {
+        this.autoStart = this.autoCheck.checked;
+        if (this.phase === 'placing') this.restart();
+      });
+      extra.push(
+        el('label', { class: 'check', title: 'Start tracking by itself as soon as a face is found' }, this.autoCheck, el('span', { text: 'Auto-start' })),
+      );
+    }
+
+    this.dropHint = el(
+      'div',
+      { class: 'trk-drop' },
+      el('p', {}, el('strong', { text: 'Drop a video or a photo here' }), el('span', { text: ' or ' })),
+      this.chooseBtn,
+      el('small', { text: 'Any format the browser plays (WebM, MP4, JPEG, PNG…). It stays on this computer.' }),
+    );
+    this.dropHint.hidden = true;
+    // Shown instead of the picture while there is none: waiting for the camera, or an error.
+    this.retryBtn = button('Try again', () => this.retry());
+    this.placeholderText = el('p');
+    this.placeholder = el('div', { class: 'trk-placeholder' }, this.placeholderText, this.retryBtn);
+    this.placeholder.hidden = true;
+    this.view = el('div', { class: 'trk-view' }, this.canvas, this.dropHint, this.placeholder, this.video);
+
+    const title = el('h2', { id: `${id}-title` }, `Tracking · ${this.label}`);
+    this.panel = el(
+      'section',
+      { class: 'trk-panel', id, 'aria-labelledby': `${id}-title`, 'data-mode': this.mode, 'data-phase': 'loading' },
+      el('header', { class: 'trk-head' }, title, this.stateEl),
+      el(
+        'div',
+        { class: 'trk-body' },
+        this.view,
+        el(
+          'div',
+          { class: 'trk-side' },
+          el('dl', { class: 'trk-stats' }, sErr, sIt, sFps, sMs, sLost),
+          el('div', { class: 'trk-buttons' }, this.startBtn, this.playBtn, this.restartBtn, this.otherBtn),
+          el('div', { class: 'trk-options' }, meshLabel, ...extra),
+          pathNotice(this.path ?? 'aam', this.ctx.createFace),
+          this.msgEl,
+          this.fileInput,
+        ),
+      ),
+    );
+
+    // Keyboard on the frame: move / scale the placement box, Enter starts.
+    this.canvas.addEventListener('keydown', (e) => this.onKey(e));
+    this.canvas.addEventListener('pointerdown', (e) => this.onPointerDown(e));
+    this.canvas.addEventListener('pointermove', (e) => this.onPointerMove(e));
+    this.canvas.addEventListener('pointerup', (e) => this.onPointerUp(e));
+    this.canvas.addEventListener('pointercancel', (e) => this.onPointerUp(e));
+    // Video and image files dropped on the panel (and not elsewhere: the page takes other drops as models).
+    if (this.mode === 'file') {
+      const panel = this.panel;
+      // Model files dropped here go on to the page (which adds them as targets).
+      dropZone(
+        panel,
+        (files) => {
+          if (files.length > 1) notify('info', `Used ${files[0].name}`, 'one file at a time; the other files were ignored');
+          this.openFile(files[0]);
+        },
+        { accept: (files) => !files.every((x) => /\.fmm$/i.test(x.name)), isolate: true },
+      );
+    }
+
+    const anchor = document.querySelector('.stage .transport');
+    if (this.ctx.panelHost) this.ctx.panelHost.append(this.panel); // the call page's place for it
+    else if (anchor) anchor.after(this.panel);
+    else (document.querySelector('main') || document.body).append(this.panel);
+
+    // A hidden tab presents no frames: pause a clip or file (the fit would have to jump).
+    this.onVisibility = () => {
+      if (this.mode === 'webcam' || !this.running) return;
+      if (document.hidden && this.phase === 'tracking') {
+        this.hiddenPause = true;
+        this.togglePlay();
+      } else if (!document.hidden && this.hiddenPause && this.phase === 'paused') {
+        this.hiddenPause = false;
+        this.togglePlay();
+      }
+    };
+    document.addEventListener('visibilitychange', this.onVisibility);
+    // Space pauses / plays this source (the page's Space would switch to the recorded track).
+    this.onSpace = (e) => {
+      if ((e.key !== ' ' && e.code !== 'Space') || e.altKey || e.ctrlKey || e.metaKey || e.defaultPrevented) return;
+      if (this.phase !== 'tracking' && this.phase !== 'paused') return;
+      const t = e.target;
+      if (t instanceof HTMLElement) {
+        const tag = t.tagName;
+        if (['BUTTON', 'SELECT', 'TEXTAREA', 'SUMMARY', 'A'].includes(tag) || t.isContentEditable) return;
+        if (tag === 'INPUT' && t.getAttribute('type') !== 'range') return;
+      }
+      e.preventDefault();
+      this.togglePlay();
+    };
+    window.addEventListener('keydown', this.onSpace, true);
+    this.resizeObserver = new ResizeObserver(() => this.draw());
+    this.resizeObserver.observe(this.canvas);
+    this.setPhase('loading');
+  },
+
+  setPhase(phase, msg) {
+    this.phase = phase;
+    if (!this.panel) return;
+    this.panel.dataset.phase = phase;
+    const m = this.mode;
+    const tracking = phase === 'tracking' || phase === 'paused';
+    this.startBtn.hidden = !(phase === 'placing');
+    this.startBtn.textContent = m === 'webcam' ? 'Start' : this.media.still ? 'Fit the face' : 'Start tracking';
+    this.playBtn.hidden = !tracking || Boolean(this.media.still);
+    this.restartBtn.hidden = !(tracking || (phase === 'error' && this.haveFrame && !this.streamEnded));
+    this.playBtn.textContent = phase === 'paused' ? 'Play' : 'Pause';
+    this.dropHint.hidden = !(m === 'file' && (phase === 'empty' || phase === 'error'));
+    this.otherBtn.hidden = !(m === 'file' && ['placing', 'tracking', 'paused'].includes(phase));
+    const blank = !this.haveFrame && (phase === 'loading' || phase === 'error') && !(m === 'file');
+    this.canvas.hidden = (m === 'file' && phase === 'empty') || blank;
+    this.placeholder.hidden = !blank;
+    this.retryBtn.hidden = phase !== 'error';
+    if (blank) this.placeholderText.textContent = phase === 'error' ? msg || 'Something went wrong.' : msg || 'Loading…';
+    this.canvas.tabIndex = phase === 'placing' ? 0 : -1;
+    if (phase === 'placing') {
+      this.canvas.setAttribute(
+        'aria-label',
+        m === 'webcam'
+          ? 'Webcam image with the face guide'
+          : 'Frame with the faces found: click a face (or Tab) to choose it; or drag the box onto the face, or use the arrow keys to move it, + and − to resize it; Enter starts',
+      );
+    } else this.canvas.setAttribute('aria-label', `${this.label}: video with the fitted face mesh`);
+    if (msg !== undefined) this.say(msg);
+    else if (phase === 'empty') this.say('Drop a video or a photo on this panel or choose one: the faces in it are found, and tracking starts.');
+    else if (phase === 'placing' && m === 'file') this.say(this.placingText());
+    else if (phase === 'placing' && m === 'webcam') this.say(this.placingText());
+    else if (phase === 'paused') this.say('Paused.');
+    this.showState();
+    this.draw();
+  },
+
+  say(text) {
+    if (this.msgEl && this.msgEl.textContent !== text) this.msgEl.textContent = text;
+  },
+
+  showState() {
+    if (!this.stateEl) return;
+    let s;
+    let label;
+    if (this.phase === 'tracking') {
+      s = this.state;
+      label = { lost: 'face lost', searching: 'looking for a face', reinit: 're-initialised', tracking: 'tracking' }[s] || s;
+    } else {
+      s = this.phase;
+      label = {
+        loading: 'loading',
+        empty: 'no video',
+        placing:
+          this.mode === 'webcam' || this.finding
+            ? 'looking for a face'
+            : this.placement.face
+              ? this.placement.faces.length > 1
+                ? `${this.placement.faces.length} faces found`
+                : 'face found'
+              : 'place the face',
+        paused: 'paused',
+        error: 'error',
+        idle: 'idle',
+      }[this.phase];
+    }
+    this.stateEl.dataset.state = s;
+    if (this.stateEl.textContent !== label) this.stateEl.textContent = label;
+    this.panel.dataset.state = s;
+  },
+
+  fail(what, e) {
+    const reason = e === undefined ? '' : message(e);
+    this.cancelFrames();
+    this.setPhase('error', reason ? `${what}: ${reason}` : what);
+    this.stateEl.textContent = 'error';
+    this.stateEl.dataset.state = 'error';
+    this.panel.dataset.state = 'error';
+  },
+
+  /** What the placement step says, from what the finder found. */
+  placingText() {
+    if (this.mode === 'webcam') {
+      return this.autoStart
+        ? 'Looking for your face: look at the camera (the oval is only a guide); tracking starts when it is found, or press Start.'
+        : 'Put your face inside the oval and press Start (Auto-start is off).';
+    }
+    if (this.finding) return 'Looking for faces…';
+    const n = this.placement.faces.length;
+    const start = this.media.still ? 'fit it' : 'start tracking';
+    if (n > 1 && this.placement.face) {
+      return `${n} faces found: the most confident is selected (${this.placement.selected + 1}); click another one (or Tab) to choose it, then ${start}. Dragging places a box by hand.`;
+    }
+    if (n === 1 && this.placement.face) return `A face was found: ${start}, or drag a box to place one by hand.`;
+    if (n > 0) return `Box placed by hand (the faces found are shown faintly): ${start} from it.`;
+    return this.findError
+      ? `The face finder failed (${this.findError}): drag the box onto the face (drag its corner to resize), then ${start}.`
+      : `No face was found on this frame: drag the box onto the face (drag its corner to resize), then ${start}.`;
+  },
+
+  /** The readout (at most five times a second). */
+  showStats(now = performance.now()) {
+    if (now - this.shownAt < 200) return;
+    this.shownAt = now;
+    const r = this.last;
+    const set = (k, v) => {
+      if (this.readout[k].textContent !== v) this.readout[k].textContent = v;
+    };
+    set('error', r ? r.error.toFixed(3) : '–');
+    set('iterations', r ? `${r.iterations}${r.converged ? '' : ' (max)'}` : '–');
+    set('fps', String(this.fitTimes.length));
+    set('ms', this.fits ? this.msPerFit.toFixed(1) : '–');
+    set('lost', `${this.tracker.lostCount - (this.seqStartLost ?? 0)} · ${this.tracker.resets - (this.seqStartResets ?? 0)}`);
+    this.readout.ms.parentElement.title = this.fits
+      ? `Time per fit (smoothed): ${this.msPerFit.toFixed(2)} ms, i.e. up to ${Math.round(1000 / Math.max(0.01, this.msPerFit))} fits/s`
+      : '';
+    this.showState();
+  },
+
+  // --- pointer and keyboard on the frame --------------------------------------------------------
+
+  toFrame(e) {
+    const r = this.canvas.getBoundingClientRect();
+    const W = this.work.width;
+    const H = this.work.height;
+    let x = ((e.clientX - r.left) / r.width) * W;
+    const y = ((e.clientY - r.top) / r.height) * H;
+    if (this.mode === 'webcam') x = W - x;
+    return { x, y };
+  },
+
+  handleSize() {
+    return (14 / this.canvas.getBoundingClientRect().width) * this.work.width;
+  },
+
+  onPointerDown(e) {
+    if (this.phase !== 'placing' || this.mode !== 'file') return;
+    this.placement.pointerDown(this.toFrame(e), this.handleSize());
+    this.canvas.setPointerCapture(e.pointerId);
+    this.canvas.focus({ preventScroll: true });
+    e.preventDefault();
+    this.say(this.placingText());
+    this.draw();
+  },
+
+  onPointerMove(e) {
+    if (this.phase !== 'placing' || this.mode !== 'file') return;
+    const p = this.toFrame(e);
+    if (!this.placement.drag) {
+      const h = this.placement.hit(p, this.handleSize());
+      this.canvas.style.cursor = h === 'corner' ? 'nwse-resize' : h === 'inside' ? 'move' : h.startsWith('face:') ? 'pointer' : 'crosshair';
+      return;
+    }
+    const wasFace = this.placement.face;
+    if (this.placement.pointerMove(p, this.work.width, this.work.height)) {
+      if (wasFace) this.say(this.placingText());
+      this.draw();
+    }
+  },
+
+  onPointerUp() {
+    this.placement.pointerUp();
+  },
+
+  onKey(e) {
+    if (this.phase !== 'placing') return;
+    if (e.key === 'Enter') {
+      e.preventDefault();
+      this.startTracking();
+      return;
+    }
+    if (this.mode !== 'file') return;
+    if (this.placement.key(e, (e.shiftKey ? 10 : 2) / this.k, this.work.width, this.work.height)) {
+      e.preventDefault();
+      this.say(this.placingText());
+      this.draw();
+    }
+  },
+
+  // --- drawing ------------------------------------------------------------------------------------
+
+  draw() {
+    const c = this.canvas;
+    if (!c || !this.running || c.hidden) return;
+    const v = drawFrame(c, this.work, { mirror: this.mode === 'webcam', haveFrame: this.haveFrame });
+    if (!v) return;
+    const { g, map, s, lw, dpr } = v;
+    if (this.phase === 'placing') {
+      this.placement.draw(g, map, s, lw, dpr, { webcam: this.mode === 'webcam', hot: this.tracker?.wantsFaces === false });
+      if (this.finding) drawBadge(g, 'looking for faces…', GUIDE, dpr);
+    } else if ((this.phase === 'tracking' || this.phase === 'paused') && this.last && this.meshCheck.checked) {
+      if (!this.last.lost) drawLandmarks(g, this.last.landmarks, map, MESH, lw);
+      else if (this.lastGood) {
+        // The last good fit, in red: where the face was.
+        drawLandmarks(g, this.lastGood.landmarks, map, MESH_LOST, lw);
+        drawBadge(g, 'face lost', MESH_LOST, dpr);
+      } else drawBadge(g, 'looking for a face', GUIDE, dpr);
+    }
+  },
+};
