@@ -48,11 +48,15 @@ mod native {
             opts.max_disagreement = t.parse().unwrap();
         }
         finder.set_options(opts);
+        if std::env::var_os("FIND_MESH").is_some() {
+            finder.set_mesh(true);
+        }
         for set in sets {
             let all = frames(&root.join(&set));
             let (mut n, mut found, mut err_sum, mut worst, mut secs, mut extra) =
                 (0, 0, 0.0, 0.0f32, 0.0, 0);
             let mut missed = Vec::new();
+            let mut errors = Vec::new();
             for p in all.iter().step_by(step) {
                 let img = read_image(p).unwrap();
                 let truth =
@@ -82,14 +86,20 @@ mod native {
                             );
                         }
                         found += 1;
+                        errors.push(e);
                         err_sum += e;
                         worst = worst.max(e);
                     }
                     _ => missed.push(p.file_name().unwrap().to_string_lossy().to_string()),
                 }
             }
+            errors.sort_by(f32::total_cmp);
+            let p95 = errors
+                .get((errors.len() * 95 / 100).min(errors.len().saturating_sub(1)))
+                .copied()
+                .unwrap_or(f32::NAN);
             println!(
-                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
+                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, p95 {p95:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
                 100.0 * found as f64 / n as f64,
                 err_sum / found.max(1) as f32,
                 worst,

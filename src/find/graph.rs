@@ -40,6 +40,8 @@ struct Layer {
     extra: usize,
     /// Output channels (convolutions).
     cout: usize,
+    /// Elementwise layers whose first input is read by no later layer write over it.
+    in_place: bool,
     /// Convolution filters, rearranged: `[cin][cout]` for 1x1, `[kh][kw][cin][cout]` for
     /// larger kernels, `[kh][kw][c]` for depthwise; PReLU slopes `[c]`.
     w: Vec<f32>,
@@ -135,6 +137,7 @@ impl Graph {
                 kernel,
                 extra,
                 cout: cin,
+                in_place: false,
                 w: Vec::new(),
                 bias: Vec::new(),
             };
@@ -221,15 +224,34 @@ impl Graph {
         #[cfg(test)]
         let logical: Vec<usize> = rows.iter().map(|l| l.out).collect();
         for (i, l) in rows.iter_mut().enumerate() {
-            let b = free.pop().unwrap_or_else(|| {
-                buffers += 1;
-                buffers - 1
+            let [in0, in1] = l.inputs;
+            l.in_place = matches!(l.kind, Kind::Relu | Kind::Prelu | Kind::Add)
+                && in0 != 0
+                && last_use[in0] == i
+                && (l.kind != Kind::Add || in1 != in0);
+            let b = if l.in_place {
+                let b = buffer_of[in0];
+                // The buffer now holds `out`: `in0` no longer frees it.
+                buffer_of[in0] = usize::MAX;
+                b
+            } else {
+                free.pop().unwrap_or_else(|| {
+                    buffers += 1;
+                    buffers - 1
+                })
+            };
+            l.inputs = [in0, in1].map(|s| {
+                if s == in0 && l.in_place {
+                    b
+                } else {
+                    buffer_of[s]
+                }
             });
             buffer_of[l.out] = b;
-            l.inputs = l.inputs.map(|s| buffer_of[s]);
             l.out = b;
             for s in 0..slots {
-                if last_use[s] == i && buffer_of[s] != usize::MAX && !free.contains(&buffer_of[s]) {
+                // The input (buffer 0) stays the input.
+                if s != 0 && last_use[s] == i && buffer_of[s] != usize::MAX && !free.contains(&buffer_of[s]) {
                     free.push(buffer_of[s]);
                 }
             }
@@ -242,11 +264,6 @@ impl Graph {
             #[cfg(test)]
             slots: logical,
         })
-    }
-
-    /// The expected input side.
-    pub fn input_side(&self) -> usize {
-        self.input.0
     }
 
     /// Runs the net on `s.input()` (filled by the caller, `side x side x channels`); the outputs
@@ -265,6 +282,21 @@ impl Graph {
         }
         for (i, l) in self.layers.iter().enumerate() {
             let mut y = std::mem::take(&mut s.maps[l.out]);
+            if l.in_place {
+                match l.kind {
+                    Kind::Relu => nn::relu(&mut y.data),
+                    Kind::Prelu => prelu(&mut y, &l.w),
+                    _ => {
+                        let x1 = &s.maps[l.inputs[1]];
+                        for (v, &b) in y.data.iter_mut().zip(&x1.data) {
+                            *v += b;
+                        }
+                    }
+                }
+                each(i, &y);
+                s.maps[l.out] = y;
+                continue;
+            }
             let x = &s.maps[l.inputs[0]];
             match l.kind {
                 Kind::Conv if l.kernel == 1 && l.stride == 1 => {
@@ -278,13 +310,7 @@ impl Graph {
                 }
                 Kind::Prelu => {
                     copy(x, &mut y);
-                    for px in y.data.chunks_exact_mut(x.c) {
-                        for (v, &a) in px.iter_mut().zip(&l.w) {
-                            if *v < 0.0 {
-                                *v *= a;
-                            }
-                        }
-                    }
+                    prelu(&mut y, &l.w);
                 }
                 Kind::Add => {
                     let x1 = &s.maps[l.inputs[1]];
@@ -321,6 +347,16 @@ impl GraphScratch {
     /// Output `k` (in the converted file's order) of the last run of `graph`.
     pub fn output(&self, graph: &Graph, k: usize) -> &Map {
         &self.maps[graph.outputs[k]]
+    }
+}
+
+/// PReLU in place: negative values times their channel's slope.
+fn prelu(y: &mut Map, slopes: &[f32]) {
+    for px in y.data.chunks_exact_mut(y.c) {
+        for (v, &a) in px.iter_mut().zip(slopes) {
+            // Branch-free, so it vectorises: max(v, 0) + a min(v, 0).
+            *v = v.max(0.0) + a * v.min(0.0);
+        }
     }
 }
 
@@ -431,4 +467,43 @@ fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod tests {
+    use super::super::mesh::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
+    use super::*;
+
+    /// Time per layer kind (a profile, not a check).
+    #[test]
+    #[ignore = "prints a profile"]
+    fn profile() {
+        for (bytes, n) in [(BLAZEFACE_WEIGHTS, 128), (MESH_WEIGHTS, 192)] {
+            let g = Graph::load(bytes, (n, 3)).unwrap();
+            let mut s = GraphScratch::default();
+            let x = s.input();
+            x.reset(n, n, 3);
+            for (i, v) in x.data.iter_mut().enumerate() {
+                *v = ((i * 7919) % 255) as f32 / 255.0;
+            }
+            g.run(&mut s, |_, _| {}).unwrap();
+            let mut times = std::collections::BTreeMap::<String, f64>::new();
+            let reps = 20;
+            let t0 = std::time::Instant::now();
+            for _ in 0..reps {
+                let mut last = std::time::Instant::now();
+                g.run(&mut s, |i, _| {
+                    let l = &g.layers[i];
+                    let key = format!("{:?} k{} s{}", l.kind, l.kernel, l.stride);
+                    *times.entry(key).or_default() += last.elapsed().as_secs_f64();
+                    last = std::time::Instant::now();
+                })
+                .unwrap();
+            }
+            eprintln!("net {n}: {:.2} ms a run", t0.elapsed().as_secs_f64() * 1e3 / reps as f64);
+            for (k, t) in times {
+                eprintln!("  {k}: {:.3} ms", t * 1e3 / reps as f64);
+            }
+        }
+    }
 }

@@ -35,7 +35,7 @@ pub(crate) const DETECTOR_MIN_SCORE: f32 = 0.5;
 /// IoU above which detections are merged (MediaPipe's `min_suppression_threshold`).
 const NMS_IOU: f32 = 0.3;
 /// The mesh's region is this many times the face box's longer side.
-const ROI_SCALE: f32 = 1.5;
+pub(crate) const ROI_SCALE: f32 = 1.5;
 
 /// A detection: box (image pixels), score and the 6 keypoints (right eye, left eye, nose tip,
 /// mouth centre, right ear tragion, left ear tragion; image pixels).
