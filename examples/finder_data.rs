@@ -4,6 +4,8 @@
 //!   uncalibrated one in each face's frame (`find::mean_face_offsets`), over every committed
 //!   frame the finder finds a face in (`find::calibration`'s test `table_is_reproducible`
 //!   checks that the committed table is what these frames give);
+//! - `cargo run --release --features mesh-finder --example finder_data -- calibration-mesh`
+//!   writes `src/find/calibration_table_mesh.rs`, the same for `MeshFinder` (MediaPipe's nets);
 //! - `cargo run --example finder_data -- inputs` writes the `.rgb` inputs of the layer-by-layer
 //!   reference test (`tests/data/finder/`; then `node scripts/finder-reference.mjs` for the
 //!   reference outputs of face-api.js's own code).
@@ -26,29 +28,50 @@ mod native {
 
     pub(crate) fn main() {
         match std::env::args().nth(1).as_deref() {
-            Some("calibration") => calibration(false),
-            Some("calibration-mesh") => calibration(true),
+            Some("calibration") => calibration(),
+            #[cfg(feature = "mesh-finder")]
+            Some("calibration-mesh") => calibration_mesh(),
             Some("inputs") => inputs(),
             _ => {
-                eprintln!("usage: finder_data calibration | calibration-mesh | inputs");
+                eprintln!("usage: finder_data calibration | calibration-mesh (--features mesh-finder) | inputs");
                 std::process::exit(2);
             }
         }
     }
 
-    fn calibration(mesh: bool) {
+    fn calibration() {
         let mut finder = FaceFinder::new().expect("the shipped weights");
         finder.set_calibrated(false);
-        finder.set_mesh(mesh);
+        let pairs = grid_pairs(|view| finder.find(view));
+        write_calibration(false, pairs);
+    }
+
+    /// `calibration` for `MeshFinder` (`src/find/calibration_table_mesh.rs`).
+    #[cfg(feature = "mesh-finder")]
+    fn calibration_mesh() {
+        let mut finder = facemimic::MeshFinder::new().expect("the shipped weights");
+        finder.set_calibrated(false);
+        let pairs = grid_pairs(|view| finder.find(view));
+        write_calibration(true, pairs);
+    }
+
+    /// The first face's points and the dlib points of every committed GRID frame.
+    fn grid_pairs(
+        mut find: impl FnMut(&facemimic::ImageRef) -> Vec<facemimic::Face>,
+    ) -> Vec<(Vec<f32>, Vec<f32>)> {
         let mut pairs = Vec::new();
         for p in annotated_images(&Path::new(ROOT).join("data/grid")).expect("data/grid") {
             let img = read_image(&p).expect("a GRID frame");
             let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height)
                 .expect("its landmarks");
-            if let Some(face) = finder.find(&img.view().expect("a view")).into_iter().next() {
+            if let Some(face) = find(&img.view().expect("a view")).into_iter().next() {
                 pairs.push((face.landmarks, truth));
             }
         }
+        pairs
+    }
+
+    fn write_calibration(mesh: bool, pairs: Vec<(Vec<f32>, Vec<f32>)>) {
         let offsets =
             find::mean_face_offsets(pairs.iter().map(|(r, t)| (r.as_slice(), t.as_slice())));
         let (cmd, name, what) = if mesh {

@@ -96,7 +96,7 @@ impl Graph {
         let as_index = |v: f32| -> Result<Option<usize>> {
             if v == -1.0 {
                 Ok(None)
-            } else if v >= 0.0 && v < 1e6 && v.fract() == 0.0 {
+            } else if (0.0..1e6).contains(&v) && v.fract() == 0.0 {
                 Ok(Some(v as usize))
             } else {
                 Err(bad(format!("graph entry {v}")))
@@ -251,7 +251,11 @@ impl Graph {
             l.out = b;
             for s in 0..slots {
                 // The input (buffer 0) stays the input.
-                if s != 0 && last_use[s] == i && buffer_of[s] != usize::MAX && !free.contains(&buffer_of[s]) {
+                if s != 0
+                    && last_use[s] == i
+                    && buffer_of[s] != usize::MAX
+                    && !free.contains(&buffer_of[s])
+                {
                     free.push(buffer_of[s]);
                 }
             }
@@ -373,37 +377,88 @@ fn too_small(l: &Layer) -> Error {
 }
 
 /// A full convolution of any square kernel and stride, plus bias (filters `[kh][kw][cin][cout]`).
+/// The common output depths run with their accumulators in registers ([`conv_fixed`]); the sums
+/// are made in the same order either way.
 fn conv(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
-    let (k, s, cin, cout) = (l.kernel, l.stride, x.c, l.cout);
-    let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
-    let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
-    y.reset(oh, ow, cout);
+    let (oh, py) = geometry(x.h, l.kernel, l.stride, l.same).ok_or_else(|| too_small(l))?;
+    let (ow, px) = geometry(x.w, l.kernel, l.stride, l.same).ok_or_else(|| too_small(l))?;
+    y.reset(oh, ow, l.cout);
+    let g = (oh, ow, py, px);
+    match l.cout {
+        16 => conv_fixed::<16>(x, l, g, y),
+        24 => conv_fixed::<24>(x, l, g, y),
+        _ => conv_any(x, l, g, y),
+    }
+    Ok(())
+}
+
+/// The input pixels under the kernel at output `(oy, ox)`: calls `tap(t, i)` with `t` the
+/// filter tap (`ky * k + kx`) and `i` the input pixel, in increasing `ky`, then `kx`.
+#[inline(always)]
+fn taps(
+    x: &Map,
+    l: &Layer,
+    py: usize,
+    px: usize,
+    oy: usize,
+    ox: usize,
+    mut tap: impl FnMut(usize, usize),
+) {
+    let (k, s) = (l.kernel, l.stride);
+    for ky in 0..k {
+        let iy = (oy * s + ky) as isize - py as isize;
+        if iy < 0 || iy >= x.h as isize {
+            continue;
+        }
+        for kx in 0..k {
+            let ix = (ox * s + kx) as isize - px as isize;
+            if ix < 0 || ix >= x.w as isize {
+                continue;
+            }
+            tap(ky * k + kx, iy as usize * x.w + ix as usize);
+        }
+    }
+}
+
+fn conv_fixed<const C: usize>(x: &Map, l: &Layer, g: (usize, usize, usize, usize), y: &mut Map) {
+    let (oh, ow, py, px) = g;
+    let cin = x.c;
+    let bias: [f32; C] = l.bias[..C].try_into().unwrap_or([0.0; C]);
+    for oy in 0..oh {
+        for ox in 0..ow {
+            let mut acc = bias;
+            taps(x, l, py, px, oy, ox, |t, i| {
+                let inp = &x.data[i * cin..][..cin];
+                let f = &l.w[t * cin * C..][..cin * C];
+                for (&a, fr) in inp.iter().zip(f.chunks_exact(C)) {
+                    for (o, &ff) in acc.iter_mut().zip(fr) {
+                        *o += a * ff;
+                    }
+                }
+            });
+            y.data[(oy * ow + ox) * C..][..C].copy_from_slice(&acc);
+        }
+    }
+}
+
+fn conv_any(x: &Map, l: &Layer, g: (usize, usize, usize, usize), y: &mut Map) {
+    let (oh, ow, py, px) = g;
+    let (cin, cout) = (x.c, l.cout);
     for oy in 0..oh {
         for ox in 0..ow {
             let o = &mut y.data[(oy * ow + ox) * cout..][..cout];
             o.copy_from_slice(&l.bias);
-            for ky in 0..k {
-                let iy = (oy * s + ky) as isize - py as isize;
-                if iy < 0 || iy >= x.h as isize {
-                    continue;
-                }
-                for kx in 0..k {
-                    let ix = (ox * s + kx) as isize - px as isize;
-                    if ix < 0 || ix >= x.w as isize {
-                        continue;
-                    }
-                    let inp = &x.data[(iy as usize * x.w + ix as usize) * cin..][..cin];
-                    let f = &l.w[(ky * k + kx) * cin * cout..][..cin * cout];
-                    for (&a, fr) in inp.iter().zip(f.chunks_exact(cout)) {
-                        for (oo, &ff) in o.iter_mut().zip(fr) {
-                            *oo += a * ff;
-                        }
+            taps(x, l, py, px, oy, ox, |t, i| {
+                let inp = &x.data[i * cin..][..cin];
+                let f = &l.w[t * cin * cout..][..cin * cout];
+                for (&a, fr) in inp.iter().zip(f.chunks_exact(cout)) {
+                    for (oo, &ff) in o.iter_mut().zip(fr) {
+                        *oo += a * ff;
                     }
                 }
-            }
+            });
         }
     }
-    Ok(())
 }
 
 /// A depthwise convolution (filters `[kh][kw][c]`) plus bias.
@@ -500,7 +555,10 @@ mod tests {
                 })
                 .unwrap();
             }
-            eprintln!("net {n}: {:.2} ms a run", t0.elapsed().as_secs_f64() * 1e3 / reps as f64);
+            eprintln!(
+                "net {n}: {:.2} ms a run",
+                t0.elapsed().as_secs_f64() * 1e3 / reps as f64
+            );
             for (k, t) in times {
                 eprintln!("  {k}: {:.3} ms", t * 1e3 / reps as f64);
             }

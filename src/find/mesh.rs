@@ -58,7 +58,7 @@ pub(crate) struct Roi {
 
 impl Roi {
     /// The image point of the crop point `(u, v)` in 0..1.
-    fn to_image(&self, u: f32, v: f32) -> (f32, f32) {
+    fn image_point(&self, u: f32, v: f32) -> (f32, f32) {
         let (s, c) = self.angle.sin_cos();
         let (dx, dy) = ((u - 0.5) * self.side, (v - 0.5) * self.side);
         (self.cx + c * dx - s * dy, self.cy + s * dx + c * dy)
@@ -235,7 +235,7 @@ impl MeshNets {
         let n = MESH_INPUT;
         sample(
             image,
-            |u, v| roi.to_image(u, v),
+            |u, v| roi.image_point(u, v),
             roi.side / n as f32,
             false,
             n,
@@ -250,7 +250,7 @@ impl MeshNets {
         }
         let k = n as f32;
         for (o, p) in points.chunks_exact_mut(3).zip(lm.data.chunks_exact(3)) {
-            let (x, y) = roi.to_image(p[0] / k, p[1] / k);
+            let (x, y) = roi.image_point(p[0] / k, p[1] / k);
             o[0] = x;
             o[1] = y;
             o[2] = p[2] / k * roi.side;
@@ -317,7 +317,7 @@ fn sample(
 /// overlapping it by more than `iou` become one, their boxes and keypoints averaged with the
 /// scores as weights, the score the most confident one's. `raw` is sorted and its scores
 /// overwritten.
-fn weighted_nms(raw: &mut Vec<Detection>, iou: f32, out: &mut Vec<Detection>) {
+fn weighted_nms(raw: &mut [Detection], iou: f32, out: &mut Vec<Detection>) {
     raw.sort_by(|a, b| b.score.total_cmp(&a.score));
     // A detection merged into an earlier one is marked by a negative score.
     for i in 0..raw.len() {

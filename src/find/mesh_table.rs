@@ -21,7 +21,7 @@ pub(crate) fn to_ibug(mesh: &[f32], out: &mut [f32]) {
 #[cfg(all(test, not(target_arch = "wasm32")))]
 mod tests {
     use super::*;
-    use crate::find::{face_frame, FaceFinder};
+    use crate::find::{face_frame, MeshFinder};
     use crate::io::{read_image, read_landmarks};
     use std::path::Path;
 
@@ -34,16 +34,15 @@ mod tests {
     /// varies least over the frames.
     fn learn() -> (Vec<u16>, usize) {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid");
-        let mut finder = FaceFinder::new().unwrap();
-        let n = super::super::MESH_POINTS;
+        let mut finder = MeshFinder::new().unwrap();
+        let n = super::super::mesh::MESH_POINTS;
         let mut sum = vec![[0.0f64; 2]; 68 * n];
         let mut sq = vec![0.0f64; 68 * n];
         let mut frames = 0;
         for p in crate::io::annotated_images(&dir).unwrap() {
             let img = read_image(&p).unwrap();
             let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
-            let Some((_, _, mesh)) = finder.meshes(&img.view().unwrap()).into_iter().next()
-            else {
+            let Some((_, _, mesh)) = finder.meshes(&img.view().unwrap()).into_iter().next() else {
                 continue;
             };
             let Some(([cx, cy], r, c, s)) = face_frame(&truth) else {
@@ -109,7 +108,7 @@ mod tests {
     fn table_indexes_the_mesh() {
         assert!(MESH_TO_IBUG
             .iter()
-            .all(|&v| (v as usize) < super::super::MESH_POINTS));
+            .all(|&v| (v as usize) < super::super::mesh::MESH_POINTS));
         // The eye corners are distinct (the face frame needs them apart).
         assert_ne!(MESH_TO_IBUG[36], MESH_TO_IBUG[45]);
     }

@@ -7,12 +7,20 @@
 //! measured rates and why the pipeline is what it is.
 
 mod calibration;
+#[cfg(feature = "mesh-finder")]
 mod graph;
+#[cfg(feature = "mesh-finder")]
 mod mesh;
+#[cfg(feature = "mesh-finder")]
+mod mesh_finder;
+#[cfg(feature = "mesh-finder")]
 mod mesh_table;
 mod nets;
 mod nn;
 mod weights;
+
+#[cfg(feature = "mesh-finder")]
+pub use mesh_finder::MeshFinder;
 
 pub use calibration::{
     add_face_offsets, convention_free_errors, face_frame, face_offsets, mean_face_offsets,
@@ -21,7 +29,6 @@ pub use calibration::{
 use crate::error::{Error, Result};
 use crate::image::ImageRef;
 use nets::{Detector, LandmarkNet, Scratch, ANCHORS, DETECTOR_MEAN, LANDMARK_INPUT, LANDMARK_MEAN};
-use mesh::{Detection, MeshNets, Roi, DETECTOR_MIN_SCORE, MESH_POINTS};
 use nn::Map;
 
 /// The tiny face detector's weights (uint8-quantised, `scripts/convert-weights.mjs`).
@@ -127,20 +134,7 @@ pub struct FaceFinder {
     /// Whether results are moved onto the dlib convention (`calibration`); off only to
     /// measure the offsets.
     calibrate: bool,
-    /// MediaPipe's detector and mesh (`mesh.rs`), used when `use_mesh`.
-    mesh: MeshNets,
-    use_mesh: bool,
-    detections: Vec<Detection>,
-    /// The scratch mesh pass (468 x 3).
-    mesh_pass: Vec<f32>,
 }
-
-/// Mesh passes per face: the first on the detector's region, the next on the region of the
-/// previous pass's points (as MediaPipe does from frame to frame).
-const MESH_PASSES: usize = 2;
-/// Face-presence score below which the mesh's region is not a face (MediaPipe's tracking
-/// threshold).
-const MESH_MIN_FACE: f32 = 0.5;
 
 impl FaceFinder {
     /// A finder with the weights shipped in the crate.
@@ -161,10 +155,6 @@ impl FaceFinder {
             pass: Vec::new(),
             candidates: Vec::new(),
             calibrate: true,
-            mesh: MeshNets::load(mesh::BLAZEFACE_WEIGHTS, mesh::MESH_WEIGHTS)?,
-            use_mesh: false,
-            detections: Vec::new(),
-            mesh_pass: Vec::new(),
         })
     }
 
@@ -205,9 +195,6 @@ impl FaceFinder {
     /// two passes agree ([`FindOptions::max_disagreement`]): a face's points settle, a
     /// non-face's wander. The score is the detector's, lowered by the disagreement.
     pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
-        if self.use_mesh {
-            return self.find_mesh(image);
-        }
         let quick = self.options.quick_input_size;
         if quick != 0 && quick < self.options.input_size {
             let faces = self.find_at(image, quick);
@@ -216,102 +203,6 @@ impl FaceFinder {
             }
         }
         self.find_at(image, self.options.input_size)
-    }
-
-    /// Whether [`find`](Self::find) and [`landmarks`](Self::landmarks) run MediaPipe's
-    /// detector and face mesh instead of face-api.js's nets (for measuring the two side by side).
-    #[doc(hidden)]
-    pub fn set_mesh(&mut self, on: bool) {
-        self.use_mesh = on;
-    }
-
-    /// The dense mesh (468 points, x, y, z interleaved, image pixels) of every face MediaPipe's
-    /// detector finds, after [`MESH_PASSES`] passes, with the detection and the face score.
-    fn meshes(&mut self, image: &ImageRef) -> Vec<(Detection, f32, Vec<f32>)> {
-        let mut dets = std::mem::take(&mut self.detections);
-        self.mesh.detect(image, DETECTOR_MIN_SCORE, &mut dets);
-        let mut out: Vec<(Detection, f32, Vec<f32>)> = Vec::new();
-        for det in dets.iter().take(self.options.max_candidates) {
-            // A second detection of a face already meshed costs no passes.
-            if out.iter().any(|(_, _, m)| {
-                BBox::of_pairs(m.chunks_exact(3).map(|p| (p[0], p[1]))).iou(&det.bbox) > 0.3
-            }) {
-                continue;
-            }
-            let mut pts = vec![0.0; MESH_POINTS * 3];
-            if let Some(score) = self.mesh_passes(image, Roi::from_detection(det), &mut pts) {
-                if score >= MESH_MIN_FACE {
-                    out.push((*det, score, pts));
-                }
-            }
-        }
-        self.detections = dets;
-        out
-    }
-
-    /// [`MESH_PASSES`] mesh passes from `roi`, into `pts`; the last pass's face score (`None`
-    /// when a pass fails).
-    fn mesh_passes(&mut self, image: &ImageRef, roi: Roi, pts: &mut [f32]) -> Option<f32> {
-        let mut score = self.mesh.mesh(image, &roi, pts).ok()?;
-        for _ in 1..MESH_PASSES {
-            if score < MESH_MIN_FACE {
-                break;
-            }
-            let roi = Roi::from_mesh(pts);
-            score = self.mesh.mesh(image, &roi, pts).ok()?;
-        }
-        Some(score)
-    }
-
-    /// [`find`](Self::find) with MediaPipe's nets.
-    fn find_mesh(&mut self, image: &ImageRef) -> Vec<Face> {
-        let mut faces: Vec<Face> = Vec::new();
-        for (det, score, pts) in self.meshes(image) {
-            let mut landmarks = vec![0.0; 136];
-            mesh_table::to_ibug(&pts, &mut landmarks);
-            let bbox = BBox::around_landmarks(&landmarks);
-            if faces
-                .iter()
-                .any(|f| f.bbox.iou(&bbox) > self.options.iou_threshold)
-            {
-                continue;
-            }
-            if self.calibrate {
-                calibration::apply_mesh(&mut landmarks);
-            }
-            if landmarks.iter().all(|v| v.is_finite()) {
-                faces.push(Face {
-                    bbox,
-                    score: (det.score * score).sqrt(),
-                    landmarks,
-                });
-            }
-        }
-        faces.sort_by(|a, b| b.score.total_cmp(&a.score));
-        faces.truncate(self.options.max_faces);
-        faces
-    }
-
-    /// The 68 points of the mesh on the face in `bbox` (a box like [`Face::bbox`]): a first
-    /// pass on the square around the box, then [`MESH_PASSES`] - 1 on the points' region.
-    fn mesh_landmarks_into(&mut self, image: &ImageRef, bbox: BBox, out: &mut [f32]) -> Result<()> {
-        let roi = Roi {
-            cx: bbox.x + 0.5 * bbox.width,
-            cy: bbox.y + 0.5 * bbox.height,
-            side: mesh::ROI_SCALE * bbox.width.max(bbox.height),
-            angle: 0.0,
-        };
-        let mut pts = std::mem::take(&mut self.mesh_pass);
-        pts.resize(MESH_POINTS * 3, 0.0);
-        let r = self.mesh.mesh(image, &roi, &mut pts).and_then(|_| {
-            let roi = Roi::from_mesh(&pts);
-            self.mesh.mesh(image, &roi, &mut pts)
-        });
-        if r.is_ok() {
-            mesh_table::to_ibug(&pts, out);
-        }
-        self.mesh_pass = pts;
-        r.map(|_| ())
     }
 
     /// [`find`](Self::find) with the detector at one input side.
@@ -433,26 +324,6 @@ impl FaceFinder {
 
     /// [`landmarks`](Self::landmarks) into a caller's buffer of 136 values.
     pub fn landmarks_into(&mut self, image: &ImageRef, bbox: BBox, out: &mut [f32]) -> Result<()> {
-        if self.use_mesh {
-            if out.len() != 136 {
-                return Err(Error::Landmarks(format!(
-                    "{} values, expected 136",
-                    out.len()
-                )));
-            }
-            if !bbox.is_valid() {
-                return Err(Error::Image(format!("invalid face box {bbox:?}")));
-            }
-            self.mesh_landmarks_into(image, bbox, out)?;
-            if self.calibrate {
-                calibration::apply_mesh(out);
-            }
-            return if out.iter().all(|v| v.is_finite()) {
-                Ok(())
-            } else {
-                Err(Error::Image("the mesh gave non-finite points".into()))
-            };
-        }
         self.net_landmarks_into(image, bbox, out)?;
         if self.calibrate {
             calibration::apply(out);

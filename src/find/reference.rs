@@ -83,6 +83,7 @@ fn landmark_outputs_match_tfjs() {
 
 /// MediaPipe's nets against the TFLite interpreter (`scripts/mediapipe-reference.py`): every
 /// layer's mean, largest magnitude and 16 sampled values, then the final outputs.
+#[cfg(feature = "mesh-finder")]
 mod mediapipe {
     use super::super::graph::{Graph, GraphScratch};
     use super::super::mesh::{

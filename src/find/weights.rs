@@ -113,6 +113,7 @@ impl Weights {
     }
 
     /// The tensor `name`, with its shape (`None` when absent).
+    #[cfg_attr(not(feature = "mesh-finder"), allow(dead_code))]
     pub fn tensor(&self, name: &str) -> Option<&Tensor> {
         self.tensors.iter().find(|t| t.name == name)
     }
