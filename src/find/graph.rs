@@ -431,6 +431,10 @@ fn conv_fixed<const C: usize>(x: &Map, l: &Layer, g: (usize, usize, usize, usize
                 let inp = &x.data[i * cin..][..cin];
                 let f = &l.w[t * cin * C..][..cin * C];
                 for (&a, fr) in inp.iter().zip(f.chunks_exact(C)) {
+                    // A fixed-length row, so the loop unrolls over registers.
+                    let Ok(fr) = <&[f32; C]>::try_from(fr) else {
+                        continue;
+                    };
                     for (o, &ff) in acc.iter_mut().zip(fr) {
                         *o += a * ff;
                     }

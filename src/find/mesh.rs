@@ -233,9 +233,15 @@ impl MeshNets {
             return Err(Error::Image(format!("invalid face region {roi:?}")));
         }
         let n = MESH_INPUT;
+        // The crop's axes in the image, once (not a sine and cosine per sample).
+        let (sin, cos) = roi.angle.sin_cos();
+        let (cx, cy, side) = (roi.cx, roi.cy, roi.side);
         sample(
             image,
-            |u, v| roi.image_point(u, v),
+            move |u, v| {
+                let (dx, dy) = ((u - 0.5) * side, (v - 0.5) * side);
+                (cx + cos * dx - sin * dy, cy + sin * dx + cos * dy)
+            },
             roi.side / n as f32,
             false,
             n,
