@@ -8,7 +8,10 @@
 //! - `find/landmarks/640x480`: `FaceFinder::landmarks_into` given the box `find` returned (one
 //!   landmark pass).
 //!
-//! Run: `cargo bench --bench find`.
+//! - `find/mesh_find/640x480`, `find/mesh_landmarks/640x480` (with `--features mesh-finder`):
+//!   the same for `MeshFinder` (MediaPipe's detector and two mesh passes; two mesh passes).
+//!
+//! Run: `cargo bench --bench find` (`--features mesh-finder` for the MediaPipe finder).
 
 use std::path::Path;
 
@@ -67,6 +70,21 @@ fn bench_find(c: &mut Criterion) {
                 .expect("landmarks")
         })
     });
+    #[cfg(feature = "mesh-finder")]
+    {
+        // MediaPipe's nets (`cargo bench --features mesh-finder --bench find`).
+        let mut mesh = facemimic::MeshFinder::new().expect("mesh finder");
+        let faces = mesh.find(&view);
+        assert_eq!(faces.len(), 1, "the mesh finder finds the face");
+        let mbox = faces[0].bbox;
+        group.bench_function("mesh_find/640x480", |b| b.iter(|| mesh.find(&view)));
+        group.bench_function("mesh_landmarks/640x480", |b| {
+            b.iter(|| {
+                mesh.landmarks_into(&view, mbox, &mut out)
+                    .expect("landmarks")
+            })
+        });
+    }
     group.finish();
 }
 

@@ -1,7 +1,7 @@
 //! The face finder's detection rate and landmark error on the shared data, against the dlib
 //! landmarks: `cargo run --release --example find_eval -- [STEP] [SET...]` (default step 1, the
 //! sets grid franck-dev franck-dev2 webcam-dev under ../shared/data). Each frame is found on
-//! its own. A frame counts as found when the most confident face's landmarks lie within 0.25 of
+//! its own. `FIND_MESH=1` with `--features mesh-finder`: MediaPipe's nets (`MeshFinder`). A frame counts as found when the most confident face's landmarks lie within 0.25 of
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
 //! the found frames.
 #![cfg_attr(target_arch = "wasm32", no_main)]
@@ -48,17 +48,36 @@ mod native {
             opts.max_disagreement = t.parse().unwrap();
         }
         finder.set_options(opts);
+        // FIND_MESH=1 (with `--features mesh-finder`): MediaPipe's nets (`MeshFinder`).
+        #[cfg(feature = "mesh-finder")]
+        let mut mesh = std::env::var_os("FIND_MESH").map(|_| {
+            let mut m = facemimic::MeshFinder::new().unwrap();
+            m.set_options(opts);
+            m
+        });
+        #[cfg(not(feature = "mesh-finder"))]
+        assert!(
+            std::env::var_os("FIND_MESH").is_none(),
+            "FIND_MESH needs --features mesh-finder"
+        );
         for set in sets {
             let all = frames(&root.join(&set));
             let (mut n, mut found, mut err_sum, mut worst, mut secs, mut extra) =
                 (0, 0, 0.0, 0.0f32, 0.0, 0);
             let mut missed = Vec::new();
+            let mut errors = Vec::new();
             for p in all.iter().step_by(step) {
                 let img = read_image(p).unwrap();
                 let truth =
                     read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
                 let view = img.view().unwrap();
                 let t = Instant::now();
+                #[cfg(feature = "mesh-finder")]
+                let faces = match mesh.as_mut() {
+                    Some(m) => m.find(&view),
+                    None => finder.find(&view),
+                };
+                #[cfg(not(feature = "mesh-finder"))]
                 let faces = finder.find(&view);
                 secs += t.elapsed().as_secs_f64();
                 n += 1;
@@ -82,14 +101,20 @@ mod native {
                             );
                         }
                         found += 1;
+                        errors.push(e);
                         err_sum += e;
                         worst = worst.max(e);
                     }
                     _ => missed.push(p.file_name().unwrap().to_string_lossy().to_string()),
                 }
             }
+            errors.sort_by(f32::total_cmp);
+            let p95 = errors
+                .get((errors.len() * 95 / 100).min(errors.len().saturating_sub(1)))
+                .copied()
+                .unwrap_or(f32::NAN);
             println!(
-                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
+                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, p95 {p95:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
                 100.0 * found as f64 / n as f64,
                 err_sum / found.max(1) as f32,
                 worst,

@@ -15,6 +15,14 @@
 //! committed table is what the committed frames give.
 
 include!("calibration_table.rs");
+#[cfg(feature = "mesh-finder")]
+include!("calibration_table_mesh.rs");
+
+/// Adds the face mesh's convention offsets (`MESH_OFFSETS`) to 68 points in place.
+#[cfg(feature = "mesh-finder")]
+pub(crate) fn apply_mesh(points: &mut [f32]) {
+    add_face_offsets(points, &MESH_OFFSETS);
+}
 
 /// The face frame of 68 points (the frame of [`face_offsets`]): centroid, RMS radius, and the
 /// cosine and sine of the angle of the line from point 36 to point 45. `None` for a

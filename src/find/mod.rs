@@ -7,9 +7,20 @@
 //! measured rates and why the pipeline is what it is.
 
 mod calibration;
+#[cfg(feature = "mesh-finder")]
+mod graph;
+#[cfg(feature = "mesh-finder")]
+mod mesh;
+#[cfg(feature = "mesh-finder")]
+mod mesh_finder;
+#[cfg(feature = "mesh-finder")]
+mod mesh_table;
 mod nets;
 mod nn;
 mod weights;
+
+#[cfg(feature = "mesh-finder")]
+pub use mesh_finder::MeshFinder;
 
 pub use calibration::{
     add_face_offsets, convention_free_errors, face_frame, face_offsets, mean_face_offsets,

@@ -80,3 +80,151 @@ fn landmark_outputs_match_tfjs() {
         assert!(d < 1e-4, "{name}: max |diff| {d}");
     }
 }
+
+/// MediaPipe's nets against the TFLite interpreter (`scripts/mediapipe-reference.py`): every
+/// layer's mean, largest magnitude and 16 sampled values, then the final outputs.
+#[cfg(feature = "mesh-finder")]
+mod mediapipe {
+    use super::super::graph::{Graph, GraphScratch};
+    use super::super::mesh::{
+        MeshNets, BLAZEFACE_WEIGHTS, DETECTOR_INPUT, MESH_INPUT, MESH_WEIGHTS,
+    };
+    use super::DIR;
+
+    fn json(name: &str) -> serde_json::Value {
+        let text = std::fs::read_to_string(format!("{DIR}/{name}.json")).unwrap();
+        serde_json::from_str(&text).unwrap()
+    }
+
+    fn floats(v: &serde_json::Value) -> Vec<f32> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|d| d.as_f64().unwrap() as f32)
+            .collect()
+    }
+
+    /// Runs `graph` on the fixture `name` (`norm` maps a byte to the net's input) and checks
+    /// every layer; returns the worst difference relative to the layer's largest magnitude.
+    fn check_layers(
+        graph: &Graph,
+        name: &str,
+        n: usize,
+        norm: impl Fn(u8) -> f32,
+    ) -> (GraphScratch, serde_json::Value) {
+        let bytes = std::fs::read(format!("{DIR}/{name}.rgb")).unwrap();
+        assert_eq!(bytes.len(), n * n * 3);
+        let want = json(name);
+        let layers = want["layers"].as_array().unwrap();
+        assert_eq!(layers.len(), graph.slots.len(), "{name}: layer count");
+        let mut s = GraphScratch::default();
+        let x = s.input();
+        x.reset(n, n, 3);
+        for (o, &b) in x.data.iter_mut().zip(&bytes) {
+            *o = norm(b);
+        }
+        let mut worst = (0.0f32, 0);
+        graph
+            .run(&mut s, |i, y| {
+                let l = &layers[i];
+                let shape: Vec<usize> = l["shape"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|d| d.as_u64().unwrap() as usize)
+                    .collect();
+                // Shapes are [h, w, c] (or, for none here, fewer dims).
+                assert_eq!(
+                    y.data.len(),
+                    shape.iter().product::<usize>(),
+                    "{name} layer {i}"
+                );
+                let max_abs = l["max_abs"].as_f64().unwrap() as f32;
+                let scale = max_abs.max(1e-3);
+                let got_max = y.data.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+                let mean = y.data.iter().map(|&v| v as f64).sum::<f64>() / y.data.len() as f64;
+                let mut d = (got_max - max_abs).abs();
+                d = d.max((mean as f32 - l["mean"].as_f64().unwrap() as f32).abs());
+                let idx = l["index"].as_array().unwrap();
+                for (k, v) in idx.iter().zip(floats(&l["values"])) {
+                    d = d.max((y.data[k.as_u64().unwrap() as usize] - v).abs());
+                }
+                if d / scale > worst.0 {
+                    worst = (d / scale, i);
+                }
+                // Float32 throughout, other summation orders: measured under 1e-6 of the range.
+                assert!(
+                    d <= 1e-5 * scale,
+                    "{name} layer {i}: off by {d} (largest magnitude {max_abs})"
+                );
+            })
+            .unwrap();
+        eprintln!(
+            "{name}: {} layers, worst {:.2e} of the layer's range (layer {})",
+            layers.len(),
+            worst.0,
+            worst.1
+        );
+        (s, want)
+    }
+
+    #[test]
+    fn blazeface_matches_tflite_layer_by_layer() {
+        let nets = MeshNets::load(BLAZEFACE_WEIGHTS, MESH_WEIGHTS).unwrap();
+        let (det, _) = nets.graphs();
+        let (s, want) = check_layers(det, "mp-detector-128", DETECTOR_INPUT, |b| {
+            b as f32 / 127.5 - 1.0
+        });
+        let cls: Vec<f32> = [2, 3]
+            .iter()
+            .flat_map(|&k| s.output(det, k).data.clone())
+            .collect();
+        let want_cls = floats(&want["scores"]);
+        assert_eq!(cls.len(), 896);
+        let d = cls
+            .iter()
+            .zip(&want_cls)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(d < 1e-3, "score logits off by {d}");
+        let reg: Vec<f32> = [0, 1]
+            .iter()
+            .flat_map(|&k| s.output(det, k).data.clone())
+            .collect();
+        let rows = want["regressions"].as_object().unwrap();
+        assert!(!rows.is_empty(), "the reference finds the face");
+        for (i, v) in rows {
+            let i: usize = i.parse().unwrap();
+            for (a, b) in reg[i * 16..][..16].iter().zip(floats(v)) {
+                // In pixels of the 128-pixel input.
+                assert!((a - b).abs() < 1e-3, "anchor {i}: {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn face_mesh_matches_tflite_layer_by_layer() {
+        let nets = MeshNets::load(BLAZEFACE_WEIGHTS, MESH_WEIGHTS).unwrap();
+        let (_, mesh) = nets.graphs();
+        for name in ["mp-mesh-a-192", "mp-mesh-b-192"] {
+            let (s, want) = check_layers(mesh, name, MESH_INPUT, |b| b as f32 / 255.0);
+            let lm = &s.output(mesh, 0).data;
+            let want_lm = floats(&want["landmarks"]);
+            assert_eq!(lm.len(), want_lm.len());
+            let d = lm
+                .iter()
+                .zip(&want_lm)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f32::max);
+            // In pixels of the 192-pixel crop: a thousandth of a pixel.
+            assert!(d < 1e-3, "{name}: points off by {d} px");
+            let face = s.output(mesh, 1).data[0];
+            let want_face = want["face"].as_f64().unwrap() as f32;
+            assert!(
+                (face - want_face).abs() < 1e-3,
+                "{name}: face logit {face} vs {want_face}"
+            );
+            assert!(want_face > 5.0, "the fixture is a face");
+        }
+    }
+}

@@ -4,7 +4,8 @@
 //! length and the UTF-8 name (the tfjs manifest's name, e.g. `conv1/depthwise_filter`), a `u32`
 //! rank and that many `u32` dimensions (tfjs order: `[kh, kw, in, out]` for convolutions), a
 //! `u32` encoding (0: float32 values; 1: uint8 values `q` with `f32` scale and `f32` min before
-//! them, value = min + scale * q) and the values.
+//! them, value = min + scale * q; 2: float16 values, as MediaPipe's TFLite files store them,
+//! written by `scripts/convert-mediapipe.py`) and the values.
 
 use crate::error::{Error, Result};
 
@@ -96,6 +97,11 @@ impl Weights {
                         .map(|&q| min + scale * q as f32)
                         .collect()
                 }
+                2 => r
+                    .take(len * 2)?
+                    .chunks_exact(2)
+                    .map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32())
+                    .collect(),
                 e => return Err(bad(format!("{name}: encoding {e}"))),
             };
             tensors.push(Tensor { name, shape, data });
@@ -104,6 +110,12 @@ impl Weights {
             return Err(bad("trailing bytes after the last tensor"));
         }
         Ok(Weights { tensors })
+    }
+
+    /// The tensor `name`, with its shape (`None` when absent).
+    #[cfg_attr(not(feature = "mesh-finder"), allow(dead_code))]
+    pub fn tensor(&self, name: &str) -> Option<&Tensor> {
+        self.tensors.iter().find(|t| t.name == name)
     }
 
     /// The tensor `name`, checked to have `shape`.

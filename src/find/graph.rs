@@ -1,0 +1,571 @@
+//! A small interpreter for the layer lists that `scripts/convert-mediapipe.py` writes from
+//! MediaPipe's TFLite files (the `graph` and `outputs` tensors of an `FMW1` file; format in that
+//! script's header): convolutions of any square kernel and stride, depthwise convolutions,
+//! ReLU, PReLU, additions, channel padding and max pooling, channels-last `f32` maps, as
+//! TFLite's reference kernels compute them.
+//!
+//! The activations live in a few buffers reused from layer to layer (a buffer is handed to the
+//! next layer once the last layer reading it has run), kept in [`GraphScratch`], so a run after
+//! the first allocates nothing.
+
+use super::nn::{self, Map};
+use super::weights::Weights;
+use crate::error::{Error, Result};
+
+/// What a layer computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Conv,
+    Depthwise,
+    Relu,
+    Prelu,
+    Add,
+    PadChannels,
+    MaxPool,
+}
+
+/// One layer: its kind, its buffers and its parameters.
+#[derive(Clone, Debug)]
+struct Layer {
+    kind: Kind,
+    /// The buffer written.
+    out: usize,
+    /// The buffers read (the second only for additions).
+    inputs: [usize; 2],
+    stride: usize,
+    /// TensorFlow `same` padding (else `valid`).
+    same: bool,
+    kernel: usize,
+    /// Zero channels appended (channel padding).
+    extra: usize,
+    /// Output channels (convolutions).
+    cout: usize,
+    /// Elementwise layers whose first input is read by no later layer write over it.
+    in_place: bool,
+    /// Convolution filters, rearranged: `[cin][cout]` for 1x1, `[kh][kw][cin][cout]` for
+    /// larger kernels, `[kh][kw][c]` for depthwise; PReLU slopes `[c]`.
+    w: Vec<f32>,
+    bias: Vec<f32>,
+}
+
+/// A net read from a converted weight file.
+#[derive(Clone, Debug)]
+pub(crate) struct Graph {
+    layers: Vec<Layer>,
+    /// How many buffers the layers need at once.
+    buffers: usize,
+    /// The buffers holding the net's outputs after [`Graph::run`], in the file's order.
+    outputs: Vec<usize>,
+    /// The expected input: side and channels.
+    input: (usize, usize),
+    /// For the layer-by-layer reference test: each layer's buffer (the logical slot it wrote).
+    #[cfg(test)]
+    pub slots: Vec<usize>,
+}
+
+/// The activation buffers of a [`Graph`] run.
+#[derive(Default, Debug)]
+pub(crate) struct GraphScratch {
+    maps: Vec<Map>,
+}
+
+fn bad(msg: impl Into<String>) -> Error {
+    Error::Weights(msg.into())
+}
+
+/// Output size and padding before for a kernel `k` and stride `s` on `input` pixels.
+fn geometry(input: usize, k: usize, s: usize, same: bool) -> Option<(usize, usize)> {
+    if same {
+        Some(nn::same(input, k, s))
+    } else {
+        (input >= k).then(|| ((input - k) / s + 1, 0))
+    }
+}
+
+impl Graph {
+    /// Reads a converted net; `input` is its input side and channels (checked against the
+    /// first layer's weights).
+    pub fn load(bytes: &[u8], input: (usize, usize)) -> Result<Self> {
+        let w = Weights::parse(bytes)?;
+        let g = w
+            .tensor("graph")
+            .ok_or_else(|| bad("no graph in the weight file"))?;
+        if g.shape.len() != 2 || g.shape[1] != 8 {
+            return Err(bad(format!("graph shape {:?}", g.shape)));
+        }
+        let as_index = |v: f32| -> Result<Option<usize>> {
+            if v == -1.0 {
+                Ok(None)
+            } else if (0.0..1e6).contains(&v) && v.fract() == 0.0 {
+                Ok(Some(v as usize))
+            } else {
+                Err(bad(format!("graph entry {v}")))
+            }
+        };
+        // Channels of every logical slot, to check the weights' shapes.
+        let mut channels = vec![input.1];
+        let mut rows = Vec::new();
+        for (i, row) in g.data.chunks_exact(8).enumerate() {
+            let get = |k: usize| as_index(row[k]);
+            let kind = match get(0)? {
+                Some(0) => Kind::Conv,
+                Some(1) => Kind::Depthwise,
+                Some(2) => Kind::Relu,
+                Some(3) => Kind::Prelu,
+                Some(4) => Kind::Add,
+                Some(5) => Kind::PadChannels,
+                Some(6) => Kind::MaxPool,
+                k => return Err(bad(format!("layer {i}: kind {k:?}"))),
+            };
+            let out = get(1)?.ok_or_else(|| bad("layer without output"))?;
+            let in0 = get(2)?.ok_or_else(|| bad("layer without input"))?;
+            let in1 = get(3)?;
+            if out != channels.len() || in0 >= out || in1.is_some_and(|s| s >= out) {
+                return Err(bad(format!("layer {i}: slots out of order")));
+            }
+            let cin = channels[in0];
+            let stride = get(4)?.unwrap_or(1).max(1);
+            let same = get(5)? == Some(1);
+            let kernel = get(6)?.unwrap_or(0);
+            let extra = get(7)?.unwrap_or(0);
+            let mut layer = Layer {
+                kind,
+                out,
+                inputs: [in0, in1.unwrap_or(in0)],
+                stride,
+                same,
+                kernel,
+                extra,
+                cout: cin,
+                in_place: false,
+                w: Vec::new(),
+                bias: Vec::new(),
+            };
+            let tensor = |name: &str| {
+                w.tensor(&format!("op{i}/{name}"))
+                    .ok_or_else(|| bad(format!("layer {i}: no {name}")))
+            };
+            match kind {
+                Kind::Conv => {
+                    let f = tensor("w")?;
+                    let [cout, kh, kw, c] = f.shape[..] else {
+                        return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
+                    };
+                    if kh != kernel || kw != kernel || c != cin || kernel == 0 {
+                        return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
+                    }
+                    // [cout][kh][kw][cin] -> [kh][kw][cin][cout]
+                    let mut r = vec![0.0; f.data.len()];
+                    for o in 0..cout {
+                        for t in 0..kh * kw {
+                            for ci in 0..cin {
+                                r[(t * cin + ci) * cout + o] = f.data[(o * kh * kw + t) * cin + ci];
+                            }
+                        }
+                    }
+                    layer.w = r;
+                    layer.cout = cout;
+                    layer.bias = tensor("b")?.data.clone();
+                }
+                Kind::Depthwise => {
+                    let f = tensor("w")?;
+                    if f.shape != [1, kernel, kernel, cin] || kernel == 0 {
+                        return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
+                    }
+                    layer.w = f.data.clone();
+                    layer.bias = tensor("b")?.data.clone();
+                }
+                Kind::Prelu => layer.w = tensor("a")?.data.clone(),
+                Kind::PadChannels => layer.cout = cin + extra,
+                Kind::Add => {
+                    if channels[layer.inputs[1]] != cin {
+                        return Err(bad(format!("layer {i}: adding maps of other depths")));
+                    }
+                }
+                Kind::Relu => {}
+                Kind::MaxPool => {
+                    if kernel == 0 {
+                        return Err(bad(format!("layer {i}: pooling kernel 0")));
+                    }
+                }
+            }
+            if (matches!(kind, Kind::Conv | Kind::Depthwise) && layer.bias.len() != layer.cout)
+                || (kind == Kind::Prelu && layer.w.len() != cin)
+            {
+                return Err(bad(format!("layer {i}: bias or slope size")));
+            }
+            channels.push(layer.cout);
+            rows.push(layer);
+        }
+        if rows.is_empty() {
+            return Err(bad("empty graph"));
+        }
+        let outputs_t = w.tensor("outputs").ok_or_else(|| bad("no outputs"))?;
+        let mut outputs = Vec::new();
+        for &v in &outputs_t.data {
+            let s = as_index(v)?.filter(|&s| s < channels.len());
+            outputs.push(s.ok_or_else(|| bad(format!("output slot {v}")))?);
+        }
+        // Buffers: a slot's buffer is free again after the last layer reading it.
+        let slots = channels.len();
+        let mut last_use = vec![0usize; slots];
+        for (i, l) in rows.iter().enumerate() {
+            for &s in &l.inputs {
+                last_use[s] = i;
+            }
+        }
+        for &o in &outputs {
+            last_use[o] = usize::MAX;
+        }
+        let mut buffer_of = vec![usize::MAX; slots];
+        buffer_of[0] = 0;
+        let mut free: Vec<usize> = Vec::new();
+        let mut buffers = 1;
+        #[cfg(test)]
+        let logical: Vec<usize> = rows.iter().map(|l| l.out).collect();
+        for (i, l) in rows.iter_mut().enumerate() {
+            let [in0, in1] = l.inputs;
+            l.in_place = matches!(l.kind, Kind::Relu | Kind::Prelu | Kind::Add)
+                && in0 != 0
+                && last_use[in0] == i
+                && (l.kind != Kind::Add || in1 != in0);
+            let b = if l.in_place {
+                let b = buffer_of[in0];
+                // The buffer now holds `out`: `in0` no longer frees it.
+                buffer_of[in0] = usize::MAX;
+                b
+            } else {
+                free.pop().unwrap_or_else(|| {
+                    buffers += 1;
+                    buffers - 1
+                })
+            };
+            l.inputs = [in0, in1].map(|s| {
+                if s == in0 && l.in_place {
+                    b
+                } else {
+                    buffer_of[s]
+                }
+            });
+            buffer_of[l.out] = b;
+            l.out = b;
+            for s in 0..slots {
+                // The input (buffer 0) stays the input.
+                if s != 0
+                    && last_use[s] == i
+                    && buffer_of[s] != usize::MAX
+                    && !free.contains(&buffer_of[s])
+                {
+                    free.push(buffer_of[s]);
+                }
+            }
+        }
+        Ok(Graph {
+            layers: rows,
+            buffers,
+            outputs: outputs.iter().map(|&s| buffer_of[s]).collect(),
+            input,
+            #[cfg(test)]
+            slots: logical,
+        })
+    }
+
+    /// Runs the net on `s.input()` (filled by the caller, `side x side x channels`); the outputs
+    /// are then [`GraphScratch::output`]. `each` is called after every layer with the layer's
+    /// index and its output (for the reference test; pass `|_, _| {}`).
+    pub fn run(&self, s: &mut GraphScratch, mut each: impl FnMut(usize, &Map)) -> Result<()> {
+        if s.maps.len() < self.buffers {
+            s.maps.resize_with(self.buffers, Map::default);
+        }
+        let x = &s.maps[0];
+        if x.h != self.input.0 || x.w != self.input.0 || x.c != self.input.1 {
+            return Err(Error::Image(format!(
+                "net input {}x{}x{}, expected {}x{}x{}",
+                x.h, x.w, x.c, self.input.0, self.input.0, self.input.1
+            )));
+        }
+        for (i, l) in self.layers.iter().enumerate() {
+            let mut y = std::mem::take(&mut s.maps[l.out]);
+            if l.in_place {
+                match l.kind {
+                    Kind::Relu => nn::relu(&mut y.data),
+                    Kind::Prelu => prelu(&mut y, &l.w),
+                    _ => {
+                        let x1 = &s.maps[l.inputs[1]];
+                        for (v, &b) in y.data.iter_mut().zip(&x1.data) {
+                            *v += b;
+                        }
+                    }
+                }
+                each(i, &y);
+                s.maps[l.out] = y;
+                continue;
+            }
+            let x = &s.maps[l.inputs[0]];
+            match l.kind {
+                Kind::Conv if l.kernel == 1 && l.stride == 1 => {
+                    nn::pointwise(x, &l.w, &l.bias, &mut y)
+                }
+                Kind::Conv => conv(x, l, &mut y)?,
+                Kind::Depthwise => depthwise(x, l, &mut y)?,
+                Kind::Relu => {
+                    copy(x, &mut y);
+                    nn::relu(&mut y.data);
+                }
+                Kind::Prelu => {
+                    copy(x, &mut y);
+                    prelu(&mut y, &l.w);
+                }
+                Kind::Add => {
+                    let x1 = &s.maps[l.inputs[1]];
+                    copy(x, &mut y);
+                    for (v, &b) in y.data.iter_mut().zip(&x1.data) {
+                        *v += b;
+                    }
+                }
+                Kind::PadChannels => {
+                    y.reset(x.h, x.w, x.c + l.extra);
+                    for (o, i) in y.data.chunks_exact_mut(y.c).zip(x.data.chunks_exact(x.c)) {
+                        o[..x.c].copy_from_slice(i);
+                        o[x.c..].fill(0.0);
+                    }
+                }
+                Kind::MaxPool => maxpool(x, l, &mut y)?,
+            }
+            each(i, &y);
+            s.maps[l.out] = y;
+        }
+        Ok(())
+    }
+}
+
+impl GraphScratch {
+    /// The input buffer, to be filled as `side x side x channels` before [`Graph::run`].
+    pub fn input(&mut self) -> &mut Map {
+        if self.maps.is_empty() {
+            self.maps.push(Map::default());
+        }
+        &mut self.maps[0]
+    }
+
+    /// Output `k` (in the converted file's order) of the last run of `graph`.
+    pub fn output(&self, graph: &Graph, k: usize) -> &Map {
+        &self.maps[graph.outputs[k]]
+    }
+}
+
+/// PReLU in place: negative values times their channel's slope.
+fn prelu(y: &mut Map, slopes: &[f32]) {
+    for px in y.data.chunks_exact_mut(y.c) {
+        for (v, &a) in px.iter_mut().zip(slopes) {
+            // Branch-free, so it vectorises: max(v, 0) + a min(v, 0).
+            *v = v.max(0.0) + a * v.min(0.0);
+        }
+    }
+}
+
+fn copy(x: &Map, y: &mut Map) {
+    y.reset(x.h, x.w, x.c);
+    y.data.copy_from_slice(&x.data);
+}
+
+fn too_small(l: &Layer) -> Error {
+    Error::Image(format!(
+        "map smaller than a {}x{} kernel",
+        l.kernel, l.kernel
+    ))
+}
+
+/// A full convolution of any square kernel and stride, plus bias (filters `[kh][kw][cin][cout]`).
+/// The common output depths run with their accumulators in registers ([`conv_fixed`]); the sums
+/// are made in the same order either way.
+fn conv(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
+    let (oh, py) = geometry(x.h, l.kernel, l.stride, l.same).ok_or_else(|| too_small(l))?;
+    let (ow, px) = geometry(x.w, l.kernel, l.stride, l.same).ok_or_else(|| too_small(l))?;
+    y.reset(oh, ow, l.cout);
+    let g = (oh, ow, py, px);
+    match l.cout {
+        16 => conv_fixed::<16>(x, l, g, y),
+        24 => conv_fixed::<24>(x, l, g, y),
+        _ => conv_any(x, l, g, y),
+    }
+    Ok(())
+}
+
+/// The input pixels under the kernel at output `(oy, ox)`: calls `tap(t, i)` with `t` the
+/// filter tap (`ky * k + kx`) and `i` the input pixel, in increasing `ky`, then `kx`.
+#[inline(always)]
+fn taps(
+    x: &Map,
+    l: &Layer,
+    py: usize,
+    px: usize,
+    oy: usize,
+    ox: usize,
+    mut tap: impl FnMut(usize, usize),
+) {
+    let (k, s) = (l.kernel, l.stride);
+    for ky in 0..k {
+        let iy = (oy * s + ky) as isize - py as isize;
+        if iy < 0 || iy >= x.h as isize {
+            continue;
+        }
+        for kx in 0..k {
+            let ix = (ox * s + kx) as isize - px as isize;
+            if ix < 0 || ix >= x.w as isize {
+                continue;
+            }
+            tap(ky * k + kx, iy as usize * x.w + ix as usize);
+        }
+    }
+}
+
+fn conv_fixed<const C: usize>(x: &Map, l: &Layer, g: (usize, usize, usize, usize), y: &mut Map) {
+    let (oh, ow, py, px) = g;
+    let cin = x.c;
+    let bias: [f32; C] = l.bias[..C].try_into().unwrap_or([0.0; C]);
+    for oy in 0..oh {
+        for ox in 0..ow {
+            let mut acc = bias;
+            taps(x, l, py, px, oy, ox, |t, i| {
+                let inp = &x.data[i * cin..][..cin];
+                let f = &l.w[t * cin * C..][..cin * C];
+                for (&a, fr) in inp.iter().zip(f.chunks_exact(C)) {
+                    // A fixed-length row, so the loop unrolls over registers.
+                    let Ok(fr) = <&[f32; C]>::try_from(fr) else {
+                        continue;
+                    };
+                    for (o, &ff) in acc.iter_mut().zip(fr) {
+                        *o += a * ff;
+                    }
+                }
+            });
+            y.data[(oy * ow + ox) * C..][..C].copy_from_slice(&acc);
+        }
+    }
+}
+
+fn conv_any(x: &Map, l: &Layer, g: (usize, usize, usize, usize), y: &mut Map) {
+    let (oh, ow, py, px) = g;
+    let (cin, cout) = (x.c, l.cout);
+    for oy in 0..oh {
+        for ox in 0..ow {
+            let o = &mut y.data[(oy * ow + ox) * cout..][..cout];
+            o.copy_from_slice(&l.bias);
+            taps(x, l, py, px, oy, ox, |t, i| {
+                let inp = &x.data[i * cin..][..cin];
+                let f = &l.w[t * cin * cout..][..cin * cout];
+                for (&a, fr) in inp.iter().zip(f.chunks_exact(cout)) {
+                    for (oo, &ff) in o.iter_mut().zip(fr) {
+                        *oo += a * ff;
+                    }
+                }
+            });
+        }
+    }
+}
+
+/// A depthwise convolution (filters `[kh][kw][c]`) plus bias.
+fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
+    let (k, s, c) = (l.kernel, l.stride, x.c);
+    let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
+    let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
+    y.reset(oh, ow, c);
+    for oy in 0..oh {
+        for ox in 0..ow {
+            let o = &mut y.data[(oy * ow + ox) * c..][..c];
+            o.copy_from_slice(&l.bias);
+            for ky in 0..k {
+                let iy = (oy * s + ky) as isize - py as isize;
+                if iy < 0 || iy >= x.h as isize {
+                    continue;
+                }
+                for kx in 0..k {
+                    let ix = (ox * s + kx) as isize - px as isize;
+                    if ix < 0 || ix >= x.w as isize {
+                        continue;
+                    }
+                    let inp = &x.data[(iy as usize * x.w + ix as usize) * c..][..c];
+                    let f = &l.w[(ky * k + kx) * c..][..c];
+                    for ((oo, &a), &ff) in o.iter_mut().zip(inp).zip(f) {
+                        *oo += a * ff;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Max pooling (padded cells never win).
+fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
+    let (k, s, c) = (l.kernel, l.stride, x.c);
+    let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
+    let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
+    y.reset(oh, ow, c);
+    y.data.fill(f32::NEG_INFINITY);
+    for oy in 0..oh {
+        for ox in 0..ow {
+            let o = &mut y.data[(oy * ow + ox) * c..][..c];
+            for ky in 0..k {
+                let iy = (oy * s + ky) as isize - py as isize;
+                if iy < 0 || iy >= x.h as isize {
+                    continue;
+                }
+                for kx in 0..k {
+                    let ix = (ox * s + kx) as isize - px as isize;
+                    if ix < 0 || ix >= x.w as isize {
+                        continue;
+                    }
+                    let inp = &x.data[(iy as usize * x.w + ix as usize) * c..][..c];
+                    for (oo, &a) in o.iter_mut().zip(inp) {
+                        *oo = oo.max(a);
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod tests {
+    use super::super::mesh::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
+    use super::*;
+
+    /// Time per layer kind (a profile, not a check).
+    #[test]
+    #[ignore = "prints a profile"]
+    fn profile() {
+        for (bytes, n) in [(BLAZEFACE_WEIGHTS, 128), (MESH_WEIGHTS, 192)] {
+            let g = Graph::load(bytes, (n, 3)).unwrap();
+            let mut s = GraphScratch::default();
+            let x = s.input();
+            x.reset(n, n, 3);
+            for (i, v) in x.data.iter_mut().enumerate() {
+                *v = ((i * 7919) % 255) as f32 / 255.0;
+            }
+            g.run(&mut s, |_, _| {}).unwrap();
+            let mut times = std::collections::BTreeMap::<String, f64>::new();
+            let reps = 20;
+            let t0 = std::time::Instant::now();
+            for _ in 0..reps {
+                let mut last = std::time::Instant::now();
+                g.run(&mut s, |i, _| {
+                    let l = &g.layers[i];
+                    let key = format!("{:?} k{} s{}", l.kind, l.kernel, l.stride);
+                    *times.entry(key).or_default() += last.elapsed().as_secs_f64();
+                    last = std::time::Instant::now();
+                })
+                .unwrap();
+            }
+            eprintln!(
+                "net {n}: {:.2} ms a run",
+                t0.elapsed().as_secs_f64() * 1e3 / reps as f64
+            );
+            for (k, t) in times {
+                eprintln!("  {k}: {:.3} ms", t * 1e3 / reps as f64);
+            }
+        }
+    }
+}

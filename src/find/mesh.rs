@@ -1,0 +1,364 @@
+//! MediaPipe's face detector (BlazeFace, short range) and face mesh (468 points), Apache-2.0
+//! (Google LLC; `data/weights/LICENSE-mediapipe`), converted by `scripts/convert-mediapipe.py`
+//! and run by the crate's own layers ([`super::graph`]).
+//!
+//! The pre- and post-processing follow MediaPipe's graphs (v0.10.14,
+//! `mediapipe/modules/face_detection/face_detection_short_range.pbtxt`,
+//! `face_detection_front_detection_to_roi.pbtxt`, `face_landmark/face_landmark_cpu.pbtxt` and
+//! `face_landmark_landmarks_to_roi.pbtxt`):
+//!
+//! - detector: the image letterboxed (centred, black) into 128x128, values in -1..1; 896 SSD
+//!   anchors (`SsdAnchorsCalculator`: 4 layers, strides 8, 16, 16, 16, 2 anchors per layer and
+//!   cell, fixed size 1, offset 0.5, i.e. 16x16x2 then 8x8x6); boxes and 6 keypoints decoded as
+//!   `TensorsToDetectionsCalculator` does (scales 128, x/y/w/h order, scores `sigmoid` of the
+//!   logit clipped to +-100, kept from 0.5), then weighted non-maximum suppression (IoU 0.3);
+//! - the mesh's region: the detection's box centre, rotated so the eyes (keypoints 0 and 1) are
+//!   level, a square of 1.5 times the box's longer side; from a previous mesh, its points' box
+//!   centre, rotated by points 33 and 263, 1.5 times the longer side;
+//! - mesh: that square resampled to 192x192 (the border replicated), values in 0..1; 468 points
+//!   (x, y in the crop's pixels, z) and a face-presence logit.
+
+use super::graph::{Graph, GraphScratch};
+use super::nn::Map;
+use crate::error::{Error, Result};
+use crate::geometry::BBox;
+use crate::image::ImageRef;
+
+/// The detector's input side.
+pub(crate) const DETECTOR_INPUT: usize = 128;
+/// The mesh's input side.
+pub(crate) const MESH_INPUT: usize = 192;
+/// Points of the face mesh.
+pub const MESH_POINTS: usize = 468;
+/// Detector score below which a box is dropped (MediaPipe's `min_score_thresh`).
+pub(crate) const DETECTOR_MIN_SCORE: f32 = 0.5;
+/// IoU above which detections are merged (MediaPipe's `min_suppression_threshold`).
+const NMS_IOU: f32 = 0.3;
+/// The mesh's region is this many times the face box's longer side.
+pub(crate) const ROI_SCALE: f32 = 1.5;
+
+/// A detection: box (image pixels), score and the 6 keypoints (right eye, left eye, nose tip,
+/// mouth centre, right ear tragion, left ear tragion; image pixels).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Detection {
+    pub bbox: BBox,
+    pub score: f32,
+    pub keypoints: [[f32; 2]; 6],
+}
+
+/// A rotated square of the image: centre, side (pixels) and angle (radians, the direction of
+/// the square's x axis in the image, y pointing down).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Roi {
+    pub cx: f32,
+    pub cy: f32,
+    pub side: f32,
+    pub angle: f32,
+}
+
+impl Roi {
+    /// The image point of the crop point `(u, v)` in 0..1.
+    fn image_point(&self, u: f32, v: f32) -> (f32, f32) {
+        let (s, c) = self.angle.sin_cos();
+        let (dx, dy) = ((u - 0.5) * self.side, (v - 0.5) * self.side);
+        (self.cx + c * dx - s * dy, self.cy + s * dx + c * dy)
+    }
+
+    fn is_valid(&self) -> bool {
+        self.cx.is_finite()
+            && self.cy.is_finite()
+            && self.angle.is_finite()
+            && self.side.is_finite()
+            && self.side >= 4.0
+    }
+
+    /// The mesh's region for a detection.
+    pub fn from_detection(d: &Detection) -> Roi {
+        let [r, l] = [d.keypoints[0], d.keypoints[1]];
+        Roi {
+            cx: d.bbox.x + 0.5 * d.bbox.width,
+            cy: d.bbox.y + 0.5 * d.bbox.height,
+            side: ROI_SCALE * d.bbox.width.max(d.bbox.height),
+            angle: (l[1] - r[1]).atan2(l[0] - r[0]),
+        }
+    }
+
+    /// The mesh's region for the next pass over the same face (from 468 points, interleaved
+    /// x, y, z in image pixels).
+    pub fn from_mesh(points: &[f32]) -> Roi {
+        let b = BBox::of_pairs(points.chunks_exact(3).map(|p| (p[0], p[1])));
+        let (r, l) = (&points[33 * 3..], &points[263 * 3..]);
+        Roi {
+            cx: b.x + 0.5 * b.width,
+            cy: b.y + 0.5 * b.height,
+            side: ROI_SCALE * b.width.max(b.height),
+            angle: (l[1] - r[1]).atan2(l[0] - r[0]),
+        }
+    }
+}
+
+/// The two nets, their anchors and their buffers.
+#[derive(Debug)]
+pub(crate) struct MeshNets {
+    detector: Graph,
+    mesh: Graph,
+    det_scratch: GraphScratch,
+    mesh_scratch: GraphScratch,
+    /// Anchor centres (x, y in 0..1 of the detector's input).
+    anchors: Vec<[f32; 2]>,
+    /// Decoded detections before suppression, kept between calls.
+    raw: Vec<Detection>,
+}
+
+/// The detector's weights (float16, `scripts/convert-mediapipe.py`).
+pub const BLAZEFACE_WEIGHTS: &[u8] = include_bytes!("../../data/weights/blazeface_short.fmw");
+/// The face mesh's weights (float16).
+pub const MESH_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_mesh.fmw");
+
+/// The SSD anchors of BlazeFace short range (see the module's documentation).
+fn anchors() -> Vec<[f32; 2]> {
+    let mut out = Vec::with_capacity(896);
+    for (cells, per_cell) in [(16usize, 2usize), (8, 6)] {
+        for row in 0..cells {
+            for col in 0..cells {
+                for _ in 0..per_cell {
+                    out.push([
+                        (col as f32 + 0.5) / cells as f32,
+                        (row as f32 + 0.5) / cells as f32,
+                    ]);
+                }
+            }
+        }
+    }
+    out
+}
+
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x.clamp(-100.0, 100.0)).exp())
+}
+
+impl MeshNets {
+    /// The nets from converted weight files.
+    pub fn load(detector: &[u8], mesh: &[u8]) -> Result<Self> {
+        Ok(MeshNets {
+            detector: Graph::load(detector, (DETECTOR_INPUT, 3))?,
+            mesh: Graph::load(mesh, (MESH_INPUT, 3))?,
+            det_scratch: GraphScratch::default(),
+            mesh_scratch: GraphScratch::default(),
+            anchors: anchors(),
+            raw: Vec::new(),
+        })
+    }
+
+    /// The detector's faces in `image` (image pixels), most confident first, into `out`.
+    pub fn detect(&mut self, image: &ImageRef, min_score: f32, out: &mut Vec<Detection>) {
+        out.clear();
+        let (w, h) = (image.width() as f32, image.height() as f32);
+        let side = w.max(h);
+        // Letterbox: the image centred in a square of its longer side.
+        let (x0, y0) = (0.5 * (w - side), 0.5 * (h - side));
+        let n = DETECTOR_INPUT;
+        sample(
+            image,
+            |u, v| (x0 + u * side, y0 + v * side),
+            side / n as f32,
+            true,
+            n,
+            self.det_scratch.input(),
+            |v| v * 2.0 - 1.0,
+        );
+        if self.detector.run(&mut self.det_scratch, |_, _| {}).is_err() {
+            return;
+        }
+        let s = &self.det_scratch;
+        let (reg16, reg8) = (s.output(&self.detector, 0), s.output(&self.detector, 1));
+        let (cls16, cls8) = (s.output(&self.detector, 2), s.output(&self.detector, 3));
+        if reg16.data.len() != 512 * 16
+            || reg8.data.len() != 384 * 16
+            || cls16.data.len() != 512
+            || cls8.data.len() != 384
+        {
+            return;
+        }
+        self.raw.clear();
+        let regs = reg16
+            .data
+            .chunks_exact(16)
+            .chain(reg8.data.chunks_exact(16));
+        let scores = cls16.data.iter().chain(&cls8.data);
+        for ((r, &logit), a) in regs.zip(scores).zip(&self.anchors) {
+            let score = sigmoid(logit);
+            if !(score >= min_score) {
+                continue;
+            }
+            let k = n as f32;
+            // Normalised to the letterbox square, then to image pixels.
+            let px = |x: f32| x0 + x * side;
+            let py = |y: f32| y0 + y * side;
+            let (cx, cy) = (r[0] / k + a[0], r[1] / k + a[1]);
+            let (bw, bh) = (r[2] / k, r[3] / k);
+            let mut keypoints = [[0.0; 2]; 6];
+            for (j, kp) in keypoints.iter_mut().enumerate() {
+                *kp = [px(r[4 + 2 * j] / k + a[0]), py(r[5 + 2 * j] / k + a[1])];
+            }
+            let bbox = BBox {
+                x: px(cx - 0.5 * bw),
+                y: py(cy - 0.5 * bh),
+                width: bw * side,
+                height: bh * side,
+            };
+            let finite = keypoints.iter().flatten().all(|v| v.is_finite());
+            if finite && bbox.width > 0.0 && bbox.height > 0.0 && bbox.x.is_finite() {
+                self.raw.push(Detection {
+                    bbox,
+                    score,
+                    keypoints,
+                });
+            }
+        }
+        weighted_nms(&mut self.raw, NMS_IOU, out);
+    }
+
+    /// The mesh on the region `roi`: its face-presence score (0..1) and its 468 points
+    /// (x, y, z interleaved; x, y in image pixels, z in the same scale) into `points`.
+    pub fn mesh(&mut self, image: &ImageRef, roi: &Roi, points: &mut [f32]) -> Result<f32> {
+        if points.len() != MESH_POINTS * 3 {
+            return Err(Error::Landmarks(format!(
+                "{} values, expected {}",
+                points.len(),
+                MESH_POINTS * 3
+            )));
+        }
+        if !roi.is_valid() {
+            return Err(Error::Image(format!("invalid face region {roi:?}")));
+        }
+        let n = MESH_INPUT;
+        // The crop's axes in the image, once (not a sine and cosine per sample).
+        let (sin, cos) = roi.angle.sin_cos();
+        let (cx, cy, side) = (roi.cx, roi.cy, roi.side);
+        sample(
+            image,
+            move |u, v| {
+                let (dx, dy) = ((u - 0.5) * side, (v - 0.5) * side);
+                (cx + cos * dx - sin * dy, cy + sin * dx + cos * dy)
+            },
+            roi.side / n as f32,
+            false,
+            n,
+            self.mesh_scratch.input(),
+            |v| v,
+        );
+        self.mesh.run(&mut self.mesh_scratch, |_, _| {})?;
+        let s = &self.mesh_scratch;
+        let (lm, flag) = (s.output(&self.mesh, 0), s.output(&self.mesh, 1));
+        if lm.data.len() != MESH_POINTS * 3 || flag.data.len() != 1 {
+            return Err(Error::Weights("unexpected mesh outputs".into()));
+        }
+        let k = n as f32;
+        for (o, p) in points.chunks_exact_mut(3).zip(lm.data.chunks_exact(3)) {
+            let (x, y) = roi.image_point(p[0] / k, p[1] / k);
+            o[0] = x;
+            o[1] = y;
+            o[2] = p[2] / k * roi.side;
+        }
+        if !points.iter().all(|v| v.is_finite()) {
+            return Err(Error::Image("the mesh gave non-finite points".into()));
+        }
+        Ok(sigmoid(flag.data[0]))
+    }
+
+    /// The nets, for the reference test.
+    #[cfg(test)]
+    pub fn graphs(&self) -> (&Graph, &Graph) {
+        (&self.detector, &self.mesh)
+    }
+}
+
+/// Samples `n x n` pixels of `image` into `out` (RGB, `norm` of values in 0..1): output pixel
+/// `(ox, oy)` is the image near `at((ox + 0.5) / n, (oy + 0.5) / n)`, averaging up to 4x4
+/// bilinear samples when one output pixel covers `step > 1` image pixels, so small inputs do
+/// not alias. With `black_outside`, points outside the image are black (the letterbox);
+/// otherwise the border is replicated.
+fn sample(
+    image: &ImageRef,
+    at: impl Fn(f32, f32) -> (f32, f32),
+    step: f32,
+    black_outside: bool,
+    n: usize,
+    out: &mut Map,
+    norm: impl Fn(f32) -> f32,
+) {
+    out.reset(n, n, 3);
+    let (w, h) = (image.width() as f32, image.height() as f32);
+    let k = (step.ceil() as usize).clamp(1, 4);
+    let inv_n = 1.0 / n as f32;
+    let inv = 1.0 / (k * k) as f32;
+    for oy in 0..n {
+        for ox in 0..n {
+            let mut acc = [0.0f32; 3];
+            for sy in 0..k {
+                for sx in 0..k {
+                    let u = (ox as f32 + (sx as f32 + 0.5) / k as f32) * inv_n;
+                    let v = (oy as f32 + (sy as f32 + 0.5) / k as f32) * inv_n;
+                    let (x, y) = at(u, v);
+                    if black_outside && !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
+                        continue;
+                    }
+                    // The crate's bilinear sampler (pixel centres on integers, border clamped).
+                    let px = image.sample_rgb(x - 0.5, y - 0.5);
+                    for (a, p) in acc.iter_mut().zip(px) {
+                        *a += p;
+                    }
+                }
+            }
+            let o = &mut out.data[(oy * n + ox) * 3..][..3];
+            for c in 0..3 {
+                o[c] = norm(acc[c] * inv);
+            }
+        }
+    }
+}
+
+/// MediaPipe's weighted non-maximum suppression: the most confident detection and every other
+/// overlapping it by more than `iou` become one, their boxes and keypoints averaged with the
+/// scores as weights, the score the most confident one's. `raw` is sorted and its scores
+/// overwritten.
+fn weighted_nms(raw: &mut [Detection], iou: f32, out: &mut Vec<Detection>) {
+    raw.sort_by(|a, b| b.score.total_cmp(&a.score));
+    // A detection merged into an earlier one is marked by a negative score.
+    for i in 0..raw.len() {
+        if raw[i].score < 0.0 {
+            continue;
+        }
+        let top = raw[i];
+        let (mut wsum, mut b, mut kp) = (0.0f32, [0.0f32; 4], [[0.0f32; 2]; 6]);
+        for j in i..raw.len() {
+            if raw[j].score < 0.0 || (j != i && raw[j].bbox.iou(&top.bbox) <= iou) {
+                continue;
+            }
+            let d = raw[j];
+            raw[j].score = -1.0;
+            let s = d.score;
+            wsum += s;
+            b[0] += s * d.bbox.x;
+            b[1] += s * d.bbox.y;
+            b[2] += s * d.bbox.right();
+            b[3] += s * d.bbox.bottom();
+            for (k, p) in kp.iter_mut().zip(&d.keypoints) {
+                k[0] += s * p[0];
+                k[1] += s * p[1];
+            }
+        }
+        let inv = 1.0 / wsum;
+        out.push(Detection {
+            bbox: BBox {
+                x: b[0] * inv,
+                y: b[1] * inv,
+                width: (b[2] - b[0]) * inv,
+                height: (b[3] - b[1]) * inv,
+            },
+            score: top.score,
+            keypoints: kp.map(|p| [p[0] * inv, p[1] * inv]),
+        });
+    }
+}
