@@ -12,6 +12,12 @@ use super::nn::{self, Map};
 use super::weights::Weights;
 use crate::error::{Error, Result};
 
+/// The detector's weights (float16, `scripts/convert-mediapipe.py`); here, below the pipeline
+/// that runs them (`mesh.rs`), so the graph's own tests can load them.
+pub const BLAZEFACE_WEIGHTS: &[u8] = include_bytes!("../../data/weights/blazeface_short.fmw");
+/// The face mesh's weights (float16).
+pub const MESH_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_mesh.fmw");
+
 /// What a layer computes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kind {
@@ -530,7 +536,6 @@ fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
 
 #[cfg(all(test, not(target_arch = "wasm32")))]
 mod tests {
-    use super::super::mesh::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
     use super::*;
 
     /// Time per layer kind (a profile, not a check).

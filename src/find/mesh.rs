@@ -110,10 +110,7 @@ pub(crate) struct MeshNets {
     raw: Vec<Detection>,
 }
 
-/// The detector's weights (float16, `scripts/convert-mediapipe.py`).
-pub const BLAZEFACE_WEIGHTS: &[u8] = include_bytes!("../../data/weights/blazeface_short.fmw");
-/// The face mesh's weights (float16).
-pub const MESH_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_mesh.fmw");
+pub use super::graph::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
 
 /// The SSD anchors of BlazeFace short range (see the module's documentation).
 fn anchors() -> Vec<[f32; 2]> {
