@@ -65,7 +65,10 @@ fn no_face_on_lettering_logos_or_fabric() {
     let mut false_faces = Vec::new();
     for (name, img) in &set {
         let small = half(img);
-        for (size, view) in [("full", img.view().unwrap()), ("half", small.view().unwrap())] {
+        for (size, view) in [
+            ("full", img.view().unwrap()),
+            ("half", small.view().unwrap()),
+        ] {
             let view: ImageRef<'_> = view;
             for f in finder.find(&view) {
                 false_faces.push(format!(

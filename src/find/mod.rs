@@ -203,16 +203,35 @@ impl FaceFinder {
     /// confirmed) the landmark net runs three times, each pass on the box of the previous
     /// pass's points ([`BBox::around_landmarks`]), and a box is kept as a face only if its last
     /// two passes agree ([`FindOptions::max_disagreement`]): a face's points settle, a
-    /// non-face's wander. The score is the detector's, lowered by the disagreement.
+    /// non-face's wander. The score is the detector's, lowered by the disagreement, and only
+    /// faces scoring [`FindOptions::min_face_score`] or more are reported. A face the quick
+    /// pass is unsure of (agreeing passes, a score below that floor: a small face, which the
+    /// detector sees at a few pixels there) sends the search on to `input_size` too, whose
+    /// faces are added where they are not already found.
     pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
+        let floor = self.options.min_face_score;
         let quick = self.options.quick_input_size;
+        let mut sure = Vec::new();
         if quick != 0 && quick < self.options.input_size {
             let faces = self.find_at(image, quick);
-            if !faces.is_empty() {
-                return faces;
+            let unsure = faces.iter().any(|f| f.score < floor);
+            sure.extend(faces.into_iter().filter(|f| f.score >= floor));
+            if !sure.is_empty() && !unsure {
+                return sure;
             }
         }
-        self.find_at(image, self.options.input_size)
+        for face in self.find_at(image, self.options.input_size) {
+            if face.score >= floor
+                && !sure
+                    .iter()
+                    .any(|f| f.bbox.iou(&face.bbox) > self.options.iou_threshold)
+            {
+                sure.push(face);
+            }
+        }
+        sure.sort_by(|a, b| b.score.total_cmp(&a.score));
+        sure.truncate(self.options.max_faces);
+        sure
     }
 
     /// [`find`](Self::find) with the detector at one input side.
@@ -231,9 +250,7 @@ impl FaceFinder {
             let Some((face, disagreement)) = self.refine(image, bbox, score) else {
                 continue;
             };
-            if disagreement > self.options.max_disagreement
-                || face.score < self.options.min_face_score
-            {
+            if disagreement > self.options.max_disagreement {
                 continue;
             }
             if faces
