@@ -50,23 +50,16 @@ fn frames(dir: &Path, limit: usize) -> Vec<(Image, Vec<f32>)> {
         .collect()
 }
 
-fn bench_track(c: &mut Criterion, name: &str, model: &Model, seq: &[(Image, Vec<f32>)]) {
-    let options = FitOptions::default();
-    let fitter = Fitter::new(model, options.clone()).expect("fitter");
-    println!(
-        "{name}: {} landmarks, {} shape modes, {} RGB appearance modes, {} frame pixels; \
-         fitting {} parameters on {:?} level pixels with {:?} grey appearance images",
-        model.landmarks(),
-        model.shape().n_modes(),
-        model.appearance().n_modes(),
-        model.frame().n_pixels(),
-        fitter.n_params(),
-        fitter.level_pixels(),
-        fitter.level_appearance_modes()
-    );
+/// `fit/track/NAME`: one criterion iteration tracks the next frame of `seq`, starting again
+/// from the first frame's landmarks after the last.
+fn track_in_sequence(
+    c: &mut Criterion,
+    name: &str,
+    tracker: &mut Tracker,
+    seq: &[(Image, Vec<f32>)],
+) {
     let mut group = c.benchmark_group("fit/track");
     group.throughput(Throughput::Elements(1));
-    let mut tracker = Tracker::new(model, options).expect("tracker");
     tracker.start_from_landmarks(&seq[0].1).expect("start");
     let views: Vec<_> = seq
         .iter()
@@ -85,6 +78,24 @@ fn bench_track(c: &mut Criterion, name: &str, model: &Model, seq: &[(Image, Vec<
         })
     });
     group.finish();
+}
+
+fn bench_track(c: &mut Criterion, name: &str, model: &Model, seq: &[(Image, Vec<f32>)]) {
+    let options = FitOptions::default();
+    let fitter = Fitter::new(model, options.clone()).expect("fitter");
+    println!(
+        "{name}: {} landmarks, {} shape modes, {} RGB appearance modes, {} frame pixels; \
+         fitting {} parameters on {:?} level pixels with {:?} grey appearance images",
+        model.landmarks(),
+        model.shape().n_modes(),
+        model.appearance().n_modes(),
+        model.frame().n_pixels(),
+        fitter.n_params(),
+        fitter.level_pixels(),
+        fitter.level_appearance_modes()
+    );
+    let mut tracker = Tracker::new(model, options).expect("tracker");
+    track_in_sequence(c, name, &mut tracker, seq);
     let mut group = c.benchmark_group("fit/precompute");
     group.sample_size(10);
     group.bench_function(name, |b| {
@@ -123,27 +134,8 @@ fn bench_track_doubled(c: &mut Criterion, name: &str, model: &Model, seq: &[(Ima
             )
         })
         .collect();
-    let mut group = c.benchmark_group("fit/track");
-    group.throughput(Throughput::Elements(1));
     let mut tracker = Tracker::new(model, FitOptions::default()).expect("tracker");
-    tracker.start_from_landmarks(&doubled[0].1).expect("start");
-    let views: Vec<_> = doubled
-        .iter()
-        .map(|(img, _)| img.view().expect("view"))
-        .collect();
-    let mut i = 0usize;
-    group.bench_function(name, |b| {
-        b.iter(|| {
-            if i == views.len() {
-                i = 0;
-                tracker.start_from_landmarks(&doubled[0].1).expect("start");
-            }
-            let r = tracker.track(&views[i]).expect("track");
-            i += 1;
-            r.error
-        })
-    });
-    group.finish();
+    track_in_sequence(c, name, &mut tracker, &doubled);
     println!("{name}: fitted at scale {}", tracker.scale());
 }
 
