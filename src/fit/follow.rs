@@ -181,10 +181,9 @@ pub struct Follower {
     search: bool,
     /// A box to look in on the next frame ([`Follower::start_from_box`]).
     start_box: Option<BBox>,
-    /// The resampling policy ([`Follower::fit_scale`]) and the model's face height at its
-    /// mean pose.
+    /// The policy: its pose anchor's time constant (the follower reads frames at their own
+    /// size, so its resampling rule is not used).
     policy: TrackPolicy,
-    model_face_height: f32,
     result: FitResult,
     /// The counters and the pose anchor.
     seq: Sequence,
@@ -249,7 +248,6 @@ impl Follower {
             search: true,
             start_box: None,
             policy: TrackPolicy::default(),
-            model_face_height: BBox::of_points(&landmarks).height.max(1.0),
             seq: Sequence::new(base.pose),
             result: FitResult {
                 landmarks,
@@ -346,7 +344,7 @@ impl Follower {
         Ok(())
     }
 
-    /// The resampling policy ([`Follower::fit_scale`]).
+    /// The policy (the pose anchor's `recentre_tau`).
     pub fn policy(&self) -> &TrackPolicy {
         &self.policy
     }
@@ -357,16 +355,6 @@ impl Follower {
         policy.check()?;
         self.policy = policy;
         Ok(())
-    }
-
-    /// The scale by which to resample a `width x height` frame before following a face
-    /// `face_height` pixels tall in it, by the same rule as [`crate::fit::Tracker::fit_scale`]
-    /// (the face brought to about the model's size): the landmark passes cost the same at any
-    /// size, but a smaller frame is quicker to read and to downsample, and the page and the
-    /// npm package then drive both paths alike.
-    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
-        self.policy
-            .fit_scale(self.model_face_height, face_height, width, height, current)
     }
 
     /// Follows the face in the next frame, `dt` seconds after the previous one (the One-Euro

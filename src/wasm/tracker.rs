@@ -186,6 +186,14 @@ impl WasmTracker {
         self.inner.start_from_box(x, y, w, h).map_err(err)
     }
 
+    /// The scale at which the tracker fits a `width x height` frame with a face `faceHeight`
+    /// pixels tall (the policy's rule; `track` applies it itself). `current` (0 for none) is
+    /// kept unless the wanted scale differs by more than the policy's `rescaleChange`.
+    #[wasm_bindgen(js_name = fitScale)]
+    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
+        self.inner.fit_scale(face_height, width, height, current)
+    }
+
     /// Starts a sequence with no landmarks: the face finder (built in, loaded on the first
     /// call) finds the face; until it does, frames are reported `lost`. From then on a lost
     /// face is looked for again on every frame, and the frame it is found on reports
@@ -464,21 +472,6 @@ macro_rules! shared_calls {
             #[wasm_bindgen(getter, js_name = wantsFaces)]
             pub fn wants_faces(&self) -> bool {
                 self.inner.wants_faces()
-            }
-
-            /// The scale at which the tracker fits a `width x height` frame with a face
-            /// `faceHeight` pixels tall (the policy's rule; `track` applies it itself).
-            /// `current` (0 for none) is kept unless the wanted scale differs by more than the
-            /// policy's `rescaleChange`.
-            #[wasm_bindgen(js_name = fitScale)]
-            pub fn fit_scale(
-                &self,
-                face_height: f32,
-                width: u32,
-                height: u32,
-                current: f32,
-            ) -> f32 {
-                self.inner.fit_scale(face_height, width, height, current)
             }
 
             /// Frames reported lost so far.
