@@ -5,20 +5,13 @@
 //! options) and also at half size, where lettering and patterns fall to the sizes of faces the
 //! detector sees best. No face may be reported on any of them.
 
-use std::path::Path;
+mod common;
 
 use facemimic::{io, FaceFinder, Image, ImageRef};
 
 /// Every picture of the set, by file name (sorted, so failures read the same every run).
 fn pictures() -> Vec<(String, Image)> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/no-face");
-    let mut names: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-        .collect();
-    names.sort();
-    names
+    common::clip_frames(&common::repo("tests/data/no-face"))
         .iter()
         .map(|p| {
             (
