@@ -471,8 +471,18 @@ fn conv_any(x: &Map, l: &Layer, g: (usize, usize, usize, usize), y: &mut Map) {
     }
 }
 
-/// A depthwise convolution (filters `[kh][kw][c]`) plus bias.
-fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
+/// Slides a `kernel x kernel` window with the layer's stride and padding over `x`: `y` takes
+/// the output's size, each output cell (its `c` channels) is set by `init`, then `tap(cell,
+/// input cell, t)` runs for every input cell of its window inside `x` (padding is skipped), `t`
+/// being the tap's index in the window (`ky * kernel + kx`). What depthwise convolution and
+/// max pooling share.
+fn windows(
+    x: &Map,
+    l: &Layer,
+    y: &mut Map,
+    init: impl Fn(&mut [f32]),
+    mut tap: impl FnMut(&mut [f32], &[f32], usize),
+) -> Result<()> {
     let (k, s, c) = (l.kernel, l.stride, x.c);
     let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
     let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
@@ -480,7 +490,7 @@ fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
     for oy in 0..oh {
         for ox in 0..ow {
             let o = &mut y.data[(oy * ow + ox) * c..][..c];
-            o.copy_from_slice(&l.bias);
+            init(o);
             for ky in 0..k {
                 let iy = (oy * s + ky) as isize - py as isize;
                 if iy < 0 || iy >= x.h as isize {
@@ -491,11 +501,11 @@ fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
                     if ix < 0 || ix >= x.w as isize {
                         continue;
                     }
-                    let inp = &x.data[(iy as usize * x.w + ix as usize) * c..][..c];
-                    let f = &l.w[(ky * k + kx) * c..][..c];
-                    for ((oo, &a), &ff) in o.iter_mut().zip(inp).zip(f) {
-                        *oo += a * ff;
-                    }
+                    tap(
+                        o,
+                        &x.data[(iy as usize * x.w + ix as usize) * c..][..c],
+                        ky * k + kx,
+                    );
                 }
             }
         }
@@ -503,35 +513,36 @@ fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
     Ok(())
 }
 
+/// A depthwise convolution (filters `[kh][kw][c]`) plus bias.
+fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
+    let c = x.c;
+    windows(
+        x,
+        l,
+        y,
+        |o| o.copy_from_slice(&l.bias),
+        |o, inp, t| {
+            let f = &l.w[t * c..][..c];
+            for ((oo, &a), &ff) in o.iter_mut().zip(inp).zip(f) {
+                *oo += a * ff;
+            }
+        },
+    )
+}
+
 /// Max pooling (padded cells never win).
 fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
-    let (k, s, c) = (l.kernel, l.stride, x.c);
-    let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
-    let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
-    y.reset(oh, ow, c);
-    y.data.fill(f32::NEG_INFINITY);
-    for oy in 0..oh {
-        for ox in 0..ow {
-            let o = &mut y.data[(oy * ow + ox) * c..][..c];
-            for ky in 0..k {
-                let iy = (oy * s + ky) as isize - py as isize;
-                if iy < 0 || iy >= x.h as isize {
-                    continue;
-                }
-                for kx in 0..k {
-                    let ix = (ox * s + kx) as isize - px as isize;
-                    if ix < 0 || ix >= x.w as isize {
-                        continue;
-                    }
-                    let inp = &x.data[(iy as usize * x.w + ix as usize) * c..][..c];
-                    for (oo, &a) in o.iter_mut().zip(inp) {
-                        *oo = oo.max(a);
-                    }
-                }
+    windows(
+        x,
+        l,
+        y,
+        |o| o.fill(f32::NEG_INFINITY),
+        |o, inp, _| {
+            for (oo, &a) in o.iter_mut().zip(inp) {
+                *oo = oo.max(a);
             }
-        }
-    }
-    Ok(())
+        },
+    )
 }
 
 #[cfg(all(test, not(target_arch = "wasm32")))]
