@@ -242,8 +242,7 @@ impl Default for TrackPolicy {
 impl TrackPolicy {
     /// The scale by which to resample a `width x height` frame before following a face
     /// `face_height` pixels tall in it, for a model whose mean face is `model_face_height`
-    /// pixels tall: [`crate::fit::Tracker::fit_scale`] (which gives the rule) and
-    /// [`crate::fit::Follower::fit_scale`].
+    /// pixels tall: [`crate::fit::Tracker::fit_scale`] (which gives the rule).
     pub fn fit_scale(
         &self,
         model_face_height: f32,
