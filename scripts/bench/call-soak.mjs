@@ -6,11 +6,15 @@
 // state, the frames presented. The remote video's presented frames are timed in the page
 // (requestVideoFrameCallback): the longest gap and the gaps over 200 ms after the first minute.
 //
-//   node scripts/bench/call-soak.mjs [--minutes 30] [--every 30] [--gc every|ends] [--out artifacts/call-soak.json]
+//   node scripts/bench/call-soak.mjs [--minutes 30] [--every 30] [--gc every|ends] [--out artifacts/call-soak.json] [--snapshots]
 //
 // --gc ends forces the garbage collection only for the sample at 1 minute and the last one (the
 // heap growth is measured between those two; the samples between read the heap as it is), so the
 // collections themselves cannot cause the stalls measured.
+//
+// --snapshots also writes a heap snapshot of each page at the first forced collection after a
+// minute and at the last sample (artifacts/heap-A-first.heapsnapshot, ...) and prints what grew
+// between them, by constructor (scripts/bench/heap-diff.mjs).
 //
 // Prints one line per sample and a JSON summary: heap and wasm growth after the first minute
 // (last sample over the one at 1 minute), longest stall after the first minute, connection drops
@@ -19,6 +23,7 @@
 import fs from 'node:fs';
 import path from 'node:path';
 import { launchBrowser, ROOT } from '../../tests/e2e/lib.mjs';
+import { summarise, diff, report } from './heap-diff.mjs';
 import { fakeMedia, startDemoServer, status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
 
 const arg = (name, def) => {
@@ -29,6 +34,7 @@ const minutes = Number(arg('minutes', 30));
 const every = Number(arg('every', 30));
 const out = path.resolve(ROOT, arg('out', 'artifacts/call-soak.json'));
 const gcMode = arg('gc', 'every');
+const snapshots = process.argv.includes('--snapshots');
 if (!(minutes > 1) || !(every > 0) || !['every', 'ends'].includes(gcMode)) {
   console.error('call-soak: --minutes must be over 1, --every positive, --gc every or ends');
   process.exit(2);
@@ -41,6 +47,17 @@ const server = await startDemoServer();
 const t0 = Date.now();
 const samples = [];
 let exitCode = 0;
+
+/** Write a heap snapshot of the page behind `session` to `file`. */
+async function takeSnapshot(session, file) {
+  fs.mkdirSync(path.dirname(file), { recursive: true });
+  const chunks = [];
+  const onChunk = (e) => chunks.push(e.chunk);
+  session.on('HeapProfiler.addHeapSnapshotChunk', onChunk);
+  await session.send('HeapProfiler.takeHeapSnapshot', { reportProgress: false });
+  session.off('HeapProfiler.addHeapSnapshotChunk', onChunk);
+  fs.writeFileSync(file, chunks.join(''));
+}
 
 /** In the page: time the remote video's presented frames. */
 function timeFrames() {
@@ -92,9 +109,11 @@ try {
     const row = { t: Math.round(elapsed) };
     const lastSample = Date.now() + every * 1000 > end;
     row.gc = gcMode === 'every' || (reset && !firstGcDone) || lastSample;
+    const snapshotNow = snapshots && ((reset && !firstGcDone) || lastSample) ? (lastSample ? 'last' : 'first') : null;
     if (reset && row.gc) firstGcDone = true;
     for (const [k, p] of Object.entries(pages)) {
       if (row.gc) await cdp[k].send('HeapProfiler.collectGarbage');
+      if (snapshotNow) await takeSnapshot(cdp[k], path.join(path.dirname(out), `heap-${k}-${snapshotNow}.heapsnapshot`));
       const s = await status(p);
       const m = await p.evaluate(() => ({ heap: performance.memory.usedJSHeapSize, soak: { ...window.__soak, events: undefined, now: performance.now() } }));
       const secs = (m.soak.now - m.soak.since) / 1000;
@@ -189,6 +208,12 @@ try {
     summary.pages[k].stallCauses = { counts: causes, longestMs: worst, senderDrawGapsOver150Ms: gaps.length };
   }
   console.log(JSON.stringify(summary, null, 2));
+  if (snapshots) {
+    for (const k of ['A', 'B']) {
+      const read = (w) => summarise(fs.readFileSync(path.join(path.dirname(out), `heap-${k}-${w}.heapsnapshot`), 'utf8'));
+      console.log(`page ${k}, live objects from the snapshot at 1 minute to the last:\n${report(diff(read('first'), read('last')))}`);
+    }
+  }
   fs.mkdirSync(path.dirname(out), { recursive: true });
   fs.writeFileSync(out, JSON.stringify({ summary, samples }, null, 1));
   console.log(`call-soak: samples and summary in ${path.relative(ROOT, out)}`);
