@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=www/models
-bin=target/release/facemimic
+bin=${CARGO_TARGET_DIR:-target}/release/facemimic
 mkdir -p "$out"
 
 cargo build --release --bin facemimic -q
