@@ -341,24 +341,23 @@ mod tests {
             truths.push(g);
             tracked.push(t);
         }
-        let pairs: Vec<(&[f32], &[f32])> = tracked
-            .iter()
-            .zip(&truths)
-            .map(|(t, g)| (t.as_slice(), g.as_slice()))
-            .collect();
-        let e = convention_free_errors(&pairs);
+        // The errors of tracked points against the truths, frame by frame.
+        let errors_of = |tracked: &[Vec<f32>]| {
+            let pairs: Vec<(&[f32], &[f32])> = tracked
+                .iter()
+                .zip(&truths)
+                .map(|(t, g)| (t.as_slice(), g.as_slice()))
+                .collect();
+            convention_free_errors(&pairs)
+        };
+        let e = errors_of(&tracked);
         assert!(e.iter().all(|v| v.abs() < 1e-4), "{e:?}");
         // The raw error is the offset's.
         assert!(landmark_error(&tracked[0], &truths[0]) > 0.03);
         // A wobble on one frame is what is left (shared with the mean: 3/4 of it there).
         let mut wobbly = tracked.clone();
         wobbly[3][0] += 4.0;
-        let pairs: Vec<(&[f32], &[f32])> = wobbly
-            .iter()
-            .zip(&truths)
-            .map(|(t, g)| (t.as_slice(), g.as_slice()))
-            .collect();
-        let e = convention_free_errors(&pairs);
+        let e = errors_of(&wobbly);
         let [dx, dy] = crate::landmarks::eye_line(&truths[3]).unwrap();
         let want = 0.75 * 4.0 / (dx * dx + dy * dy).sqrt() / 68.0;
         assert!((e[3] - want).abs() < 1e-4, "{} against {want}", e[3]);

@@ -9,7 +9,7 @@
 //! the first allocates nothing.
 
 use super::nn::{self, Map};
-use super::weights::Weights;
+use super::weights::{bad, Weights};
 use crate::error::{Error, Result};
 
 /// The detector's weights (float16, `scripts/convert-mediapipe.py`); here, below the pipeline
@@ -73,10 +73,6 @@ pub(crate) struct Graph {
 #[derive(Default, Debug)]
 pub(crate) struct GraphScratch {
     maps: Vec<Map>,
-}
-
-fn bad(msg: impl Into<String>) -> Error {
-    Error::Weights(msg.into())
 }
 
 /// Output size and padding before for a kernel `k` and stride `s` on `input` pixels.
@@ -491,23 +487,9 @@ fn windows(
         for ox in 0..ow {
             let o = &mut y.data[(oy * ow + ox) * c..][..c];
             init(o);
-            for ky in 0..k {
-                let iy = (oy * s + ky) as isize - py as isize;
-                if iy < 0 || iy >= x.h as isize {
-                    continue;
-                }
-                for kx in 0..k {
-                    let ix = (ox * s + kx) as isize - px as isize;
-                    if ix < 0 || ix >= x.w as isize {
-                        continue;
-                    }
-                    tap(
-                        o,
-                        &x.data[(iy as usize * x.w + ix as usize) * c..][..c],
-                        ky * k + kx,
-                    );
-                }
-            }
+            taps(x, l, py, px, oy, ox, |t, i| {
+                tap(o, &x.data[i * c..][..c], t)
+            });
         }
     }
     Ok(())

@@ -57,12 +57,7 @@ impl BBox {
     }
 
     fn is_valid(&self) -> bool {
-        self.x.is_finite()
-            && self.y.is_finite()
-            && self.width.is_finite()
-            && self.height.is_finite()
-            && self.width >= 1.0
-            && self.height >= 1.0
+        crate::geometry::is_usable_region(&[self.x, self.y], &[self.width, self.height], 1.0)
     }
 }
 
