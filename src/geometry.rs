@@ -59,6 +59,12 @@ impl BBox {
     }
 }
 
+/// Whether a region (a box, a rotated square) is usable: its `position` numbers and its
+/// `sides` all finite, and every side at least `min_side`.
+pub(crate) fn is_usable_region(position: &[f32], sides: &[f32], min_side: f32) -> bool {
+    position.iter().chain(sides).all(|v| v.is_finite()) && sides.iter().all(|&s| s >= min_side)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

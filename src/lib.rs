@@ -65,7 +65,7 @@ pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
 pub use render::{
     base_box, canvas_view, demultiply, demultiply_into, fit_view, hull_loop, mean_value_weights,
     picture_view, Compositor, DrawOptions, ExtendedMesh, FaceDrawer, Rasterizer, Renderer,
-    Scanline,
+    Scanline, ScanlineStore, SkiaStore, Store, Warp,
 };
 pub use similarity::{PoseJson, Similarity};
 pub use tiny_skia;

@@ -18,6 +18,11 @@ include!("calibration_table.rs");
 #[cfg(feature = "mesh-finder")]
 include!("calibration_table_mesh.rs");
 
+/// The committed offsets [`FaceFinder`](super::FaceFinder) adds to its net's points in each
+/// face's frame (`calibration_table.rs`, made by `examples/finder_data.rs`; the argument of
+/// [`add_face_offsets`]).
+pub const NET_OFFSETS: &[f32; 136] = &OFFSETS;
+
 /// Adds the face mesh's convention offsets (`MESH_OFFSETS`) to 68 points in place.
 #[cfg(feature = "mesh-finder")]
 pub(crate) fn apply_mesh(points: &mut [f32]) {
@@ -341,24 +346,23 @@ mod tests {
             truths.push(g);
             tracked.push(t);
         }
-        let pairs: Vec<(&[f32], &[f32])> = tracked
-            .iter()
-            .zip(&truths)
-            .map(|(t, g)| (t.as_slice(), g.as_slice()))
-            .collect();
-        let e = convention_free_errors(&pairs);
+        // The errors of tracked points against the truths, frame by frame.
+        let errors_of = |tracked: &[Vec<f32>]| {
+            let pairs: Vec<(&[f32], &[f32])> = tracked
+                .iter()
+                .zip(&truths)
+                .map(|(t, g)| (t.as_slice(), g.as_slice()))
+                .collect();
+            convention_free_errors(&pairs)
+        };
+        let e = errors_of(&tracked);
         assert!(e.iter().all(|v| v.abs() < 1e-4), "{e:?}");
         // The raw error is the offset's.
         assert!(landmark_error(&tracked[0], &truths[0]) > 0.03);
         // A wobble on one frame is what is left (shared with the mean: 3/4 of it there).
         let mut wobbly = tracked.clone();
         wobbly[3][0] += 4.0;
-        let pairs: Vec<(&[f32], &[f32])> = wobbly
-            .iter()
-            .zip(&truths)
-            .map(|(t, g)| (t.as_slice(), g.as_slice()))
-            .collect();
-        let e = convention_free_errors(&pairs);
+        let e = errors_of(&wobbly);
         let [dx, dy] = crate::landmarks::eye_line(&truths[3]).unwrap();
         let want = 0.75 * 4.0 / (dx * dx + dy * dy).sqrt() / 68.0;
         assert!((e[3] - want).abs() < 1e-4, "{} against {want}", e[3]);
@@ -375,62 +379,5 @@ mod tests {
         ]);
         assert!(e[0].is_nan() && e[1].is_nan() && e[2].is_nan());
         assert!(e[3].abs() < 1e-5);
-    }
-
-    /// On the shared GRID frames (825, ../shared), split by speaker: offsets from speakers
-    /// 1-5 measured on 6-10 and the other way round; and the committed table on the other
-    /// shared clips. Prints the figures of docs/finding.md and checks the offsets help.
-    #[test]
-    #[ignore = "needs ../shared; prints the calibration figures"]
-    fn held_out_figures() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-        let grid = raw_pairs(&frames(&root.join("grid")));
-        let speaker = |p: &Path| -> u32 {
-            let d = p
-                .parent()
-                .unwrap()
-                .file_name()
-                .unwrap()
-                .to_string_lossy()
-                .to_string();
-            d[3..5].parse().unwrap()
-        };
-        let err = |pairs: &[&(PathBuf, Vec<f32>, Vec<f32>)], table: Option<&[f32]>| -> f32 {
-            let mut sum = 0.0;
-            for (_, r, t) in pairs {
-                let mut p = r.clone();
-                if let Some(o) = table {
-                    add_face_offsets(&mut p, o);
-                }
-                sum += landmark_error(&p, t);
-            }
-            sum / pairs.len() as f32
-        };
-        for (train, test) in [((1, 5), (6, 10)), ((6, 10), (1, 5))] {
-            let tr: Vec<_> = grid
-                .iter()
-                .filter(|(p, ..)| (train.0..=train.1).contains(&speaker(p)))
-                .map(|(_, r, t)| (r.clone(), t.clone()))
-                .collect();
-            let te: Vec<_> = grid
-                .iter()
-                .filter(|(p, ..)| (test.0..=test.1).contains(&speaker(p)))
-                .collect();
-            let o = offsets(&tr);
-            let (before, after) = (err(&te, None), err(&te, Some(&o)));
-            println!(
-                "grid: offsets from speakers {train:?} ({} frames), measured on {test:?} ({} frames): {before:.4} -> {after:.4}",
-                tr.len(),
-                te.len()
-            );
-            assert!(after < before);
-        }
-        for set in ["franck-dev", "franck-dev2", "webcam-dev"] {
-            let pairs = raw_pairs(&frames(&root.join(set)));
-            let all: Vec<_> = pairs.iter().collect();
-            let (before, after) = (err(&all, None), err(&all, Some(&OFFSETS)));
-            println!("{set}: {} frames: {before:.4} -> {after:.4}", all.len());
-            assert!(after < before);
-        }
     }
 }

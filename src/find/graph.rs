@@ -9,7 +9,7 @@
 //! the first allocates nothing.
 
 use super::nn::{self, Map};
-use super::weights::Weights;
+use super::weights::{bad, Weights};
 use crate::error::{Error, Result};
 
 /// The detector's weights (float16, `scripts/convert-mediapipe.py`); here, below the pipeline
@@ -73,10 +73,6 @@ pub(crate) struct Graph {
 #[derive(Default, Debug)]
 pub(crate) struct GraphScratch {
     maps: Vec<Map>,
-}
-
-fn bad(msg: impl Into<String>) -> Error {
-    Error::Weights(msg.into())
 }
 
 /// Output size and padding before for a kernel `k` and stride `s` on `input` pixels.
@@ -491,23 +487,9 @@ fn windows(
         for ox in 0..ow {
             let o = &mut y.data[(oy * ow + ox) * c..][..c];
             init(o);
-            for ky in 0..k {
-                let iy = (oy * s + ky) as isize - py as isize;
-                if iy < 0 || iy >= x.h as isize {
-                    continue;
-                }
-                for kx in 0..k {
-                    let ix = (ox * s + kx) as isize - px as isize;
-                    if ix < 0 || ix >= x.w as isize {
-                        continue;
-                    }
-                    tap(
-                        o,
-                        &x.data[(iy as usize * x.w + ix as usize) * c..][..c],
-                        ky * k + kx,
-                    );
-                }
-            }
+            taps(x, l, py, px, oy, ox, |t, i| {
+                tap(o, &x.data[i * c..][..c], t)
+            });
         }
     }
     Ok(())
@@ -545,43 +527,52 @@ fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
     )
 }
 
-#[cfg(all(test, not(target_arch = "wasm32")))]
-mod tests {
-    use super::*;
+/// The time of MediaPipe's two nets by layer kind, on one fixed input: what
+/// `examples/finder_profile.rs` prints (a profile, not a check).
+#[cfg(not(target_arch = "wasm32"))]
+#[derive(Clone, Debug, PartialEq)]
+pub struct NetProfile {
+    /// The net's input side: 128 for BlazeFace, 192 for the face mesh.
+    pub side: usize,
+    /// Seconds a run, the mean over the runs.
+    pub run: f64,
+    /// Per layer kind (`"Conv k3 s1"`, ...: kind, kernel and stride), the seconds a run its
+    /// layers take, by name.
+    pub layers: Vec<(String, f64)>,
+}
 
-    /// Time per layer kind (a profile, not a check).
-    #[test]
-    #[ignore = "prints a profile"]
-    fn profile() {
-        for (bytes, n) in [(BLAZEFACE_WEIGHTS, 128), (MESH_WEIGHTS, 192)] {
-            let g = Graph::load(bytes, (n, 3)).unwrap();
-            let mut s = GraphScratch::default();
-            let x = s.input();
-            x.reset(n, n, 3);
-            for (i, v) in x.data.iter_mut().enumerate() {
-                *v = ((i * 7919) % 255) as f32 / 255.0;
-            }
-            g.run(&mut s, |_, _| {}).unwrap();
-            let mut times = std::collections::BTreeMap::<String, f64>::new();
-            let reps = 20;
-            let t0 = std::time::Instant::now();
-            for _ in 0..reps {
-                let mut last = std::time::Instant::now();
-                g.run(&mut s, |i, _| {
-                    let l = &g.layers[i];
-                    let key = format!("{:?} k{} s{}", l.kind, l.kernel, l.stride);
-                    *times.entry(key).or_default() += last.elapsed().as_secs_f64();
-                    last = std::time::Instant::now();
-                })
-                .unwrap();
-            }
-            eprintln!(
-                "net {n}: {:.2} ms a run",
-                t0.elapsed().as_secs_f64() * 1e3 / reps as f64
-            );
-            for (k, t) in times {
-                eprintln!("  {k}: {:.3} ms", t * 1e3 / reps as f64);
-            }
+/// Runs BlazeFace (128) and the face mesh (192) `reps` times each on a fixed input after one
+/// warm-up run and times them, layer by layer (native only: it reads the clock).
+#[cfg(not(target_arch = "wasm32"))]
+pub fn profile_mesh_nets(reps: usize) -> Result<Vec<NetProfile>> {
+    let reps = reps.max(1);
+    let mut out = Vec::new();
+    for (bytes, n) in [(BLAZEFACE_WEIGHTS, 128), (MESH_WEIGHTS, 192)] {
+        let g = Graph::load(bytes, (n, 3))?;
+        let mut s = GraphScratch::default();
+        let x = s.input();
+        x.reset(n, n, 3);
+        for (i, v) in x.data.iter_mut().enumerate() {
+            *v = ((i * 7919) % 255) as f32 / 255.0;
         }
+        g.run(&mut s, |_, _| {})?;
+        let mut times = std::collections::BTreeMap::<String, f64>::new();
+        let t0 = std::time::Instant::now();
+        for _ in 0..reps {
+            let mut last = std::time::Instant::now();
+            g.run(&mut s, |i, _| {
+                let l = &g.layers[i];
+                let key = format!("{:?} k{} s{}", l.kind, l.kernel, l.stride);
+                *times.entry(key).or_default() += last.elapsed().as_secs_f64();
+                last = std::time::Instant::now();
+            })?;
+        }
+        let reps = reps as f64;
+        out.push(NetProfile {
+            side: n,
+            run: t0.elapsed().as_secs_f64() / reps,
+            layers: times.into_iter().map(|(k, t)| (k, t / reps)).collect(),
+        });
     }
+    Ok(out)
 }

@@ -65,11 +65,7 @@ impl Roi {
     }
 
     fn is_valid(&self) -> bool {
-        self.cx.is_finite()
-            && self.cy.is_finite()
-            && self.angle.is_finite()
-            && self.side.is_finite()
-            && self.side >= 4.0
+        crate::geometry::is_usable_region(&[self.cx, self.cy, self.angle], &[self.side], 4.0)
     }
 
     /// The mesh's region for a detection.

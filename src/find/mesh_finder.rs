@@ -87,6 +87,13 @@ impl MeshFinder {
         out
     }
 
+    /// Every face's dense mesh ([`MESH_POINTS`] points, x, y, z interleaved; x, y in image
+    /// pixels), most confident detection first: the points [`MeshFinder::find`] takes its 68
+    /// from (`examples/mesh_table.rs` learns which from these).
+    pub fn dense_meshes(&mut self, image: &ImageRef) -> Vec<Vec<f32>> {
+        self.meshes(image).into_iter().map(|(_, _, m)| m).collect()
+    }
+
     /// [`MESH_PASSES`] mesh passes from `roi` into `pts`; the last pass's face score (`None`
     /// when a pass fails).
     fn passes(&mut self, image: &ImageRef, roi: Roi, pts: &mut [f32]) -> Option<f32> {

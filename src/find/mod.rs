@@ -19,11 +19,16 @@ mod nets;
 mod nn;
 mod weights;
 
+#[cfg(all(feature = "mesh-finder", not(target_arch = "wasm32")))]
+pub use graph::{profile_mesh_nets, NetProfile};
+#[cfg(feature = "mesh-finder")]
+pub use mesh::MESH_POINTS;
 #[cfg(feature = "mesh-finder")]
 pub use mesh_finder::MeshFinder;
 
 pub use calibration::{
     add_face_offsets, convention_free_errors, face_frame, face_offsets, mean_face_offsets,
+    NET_OFFSETS,
 };
 
 use crate::error::{Error, Result};
@@ -57,12 +62,7 @@ impl BBox {
     }
 
     fn is_valid(&self) -> bool {
-        self.x.is_finite()
-            && self.y.is_finite()
-            && self.width.is_finite()
-            && self.height.is_finite()
-            && self.width >= 1.0
-            && self.height >= 1.0
+        crate::geometry::is_usable_region(&[self.x, self.y], &[self.width, self.height], 1.0)
     }
 }
 

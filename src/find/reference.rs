@@ -23,22 +23,27 @@ fn input(name: &str, n: usize, mean: [f32; 3]) -> Map {
     }
 }
 
-fn reference(name: &str) -> (Vec<usize>, Vec<f32>) {
+fn json(name: &str) -> serde_json::Value {
     let text = std::fs::read_to_string(format!("{DIR}/{name}.json")).unwrap();
-    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let shape = v["shape"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|d| d.as_u64().unwrap() as usize)
-        .collect();
-    let data = v["data"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|d| d.as_f64().unwrap() as f32)
-        .collect();
-    (shape, data)
+    serde_json::from_str(&text).unwrap()
+}
+
+/// The items of the JSON array `v`, each read by `item`.
+fn array<T>(v: &serde_json::Value, item: impl Fn(&serde_json::Value) -> T) -> Vec<T> {
+    v.as_array().unwrap().iter().map(item).collect()
+}
+
+fn floats(v: &serde_json::Value) -> Vec<f32> {
+    array(v, |d| d.as_f64().unwrap() as f32)
+}
+
+fn sizes(v: &serde_json::Value) -> Vec<usize> {
+    array(v, |d| d.as_u64().unwrap() as usize)
+}
+
+fn reference(name: &str) -> (Vec<usize>, Vec<f32>) {
+    let v = json(name);
+    (sizes(&v["shape"]), floats(&v["data"]))
 }
 
 fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
@@ -89,20 +94,7 @@ mod mediapipe {
     use super::super::mesh::{
         MeshNets, BLAZEFACE_WEIGHTS, DETECTOR_INPUT, MESH_INPUT, MESH_WEIGHTS,
     };
-    use super::DIR;
-
-    fn json(name: &str) -> serde_json::Value {
-        let text = std::fs::read_to_string(format!("{DIR}/{name}.json")).unwrap();
-        serde_json::from_str(&text).unwrap()
-    }
-
-    fn floats(v: &serde_json::Value) -> Vec<f32> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|d| d.as_f64().unwrap() as f32)
-            .collect()
-    }
+    use super::{floats, json, max_abs_diff, sizes, DIR};
 
     /// Runs `graph` on the fixture `name` (`norm` maps a byte to the net's input) and checks
     /// every layer; returns the worst difference relative to the layer's largest magnitude.
@@ -127,12 +119,7 @@ mod mediapipe {
         graph
             .run(&mut s, |i, y| {
                 let l = &layers[i];
-                let shape: Vec<usize> = l["shape"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|d| d.as_u64().unwrap() as usize)
-                    .collect();
+                let shape = sizes(&l["shape"]);
                 // Shapes are [h, w, c] (or, for none here, fewer dims).
                 assert_eq!(
                     y.data.len(),
@@ -181,11 +168,7 @@ mod mediapipe {
             .collect();
         let want_cls = floats(&want["scores"]);
         assert_eq!(cls.len(), 896);
-        let d = cls
-            .iter()
-            .zip(&want_cls)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f32::max);
+        let d = max_abs_diff(&cls, &want_cls);
         assert!(d < 1e-3, "score logits off by {d}");
         let reg: Vec<f32> = [0, 1]
             .iter()
@@ -210,12 +193,7 @@ mod mediapipe {
             let (s, want) = check_layers(mesh, name, MESH_INPUT, |b| b as f32 / 255.0);
             let lm = &s.output(mesh, 0).data;
             let want_lm = floats(&want["landmarks"]);
-            assert_eq!(lm.len(), want_lm.len());
-            let d = lm
-                .iter()
-                .zip(&want_lm)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f32::max);
+            let d = max_abs_diff(lm, &want_lm);
             // In pixels of the 192-pixel crop: a thousandth of a pixel.
             assert!(d < 1e-3, "{name}: points off by {d} px");
             let face = s.output(mesh, 1).data[0];

@@ -23,7 +23,8 @@ pub(crate) struct Weights {
     tensors: Vec<Tensor>,
 }
 
-fn bad(msg: impl Into<String>) -> Error {
+/// An [`Error::Weights`] saying `msg` (what a weight file or a graph built from one lacks).
+pub(super) fn bad(msg: impl Into<String>) -> Error {
     Error::Weights(msg.into())
 }
 

@@ -3,10 +3,11 @@
 //! it onto a source model's shape modes. See [`Follower`] and docs/fitting.md, "Following
 //! anyone".
 
-use crate::error::{check_len, Error, Result};
+use crate::error::{Error, Result};
 use crate::filter::OneEuro;
 use crate::find::{landmark_error, BBox, FaceFinder};
 use crate::image::ImageRef;
+use crate::model::limits::{check_face_box, check_landmarks_len};
 use crate::model::Model;
 use crate::similarity::Similarity;
 
@@ -293,8 +294,7 @@ impl Follower {
     /// non-finite point.
     pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
         for f in &faces {
-            check_len("offered face landmarks", f, 136)?;
-            crate::model::bounds::check_landmarks(f)?;
+            check_landmarks_len("offered face landmarks", f, 136)?;
         }
         self.offered = Some(faces);
         Ok(())
@@ -316,8 +316,7 @@ impl Follower {
     /// coordinates): [`Follower::restart`], then the landmarks offered as the face. Fails with
     /// [`Error::Params`] (changing nothing) for another length or non-finite values.
     pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
-        check_len("landmarks", landmarks, 136)?;
-        crate::model::bounds::check_landmarks(landmarks)?;
+        check_landmarks_len("landmarks", landmarks, 136)?;
         self.restart();
         self.offered = Some(vec![landmarks.to_vec()]);
         Ok(())
@@ -328,12 +327,7 @@ impl Follower {
     /// disagree, the frame is searched as usual. Fails with [`Error::Params`] for a
     /// non-finite box or one under 4x4.
     pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        crate::model::bounds::check_param_values("box", &[x, y, w, h])?;
-        if !(w >= 4.0 && h >= 4.0) {
-            return Err(Error::Params(format!(
-                "box {w}x{h} is too small (at least 4x4)"
-            )));
-        }
+        check_face_box(x, y, w, h)?;
         self.restart();
         self.start_box = Some(BBox {
             x,
@@ -352,9 +346,7 @@ impl Follower {
     /// Replaces the resampling policy; fails with [`Error::Params`] (keeping the old one) when
     /// a value is out of range.
     pub fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
-        policy.check()?;
-        self.policy = policy;
-        Ok(())
+        self.policy.replace(policy)
     }
 
     /// Follows the face in the next frame, `dt` seconds after the previous one (the One-Euro
@@ -448,20 +440,9 @@ impl Follower {
             (b.x + 0.5 * b.width, b.y + 0.5 * b.height)
         };
         let near = self.seen.then(|| centre(&self.last_raw));
-        let best = faces
-            .iter()
-            .filter(|f| f.len() == 136 && f.iter().all(|v| v.is_finite()))
-            .filter(|f| self.inside(frame, f))
-            .min_by(|a, b| {
-                let d = |s: &[f32]| match near {
-                    Some((x, y)) => {
-                        let (cx, cy) = centre(s);
-                        (cx - x).powi(2) + (cy - y).powi(2)
-                    }
-                    None => 0.0,
-                };
-                d(a).total_cmp(&d(b))
-            });
+        let best = super::tracker::nearest_face(&faces, near, centre, |f| {
+            f.len() == 136 && self.inside(frame, f)
+        });
         match best {
             Some(f) => {
                 self.points.copy_from_slice(f);

@@ -240,6 +240,15 @@ impl Default for TrackPolicy {
 }
 
 impl TrackPolicy {
+    /// Replaces `self` with `policy` after [`TrackPolicy::check`]; fails with
+    /// [`crate::Error::Params`] (keeping `self`) when a value is out of range. What
+    /// `Tracker::set_policy` and `Follower::set_policy` do.
+    pub(crate) fn replace(&mut self, policy: TrackPolicy) -> Result<()> {
+        policy.check()?;
+        *self = policy;
+        Ok(())
+    }
+
     /// The scale by which to resample a `width x height` frame before following a face
     /// `face_height` pixels tall in it, for a model whose mean face is `model_face_height`
     /// pixels tall: [`crate::fit::Tracker::fit_scale`] (which gives the rule).
@@ -297,29 +306,16 @@ impl TrackPolicy {
                 self.min_fit_side, self.max_fit_side
             ));
         }
-        if !(1.0..=8.0).contains(&self.max_upscale) {
-            return bad(format!(
-                "max_upscale = {} must be in 1..=8",
-                self.max_upscale
-            ));
-        }
-        if !(1.0..=4.0).contains(&self.native_band) {
-            return bad(format!(
-                "native_band = {} must be in 1..=4",
-                self.native_band
-            ));
-        }
-        if !(0.0..=4.0).contains(&self.rescale_change) {
-            return bad(format!(
-                "rescale_change = {} must be in 0..=4",
-                self.rescale_change
-            ));
-        }
-        if !(0.0..=3600.0).contains(&self.recentre_tau) {
-            return bad(format!(
-                "recentre_tau = {} must be in 0..=3600 (seconds)",
-                self.recentre_tau
-            ));
+        for (what, v, lo, hi, unit) in [
+            ("max_upscale", self.max_upscale, 1.0, 8.0, ""),
+            ("native_band", self.native_band, 1.0, 4.0, ""),
+            ("rescale_change", self.rescale_change, 0.0, 4.0, ""),
+            ("recentre_tau", self.recentre_tau, 0.0, 3600.0, " (seconds)"),
+        ] {
+            // `contains` is false for NaN, so a NaN is rejected too.
+            if !(lo..=hi).contains(&v) {
+                return bad(format!("{what} = {v} must be in {lo}..={hi}{unit}"));
+            }
         }
         Ok(())
     }

@@ -4,6 +4,7 @@
 
 use crate::error::{check_len, Error, Result};
 use crate::image::ImageRef;
+use crate::model::limits::{check_face_box, check_landmarks_len};
 use crate::model::Model;
 use crate::similarity::Similarity;
 
@@ -173,9 +174,7 @@ impl Tracker {
     /// Replaces the tracking policy; fails with [`Error::Params`] (and keeps the old one) when
     /// a value is out of range.
     pub fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
-        policy.check()?;
-        self.policy = policy;
-        Ok(())
+        self.policy.replace(policy)
     }
 
     /// The scale at which the tracker fits a `width x height` frame with a face
@@ -201,8 +200,7 @@ impl Tracker {
     /// [`Error::Params`] (keeping none) when a face has the wrong length or non-finite points.
     pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
         for f in &faces {
-            check_len("offered face landmarks", f, self.start.len())?;
-            crate::model::bounds::check_landmarks(f)?;
+            check_landmarks_len("offered face landmarks", f, self.start.len())?;
         }
         self.offered = Some(faces);
         Ok(())
@@ -245,8 +243,7 @@ impl Tracker {
     /// Starts a new sequence from landmarks on the next frame (frame pixels, `2n`); the fit
     /// scale is chosen on that frame for their size.
     pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
-        check_len("landmarks", landmarks, self.start.len())?;
-        crate::model::bounds::check_landmarks(landmarks)?;
+        check_landmarks_len("landmarks", landmarks, self.start.len())?;
         let pose = Similarity::align(&self.fitter.geom.s0, landmarks);
         if !(pose.is_valid() && pose.scale() > 1e-4) {
             return Err(Error::Params(
@@ -261,12 +258,7 @@ impl Tracker {
     /// Starts a new sequence from a face box (frame pixels: left, top, width, height):
     /// the base shape is scaled to the box's width and centred in it.
     pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        crate::model::bounds::check_param_values("box", &[x, y, w, h])?;
-        if !(w >= 4.0 && h >= 4.0) {
-            return Err(Error::Params(format!(
-                "box {w}x{h} is too small (at least 4x4)"
-            )));
-        }
+        check_face_box(x, y, w, h)?;
         let s0 = &self.fitter.geom.s0;
         let b = crate::geometry::BBox::of_points(s0);
         let (minx, miny, maxx, maxy) = (b.x, b.y, b.right(), b.bottom());
@@ -341,20 +333,7 @@ impl Tracker {
             )
         };
         let near = self.last_good.as_ref().map(|g| centre(&g.landmarks));
-        let best = faces
-            .iter()
-            .filter(|f| f.iter().all(|v| v.is_finite()))
-            .min_by(|a, b| {
-                let d = |s: &[f32]| match near {
-                    Some((x, y)) => {
-                        let (cx, cy) = centre(s);
-                        (cx - x).powi(2) + (cy - y).powi(2)
-                    }
-                    None => 0.0,
-                };
-                d(a).total_cmp(&d(b))
-            });
-        let Some(face) = best else {
+        let Some(face) = nearest_face(&faces, near, centre, |_| true) else {
             return Ok(false);
         };
         // The scale for the face acquired (kept when near the one in use).
@@ -639,6 +618,29 @@ impl std::fmt::Debug for Tracker {
 }
 
 /// Width and height of the bounding box of interleaved points.
+/// Of the `faces` with finite points that pass `ok`, the one whose `centre` is nearest `near`
+/// (the first such one when `near` is `None`; the first of equally near ones): how a tracker
+/// and a follower pick the face to acquire.
+pub(super) fn nearest_face(
+    faces: &[Vec<f32>],
+    near: Option<(f32, f32)>,
+    centre: impl Fn(&[f32]) -> (f32, f32),
+    ok: impl Fn(&[f32]) -> bool,
+) -> Option<&[f32]> {
+    let d = |s: &[f32]| match near {
+        Some((x, y)) => {
+            let (cx, cy) = centre(s);
+            (cx - x).powi(2) + (cy - y).powi(2)
+        }
+        None => 0.0,
+    };
+    faces
+        .iter()
+        .map(Vec::as_slice)
+        .filter(|f| f.iter().all(|v| v.is_finite()) && ok(f))
+        .min_by(|a, b| d(a).total_cmp(&d(b)))
+}
+
 fn extent(points: &[f32]) -> (f32, f32) {
     let b = crate::geometry::BBox::of_points(points);
     (b.width.max(0.0), b.height.max(0.0))

@@ -163,6 +163,25 @@ pub fn check_landmarks(values: &[f32]) -> Result<()> {
     }
 }
 
+/// [`crate::error::check_len`] then [`check_landmarks`]: fails unless `values` holds `len`
+/// landmark coordinates, each finite and within `+-MAX_PARAM` pixels.
+pub(crate) fn check_landmarks_len(what: &str, values: &[f32], len: usize) -> Result<()> {
+    crate::error::check_len(what, values, len)?;
+    check_landmarks(values)
+}
+
+/// Fails with [`Error::Params`] unless a face box (left, top, width, height) is finite, within
+/// the parameter bounds and at least 4x4.
+pub(crate) fn check_face_box(x: f32, y: f32, w: f32, h: f32) -> Result<()> {
+    check_param_values("box", &[x, y, w, h])?;
+    if !(w >= 4.0 && h >= 4.0) {
+        return Err(Error::Params(format!(
+            "box {w}x{h} is too small (at least 4x4)"
+        )));
+    }
+    Ok(())
+}
+
 /// Fails with [`Error::Overflow`] naming `what` unless every value of an output is finite.
 pub fn check_output(what: &str, values: &[f32]) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {

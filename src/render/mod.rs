@@ -3,6 +3,8 @@
 //!
 //! - [`FaceDrawer`] is what callers use: it owns the chosen backend, the mesh overlay and the
 //!   scratch buffers, and draws a face with one call.
+//! - `texture.rs`: [`Warp`], what both backends share (the upload and warp calls); a backend
+//!   is its [`Store`] of the texture and rasteriser of the triangles.
 //! - `skia.rs`: [`Renderer`], one tiny-skia pattern fill per triangle (the default backend).
 //! - `scanline.rs`: [`Scanline`], a fixed-point scanline warp into the same pixmap (opt-in).
 //! - `overlay.rs`: [`MeshOverlay`], the triangle mesh stroked over a face.
@@ -20,22 +22,26 @@ mod composite;
 mod overlay;
 mod scanline;
 mod skia;
+mod texture;
 mod view;
 
 pub use composite::{hull_loop, mean_value_weights, Compositor, ExtendedMesh};
 pub use overlay::MeshOverlay;
-pub use scanline::Scanline;
-pub use skia::Renderer;
+pub use scanline::{Scanline, ScanlineStore};
+pub use skia::{Renderer, SkiaStore};
+pub use texture::{Store, Warp};
 pub use view::{base_box, canvas_view, fit_view, picture_view};
 
 /// Which rasteriser warps the triangles of a piecewise-affine warp into a tiny-skia pixmap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Rasterizer {
-    /// [`Renderer::warp`]: one tiny-skia pattern fill per triangle (the default).
+    /// [`Renderer`] ([`Warp::warp`] with a [`SkiaStore`]): one tiny-skia pattern fill per
+    /// triangle (the default).
     #[default]
     TinySkia,
-    /// [`Scanline::warp`]: a faster fixed-point rasteriser that writes into the same tiny-skia
-    /// pixmap; results agree within ~1.5 levels.
+    /// [`Scanline`] ([`Warp::warp`] with a [`ScanlineStore`]): a faster fixed-point
+    /// rasteriser that writes into the same tiny-skia pixmap; results agree within ~1.5
+    /// levels.
     Scanline,
 }
 

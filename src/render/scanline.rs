@@ -1,5 +1,5 @@
 //! The per-frame triangle warp, scanline edition: the same piecewise-affine warp as
-//! [`super::Renderer::warp`] (bilinear texture lookups, pixel centres inside the warped mesh
+//! [`super::Renderer`]'s (bilinear texture lookups, pixel centres inside the warped mesh
 //! painted, shared edges painted exactly once), written straight into the same tiny-skia
 //! pixmap with 8-bit fixed-point bilinear filtering. tiny-skia's pattern fill runs its
 //! high-precision f32 pipeline with source-over blending for every pixel, several times the
@@ -14,46 +14,43 @@
 
 use tiny_skia::PixmapMut;
 
+use super::texture::{Store, Warp};
 use super::triangle_affine;
-use crate::error::{check_finite, check_len, Result};
+use crate::error::Result;
 use crate::model::frame::ReferenceFrame;
-use crate::similarity::Similarity;
 use glam::Vec2;
 
-/// Reusable state of the scanline path: the frame texture as packed RGBA8 words (the same
-/// content as [`super::Renderer::upload`] writes into its pixmap: the appearance on the mesh
-/// pixels, the padding ring copied from the nearest inside pixels, transparent elsewhere) and
-/// the destination points. Create once and reuse: after the first frame on a reference frame,
-/// uploading and warping allocate nothing.
+/// The scanline backend of [`super::FaceDrawer`]: the same calls as [`super::Renderer`], the
+/// frame texture kept as packed RGBA8 words ([`ScanlineStore`]). Create once and reuse: after
+/// the first frame on a reference frame, uploading and warping allocate nothing.
+pub type Scanline = Warp<ScanlineStore>;
+
+/// [`Scanline`]'s [`Store`]: the frame texture as packed RGBA8 words (the same content as
+/// [`super::Renderer`]'s pixmap: the appearance on the mesh pixels, the padding ring copied
+/// from the nearest inside pixels, transparent elsewhere), sized by the first upload on a
+/// reference frame, and the fixed-point scanline warp.
 #[derive(Debug, Default)]
-pub struct Scanline {
+pub struct ScanlineStore {
     texture: Vec<u32>,
     width: u32,
     height: u32,
     fingerprint: Option<u64>,
-    dst: Vec<Vec2>,
 }
 
-impl Scanline {
-    /// Empty state (the texture is sized by the first [`Scanline::upload`]).
+impl Warp<ScanlineStore> {
+    /// Empty state (the texture is sized by the first [`Warp::upload`]).
     pub fn new() -> Scanline {
         Scanline::default()
     }
+}
 
-    /// Writes an appearance vector (`3N`, RGB in `0..=1`) into the texture.
-    pub fn upload(&mut self, frame: &ReferenceFrame, appearance: &[f32]) -> Result<()> {
-        self.upload_with_alpha(frame, appearance, None)
+impl Store for ScanlineStore {
+    /// Any frame: an upload sizes the texture for its frame, a warp checks it has one.
+    fn check_frame(&self, _frame: &ReferenceFrame) -> Result<()> {
+        Ok(())
     }
 
-    /// [`Scanline::upload`] with a coverage per frame pixel (`N` values in `0..=1`; `None` =
-    /// opaque): the warp then blends the face over what is under it (premultiplied source-over).
-    pub fn upload_with_alpha(
-        &mut self,
-        frame: &ReferenceFrame,
-        appearance: &[f32],
-        alpha: Option<&[f32]>,
-    ) -> Result<()> {
-        super::check_upload(frame, appearance, alpha)?;
+    fn write(&mut self, frame: &ReferenceFrame, appearance: &[f32], alpha: Option<&[f32]>) {
         if self.fingerprint != Some(frame.fingerprint()) {
             self.width = frame.width();
             self.height = frame.height();
@@ -72,7 +69,38 @@ impl Scanline {
                 *t = value;
             }
         }
+    }
+
+    fn check_points(&self, frame: &ReferenceFrame, dst: &[Vec2]) -> Result<()> {
+        if self.fingerprint != Some(frame.fingerprint()) {
+            return Err(crate::error::Error::Incompatible(
+                "no texture uploaded for this reference frame".into(),
+            ));
+        }
+        // Keep every coordinate well inside what the fixed-point and integer maths can hold.
+        let limit = 1.0e6;
+        if dst
+            .iter()
+            .any(|p| !(p.x.abs() < limit && p.y.abs() < limit))
+        {
+            return Err(crate::error::Error::Params(
+                "the shape is placed too far outside the canvas".into(),
+            ));
+        }
         Ok(())
+    }
+
+    fn warp(&mut self, frame: &ReferenceFrame, dst: &[Vec2], target: &mut PixmapMut<'_>) {
+        let (tw, th) = (self.width as i32, self.height as i32);
+        let [ox, oy] = frame.origin();
+        let v = frame.vertices();
+        let src = |i: usize| {
+            Vec2::new(
+                v.get(2 * i).copied().unwrap_or(0.0) + ox,
+                v.get(2 * i + 1).copied().unwrap_or(0.0) + oy,
+            )
+        };
+        warp_mesh(&self.texture, (tw, th), src, dst, frame.triangles(), target);
     }
 }
 
@@ -181,61 +209,6 @@ fn edge_x(p: Vec2, q: Vec2, y: f32) -> f32 {
 
 /// Fixed-point scale of texture coordinates (16.16).
 const ONE: f32 = 65536.0;
-
-impl Scanline {
-    /// Warps the uploaded texture (see [`Scanline::upload`]) from the frame's base mesh onto
-    /// `image_shape` (image coordinates, pixel centres on integers) mapped through `view`
-    /// (image to target pixels), into `target`. Allocation-free once the scratch has grown.
-    pub fn warp(
-        &mut self,
-        frame: &ReferenceFrame,
-        image_shape: &[f32],
-        view: &Similarity,
-        target: &mut PixmapMut<'_>,
-    ) -> Result<()> {
-        check_len("shape", image_shape, frame.vertices().len())?;
-        check_finite("shape", image_shape)?;
-        if self.fingerprint != Some(frame.fingerprint()) {
-            return Err(crate::error::Error::Incompatible(
-                "no texture uploaded for this reference frame".into(),
-            ));
-        }
-        let (tw, th) = (self.width as i32, self.height as i32);
-        self.dst.clear();
-        for p in image_shape.chunks_exact(2) {
-            let (x, y) = view.apply_point(p[0], p[1]);
-            self.dst.push(Vec2::new(x, y));
-        }
-        // Keep every coordinate well inside what the fixed-point and integer maths can hold.
-        let limit = 1.0e6;
-        if self
-            .dst
-            .iter()
-            .any(|p| !(p.x.abs() < limit && p.y.abs() < limit))
-        {
-            return Err(crate::error::Error::Params(
-                "the shape is placed too far outside the canvas".into(),
-            ));
-        }
-        let [ox, oy] = frame.origin();
-        let v = frame.vertices();
-        let src = |i: usize| {
-            Vec2::new(
-                v.get(2 * i).copied().unwrap_or(0.0) + ox,
-                v.get(2 * i + 1).copied().unwrap_or(0.0) + oy,
-            )
-        };
-        warp_mesh(
-            &self.texture,
-            (tw, th),
-            src,
-            &self.dst,
-            frame.triangles(),
-            target,
-        );
-        Ok(())
-    }
-}
 
 /// The fixed-point scanline warp of a packed RGBA8 texture (`tw x th` premultiplied words) by a
 /// triangle mesh: triangle `t` is painted where `dst` places it (target pixels, centres on
@@ -357,6 +330,7 @@ pub(crate) fn warp_mesh(
 mod tests {
     use super::*;
     use crate::render::{DrawOptions, FaceDrawer, Rasterizer};
+    use crate::similarity::Similarity;
     use tiny_skia::{Color, Pixmap};
     use wasm_bindgen_test::wasm_bindgen_test;
 

@@ -6,71 +6,70 @@ use tiny_skia::{
     FillRule, FilterQuality, Paint, PathBuilder, Pattern, Pixmap, PixmapMut, SpreadMode, Transform,
 };
 
+use super::texture::{Store, Warp};
 use super::triangle_affine;
-use crate::error::{check_len, Error, Result};
+use crate::error::{Error, Result};
 use crate::model::frame::ReferenceFrame;
-use crate::similarity::Similarity;
 
 /// The tiny-skia backend of [`super::FaceDrawer`] for one reference frame: the appearance
 /// texture and a recycled path. Create once per model (or per frame shape) and reuse: after
 /// the first call, it allocates nothing of its own per frame. To draw a model instance, use
 /// [`super::FaceDrawer::render`].
 ///
-/// Contract: [`Renderer::warp`] paints exactly the pixels whose centres fall inside the warped
-/// mesh (non-anti-aliased fills share edges exactly, so there are no cracks and no double-painted
-/// seams); pixels outside are left untouched.
-pub struct Renderer {
+/// Contract: [`Warp::warp`] paints exactly the pixels whose centres fall inside the warped
+/// mesh (non-anti-aliased fills share edges exactly, so there are no cracks and no
+/// double-painted seams); pixels outside are left untouched.
+pub type Renderer = Warp<SkiaStore>;
+
+/// [`Renderer`]'s [`Store`]: the frame texture as a tiny-skia pixmap (premultiplied RGBA,
+/// transparent outside the mesh and its padding ring), warped by one pattern-shaded,
+/// non-anti-aliased triangle fill per mesh triangle.
+pub struct SkiaStore {
     texture: Pixmap,
     frame_fingerprint: u64,
-    /// Destination points in target pixels (warp's scratch).
-    shape: Vec<f32>,
     path: Option<PathBuilder>,
 }
 
-impl std::fmt::Debug for Renderer {
+impl std::fmt::Debug for SkiaStore {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Renderer")
+        f.debug_struct("SkiaStore")
             .field("texture", &(self.texture.width(), self.texture.height()))
             .field("frame_fingerprint", &self.frame_fingerprint)
             .finish()
     }
 }
 
-impl Renderer {
+impl Warp<SkiaStore> {
     /// A renderer for models on `frame`.
     pub fn new(frame: &ReferenceFrame) -> Result<Renderer> {
         let texture = Pixmap::new(frame.width(), frame.height())
             .ok_or_else(|| Error::Image("frame too large for a pixmap".into()))?;
-        Ok(Renderer {
+        let store = SkiaStore {
             texture,
             frame_fingerprint: frame.fingerprint(),
-            shape: vec![0.0; frame.vertices().len()],
             path: Some(PathBuilder::with_capacity(4, 4)),
-        })
+        };
+        Ok(Warp::with_store(store, frame.vertices().len() / 2))
     }
 
     /// The texture of the last appearance drawn (frame-sized, premultiplied RGBA; transparent
     /// outside the mesh and its padding ring). Useful to show the shape-normalised appearance.
     pub fn texture(&self) -> &Pixmap {
-        &self.texture
+        &self.store.texture
+    }
+}
+
+impl Store for SkiaStore {
+    fn check_frame(&self, frame: &ReferenceFrame) -> Result<()> {
+        if frame.fingerprint() != self.frame_fingerprint {
+            return Err(Error::Incompatible(
+                "renderer was made for another reference frame".into(),
+            ));
+        }
+        Ok(())
     }
 
-    /// Writes an appearance vector (`3N`, RGB in `0..=1`) into the frame texture, with the
-    /// padding ring copied from the nearest inside pixels.
-    pub fn upload(&mut self, frame: &ReferenceFrame, appearance: &[f32]) -> Result<()> {
-        self.upload_with_alpha(frame, appearance, None)
-    }
-
-    /// [`Renderer::upload`] with a coverage per frame pixel (`N` values in `0..=1`; `None` =
-    /// opaque): the warp then blends the face over what is under it (source-over).
-    pub fn upload_with_alpha(
-        &mut self,
-        frame: &ReferenceFrame,
-        appearance: &[f32],
-        alpha: Option<&[f32]>,
-    ) -> Result<()> {
-        self.check_frame(frame)?;
-        super::check_upload(frame, appearance, alpha)?;
+    fn write(&mut self, frame: &ReferenceFrame, appearance: &[f32], alpha: Option<&[f32]>) {
         let data = self.texture.data_mut();
         super::for_each_texel(frame, appearance, alpha, |k, t| {
             let k = 4 * k;
@@ -82,54 +81,26 @@ impl Renderer {
         for (d, s) in super::padding_copies(frame) {
             data.copy_within(4 * s..4 * s + 4, 4 * d);
         }
+    }
+
+    /// Any points: tiny-skia clips what falls outside the target.
+    fn check_points(&self, _frame: &ReferenceFrame, _dst: &[Vec2]) -> Result<()> {
         Ok(())
     }
 
-    fn check_frame(&self, frame: &ReferenceFrame) -> Result<()> {
-        if frame.fingerprint() != self.frame_fingerprint {
-            return Err(Error::Incompatible(
-                "renderer was made for another reference frame".into(),
-            ));
-        }
-        Ok(())
-    }
-
-    /// Warps the uploaded texture onto `image_shape` (image coordinates, pixel centres on
-    /// integers) mapped through `view` (image to target pixels), one pattern-shaded,
-    /// non-anti-aliased triangle fill per mesh triangle.
-    pub fn warp(
-        &mut self,
-        frame: &ReferenceFrame,
-        image_shape: &[f32],
-        view: &Similarity,
-        target: &mut PixmapMut<'_>,
-    ) -> Result<()> {
-        self.check_frame(frame)?;
-        check_len("shape", image_shape, frame.vertices().len())?;
-        crate::error::check_finite("shape", image_shape)?;
+    fn warp(&mut self, frame: &ReferenceFrame, dst: &[Vec2], target: &mut PixmapMut<'_>) {
         let [ox, oy] = frame.origin();
         // Destination points in target pixels, source points in texture pixels.
-        for (d, s) in self
-            .shape
-            .chunks_exact_mut(2)
-            .zip(image_shape.chunks_exact(2))
-        {
-            let (x, y) = view.apply_point(s[0], s[1]);
-            d[0] = x;
-            d[1] = y;
-        }
         let v = frame.vertices();
         let src = |i: usize| Vec2::new(v[2 * i] + ox, v[2 * i + 1] + oy);
-        let dst = &self.shape;
         warp_mesh(
             self.texture.as_ref(),
             src,
-            |i| Vec2::new(dst[2 * i], dst[2 * i + 1]),
+            |i| dst[i],
             frame.triangles(),
             &mut self.path,
             target,
         );
-        Ok(())
     }
 }
 

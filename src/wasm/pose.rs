@@ -8,6 +8,12 @@ fn pose_from_js(what: &str, v: JsValue) -> Result<Similarity, JsError> {
     serde_wasm_bindgen::from_value(v).map_err(|e| JsError::new(&format!("{what}: {e}")))
 }
 
+/// A pose as the JS `Pose` object every function here returns.
+fn pose_to_js(pose: Similarity) -> Result<JsValue, JsError> {
+    serde_wasm_bindgen::to_value(&PoseJson::from(pose))
+        .map_err(|e| JsError::new(&format!("pose: {e}")))
+}
+
 /// The mean of poses (`Similarity::mean`: geometric in scale, circular in angle, arithmetic in
 /// translation), the one pose average of the package. Throws for an empty list, a pose that is
 /// not `{ scale > 0, rotation, tx, ty }` with finite values, or rotations that cancel out.
@@ -20,8 +26,7 @@ pub fn mean_pose(
     let m = Similarity::mean(&poses).ok_or_else(|| {
         JsError::new("meanPose: no poses, an invalid pose, or rotations that cancel out")
     })?;
-    serde_wasm_bindgen::to_value(&PoseJson::from(m))
-        .map_err(|e| JsError::new(&format!("pose: {e}")))
+    pose_to_js(m)
 }
 
 /// `target ∘ anchor⁻¹ ∘ pose` (`Similarity::recentred`): `pose` moved so that where `anchor`
@@ -39,8 +44,7 @@ pub fn recentre_pose(
     let r = pose
         .recentred(&anchor, &target)
         .ok_or_else(|| JsError::new("recentrePose: the anchor pose has no inverse"))?;
-    serde_wasm_bindgen::to_value(&PoseJson::from(r))
-        .map_err(|e| JsError::new(&format!("pose: {e}")))
+    pose_to_js(r)
 }
 
 /// The pose `u` of the way from `from` to `to` (`Similarity::lerp`: the scale geometrically,
@@ -60,6 +64,5 @@ pub fn lerp_pose(
             "lerpPose: u is {u}, not a finite number"
         )));
     }
-    serde_wasm_bindgen::to_value(&PoseJson::from(from.lerp(&to, u)))
-        .map_err(|e| JsError::new(&format!("pose: {e}")))
+    pose_to_js(from.lerp(&to, u))
 }

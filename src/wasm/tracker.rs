@@ -151,6 +151,7 @@ fn faces_from_js(faces: &JsValue, who: &str) -> Result<Vec<Vec<f32>>, JsError> {
 /// see `docs/fitting.md`). Start a sequence with `startFromLandmarks` or `startFromBox`, then
 /// call `track` once per frame.
 #[wasm_bindgen(js_name = Tracker)]
+#[derive(Debug)]
 pub struct WasmTracker {
     inner: Tracker,
 }
@@ -211,26 +212,6 @@ impl WasmTracker {
             self.inner.set_face_source(Box::new(finder));
         }
         self.inner.start_auto().map_err(err)
-    }
-
-    /// Fits the next frame (RGBA bytes at the frame's own size, e.g. `ImageData.data`,
-    /// `width * height * 4`), `dt` seconds after the previous one (default 1/30; the pose
-    /// anchor's time step). The tracker chooses the fit scale and resamples the frame itself.
-    /// Returns `{ landmarks, pose, placed, scale, shape, appearance, error, iterations,
-    /// converged, lost, reacquired }`, landmarks and poses in the frame's pixels; `placed` is
-    /// the pose re-centred on the model's mean pose (what to drive the source face with).
-    /// Throws for a bad image or a `dt` that is not a finite non-negative number.
-    pub fn track(
-        &mut self,
-        data: &[u8],
-        width: u32,
-        height: u32,
-        dt: Option<f32>,
-    ) -> Result<JsValue, JsError> {
-        let image = ImageRef::new(width, height, data).map_err(err)?;
-        let dt = dt.unwrap_or(DEFAULT_TIME_STEP);
-        self.inner.track_timed(&image, dt).map_err(err)?;
-        self.last()
     }
 
     /// The last frame's result (same shape as `track`'s), or `null` before the first frame.
@@ -323,11 +304,12 @@ impl WasmTracker {
     }
 }
 
-impl std::fmt::Debug for WasmTracker {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("WasmTracker")
-            .field("inner", &self.inner)
-            .finish()
+impl WasmTracker {
+    /// `track`'s step: the core's, `dt` defaulting to [`DEFAULT_TIME_STEP`].
+    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> crate::Result<()> {
+        self.inner
+            .track_timed(image, dt.unwrap_or(DEFAULT_TIME_STEP))
+            .map(drop)
     }
 }
 
@@ -366,23 +348,6 @@ impl WasmFollower {
             inner,
             dt: 1.0 / 30.0,
         })
-    }
-
-    /// Follows the face in the next frame (RGBA bytes, `width * height * 4`), `dt` seconds
-    /// after the previous one (default 1/30). Throws for a bad image or a `dt` that is not a
-    /// positive number.
-    pub fn track(
-        &mut self,
-        data: &[u8],
-        width: u32,
-        height: u32,
-        dt: Option<f32>,
-    ) -> Result<JsValue, JsError> {
-        let image = ImageRef::new(width, height, data).map_err(follow_err)?;
-        self.inner
-            .track(&image, dt.unwrap_or(self.dt))
-            .map_err(follow_err)?;
-        self.last()
     }
 
     /// The last frame's result (same shape as `track`'s).
@@ -436,6 +401,13 @@ impl WasmFollower {
     }
 }
 
+impl WasmFollower {
+    /// `track`'s step: the core's, `dt` defaulting to the follower's.
+    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> crate::Result<()> {
+        self.inner.track(image, dt.unwrap_or(self.dt)).map(drop)
+    }
+}
+
 impl std::fmt::Debug for WasmFollower {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("WasmFollower")
@@ -445,11 +417,25 @@ impl std::fmt::Debug for WasmFollower {
 }
 
 /// The calls a `Tracker` and a `Follower` share, read from their core's `Sequence` and policy
-/// (one definition for both classes).
+/// (one definition for both classes); `track` runs the class's own `step` and is documented by
+/// the doc comment given last.
 macro_rules! shared_calls {
-    ($class:ident, $js:ident, $err:ident, $who:literal) => {
+    ($class:ident, $js:ident, $err:ident, $who:literal, $(#[$track_doc:meta])*) => {
         #[wasm_bindgen(js_class = $js)]
         impl $class {
+            $(#[$track_doc])*
+            pub fn track(
+                &mut self,
+                data: &[u8],
+                width: u32,
+                height: u32,
+                dt: Option<f32>,
+            ) -> Result<JsValue, JsError> {
+                let image = ImageRef::new(width, height, data).map_err($err)?;
+                self.step(&image, dt).map_err($err)?;
+                self.last()
+            }
+
             /// Faces found in a recent frame, in the frame's pixels, most confident first:
             /// `FaceFinder.find`'s result (objects with `landmarks`) or arrays of `2n` values.
             /// The next acquisition takes the one nearest the last face. Throws for a wrong
@@ -495,5 +481,25 @@ macro_rules! shared_calls {
     };
 }
 
-shared_calls!(WasmTracker, Tracker, err, "tracker");
-shared_calls!(WasmFollower, Follower, follow_err, "follower");
+shared_calls!(
+    WasmTracker,
+    Tracker,
+    err,
+    "tracker",
+    /// Fits the next frame (RGBA bytes at the frame's own size, e.g. `ImageData.data`,
+    /// `width * height * 4`), `dt` seconds after the previous one (default 1/30; the pose
+    /// anchor's time step). The tracker chooses the fit scale and resamples the frame itself.
+    /// Returns `{ landmarks, pose, placed, scale, shape, appearance, error, iterations,
+    /// converged, lost, reacquired }`, landmarks and poses in the frame's pixels; `placed` is
+    /// the pose re-centred on the model's mean pose (what to drive the source face with).
+    /// Throws for a bad image or a `dt` that is not a finite non-negative number.
+);
+shared_calls!(
+    WasmFollower,
+    Follower,
+    follow_err,
+    "follower",
+    /// Follows the face in the next frame (RGBA bytes, `width * height * 4`), `dt` seconds
+    /// after the previous one (default 1/30). Throws for a bad image or a `dt` that is not a
+    /// positive number.
+);
