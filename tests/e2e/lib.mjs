@@ -379,6 +379,21 @@ export function assertPageBuilt(www = path.join(ROOT, 'www')) {
 }
 
 /**
+ * Presses the enrol dialog's build button, then Cancel while the build worker runs (the
+ * worker's wasm is held back 1.5 s, so the build is surely not over when Cancel is pressed: a
+ * 20-frame build takes well under a second), and waits for the dialog to say nothing was kept.
+ */
+export async function cancelEnrolBuild(page) {
+  await page.route('**/facemimic_bg.wasm', async (route) => {
+    await new Promise((r) => setTimeout(r, 1500));
+    await route.continue().catch(() => {}); // the cancelled worker is gone by then
+  });
+  await page.click('#enrol .btn.primary');
+  await page.getByRole('button', { name: 'Cancel' }).click();
+  await page.waitForFunction(() => /cancelled; nothing was kept/.test(document.querySelector('#enrol .enrol-status').textContent));
+}
+
+/**
  * Opens `server`'s page in a fresh context of `browser` (`context`: its options; closed after
  * the test `t`) and waits until it has drawn (and `ready`, more selectors to wait for). Returns
  * `{ page, errors, offOrigin, frames }`: the page errors (and console errors unless `console`
@@ -418,6 +433,24 @@ export async function openPage(t, browser, server, { context: options = {}, read
       n,
     );
   return { page, errors, offOrigin, frames };
+}
+
+/** A browser whose camera plays `camera` (`fakeCameraArgs`), closed after the test `t`. */
+export async function cameraBrowser(t, camera) {
+  const browser = await launchBrowser(fakeCameraArgs(camera));
+  t.after(() => browser.close());
+  return browser;
+}
+
+/** Asserts that the page has a target card and that every target's face changes within `ms`. */
+export async function assertTargetsMove(page, ms) {
+  const targets = await page.$$eval('.face-card.target canvas.face', (c) => c.length);
+  assert.ok(targets >= 1);
+  const digest = (i) => canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`);
+  const before = [];
+  for (let i = 0; i < targets; i++) before.push(await digest(i));
+  await page.waitForTimeout(ms);
+  for (let i = 0; i < targets; i++) assert.notEqual(await digest(i), before[i], `target ${i} does not move`);
 }
 
 /** Chromium's switches for a fake camera the page may use without asking (and autoplay). */
