@@ -14,6 +14,7 @@ import path from 'node:path';
 import { fileURLToPath, pathToFileURL } from 'node:url';
 import assert from 'node:assert/strict';
 import zlib from 'node:zlib';
+import { before, after } from 'node:test';
 import { chromium } from 'playwright-core';
 
 /** The repository root (two levels above this file). */
@@ -376,6 +377,26 @@ export function assertPageBuilt(www = path.join(ROOT, 'www')) {
   assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
   assert.ok(fs.existsSync(path.join(www, 'pkg', 'facemimic.js')), `${www}/pkg/facemimic.js is missing: run scripts/build-wasm.sh`);
   assert.ok(fs.existsSync(path.join(www, 'models', 'manifest.json')), `${www}/models/ is missing: run scripts/build-models.sh`);
+}
+
+/**
+ * A test file's page in `www` (the page's folder): before its tests, checks that the page is
+ * built, serves `www` and launches a browser; after them, closes both. Returns `{ server,
+ * browser, manifest }` (`manifest`: the default models' manifest.json), set by then.
+ */
+export function pageSuite(www) {
+  const suite = {};
+  before(async () => {
+    assertPageBuilt(www);
+    suite.manifest = JSON.parse(fs.readFileSync(path.join(www, 'models', 'manifest.json'), 'utf8'));
+    suite.server = await serveStatic(www);
+    suite.browser = await launchBrowser();
+  });
+  after(async () => {
+    await suite.browser?.close();
+    await suite.server?.close();
+  });
+  return suite;
 }
 
 /**
