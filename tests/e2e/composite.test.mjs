@@ -21,6 +21,7 @@ import {
   cornerDistances,
   openPage,
   pageSuite,
+  dropFiles,
 } from './lib.mjs';
 
 const WWW = path.resolve(ROOT, process.env.FACEMIMIC_WWW || 'www');
@@ -40,27 +41,6 @@ before(() => assert.ok(fs.existsSync(PHOTO), `${PHOTO} is missing`));
 /** Open the page in a fresh context (lib.mjs `openPage`). */
 function open(t, { width = 1440, height = 900 } = {}) {
   return openPage(t, suite.browser, suite.server, { context: { viewport: { width, height }, deviceScaleFactor: 1, acceptDownloads: true } });
-}
-
-/** Drop files (`{ name, bytes, type? }`) on an element through a synthetic DataTransfer. */
-async function dropFiles(page, selector, files) {
-  const payload = files.map((f) => ({ name: f.name, type: f.type || '', b64: Buffer.from(f.bytes).toString('base64') }));
-  await page.$eval(
-    selector,
-    (el, payload) => {
-      const dt = new DataTransfer();
-      for (const f of payload) {
-        const bin = atob(f.b64);
-        const bytes = new Uint8Array(bin.length);
-        for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-        dt.items.add(new File([bytes], f.name, { type: f.type }));
-      }
-      for (const type of ['dragenter', 'dragover', 'drop']) {
-        el.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
-      }
-    },
-    payload,
-  );
 }
 
 const file = (p, type = 'image/jpeg') => ({ name: path.basename(p), bytes: fs.readFileSync(p), type });

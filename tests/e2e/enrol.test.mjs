@@ -9,7 +9,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, canvasStats, screenshot, fakeCameraFile, assertPageBuilt, cameraBrowser, assertTargetsMove, openPage } from './lib.mjs';
+import { ROOT, serveStatic, canvasStats, screenshot, fakeCameraFile, assertPageBuilt, cameraBrowser, assertTargetsMove, openPage, webcamLog } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const TRAIN = path.join(ROOT, 'data', 'grid', 'spk07_pwij3p');
@@ -50,10 +50,7 @@ test('a face created in the page becomes the source, and the webcam tracks it wi
   await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Me'));
 
   // The webcam source tracks the face with the enrolled model.
-  await page.selectOption('#source-kind', 'webcam');
-  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout: 30_000 });
-  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
-  const log = await page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+  const log = await webcamLog(page, 30_000);
   const lost = log.filter((l) => l.lost).length;
   const meanErr = log.reduce((s, l) => s + l.error, 0) / log.length;
   console.log(`# enrolled source on the face camera: ${log.length} fits, ${lost} lost, fit error mean ${meanErr.toFixed(4)}`);

@@ -28,7 +28,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, mjpegCamera, FAKE_CAMERA_ARGS, assertPageBuilt, openPage, cancelEnrolBuild, cameraBrowser, assertTargetsMove } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, mjpegCamera, FAKE_CAMERA_ARGS, assertPageBuilt, openPage, cancelEnrolBuild, cameraBrowser, assertTargetsMove, webcamLog } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -320,10 +320,7 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
   await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Webcam man'));
 
   // The webcam source tracks with the enrolled model and drives every target.
-  await page.selectOption('#source-kind', 'webcam');
-  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout: 60_000 });
-  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
-  const log = await page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+  const log = await webcamLog(page, 60_000);
   const lost = log.filter((l) => l.lost).length;
   console.log(`# tracking with the enrolled model: ${log.length} fits, ${lost} lost, fit error mean ${(log.reduce((s, l) => s + l.error, 0) / log.length).toFixed(4)}`);
   assert.ok(lost <= log.length / 4, `${lost} of ${log.length} frames lost`);

@@ -380,6 +380,41 @@ export function assertPageBuilt(www = path.join(ROOT, 'www')) {
 }
 
 /**
+ * Drops files (`{ name, bytes, type? }`; `type` defaults to `defaultType`) on the element
+ * `selector` of `page` through a synthetic DataTransfer, as a user's drag and drop would.
+ */
+export async function dropFiles(page, selector, files, defaultType = '') {
+  const payload = files.map((f) => ({ name: f.name, type: f.type || defaultType, b64: Buffer.from(f.bytes).toString('base64') }));
+  await page.$eval(
+    selector,
+    (el, payload) => {
+      const dt = new DataTransfer();
+      for (const f of payload) {
+        const bin = atob(f.b64);
+        const bytes = new Uint8Array(bin.length);
+        for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+        dt.items.add(new File([bytes], f.name, { type: f.type }));
+      }
+      for (const type of ['dragenter', 'dragover', 'drop']) {
+        el.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
+      }
+    },
+    payload,
+  );
+}
+
+/**
+ * Switches the page's source to the webcam and waits until it tracks (the panel within
+ * `timeout` ms) and has fitted 40 frames; returns the tracking log as `{ lost, error }` a fit.
+ */
+export async function webcamLog(page, timeout) {
+  await page.selectOption('#source-kind', 'webcam');
+  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout });
+  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
+  return page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+}
+
+/**
  * A test file's page in `www` (the page's folder): before its tests, checks that the page is
  * built, serves `www` and launches a browser; after them, closes both. Returns `{ server,
  * browser, manifest }` (`manifest`: the default models' manifest.json), set by then.

@@ -20,6 +20,7 @@ import {
   cornerDistances,
   openPage,
   pageSuite,
+  dropFiles as dropFilesOn,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
@@ -87,26 +88,8 @@ async function setSlider(page, id, value) {
   );
 }
 
-/** Drop files on an element through a synthetic DataTransfer (as a user's drag and drop would). */
-async function dropFiles(page, selector, files) {
-  const payload = files.map((f) => ({ name: f.name, b64: Buffer.from(f.bytes).toString('base64') }));
-  await page.$eval(
-    selector,
-    (el, payload) => {
-      const dt = new DataTransfer();
-      for (const f of payload) {
-        const bin = atob(f.b64);
-        const bytes = new Uint8Array(bin.length);
-        for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-        dt.items.add(new File([bytes], f.name, { type: 'application/octet-stream' }));
-      }
-      for (const type of ['dragenter', 'dragover', 'drop']) {
-        el.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
-      }
-    },
-    payload,
-  );
-}
+/** Drop model files on an element (lib.mjs `dropFiles`, as `application/octet-stream`). */
+const dropFiles = (page, selector, files) => dropFilesOn(page, selector, files, 'application/octet-stream');
 
 function modelBytes(file) {
   return fs.readFileSync(path.join(MODELS, file));
