@@ -737,7 +737,7 @@ fn pose_follows_or_stays() {
 /// Bad input gives typed errors, never a panic, and leaves the outputs untouched.
 #[wasm_bindgen_test(unsupported = test)]
 fn bad_input_is_refused() {
-    let (source, target, mut c) = source_target(50, (3, 2), (3, 2));
+    let (source, _, mut c) = source_target(50, (3, 2), (3, 2));
     let good = random_params(&source, 1, 1.0);
     c.clone_frame(&good, &CloneOptions::default()).unwrap();
     let before = c.target_shape(0).to_vec();

@@ -122,7 +122,7 @@ fn measure(clip: &str, range: std::ops::RangeInclusive<usize>) -> Option<Figures
 /// Measures `range` of the shared `clip` (skipped when absent): the landmark aims
 /// (`check_landmarks`), and the cloned mouth opening correlating with the person's at
 /// `min_mouth` or more (`measured`: what was measured, for the message).
-fn check_clip(clip: &str, range: std::ops::RangeInclusive<usize>, min_mouth: f64, measured: &str) {
+fn check_clip(clip: &str, range: std::ops::RangeInclusive<usize>, min_mouth: f32, measured: &str) {
     let Some(f) = measure(clip, range) else {
         return;
     };
