@@ -22,7 +22,6 @@ use common::js::message;
 use facemimic::wasm::{lerp_pose, recentre_pose, JsModel, WasmFollower, WasmTracker};
 use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
-use wasm_bindgen::JsCast;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 const TINY: &[u8] = include_bytes!("data/tiny-v1.fmm");
