@@ -13,6 +13,7 @@ use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use facemimic::clone::{CloneOptions, Cloner, Method};
+use facemimic::tiny_skia::Pixmap;
 use facemimic::{io, Model, Params, Renderer, Similarity};
 
 mod common;
@@ -87,7 +88,7 @@ fn bench(c: &mut Criterion) {
         .unwrap();
     let frame = cloner.target(0).frame().clone();
     let mut renderer = Renderer::new(&frame).unwrap();
-    let mut pixmap = facemimic::tiny_skia::Pixmap::new(360, 288).unwrap();
+    let mut pixmap = Pixmap::new(360, 288).unwrap();
     let mut group = c.benchmark_group("render_one_target");
     group.bench_function("upload", |b| {
         b.iter(|| {
@@ -96,31 +97,26 @@ fn bench(c: &mut Criterion) {
                 .unwrap()
         })
     });
+    // The target's shape warped unmoved into the pixmap with the uploaded appearance.
+    let warp = |renderer: &mut Renderer, pixmap: &mut Pixmap| {
+        renderer
+            .warp(
+                &frame,
+                black_box(cloner.target_shape(0)),
+                &Similarity::IDENTITY,
+                &mut pixmap.as_mut(),
+            )
+            .unwrap()
+    };
     group.bench_function("warp_360x288", |b| {
-        b.iter(|| {
-            renderer
-                .warp(
-                    &frame,
-                    black_box(cloner.target_shape(0)),
-                    &Similarity::IDENTITY,
-                    &mut pixmap.as_mut(),
-                )
-                .unwrap()
-        })
+        b.iter(|| warp(&mut renderer, &mut pixmap))
     });
     group.bench_function("upload+warp_360x288", |b| {
         b.iter(|| {
             renderer
                 .upload(&frame, cloner.target_appearance(0))
                 .unwrap();
-            renderer
-                .warp(
-                    &frame,
-                    black_box(cloner.target_shape(0)),
-                    &Similarity::IDENTITY,
-                    &mut pixmap.as_mut(),
-                )
-                .unwrap()
+            warp(&mut renderer, &mut pixmap)
         })
     });
     group.finish();

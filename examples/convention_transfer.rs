@@ -27,9 +27,7 @@
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(target_arch = "wasm32"))]
-fn main() {
-    native::main()
-}
+use native::main;
 
 #[cfg(not(target_arch = "wasm32"))]
 mod native {

@@ -36,9 +36,7 @@
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(target_arch = "wasm32"))]
-fn main() {
-    native::main()
-}
+use native::main;
 
 #[cfg(not(target_arch = "wasm32"))]
 #[path = "../tests/common/mod.rs"]
@@ -50,7 +48,7 @@ mod native {
     use std::path::{Path, PathBuf};
     use std::time::Instant;
 
-    use super::common::{clip_frames, load, perturb, Rng};
+    use super::common::{clip_frames, first_face, load, perturb, Rng};
     use facemimic::find::landmark_error;
     use facemimic::fit::{FitOptions, Fitter, Tracker};
     use facemimic::{
@@ -456,12 +454,7 @@ mod native {
         }
         let m = build_varied(train);
         let seq = load(&numbered(&w, 600..1337));
-        let init = finder
-            .finder()
-            .find(&seq[0].image.view().unwrap())
-            .first()
-            .map(|f| f.landmarks.clone())
-            .expect("a face in frame 600");
+        let init = first_face(finder.finder(), &seq[0].image).expect("a face in frame 600");
         track_from(set, &m, &seq, &init, 600..700);
     }
 
@@ -518,12 +511,7 @@ mod native {
             println!("  left out {}: [{}]", f.name, z.join(" "));
         }
         let seq = load(&numbered(&w, 600..1337));
-        let init = enrol
-            .finder()
-            .find(&seq[0].image.view().unwrap())
-            .first()
-            .map(|f| f.landmarks.clone())
-            .expect("a face in frame 600");
+        let init = first_face(enrol.finder(), &seq[0].image).expect("a face in frame 600");
         track_from(set, &m, &seq, &init, 590..690);
     }
 

@@ -13,7 +13,7 @@
 mod common;
 
 use common::js::{message, offscreen_ctx, params_js};
-use common::pixels::mean_abs_diff;
+use common::pixels::{in_triangle, mean_abs_diff};
 use facemimic::landmarks::parse_pts;
 use facemimic::wasm::{canvas_view, render_mode, JsCloner, JsModel, RenderOptionsArg};
 use facemimic::{BuildOptions, Builder, Image, Model, Params, Similarity, TrainingImage};
@@ -185,15 +185,8 @@ fn inside_pixels(
         for x in 0..w {
             let p = (x as f32, y as f32);
             let inside = tris.iter().any(|t| {
-                let (a, b, c) = (pts[t[0] as usize], pts[t[1] as usize], pts[t[2] as usize]);
-                let d = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
-                if d.abs() < 1e-9 {
-                    return false;
-                }
-                let l1 = ((b.0 - p.0) * (c.1 - p.1) - (c.0 - p.0) * (b.1 - p.1)) / d;
-                let l2 = ((c.0 - p.0) * (a.1 - p.1) - (a.0 - p.0) * (c.1 - p.1)) / d;
-                let l3 = 1.0 - l1 - l2;
-                l1 >= -1e-4 && l2 >= -1e-4 && l3 >= -1e-4
+                let [a, b, c] = t.map(|i| pts[i as usize]);
+                in_triangle(p, a, b, c, 1e-4)
             });
             if inside && outline.iter().all(|&(a, b)| seg_dist(p, a, b) >= 1.0) {
                 out.push((x, y));
@@ -248,6 +241,17 @@ fn assert_face(px: &[u8], model: &Model, shape: &[f32], w: u32, h: u32, what: &s
     );
 }
 
+/// Renders `cloner`'s target 0 (`target`) on magenta into `ctx` and asserts a face is painted
+/// (`assert_face`); returns the pixels.
+fn target_face(cloner: &mut JsCloner, target: &Model, ctx: &JsValue, what: &str) -> Vec<u8> {
+    cloner
+        .render_target(0, ctx.clone().unchecked_into(), options("#ff00ff", false))
+        .expect(what);
+    let px = read_pixels(ctx);
+    assert_face(&px, target, cloner.cloner().target_shape(0), W, H, what);
+    px
+}
+
 #[wasm_bindgen_test]
 fn cloner_paints_faces_without_holes_and_follows_the_source() {
     let (source, target) = models();
@@ -260,18 +264,7 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     cloner.update().expect("update");
     let (_c, ctx) = offscreen_ctx(W, H);
     let ctx: JsValue = ctx.into();
-    cloner
-        .render_target(0, ctx.clone().unchecked_into(), options("#ff00ff", false))
-        .expect("render target");
-    let base = read_pixels(&ctx);
-    assert_face(
-        &base,
-        &target,
-        cloner.cloner().target_shape(0),
-        W,
-        H,
-        "target at base",
-    );
+    let base = target_face(&mut cloner, &target, &ctx, "target at base");
 
     let (_c2, sctx) = offscreen_ctx(W, H);
     let sctx: JsValue = sctx.into();
@@ -292,18 +285,7 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     }
     cloner.set_source_params(params_js(&p)).expect("params");
     cloner.update().expect("update");
-    cloner
-        .render_target(0, ctx.clone().unchecked_into(), options("#ff00ff", false))
-        .expect("render");
-    let moved = read_pixels(&ctx);
-    assert_face(
-        &moved,
-        &target,
-        cloner.cloner().target_shape(0),
-        W,
-        H,
-        "target moved",
-    );
+    let moved = target_face(&mut cloner, &target, &ctx, "target moved");
     let d = mean_abs_diff(&base, &moved);
     assert!(d > 0.5, "target barely changed with the source ({d})");
 
@@ -389,45 +371,33 @@ fn html_canvas_mesh_overlay_and_render_mode() {
     // renderMode: base, then +3 sigma along shape mode 0 and appearance mode 0.
     let (_c, octx) = offscreen_ctx(W, H);
     let octx: JsValue = octx.into();
-    render_mode(
-        &model,
-        "shape",
-        0,
-        0.0,
-        octx.clone().unchecked_into(),
-        options("#ff00ff", false),
-    )
-    .unwrap();
-    let m0 = read_pixels(&octx);
-    source
-        .image_shape(&source.base_params(), &mut shape)
-        .unwrap();
-    assert_face(&m0, &source, &shape, W, H, "renderMode base");
-    render_mode(
-        &model,
-        "shape",
-        0,
-        3.0,
-        octx.clone().unchecked_into(),
-        options("#ff00ff", false),
-    )
-    .unwrap();
-    assert!(
-        mean_abs_diff(&m0, &read_pixels(&octx)) > 0.5,
-        "shape mode 0 does not move the face"
-    );
-    if source.appearance().n_modes() > 0 {
+    // The picture of mode 0 of `kind` at `sigmas`.
+    let mode_0 = |kind: &str, sigmas: f32| {
         render_mode(
             &model,
-            "appearance",
+            kind,
             0,
-            3.0,
+            sigmas,
             octx.clone().unchecked_into(),
             options("#ff00ff", false),
         )
         .unwrap();
+        read_pixels(&octx)
+    };
+    let m0 = mode_0("shape", 0.0);
+    source
+        .image_shape(&source.base_params(), &mut shape)
+        .unwrap();
+    assert_face(&m0, &source, &shape, W, H, "renderMode base");
+    // How far mode 0 of `kind` at 3 sigma moves the picture from the base face.
+    let mode_0_change = |kind: &str| mean_abs_diff(&m0, &mode_0(kind, 3.0));
+    assert!(
+        mode_0_change("shape") > 0.5,
+        "shape mode 0 does not move the face"
+    );
+    if source.appearance().n_modes() > 0 {
         assert!(
-            mean_abs_diff(&m0, &read_pixels(&octx)) > 0.5,
+            mode_0_change("appearance") > 0.5,
             "appearance mode 0 changes nothing"
         );
     }

@@ -167,17 +167,18 @@ fn a_photo_target_is_composited_into_its_photo_and_follows_the_source() {
         .expect("the photo is a compatible target");
     cloner.update().expect("update");
     let (_c, ctx) = offscreen_ctx(W, H);
+    // Target 0 rendered into `ctx`, composited or not; its pixels.
+    let render = |cloner: &mut JsCloner, composite: bool| {
+        cloner
+            .render_target(0, ctx.clone().unchecked_into(), options(composite))
+            .expect("render");
+        read_pixels(&ctx)
+    };
 
     // Face only: the background all round; composited: the photo all round.
-    cloner
-        .render_target(0, ctx.clone().unchecked_into(), options(false))
-        .expect("face only");
-    let face = read_pixels(&ctx);
+    let face = render(&mut cloner, false);
     assert!(border_background_share(&face, W, H) > 0.95);
-    cloner
-        .render_target(0, ctx.clone().unchecked_into(), options(true))
-        .expect("composite");
-    let still = read_pixels(&ctx);
+    let still = render(&mut cloner, true);
     assert_eq!(border_background_share(&still, W, H), 0.0);
     // At the base parameters the composite is the photo itself, near enough.
     let diff = still
@@ -202,10 +203,7 @@ fn a_photo_target_is_composited_into_its_photo_and_follows_the_source() {
     cloner.set_source_params(params_js(&p)).expect("params");
     cloner.set_method("map").expect("map");
     cloner.update().expect("update");
-    cloner
-        .render_target(0, ctx.clone().unchecked_into(), options(true))
-        .expect("composite");
-    let moved = read_pixels(&ctx);
+    let moved = render(&mut cloner, true);
     assert_ne!(moved, still, "the expression did not reach the photo");
     let corner = |px: &[u8]| px[..4 * 20].to_vec();
     assert_eq!(corner(&moved), corner(&still), "the room moved");
@@ -216,10 +214,7 @@ fn a_photo_target_is_composited_into_its_photo_and_follows_the_source() {
     cloner.set_follow_pose(true);
     cloner.set_source_params(params_js(&q)).expect("params");
     cloner.update().expect("update");
-    cloner
-        .render_target(0, ctx.clone().unchecked_into(), options(true))
-        .expect("composite");
-    let followed = read_pixels(&ctx);
+    let followed = render(&mut cloner, true);
     assert_ne!(followed, moved, "the head did not follow the pose");
     assert_eq!(border_background_share(&followed, W, H), 0.0);
 }

@@ -3,6 +3,8 @@
 //! data, and bad input (missing files, wrong formats, corrupt models, bad parameters), which
 //! must end with one line on stderr, a non-zero exit and never a panic.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -108,10 +110,8 @@ fn json(text: &str) -> Value {
     serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
 }
 
-#[test]
-fn build_inspect_project_render() {
-    let model = spk07_model();
-    let info = json(&ok(&[&"inspect", &model]));
+/// Checks `inspect`'s report on the spk07 model; returns its shape and appearance mode counts.
+fn assert_inspect_info(info: &Value) -> (u64, u64) {
     assert_eq!(info["landmarks"], 68);
     assert_eq!(info["channels"], 3);
     let (shape_modes, appearance_modes) = (
@@ -155,6 +155,51 @@ fn build_inspect_project_render() {
         16,
         "{info}"
     );
+
+    (shape_modes, appearance_modes)
+}
+
+/// Checks a render of `frame`'s projection (`img`, its landmarks in `pts`) against the frame.
+fn assert_render_matches_frame(img: &facemimic::Image, pts: &Path, frame: &Path) {
+    // The rendered landmarks land where the frame's own landmarks are (0.98 of the shape
+    // variance kept: the residual is a small fraction of a pixel to a pixel or so).
+    let got = facemimic::io::read_landmarks(pts, 360, 288).unwrap();
+    let want = facemimic::io::read_landmarks(&frame.with_extension("pts"), 360, 288).unwrap();
+    let mean_dist = got
+        .chunks_exact(2)
+        .zip(want.chunks_exact(2))
+        .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt())
+        .sum::<f32>()
+        / 68.0;
+    assert!(
+        mean_dist < 1.5,
+        "rendered landmarks {mean_dist} px from the frame's"
+    );
+    // The render looks like the frame over the face: compare the nose-and-mouth area.
+    let original = facemimic::io::read_image(frame).unwrap();
+    let (x0, x1) = (want[2 * 31] as usize, want[2 * 35] as usize);
+    let (y0, y1) = (want[2 * 27 + 1] as usize, want[2 * 57 + 1] as usize);
+    let (mut sq, mut n) = (0f64, 0usize);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let k = (y * 360 + x) * 4;
+            for c in 0..3 {
+                sq += (img.data[k + c] as f64 - original.data[k + c] as f64).powi(2);
+                n += 1;
+            }
+        }
+    }
+    let rms = (sq / n as f64).sqrt();
+    assert!(
+        n > 300 && rms < 20.0,
+        "render differs from the frame by RMS {rms} over {n} values"
+    );
+}
+
+#[test]
+fn build_inspect_project_render() {
+    let model = spk07_model();
+    let (shape_modes, appearance_modes) = assert_inspect_info(&json(&ok(&[&"inspect", &model])));
 
     // A frame of the clip that is not in train20.
     let frame = grid("spk07_pwij3p/000030.jpg");
@@ -202,39 +247,7 @@ fn build_inspect_project_render() {
         (360, 288),
         "default canvas = training image size"
     );
-    // The rendered landmarks land where the frame's own landmarks are (0.98 of the shape
-    // variance kept: the residual is a small fraction of a pixel to a pixel or so).
-    let got = facemimic::io::read_landmarks(&pts, 360, 288).unwrap();
-    let want = facemimic::io::read_landmarks(&frame.with_extension("pts"), 360, 288).unwrap();
-    let mean_dist = got
-        .chunks_exact(2)
-        .zip(want.chunks_exact(2))
-        .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt())
-        .sum::<f32>()
-        / 68.0;
-    assert!(
-        mean_dist < 1.5,
-        "rendered landmarks {mean_dist} px from the frame's"
-    );
-    // The render looks like the frame over the face: compare the nose-and-mouth area.
-    let original = facemimic::io::read_image(&frame).unwrap();
-    let (x0, x1) = (want[2 * 31] as usize, want[2 * 35] as usize);
-    let (y0, y1) = (want[2 * 27 + 1] as usize, want[2 * 57 + 1] as usize);
-    let (mut sq, mut n) = (0f64, 0usize);
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            let k = (y * 360 + x) * 4;
-            for c in 0..3 {
-                sq += (img.data[k + c] as f64 - original.data[k + c] as f64).powi(2);
-                n += 1;
-            }
-        }
-    }
-    let rms = (sq / n as f64).sqrt();
-    assert!(
-        n > 300 && rms < 20.0,
-        "render differs from the frame by RMS {rms} over {n} values"
-    );
+    assert_render_matches_frame(&img, &pts, &frame);
 
     // The base face at another canvas size.
     let png2 = dir.join("mean.png");
@@ -254,14 +267,14 @@ fn build_inspect_project_render() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Bad input (here and in the `*_fail_cleanly` tests below) ends with one line on stderr, a
+/// non-zero exit and never a panic: missing files.
 #[test]
-fn bad_input_fails_cleanly() {
+fn missing_files_fail_cleanly() {
     let model = spk07_model();
-    let dir = scratch("bad");
-    let missing = dir.join("missing.fmm");
+    let dir = scratch("bad-missing");
     let frame = grid("spk07_pwij3p/000030.jpg");
-
-    // Missing files.
+    let missing = dir.join("missing.fmm");
     let e = fails(&[&"inspect", &missing]);
     assert!(e.contains("missing.fmm"), "{e}");
     fails(&[&"project", &"--model", &missing, &frame]);
@@ -297,7 +310,16 @@ fn bad_input_fails_cleanly() {
         &dir.join("x.png"),
     ]);
 
-    // Wrong formats: an image or a text file given as a model, a text file as an image.
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// An image or a text file given as a model, a text file as an image, missing or wrong
+/// landmarks, too few training images.
+#[test]
+fn wrong_formats_fail_cleanly() {
+    let model = spk07_model();
+    let dir = scratch("bad-formats");
+    let frame = grid("spk07_pwij3p/000030.jpg");
     let e = fails(&[&"inspect", &frame]);
     assert!(e.contains("000030.jpg"), "{e}");
     fails(&[&"inspect", &grid("spk07_pwij3p/train20.txt")]);
@@ -327,7 +349,14 @@ fn bad_input_fails_cleanly() {
     // One training image is not enough.
     fails(&[&"build", &"--out", &dir.join("m.fmm"), &frame]);
 
-    // Corrupt models: truncated, flipped bytes, random bytes, empty.
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Corrupt models: truncated, flipped bytes, random bytes, empty.
+#[test]
+fn corrupt_models_fail_cleanly() {
+    let model = spk07_model();
+    let dir = scratch("bad-models");
     let bytes = std::fs::read(model).unwrap();
     let cases: Vec<(&str, Vec<u8>)> = vec![
         ("empty", Vec::new()),
@@ -370,7 +399,15 @@ fn bad_input_fails_cleanly() {
         ]);
     }
 
-    // Bad parameters: not JSON, NaN / infinite values, wrong lengths, zero scale.
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Bad parameters: not JSON, NaN / infinite values, wrong lengths, zero scale.
+#[test]
+fn bad_parameters_fail_cleanly() {
+    let model = spk07_model();
+    let dir = scratch("bad-params");
+    let frame = grid("spk07_pwij3p/000030.jpg");
     let params = json(&ok(&[&"project", &"--model", &model, &frame]));
     let shape_len = params["shape"].as_array().unwrap().len();
     let with = |f: &dyn Fn(&mut Value)| {
@@ -442,7 +479,14 @@ fn bad_input_fails_cleanly() {
         );
     }
 
-    // Bad canvas sizes and an unwritable output.
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Bad canvas sizes, an unwritable output, a variance fraction outside (0, 1].
+#[test]
+fn bad_sizes_and_outputs_fail_cleanly() {
+    let model = spk07_model();
+    let dir = scratch("bad-sizes");
     fails(&[
         &"render",
         &"--model",
@@ -479,7 +523,6 @@ fn bad_input_fails_cleanly() {
         &"--list",
         &grid("spk07_pwij3p/train20.txt"),
     ]);
-    // A variance fraction outside (0, 1].
     fails(&[
         &"build",
         &"--out",
@@ -574,12 +617,7 @@ fn fit_starts_from_the_face_finder() {
         let v: Vec<&str> = l.split(',').collect();
         assert_eq!(v[1], "false", "{l}");
         let lm: Vec<f32> = v[5..5 + 136].iter().map(|s| s.parse().unwrap()).collect();
-        let iod = (truth[90] - truth[72]).hypot(truth[91] - truth[73]);
-        let err = (0..68)
-            .map(|i| (lm[2 * i] - truth[2 * i]).hypot(lm[2 * i + 1] - truth[2 * i + 1]))
-            .sum::<f32>()
-            / 68.0
-            / iod;
+        let err = facemimic::find::landmark_error(&lm, &truth);
         assert!(err < 0.08, "{}: error {err}", v[0]);
     }
 }
@@ -598,12 +636,7 @@ fn fit_follows_landmarks_with_another_persons_model() {
         &"--out",
         &model,
     ]);
-    let mut frames: Vec<PathBuf> = std::fs::read_dir(grid("spk03_lbax4n"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-        .collect();
-    frames.sort();
+    let mut frames = common::clip_frames(&grid("spk03_lbax4n"));
     frames.truncate(10);
     let csv = dir.join("follow.csv");
     let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
@@ -781,10 +814,9 @@ fn corner_is_background(w: u32, data: &[u8]) -> bool {
 }
 
 /// Backdrops and compositing from the command line: `build --backdrop IMG`, `--no-backdrop`,
-/// `--photo IMG` (its `.pts`, or the face finder's), `inspect`, `render --composite` and
-/// `clone --composite` (a PNG the size of the backdrop), and bad photos.
+/// `inspect`, `render --composite` (a PNG the size of the backdrop). Photo targets below.
 #[test]
-fn backdrops_photo_targets_and_composites() {
+fn backdrops_and_composites() {
     let dir = scratch("composite");
     let spk02 = dir.join("spk02.fmm");
     let backdrop = grid("spk02_brbk7n/000010.jpg");
@@ -855,8 +887,13 @@ fn backdrops_photo_targets_and_composites() {
     assert!(e.contains("no backdrop; rendering the face only"), "{e}");
     let (w, _, data) = png(&dir.join("bare.png"));
     assert!(corner_is_background(w, &data));
+}
 
-    // A photo target from its .pts, and one from the face finder (the photo copied alone).
+/// `build --photo`: a photo target from its .pts, and one from the face finder (the photo copied
+/// alone); `clone --composite` onto it.
+#[test]
+fn photo_targets_and_clone_composites() {
+    let dir = scratch("photo");
     let photo = dir.join("photo.fmm");
     ok(&[
         &"build",
@@ -918,8 +955,14 @@ fn backdrops_photo_targets_and_composites() {
         &own,
     ]);
     assert_ne!(png(&own).2, data);
+    std::fs::remove_dir_all(&dir).ok();
+}
 
-    // Bad photos: no face, a face under 64 px, landmarks outside, beyond the image limit.
+/// Bad photos fail cleanly: no face, a face under 64 px, landmarks outside, beyond the image
+/// limit (also as a backdrop).
+#[test]
+fn bad_photos_fail_cleanly() {
+    let dir = scratch("bad-photos");
     let flat = dir.join("flat.png");
     facemimic::io::write_png(&flat, 320, 240, &vec![128u8; 320 * 240 * 4]).unwrap();
     let e = fails(&[&"build", &"--photo", &flat, &"--out", &dir.join("x.fmm")]);
@@ -927,27 +970,19 @@ fn backdrops_photo_targets_and_composites() {
     let small = dir.join("small.png");
     let t = facemimic::io::read_training_image(&grid("spk03_lbax4n/000000.jpg")).unwrap();
     facemimic::io::write_png(&small, t.image.width, t.image.height, &t.image.data).unwrap();
-    let pts: String = {
-        let mut s = String::from("version: 1\nn_points: 68\n{\n");
-        for p in t.landmarks.chunks_exact(2) {
-            s += &format!("{} {}\n", 150.0 + p[0] * 0.2, 100.0 + p[1] * 0.2);
-        }
-        s + "}\n"
-    };
-    std::fs::write(dir.join("small.pts"), pts).unwrap();
+    let small_face = t
+        .landmarks
+        .chunks_exact(2)
+        .map(|p| (150.0 + p[0] * 0.2, 100.0 + p[1] * 0.2));
+    std::fs::write(dir.join("small.pts"), pts_text(small_face)).unwrap();
     let e = fails(&[&"build", &"--photo", &small, &"--out", &dir.join("x.fmm")]);
     assert!(e.contains("64"), "{e}");
     let outside = dir.join("outside.png");
     std::fs::copy(&small, &outside).unwrap();
-    let pts: String = {
-        let mut s = String::from("version: 1\nn_points: 68\n{\n");
-        for (i, p) in t.landmarks.chunks_exact(2).enumerate() {
-            let x = if i == 0 { -30.0 } else { p[0] + 1.0 };
-            s += &format!("{} {}\n", x, p[1] + 1.0);
-        }
-        s + "}\n"
-    };
-    std::fs::write(dir.join("outside.pts"), pts).unwrap();
+    // Point 0 outside the image.
+    let shifted = t.landmarks.chunks_exact(2).enumerate();
+    let shifted = shifted.map(|(i, p)| (if i == 0 { -30.0 } else { p[0] + 1.0 }, p[1] + 1.0));
+    std::fs::write(dir.join("outside.pts"), pts_text(shifted)).unwrap();
     let e = fails(&[&"build", &"--photo", &outside, &"--out", &dir.join("x.fmm")]);
     assert!(e.contains("outside"), "{e}");
     let e = fails(&[
@@ -965,6 +1000,16 @@ fn backdrops_photo_targets_and_composites() {
     let e = fails(&[&"build", &"--photo", &huge, &"--out", &dir.join("x.fmm")]);
     assert!(e.contains("9000"), "{e}");
     assert!(!dir.join("x.fmm").exists(), "a failed build wrote a file");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// An iBUG `.pts` file of 68 `points`.
+fn pts_text(points: impl Iterator<Item = (f32, f32)>) -> String {
+    let mut s = String::from("version: 1\nn_points: 68\n{\n");
+    for (x, y) in points {
+        s += &format!("{x} {y}\n");
+    }
+    s + "}\n"
 }
 
 /// The track the CLI and the npm package must agree on: the tiny model

@@ -64,14 +64,7 @@ fn landmark_writes_pts_beside_or_into_a_folder_and_never_overwrites() {
         &std::fs::read_to_string(grid("spk01_bbaf2n/000004.pts")).unwrap(),
     )
     .unwrap();
-    let iod = ((truth[72] - truth[90]).powi(2) + (truth[73] - truth[91]).powi(2)).sqrt();
-    let err: f32 = found
-        .chunks(2)
-        .zip(truth.chunks(2))
-        .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt())
-        .sum::<f32>()
-        / 68.0
-        / iod;
+    let err = facemimic::find::landmark_error(&found, &truth);
     assert!(err < 0.08, "error {err}");
     // No overwrite without --force: an error line, exit 1, the file untouched.
     std::fs::write(d.join("f1.pts"), "keep").unwrap();

@@ -101,18 +101,9 @@ fn synthetic_parts(
 /// Random parameters for `model`, each about `spread` sigmas, at a pose near its mean pose.
 fn random_params(model: &Model, seed: u64, spread: f32) -> Params {
     let mut rng = Rng(seed | 1);
-    let shape = model
-        .shape()
-        .sigmas()
-        .iter()
-        .map(|s| spread * s * rng.sym())
-        .collect();
-    let appearance = model
-        .appearance()
-        .sigmas()
-        .iter()
-        .map(|s| spread * s * rng.sym())
-        .collect();
+    let mut draw = |sigmas: Vec<f32>| sigmas.iter().map(|s| spread * s * rng.sym()).collect();
+    let shape = draw(model.shape().sigmas());
+    let appearance = draw(model.appearance().sigmas());
     let pose = model.mean_pose().compose(&Similarity::from_parts(
         1.0 + 0.1 * rng.sym(),
         0.2 * rng.sym(),
@@ -144,6 +135,20 @@ fn max_diff(a: &[f32], b: &[f32]) -> f32 {
         .zip(b)
         .map(|(x, y)| (x - y).abs())
         .fold(0.0, f32::max)
+}
+
+/// A synthetic source (`seed`; `modes`: shape and appearance), a target in its frame (`seed + 1`,
+/// `target_modes`) and a cloner of the pair.
+fn source_target(
+    seed: u64,
+    modes: (usize, usize),
+    target_modes: (usize, usize),
+) -> (Model, Model, Cloner) {
+    let source = synthetic("src", seed, modes.0, modes.1, None);
+    let (m, l) = target_modes;
+    let target = synthetic("tgt", seed + 1, m, l, Some(source.frame()));
+    let c = one_target(&source, &target);
+    (source, target, c)
 }
 
 fn opts(method: Method, clamp: Option<f32>, follow_pose: bool) -> CloneOptions {
@@ -322,9 +327,7 @@ fn same_span_any_signs_order_or_mixing() {
 /// displacement, for a target whose span does not contain the source's; `map` alone does not.
 #[wasm_bindgen_test(unsupported = test)]
 fn residual_restores_the_source_displacement() {
-    let source = synthetic("src", 3, 6, 4, None);
-    let target = synthetic("tgt", 4, 5, 4, Some(source.frame()));
-    let mut c = one_target(&source, &target);
+    let (source, target, mut c) = source_target(3, (6, 4), (5, 4));
     assert!(
         c.pair(0).unwrap().residual_norms().iter().all(|&n| n > 0.1),
         "spans must differ"
@@ -405,9 +408,7 @@ fn residual_restores_the_source_displacement() {
 /// constraint is active, i.e. some parameters would exceed it).
 #[wasm_bindgen_test(unsupported = test)]
 fn constraint_bounds_every_mapped_parameter() {
-    let source = synthetic("src", 5, 6, 5, None);
-    let target = synthetic("tgt", 6, 4, 3, Some(source.frame()));
-    let mut c = one_target(&source, &target);
+    let (source, target, mut c) = source_target(5, (6, 5), (4, 3));
     let (ss, sa) = (target.shape().sigmas(), target.appearance().sigmas());
     for &k in &[0.5f32, 1.0, 3.0] {
         let mut clipped = 0;
@@ -467,9 +468,7 @@ fn substitute_onto_itself_is_the_source_instance() {
 /// Test 5b: `substitute` onto another target uses the target's bases with the SOURCE's modes.
 #[wasm_bindgen_test(unsupported = test)]
 fn substitute_uses_target_bases_and_source_modes() {
-    let source = synthetic("src", 8, 4, 3, None);
-    let target = synthetic("tgt", 9, 5, 6, Some(source.frame()));
-    let mut c = one_target(&source, &target);
+    let (source, target, mut c) = source_target(8, (4, 3), (5, 6));
     let params = random_params(&source, 5, 1.0);
     c.clone_frame(&params, &opts(Method::Substitute, None, false))
         .unwrap();
@@ -632,9 +631,7 @@ fn incompatible_pairs_are_refused() {
 /// (no clamp); per-mode gains act per source mode.
 #[wasm_bindgen_test(unsupported = test)]
 fn gains() {
-    let source = synthetic("src", 30, 5, 4, None);
-    let target = synthetic("tgt", 31, 4, 4, Some(source.frame()));
-    let mut c = one_target(&source, &target);
+    let (source, target, mut c) = source_target(30, (5, 4), (4, 4));
     let params = random_params(&source, 9, 2.0);
     let mut base = target.shape().base.clone();
     target.mean_pose().apply_in_place(&mut base);
@@ -710,9 +707,7 @@ fn gains() {
 /// pose relative to the source's mean pose around the target's mean pose.
 #[wasm_bindgen_test(unsupported = test)]
 fn pose_follows_or_stays() {
-    let source = synthetic("src", 40, 3, 2, None);
-    let target = synthetic("tgt", 41, 3, 2, Some(source.frame()));
-    let mut c = one_target(&source, &target);
+    let (source, target, mut c) = source_target(40, (3, 2), (3, 2));
     let rel = Similarity::from_parts(1.2, 0.3, 4.0, -2.0);
     let mut params = source.base_params();
     params.pose = source.mean_pose().compose(&rel);
@@ -742,9 +737,7 @@ fn pose_follows_or_stays() {
 /// Bad input gives typed errors, never a panic, and leaves the outputs untouched.
 #[wasm_bindgen_test(unsupported = test)]
 fn bad_input_is_refused() {
-    let source = synthetic("src", 50, 3, 2, None);
-    let target = synthetic("tgt", 51, 3, 2, Some(source.frame()));
-    let mut c = one_target(&source, &target);
+    let (source, _, mut c) = source_target(50, (3, 2), (3, 2));
     let good = random_params(&source, 1, 1.0);
     c.clone_frame(&good, &CloneOptions::default()).unwrap();
     let before = c.target_shape(0).to_vec();

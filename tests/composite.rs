@@ -6,7 +6,6 @@
 mod common;
 
 use std::path::Path;
-use std::sync::OnceLock;
 
 use common::pixels::pixel_diff;
 use facemimic::clone::{effective_method, CloneOptions, Cloner, Method};
@@ -14,33 +13,22 @@ use facemimic::format::{read_model_info, write_model, SECTION_BACKDROP};
 use facemimic::glam::Vec2;
 use facemimic::tiny_skia::Pixmap;
 use facemimic::{
-    io, mean_value_weights, photo_model, with_default_backdrop, Backdrop, BuildOptions, Builder,
-    Compositor, DrawOptions, Model, Rasterizer, Similarity,
+    io, mean_value_weights, photo_model, Backdrop, Compositor, DrawOptions, Model, Rasterizer,
+    Similarity,
 };
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn build(list: &str, name: &str) -> Model {
-    let train = common::list_images(list);
-    let m = Builder::new(BuildOptions {
-        name: name.into(),
-        ..BuildOptions::default()
-    })
-    .build(&train, None)
-    .unwrap();
-    with_default_backdrop(m, &train, None).unwrap()
-}
-
+/// GRID speaker 2's model with its default backdrop.
 fn spk02() -> &'static Model {
-    static M: OnceLock<Model> = OnceLock::new();
-    M.get_or_init(|| build("data/grid/spk02_brbk7n/train20.txt", "spk02"))
+    common::list_model("data/grid/spk02_brbk7n/train20.txt", "spk02", true)
 }
 
+/// GRID speaker 7's model with its default backdrop.
 fn spk07() -> &'static Model {
-    static M: OnceLock<Model> = OnceLock::new();
-    M.get_or_init(|| build("data/grid/spk07_pwij3p/train20.txt", "spk07"))
+    common::list_model("data/grid/spk07_pwij3p/train20.txt", "spk07", true)
 }
 
 #[test]
@@ -291,8 +279,8 @@ fn the_extended_mesh_does_not_fold_for_conversational_head_motion() {
         "spk07_pwij3p",
         "spk10_swiz3n",
     ] {
-        let m = build(&format!("data/grid/{dir}/train20.txt"), dir);
-        assert_no_folds(&m);
+        let m = common::list_model(&format!("data/grid/{dir}/train20.txt"), dir, true);
+        assert_no_folds(m);
     }
 }
 

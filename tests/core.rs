@@ -9,6 +9,7 @@
 
 mod common;
 
+use common::pixels::in_triangle;
 use common::Rng;
 use facemimic::numerics::pca;
 use facemimic::tiny_skia::Pixmap;
@@ -416,19 +417,6 @@ fn centroid(s: &[f32]) -> (f32, f32) {
         s.iter().step_by(2).sum::<f32>() / n,
         s.iter().skip(1).step_by(2).sum::<f32>() / n,
     )
-}
-
-/// Whether the pixel centre `(x, y)` lies in triangle `(a, b, c)`; `margin` (in barycentric
-/// units) widens (> 0) or narrows (< 0) it.
-fn in_triangle(p: (f32, f32), a: (f32, f32), b: (f32, f32), c: (f32, f32), margin: f32) -> bool {
-    let det = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
-    if det.abs() < 1e-9 {
-        return false;
-    }
-    let l1 = ((p.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (p.1 - a.1)) / det;
-    let l2 = ((b.0 - a.0) * (p.1 - a.1) - (p.0 - a.0) * (b.1 - a.1)) / det;
-    let l0 = 1.0 - l1 - l2;
-    l0 >= -margin && l1 >= -margin && l2 >= -margin
 }
 
 /// Per pixel of a `width x height` canvas: 2 = centre inside the mesh placed at `shape`

@@ -142,11 +142,7 @@ fn measure(clip: &str, build_from: Range<usize>, measure_on: Range<usize>) -> Op
     let enrolled_frames: Vec<TrainingImage> = found.iter().map(|(_, g)| g.clone()).collect();
 
     let test: Vec<TrainingImage> = measure_on.clone().map(|i| frame(&dir, i)).collect();
-    let init = finder
-        .finder()
-        .find(&test[0].image.view().unwrap())
-        .first()
-        .map(|f| f.landmarks.clone())
+    let init = common::first_face(finder.finder(), &test[0].image)
         .expect("a face on the first measured frame");
     let figures = Figures {
         measured: test.len(),

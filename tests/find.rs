@@ -9,23 +9,16 @@
 //!   the dlib landmarks), flat, gradient, noise and text-like images.
 //! - Bad input: tiny, greyscale, faces partly outside the frame.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
-use facemimic::{io, FaceFinder, Image, ImageRef};
+use common::{first_face, Rng};
+use facemimic::{io, BBox, FaceFinder, Image, ImageRef};
 
+/// `../shared/data`, the shared clips, when present (see `common::shared_data`).
 fn shared() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-    if d.join("webcam-dev").is_dir() {
-        Some(d)
-    } else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is absent and CI is set",
-            d.display()
-        );
-        println!("skipping: {} is absent", d.display());
-        None
-    }
+    common::shared_data("webcam-dev").map(|d| d.parent().unwrap().to_path_buf())
 }
 
 fn frames(dir: &Path) -> Vec<PathBuf> {
@@ -36,16 +29,21 @@ fn frames(dir: &Path) -> Vec<PathBuf> {
 fn finds_every_face_of_the_shared_clips_with_accurate_landmarks() {
     let Some(root) = shared() else { return };
     let mut finder = FaceFinder::new().unwrap();
-    for (set, n, found, err) in every_25th_frame(&root, |img| {
-        finder
-            .find(&img.view().unwrap())
-            .into_iter()
-            .next()
-            .map(|f| f.landmarks)
-    }) {
-        println!("{set}: {found}/{n} frames found, mean error {err:.4}");
+    assert_finds_shared_faces(&root, "", 0.05, |img| first_face(&mut finder, img));
+}
+
+/// Asserts that `first_face` finds the face of at least 99.5% of the frames of each shared set
+/// (`every_25th_frame`), within `max_error` on average; prints the figures after `label`.
+fn assert_finds_shared_faces(
+    root: &Path,
+    label: &str,
+    max_error: f32,
+    first_face: impl FnMut(&Image) -> Option<Vec<f32>>,
+) {
+    for (set, n, found, err) in every_25th_frame(root, first_face) {
+        println!("{label}{set}: {found}/{n} frames found, mean error {err:.4}");
         assert!(found as f32 >= 0.995 * n as f32, "{set}: {found}/{n} found");
-        assert!(err <= 0.05, "{set}: mean error {err}");
+        assert!(err <= max_error, "{set}: mean error {err}");
     }
 }
 
@@ -76,20 +74,6 @@ fn every_25th_frame(
         out.push((set, n, found, err / found.max(1) as f32));
     }
     out
-}
-
-/// Deterministic pseudo-random numbers (xorshift).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 32) as u32
-    }
-    fn below(&mut self, n: u32) -> u32 {
-        self.next() % n.max(1)
-    }
 }
 
 fn rgba(w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 3]) -> Image {
@@ -154,6 +138,19 @@ fn inked(text: &str, x0: i64, y0: i64, scale: i64, x: i64, y: i64) -> bool {
 /// printed text, logos (rings, eyes-and-mouth-like marks, stars) and patterned fabric
 /// (tartan, polka dots, houndstooth, stripes): drawn here, nothing downloaded.
 fn title_cards_logos_and_fabric() -> Vec<(String, Image)> {
+    let mut out = title_cards();
+    out.extend(logos());
+    out.extend(fabrics());
+    out
+}
+
+/// A `w`x`h` image in two colours: `ink` where `on(x, y)`, `paper` elsewhere.
+fn two_tone(w: u32, h: u32, ink: [u8; 3], paper: [u8; 3], on: impl Fn(u32, u32) -> bool) -> Image {
+    rgba(w, h, |x, y| if on(x, y) { ink } else { paper })
+}
+
+/// Title cards (framed or not, at two sizes) and a printed page.
+fn title_cards() -> Vec<(String, Image)> {
     let mut out = Vec::new();
     let cards = [
         ("THE END", 12, [240u8, 235, 220], [10u8, 10, 10]),
@@ -167,144 +164,100 @@ fn title_cards_logos_and_fabric() -> Vec<(String, Image)> {
         for (w, h) in [(640u32, 360u32), (320, 240)] {
             let scale = scale * w as i64 / 640;
             let framed = i % 2 == 1;
-            out.push((
-                format!("card{i}-{w}"),
-                rgba(w, h, |x, y| {
-                    let edge = x < 12 || y < 12 || x >= w - 12 || y >= h - 12;
-                    if inked(text, 30, 40, scale.max(1), x as i64, y as i64)
-                        || (framed && edge && !(x < 6 || y < 6 || x >= w - 6 || y >= h - 6))
-                    {
-                        ink
-                    } else {
-                        paper
-                    }
-                }),
-            ));
+            let card = two_tone(w, h, ink, paper, |x, y| {
+                let edge = x < 12 || y < 12 || x >= w - 12 || y >= h - 12;
+                inked(text, 30, 40, scale.max(1), x as i64, y as i64)
+                    || (framed && edge && !(x < 6 || y < 6 || x >= w - 6 || y >= h - 6))
+            });
+            out.push((format!("card{i}-{w}"), card));
         }
     }
     // Printed text: a page of small lettering.
     let words = "THE FACE OF THE MOON|IS NOT A FACE|MORE SHOTS|IN THE CARDS|DO NOT MOVE";
-    out.push((
-        "page".into(),
-        rgba(480, 360, |x, y| {
-            if inked(words, 10, 10, 2, x as i64, (y % 120) as i64) {
-                [30, 30, 35]
-            } else {
-                [248, 246, 240]
-            }
-        }),
-    ));
-    // Logos: two dots over an arc (a smiley), rings, a target, a star.
-    let logo = |name: &str, f: &dyn Fn(f32, f32) -> bool, fg: [u8; 3], bg: [u8; 3]| {
-        (
-            name.to_string(),
-            rgba(320, 240, |x, y| {
-                let (u, v) = ((x as f32 - 160.0) / 80.0, (y as f32 - 120.0) / 80.0);
-                if f(u, v) {
-                    fg
-                } else {
-                    bg
-                }
-            }),
-        )
+    let page = two_tone(480, 360, [30, 30, 35], [248, 246, 240], |x, y| {
+        inked(words, 10, 10, 2, x as i64, (y % 120) as i64)
+    });
+    out.push(("page".into(), page));
+    out
+}
+
+/// Logos: two dots over an arc (a smiley), rings, a target, a star.
+fn logos() -> Vec<(String, Image)> {
+    // A 320x240 logo, `on` in coordinates centred on the image, 80 px a unit.
+    let logo = |name: &str, on: &dyn Fn(f32, f32) -> bool, fg: [u8; 3], bg: [u8; 3]| {
+        let image = two_tone(320, 240, fg, bg, |x, y| {
+            on((x as f32 - 160.0) / 80.0, (y as f32 - 120.0) / 80.0)
+        });
+        (name.to_string(), image)
     };
     let r = |u: f32, v: f32| (u * u + v * v).sqrt();
-    out.push(logo(
-        "smiley",
-        &|u, v| {
-            let d = r(u, v);
-            (0.9..1.0).contains(&d)
-                || r(u + 0.35, v + 0.3) < 0.12
-                || r(u - 0.35, v + 0.3) < 0.12
-                || (v > 0.1 && (0.5..0.6).contains(&d))
-        },
-        [20, 20, 20],
-        [250, 210, 40],
-    ));
-    out.push(logo(
-        "rings",
-        &|u, v| (r(u, v) * 5.0) as i32 % 2 == 0,
-        [200, 30, 30],
-        [240, 240, 240],
-    ));
-    out.push(logo(
-        "olympic",
-        &|u, v| {
-            [
-                (-0.7, -0.2),
-                (0.0, -0.2),
-                (0.7, -0.2),
-                (-0.35, 0.2),
-                (0.35, 0.2),
-            ]
+    let smiley = |u, v| {
+        let d = r(u, v);
+        (0.9..1.0).contains(&d)
+            || r(u + 0.35, v + 0.3) < 0.12
+            || r(u - 0.35, v + 0.3) < 0.12
+            || (v > 0.1 && (0.5..0.6).contains(&d))
+    };
+    let centres = [
+        (-0.7, -0.2),
+        (0.0, -0.2),
+        (0.7, -0.2),
+        (-0.35, 0.2),
+        (0.35, 0.2),
+    ];
+    let olympic = |u, v| {
+        centres
             .iter()
             .any(|&(a, b)| (0.3..0.36).contains(&r(u - a, v - b)))
-        },
-        [10, 60, 160],
-        [255, 255, 255],
-    ));
-    out.push(logo(
-        "star",
-        &|u, v| {
-            let a = v.atan2(u);
-            r(u, v) < 0.5 + 0.4 * (5.0 * a).cos()
-        },
-        [250, 200, 0],
-        [20, 30, 90],
-    ));
-    // Fabric.
-    out.push((
-        "tartan".into(),
-        rgba(320, 240, |x, y| {
-            let (a, b) = ((x / 6) % 8, (y / 6) % 8);
-            [
-                if a < 3 || b < 3 { 150 } else { 30 },
-                if a == 5 || b == 5 { 160 } else { 50 },
-                if (a + b) % 4 == 0 { 40 } else { 90 },
-            ]
-        }),
-    ));
-    out.push((
-        "polka".into(),
-        rgba(320, 240, |x, y| {
-            let (u, v) = ((x % 40) as f32 - 20.0, (y % 40) as f32 - 20.0);
-            if u * u + v * v < 64.0 {
-                [250, 250, 250]
-            } else {
-                [180, 20, 60]
-            }
-        }),
-    ));
-    out.push((
-        "houndstooth".into(),
-        rgba(320, 240, |x, y| {
-            let (a, b) = ((x / 4) % 4, (y / 4) % 4);
-            let dark = (a < 2 && b < 2) || (a >= 2 && b >= 2) || (a + b == 3 && a % 2 == 0);
-            if dark {
-                [25, 25, 25]
-            } else {
-                [235, 230, 220]
-            }
-        }),
-    ));
-    out.push((
-        "stripes".into(),
-        rgba(320, 240, |x, y| {
-            if ((x + y) / 10) % 2 == 0 {
-                [30, 50, 120]
-            } else {
-                [230, 220, 200]
-            }
-        }),
-    ));
-    out
+    };
+    let star = |u: f32, v: f32| r(u, v) < 0.5 + 0.4 * (5.0 * v.atan2(u)).cos();
+    vec![
+        logo("smiley", &smiley, [20, 20, 20], [250, 210, 40]),
+        logo(
+            "rings",
+            &|u, v| (r(u, v) * 5.0) as i32 % 2 == 0,
+            [200, 30, 30],
+            [240, 240, 240],
+        ),
+        logo("olympic", &olympic, [10, 60, 160], [255, 255, 255]),
+        logo("star", &star, [250, 200, 0], [20, 30, 90]),
+    ]
+}
+
+/// Fabric: tartan, polka dots, houndstooth, stripes.
+fn fabrics() -> Vec<(String, Image)> {
+    let tartan = rgba(320, 240, |x, y| {
+        let (a, b) = ((x / 6) % 8, (y / 6) % 8);
+        [
+            if a < 3 || b < 3 { 150 } else { 30 },
+            if a == 5 || b == 5 { 160 } else { 50 },
+            if (a + b) % 4 == 0 { 40 } else { 90 },
+        ]
+    });
+    let polka = two_tone(320, 240, [250, 250, 250], [180, 20, 60], |x, y| {
+        let (u, v) = ((x % 40) as f32 - 20.0, (y % 40) as f32 - 20.0);
+        u * u + v * v < 64.0
+    });
+    let houndstooth = two_tone(320, 240, [25, 25, 25], [235, 230, 220], |x, y| {
+        let (a, b) = ((x / 4) % 4, (y / 4) % 4);
+        (a < 2 && b < 2) || (a >= 2 && b >= 2) || (a + b == 3 && a % 2 == 0)
+    });
+    let stripes = two_tone(320, 240, [30, 50, 120], [230, 220, 200], |x, y| {
+        ((x + y) / 10) % 2 == 0
+    });
+    vec![
+        ("tartan".into(), tartan),
+        ("polka".into(), polka),
+        ("houndstooth".into(), houndstooth),
+        ("stripes".into(), stripes),
+    ]
 }
 
 /// Images without a face: generated ones, plus background crops of the shared frames when
 /// present.
 fn non_faces() -> Vec<(String, Image)> {
     let mut out = Vec::new();
-    let mut rng = Rng(0x9e3779b97f4a7c15);
+    let mut rng = Rng::new(0x9e3779b97f4a7c15);
     for (i, c) in [
         [0u8, 0, 0],
         [255, 255, 255],
@@ -328,7 +281,7 @@ fn non_faces() -> Vec<(String, Image)> {
         let w = 320 / cell + 1;
         let vals: Vec<[u8; 3]> = (0..w * (240 / cell + 1))
             .map(|_| {
-                let v = rng.next();
+                let v = (rng.next_u64() >> 32) as u32;
                 if i % 2 == 0 {
                     [v as u8, v as u8, v as u8]
                 } else {
@@ -349,30 +302,31 @@ fn non_faces() -> Vec<(String, Image)> {
         while y + size < 240 {
             let mut x = 8;
             while x + size < 320 {
-                if rng.below(5) > 0 {
-                    strokes.push((x + rng.below(size / 2), y, 1 + rng.below(size / 3), size));
-                    strokes.push((x, y + rng.below(size), size, 1 + rng.below(size / 4)));
+                let mut below = |n: u32| rng.below(n as usize) as u32;
+                if below(5) > 0 {
+                    strokes.push((x + below(size / 2), y, 1 + below(size / 3), size));
+                    strokes.push((x, y + below(size), size, 1 + below(size / 4)));
                 }
                 x += size + 2;
             }
             y += size + size / 2;
         }
-        out.push((
-            format!("text{size}"),
-            rgba(320, 240, |x, y| {
-                if strokes
-                    .iter()
-                    .any(|&(sx, sy, sw, sh)| x >= sx && x < sx + sw && y >= sy && y < sy + sh)
-                {
-                    [20, 20, 30]
-                } else {
-                    [245, 242, 235]
-                }
-            }),
-        ));
+        let text = two_tone(320, 240, [20, 20, 30], [245, 242, 235], |x, y| {
+            strokes
+                .iter()
+                .any(|&(sx, sy, sw, sh)| x >= sx && x < sx + sw && y >= sy && y < sy + sh)
+        });
+        out.push((format!("text{size}"), text));
     }
     out.extend(title_cards_logos_and_fabric());
-    // Background crops of real frames: a strip beside, above or below the face's landmarks.
+    out.extend(background_crops());
+    out
+}
+
+/// Background crops of the shared frames (every 97th, when present): a strip beside, above or
+/// below the face's landmarks.
+fn background_crops() -> Vec<(String, Image)> {
+    let mut out = Vec::new();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
     for set in ["grid", "franck-dev", "franck-dev2", "webcam-dev"] {
         if !root.join(set).is_dir() {
@@ -381,7 +335,7 @@ fn non_faces() -> Vec<(String, Image)> {
         for p in frames(&root.join(set)).iter().step_by(97) {
             let img = io::read_image(p).unwrap();
             let pts = io::read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
-            let b = facemimic::BBox::of_points(&pts);
+            let b = BBox::of_points(&pts);
             // Keep well away from the face: 0.6 face-widths of margin.
             let (fx0, fx1) = (
                 (b.x - 0.6 * b.width).max(0.0) as u32,
@@ -481,33 +435,15 @@ fn mesh_finder_reports_no_face_on_images_without_one() {
 fn mesh_finder_finds_the_shared_faces_and_survives_odd_images() {
     let mut finder = facemimic::MeshFinder::new().unwrap();
     if let Some(root) = shared() {
-        for (set, n, found, err) in every_25th_frame(&root, |img| {
+        assert_finds_shared_faces(&root, "mesh finder ", 0.04, |img| {
             finder
                 .find(&img.view().unwrap())
                 .into_iter()
                 .next()
                 .map(|f| f.landmarks)
-        }) {
-            println!("mesh finder {set}: {found}/{n} found, mean error {err:.4}");
-            assert!(found as f32 >= 0.995 * n as f32, "{set}: {found}/{n} found");
-            assert!(err <= 0.04, "{set}: mean error {err}");
-        }
+        });
     }
-    let frame = io::read_image(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk01_bbaf2n/000004.jpg"),
-    )
-    .unwrap();
-    let grey = rgba(frame.width, frame.height, |x, y| {
-        let i = ((y * frame.width + x) * 4) as usize;
-        let v = frame.data[i] / 3 + frame.data[i + 1] / 2 + frame.data[i + 2] / 6;
-        [v, v, v]
-    });
-    let half = rgba(frame.width / 2 + 20, frame.height, |x, y| {
-        let i = ((y * frame.width + x + frame.width / 2 - 20) * 4) as usize;
-        [frame.data[i], frame.data[i + 1], frame.data[i + 2]]
-    });
-    let tiny = rgba(1, 1, |_, _| [90, 60, 50]);
-    let thin = rgba(4000, 2, |x, _| [(x % 256) as u8, 0, 0]);
+    let [frame, grey, half, tiny, thin] = odd_images(|[r, g, b]| r / 3 + g / 2 + b / 6);
     let empty = Image {
         width: 0,
         height: 0,
@@ -537,54 +473,63 @@ fn mesh_finder_finds_the_shared_faces_and_survives_odd_images() {
     let face = finder.find(&view).remove(0);
     let again = finder.landmarks(&view, face.bbox).unwrap();
     assert!(facemimic::find::landmark_error(&again, &face.landmarks) < 0.05);
-    for bad in [
-        facemimic::BBox {
-            x: f32::NAN,
-            y: 0.0,
-            width: 100.0,
-            height: 100.0,
-        },
-        facemimic::BBox {
-            x: 0.0,
-            y: 0.0,
-            width: 0.0,
-            height: 100.0,
-        },
-    ] {
+    for bad in BAD_BOXES {
         assert!(finder.landmarks(&view, bad).is_err());
     }
-    let far = facemimic::BBox {
-        x: -500.0,
-        y: -500.0,
-        width: 100.0,
-        height: 100.0,
-    };
-    if let Ok(p) = finder.landmarks(&view, far) {
+    if let Ok(p) = finder.landmarks(&view, FAR_BOX) {
         assert!(p.iter().all(|v| v.is_finite()));
     }
+}
+
+/// A box far outside the odd images' frame: a finder gives finite points or an error.
+const FAR_BOX: BBox = BBox {
+    x: -500.0,
+    y: -500.0,
+    width: 100.0,
+    height: 100.0,
+};
+
+/// Boxes a finder refuses: a NaN corner, no width.
+const BAD_BOXES: [BBox; 2] = [
+    BBox {
+        x: f32::NAN,
+        y: 0.0,
+        width: 100.0,
+        height: 100.0,
+    },
+    BBox {
+        x: 0.0,
+        y: 0.0,
+        width: 0.0,
+        height: 100.0,
+    },
+];
+
+/// The odd images the finders are given: a GRID frame with one face
+/// (`data/grid/spk01_bbaf2n/000004`), the frame in grey (`grey` of its red, green and blue),
+/// its face cut in half by the image border, a 1x1 image and a 4000x2 one.
+fn odd_images(grey: impl Fn([u8; 3]) -> u8) -> [Image; 5] {
+    let frame = io::read_image(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk01_bbaf2n/000004.jpg"),
+    )
+    .unwrap();
+    let (w, h) = (frame.width, frame.height);
+    let at = |x: u32, y: u32| {
+        let i = ((y * w + x) * 4) as usize;
+        [frame.data[i], frame.data[i + 1], frame.data[i + 2]]
+    };
+    let grey = rgba(w, h, |x, y| [grey(at(x, y)); 3]);
+    let half = rgba(w / 2 + 20, h, |x, y| at(x + w / 2 - 20, y));
+    let tiny = rgba(1, 1, |_, _| [90, 60, 50]);
+    let thin = rgba(4000, 2, |x, _| [(x % 256) as u8, 0, 0]);
+    [frame, grey, half, tiny, thin]
 }
 
 #[test]
 fn odd_images_give_an_empty_result_or_finite_faces() {
     let mut finder = FaceFinder::new().unwrap();
-    let frame = io::read_image(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk01_bbaf2n/000004.jpg"),
-    )
-    .unwrap();
-    let grey = rgba(frame.width, frame.height, |x, y| {
-        let i = ((y * frame.width + x) * 4) as usize;
-        let v =
-            ((frame.data[i] as u32 * 3 + frame.data[i + 1] as u32 * 6 + frame.data[i + 2] as u32)
-                / 10) as u8;
-        [v, v, v]
-    });
-    // The face cut in half by the image border.
-    let half = rgba(frame.width / 2 + 20, frame.height, |x, y| {
-        let i = ((y * frame.width + x + frame.width / 2 - 20) * 4) as usize;
-        [frame.data[i], frame.data[i + 1], frame.data[i + 2]]
-    });
-    let tiny = rgba(1, 1, |_, _| [90, 60, 50]);
-    let thin = rgba(4000, 2, |x, _| [(x % 256) as u8, 0, 0]);
+    let [frame, grey, half, tiny, thin] =
+        odd_images(|[r, g, b]| ((r as u32 * 3 + g as u32 * 6 + b as u32) / 10) as u8);
     let gf = finder.find(&grey.view().unwrap());
     assert_eq!(gf.len(), 1, "the greyscale face");
     for img in [&half, &tiny, &thin, &frame] {
@@ -596,27 +541,10 @@ fn odd_images_give_an_empty_result_or_finite_faces() {
     assert!(finder.find(&tiny.view().unwrap()).is_empty());
     // A box outside the image: points, finite, or an error; a degenerate box: an error.
     let view: ImageRef = frame.view().unwrap();
-    let far = facemimic::BBox {
-        x: -500.0,
-        y: -500.0,
-        width: 100.0,
-        height: 100.0,
-    };
-    if let Ok(p) = finder.landmarks(&view, far) {
+    if let Ok(p) = finder.landmarks(&view, FAR_BOX) {
         assert!(p.iter().all(|v| v.is_finite()));
     }
-    let nan = facemimic::BBox {
-        x: f32::NAN,
-        y: 0.0,
-        width: 100.0,
-        height: 100.0,
-    };
-    assert!(finder.landmarks(&view, nan).is_err());
-    let flat = facemimic::BBox {
-        x: 0.0,
-        y: 0.0,
-        width: 0.0,
-        height: 100.0,
-    };
-    assert!(finder.landmarks(&view, flat).is_err());
+    for bad in BAD_BOXES {
+        assert!(finder.landmarks(&view, bad).is_err());
+    }
 }

@@ -59,10 +59,9 @@ fn summary(errs: &[f32]) -> (f32, f32) {
     (mean, max)
 }
 
-/// A deterministic pseudo-random generator (xorshift), uniform in [-1, 1].
-/// Fits each frame from `per_frame` perturbations of its landmarks; returns the fraction of
-/// fits that end below 0.05.
-fn basin(model: &Model, frames: &[&TrainingImage], per_frame: usize, seed: u64) -> (f32, usize) {
+/// Fits each frame from `per_frame` perturbations of its landmarks and asserts that at least 95%
+/// of the fits end below 0.05; prints that share under `what`.
+fn assert_basin(what: &str, model: &Model, frames: &[&TrainingImage], per_frame: usize, seed: u64) {
     let mut fitter = Fitter::new(model, FitOptions::default()).unwrap();
     let mut rng = Rng::new(seed);
     let (mut good, mut total) = (0, 0);
@@ -77,7 +76,16 @@ fn basin(model: &Model, frames: &[&TrainingImage], per_frame: usize, seed: u64) 
             }
         }
     }
-    (good as f32 / total as f32, total)
+    let rate = good as f32 / total as f32;
+    println!(
+        "{what} basin: {total} fits, {:.1}% below 0.05",
+        rate * 100.0
+    );
+    assert!(
+        rate >= 0.95,
+        "only {:.1}% of {total} fits converged",
+        rate * 100.0
+    );
 }
 
 #[test]
@@ -102,16 +110,7 @@ fn grid_spk07_convergence_basin() {
     let own = frames(&repo("data/grid/spk07_pwij3p"));
     let mut held: Vec<&TrainingImage> = unseen.iter().step_by(3).collect();
     held.extend(own.iter().filter(|t| !train.contains(&t.name)).step_by(3));
-    let (rate, total) = basin(&model, &held, 4, 0x5eed_0001);
-    println!(
-        "GRID spk07 basin: {total} fits, {:.1}% below 0.05",
-        rate * 100.0
-    );
-    assert!(
-        rate >= 0.95,
-        "only {:.1}% of {total} fits converged",
-        rate * 100.0
-    );
+    assert_basin("GRID spk07", &model, &held, 4, 0x5eed_0001);
 }
 
 #[test]
@@ -145,16 +144,7 @@ fn franck_convergence_basin() {
         .filter(|t| !train.contains(&t.name))
         .step_by(10)
         .collect();
-    let (rate, total) = basin(&model, &held, 2, 0x5eed_0002);
-    println!(
-        "franck basin: {total} fits, {:.1}% below 0.05",
-        rate * 100.0
-    );
-    assert!(
-        rate >= 0.95,
-        "only {:.1}% of {total} fits converged",
-        rate * 100.0
-    );
+    assert_basin("franck", &model, &held, 2, 0x5eed_0002);
 }
 
 /// A model built in the canonical reference frame tracks as well as one built in its own frame.
@@ -331,11 +321,7 @@ fn webcam_farthest_point_model_keeps_the_chin_under_the_hand() {
 /// checked here.
 #[test]
 fn recovers_synthetic_instance() {
-    let paths = io::read_list(&repo("data/grid/spk07_pwij3p/train20.txt")).unwrap();
-    let images: Vec<TrainingImage> = paths
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
+    let images = common::list_images("data/grid/spk07_pwij3p/train20.txt");
     let model = Builder::new(BuildOptions {
         symmetric_shapes: false,
         ..BuildOptions::default()

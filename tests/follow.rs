@@ -119,6 +119,22 @@ fn measure(clip: &str, range: std::ops::RangeInclusive<usize>) -> Option<Figures
     })
 }
 
+/// Measures `range` of the shared `clip` (skipped when absent): the landmark aims
+/// (`check_landmarks`), and the cloned mouth opening correlating with the person's at
+/// `min_mouth` or more (`measured`: what was measured, for the message).
+fn check_clip(clip: &str, range: std::ops::RangeInclusive<usize>, min_mouth: f32, measured: &str) {
+    let Some(f) = measure(clip, range) else {
+        return;
+    };
+    check_landmarks(clip, &f);
+    assert!(
+        f.r_mouth >= min_mouth,
+        "{clip}: the cloned mouth opening correlates with the person's at {:.3}, below \
+         {min_mouth} ({measured})",
+        f.r_mouth
+    );
+}
+
 /// The landmark aims: followed landmarks within 0.04 of dlib's (convention-free), no more
 /// frames over 0.1 than the finder's own, the face never lost.
 fn check_landmarks(clip: &str, f: &Figures) {
@@ -147,16 +163,7 @@ fn check_landmarks(clip: &str, f: &Figures) {
 /// at 0.13, asserted at that level with a margin. The mouth is measured on franck-dev2.
 #[test]
 fn follows_webcam_dev_with_spk07_as_the_source() {
-    let Some(f) = measure("webcam-dev", 600..=1336) else {
-        return;
-    };
-    check_landmarks("webcam-dev", &f);
-    assert!(
-        f.r_mouth >= 0.05,
-        "webcam-dev: the cloned mouth opening correlates with the person's at {:.3} (0.13 \
-         measured)",
-        f.r_mouth
-    );
+    check_clip("webcam-dev", 600..=1336, 0.05, "0.13 measured");
 }
 
 /// franck-dev2 (frames 3800-4799, never in any training list; spk07's model is GRID's): the
@@ -167,15 +174,11 @@ fn follows_webcam_dev_with_spk07_as_the_source() {
 /// reading the person's mouth on spk07's modes). Asserted at 0.75.
 #[test]
 fn follows_franck_dev2_with_spk07_as_the_source() {
-    let Some(f) = measure("franck-dev2", 3800..=4799) else {
-        return;
-    };
-    check_landmarks("franck-dev2", &f);
-    assert!(
-        f.r_mouth >= 0.75,
-        "franck-dev2: the cloned mouth opening correlates with the person's at {:.3}, below \
-         0.75 (0.79 measured; the issue's aim is 0.8)",
-        f.r_mouth
+    check_clip(
+        "franck-dev2",
+        3800..=4799,
+        0.75,
+        "0.79 measured; the issue's aim is 0.8",
     );
 }
 

@@ -19,6 +19,9 @@ use facemimic::format::{
     crc32, offsets, read_model, read_model_info, write_model, write_model_as, FileInfo,
     FormatError, Storage, FORMAT_VERSION, HEADER_LEN, LIMITS, MAGIC, OLDEST_VERSION,
 };
+use Expect::{Exact, Like};
+use FormatError as E;
+
 use facemimic::{
     BuildOptions, Builder, FrameChoice, Model, Reference, ReferenceChoice, TrainingImage,
 };
@@ -326,168 +329,160 @@ fn a_version_1_file_still_loads_as_it_was() {
 }
 
 /// Version-2 specific bad files: the storage's scales, values, padding and lengths.
-fn compact_bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
-    use Expect::{Exact, Like};
-    use FormatError as E;
+fn compact_bad_cases() -> Vec<Case> {
+    let mut cases = quantised_cases(Storage::I8);
+    cases.extend(quantised_cases(Storage::I6));
+    cases.extend(f16_cases());
+    cases
+}
+
+/// Model `a` stored as `s` (i8 or i6): its scales, quantised values, padding and label.
+fn quantised_cases(s: Storage) -> Vec<Case> {
     let a = &models().a;
     let lay = layout(a);
     let (px3, l) = (a.appearance().base.len(), a.appearance().n_modes());
-    let mut cases: Vec<(String, Vec<u8>, Expect)> = Vec::new();
-    let mut add = |name: String, bytes: Vec<u8>, e: Expect| cases.push((name, bytes, e));
-    for s in [Storage::I8, Storage::I6] {
-        let v = write_model_as(a, s);
-        let fixed = |f: &dyn Fn(&mut Vec<u8>)| {
-            let mut x = v.clone();
-            f(&mut x);
-            fix_crc(&mut x);
-            x
-        };
-        let scales = lay.app_base;
-        let array = "appearance mode scales";
-        add(
+    let v = write_model_as(a, s);
+    let v = &v;
+    let scales = lay.app_base;
+    let array = "appearance mode scales";
+    let scale_times = |index: usize, factor: f32| {
+        fixed(v, |x| {
+            let at = scales + 4 * index;
+            let value = get_f32(x, at);
+            set_f32(x, at, factor * value)
+        })
+    };
+    let mode_bytes = (px3 * l * s.mode_bits() as usize).div_ceil(8);
+    let packed_end = scales + 4 * l + px3 + mode_bytes;
+    let variances = v.len() - 4 - 4 * l;
+    assert!(packed_end <= variances);
+    let other = if s == Storage::I8 {
+        Storage::I6
+    } else {
+        Storage::I8
+    };
+    let mut cases = vec![
+        case(
             format!("{s}: NaN scale"),
-            fixed(&|x| set_f32(x, scales + 4, f32::NAN)),
+            fixed(v, |x| set_f32(x, scales + 4, f32::NAN)),
             Exact(E::NonFinite { array, index: 1 }),
-        );
-        add(
+        ),
+        case(
             format!("{s}: infinite scale"),
-            fixed(&|x| set_f32(x, scales, f32::INFINITY)),
+            fixed(v, |x| set_f32(x, scales, f32::INFINITY)),
             Exact(E::NonFinite { array, index: 0 }),
-        );
-        add(
+        ),
+        case(
             format!("{s}: zero scale"),
-            fixed(&|x| set_f32(x, scales + 8, 0.0)),
+            fixed(v, |x| set_f32(x, scales + 8, 0.0)),
             Exact(E::InvalidScale {
                 array,
                 index: 2,
                 value: 0.0,
             }),
-        );
-        add(
+        ),
+        case(
             format!("{s}: negative scale"),
-            fixed(&|x| {
-                let v = get_f32(x, scales);
-                set_f32(x, scales, -v)
-            }),
+            scale_times(0, -1.0),
             Like("InvalidScale", |e| {
                 matches!(e, E::InvalidScale { index: 0, .. })
             }),
-        );
-        add(
+        ),
+        case(
             format!("{s}: scale doubled"),
-            fixed(&|x| {
-                let v = get_f32(x, scales + 4);
-                set_f32(x, scales + 4, 2.0 * v)
-            }),
+            scale_times(1, 2.0),
             Like("NotOrthonormal of mode 1", |e| {
                 matches!(e, E::NotOrthonormal { i: 1, j: 1, .. })
             }),
-        );
-        let mode_bytes = (px3 * l * s.mode_bits() as usize).div_ceil(8);
-        let packed_end = scales + 4 * l + px3 + mode_bytes;
-        let variances = v.len() - 4 - 4 * l;
-        assert!(packed_end <= variances);
-        if packed_end < variances {
-            add(
-                format!("{s}: non-zero padding after the modes"),
-                fixed(&|x| x[variances - 1] = 1),
-                Exact(E::NonZeroPadding),
-            );
-        }
-        add(
+        ),
+        case(
             format!("{s}: negative appearance variance"),
-            fixed(&|x| set_f32(x, variances, -1.0)),
+            fixed(v, |x| set_f32(x, variances, -1.0)),
             Like("NegativeVariance", |e| {
                 matches!(e, E::NegativeVariance { .. })
             }),
-        );
-        let mut x = v.clone();
-        x[scales + 4 * l + px3 + 3] ^= 0x10;
-        add(
+        ),
+        case(
             format!("{s}: a mode byte flipped"),
-            x,
-            Like("ChecksumMismatch", |e| {
-                matches!(e, E::ChecksumMismatch { .. })
-            }),
-        );
-        add(
+            changed(v, |x| x[scales + 4 * l + px3 + 3] ^= 0x10),
+            checksum_mismatch(),
+        ),
+        case(
             format!("{s}: truncated by one byte"),
             v[..v.len() - 1].to_vec(),
-            Exact(E::Truncated {
-                needed: v.len() as u64,
-                available: v.len() as u64 - 1,
-            }),
-        );
-        let other = if s == Storage::I8 {
-            Storage::I6
-        } else {
-            Storage::I8
-        };
+            truncated(v.len() as u64, v.len() as u64 - 1),
+        ),
         // A label implying more bytes than the file has is a length mismatch; one implying
         // fewer leaves bytes that version 3 would read as sections, and the checksum (over a
         // header that was changed) refuses the file first.
-        add(
+        case(
             format!("{s}: labelled {other}"),
-            patched(&v, offsets::STORAGE, other.tag()),
+            patched(v, offsets::STORAGE, other.tag()),
             Like("LengthMismatch or ChecksumMismatch", |e| {
                 matches!(e, E::LengthMismatch { .. } | E::ChecksumMismatch { .. })
             }),
-        );
-        add(
+        ),
+        case(
             format!("{s}: labelled version 1"),
-            patched(&v, offsets::VERSION, 1),
+            patched(v, offsets::VERSION, 1),
             Exact(E::ReservedFlags { value: s.tag() }),
-        );
+        ),
+    ];
+    if packed_end < variances {
+        cases.push(case(
+            format!("{s}: non-zero padding after the modes"),
+            fixed(v, |x| x[variances - 1] = 1),
+            Exact(E::NonZeroPadding),
+        ));
     }
+    cases
+}
+
+/// Model `a` stored as f16: non-finite values, padding, modes no longer orthonormal.
+fn f16_cases() -> Vec<Case> {
+    let a = &models().a;
+    let (px3, l) = (a.appearance().base.len(), a.appearance().n_modes());
     let v = write_model_as(a, Storage::F16);
-    let fixed = |f: &dyn Fn(&mut Vec<u8>)| {
-        let mut x = v.clone();
-        f(&mut x);
-        fix_crc(&mut x);
-        x
-    };
-    let base = lay.app_base;
-    add(
-        "f16: NaN in the base".into(),
-        fixed(&|x| x[base..base + 2].copy_from_slice(&0x7E00u16.to_le_bytes())),
-        Exact(E::NonFinite {
-            array: "appearance base",
-            index: 0,
-        }),
-    );
+    let v = &v;
+    let base = layout(a).app_base;
     let modes = base + 2 * px3;
-    add(
-        "f16: infinity in the modes".into(),
-        fixed(&|x| x[modes + 6..modes + 8].copy_from_slice(&0xFC00u16.to_le_bytes())),
-        Exact(E::NonFinite {
-            array: "appearance modes",
-            index: 3,
-        }),
-    );
+    let half_at = |at: usize, h: u16| fixed(v, |x| x[at..at + 2].copy_from_slice(&h.to_le_bytes()));
+    let mut cases = vec![
+        case(
+            "f16: NaN in the base",
+            half_at(base, 0x7E00),
+            non_finite("appearance base", 0),
+        ),
+        case(
+            "f16: infinity in the modes",
+            half_at(modes + 6, 0xFC00),
+            non_finite("appearance modes", 3),
+        ),
+        case(
+            "f16: mode 0 scaled by 2",
+            fixed(v, |x| {
+                for k in 0..px3 {
+                    let o = modes + 2 * k;
+                    let h = u16::from_le_bytes([x[o], x[o + 1]]);
+                    // +1 to the exponent doubles a normal binary16 value.
+                    if h & 0x7C00 != 0 && h & 0x7C00 != 0x7800 {
+                        x[o..o + 2].copy_from_slice(&(h + 0x0400).to_le_bytes());
+                    }
+                }
+            }),
+            Like("NotOrthonormal of mode 0", |e| {
+                matches!(e, E::NotOrthonormal { i: 0, j: 0, .. })
+            }),
+        ),
+    ];
     if (2 * px3 * (l + 1)) % 4 != 0 {
         let at = modes + 2 * px3 * l;
-        add(
-            "f16: non-zero padding".into(),
-            fixed(&|x| x[at] = 7),
+        cases.push(case(
+            "f16: non-zero padding",
+            fixed(v, |x| x[at] = 7),
             Exact(E::NonZeroPadding),
-        );
+        ));
     }
-    add(
-        "f16: mode 0 scaled by 2".into(),
-        fixed(&|x| {
-            for k in 0..px3 {
-                let o = modes + 2 * k;
-                let h = u16::from_le_bytes([x[o], x[o + 1]]);
-                // +1 to the exponent doubles a normal binary16 value.
-                if h & 0x7C00 != 0 && h & 0x7C00 != 0x7800 {
-                    x[o..o + 2].copy_from_slice(&(h + 0x0400).to_le_bytes());
-                }
-            }
-        }),
-        Like("NotOrthonormal of mode 0", |e| {
-            matches!(e, E::NotOrthonormal { i: 0, j: 0, .. })
-        }),
-    );
     cases
 }
 
@@ -505,755 +500,666 @@ enum Expect {
     Like(&'static str, fn(&FormatError) -> bool),
 }
 
-fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
-    use Expect::{Exact, Like};
-    use FormatError as E;
-    let ms = models();
-    let (a, b) = (&ms.a, &ms.b);
-    let v = write_model_as(a, Storage::F32);
-    let len = v.len() as u64;
-    let lay = layout(a);
-    let (n, t) = (a.landmarks() as u32, a.frame().triangles().len() as u32);
-    let (w, h) = (a.frame().width(), a.frame().height());
-    let px = a.frame().n_pixels() as u32;
-    let (m, l) = (a.shape().n_modes() as u64, a.appearance().n_modes() as u64);
-    let mut cases: Vec<(String, Vec<u8>, Expect)> = Vec::new();
-    let mut add = |name: &str, bytes: Vec<u8>, e: Expect| cases.push((name.to_string(), bytes, e));
-    let lim = |what: &'static str, value: u32, limit: u32| {
-        Exact(E::LimitExceeded {
-            what,
-            value: value as u64,
-            limit: limit as u64,
-        })
-    };
-    let below = |what: &'static str, value: u32, minimum: u32| {
-        Exact(E::BelowMinimum {
-            what,
-            value: value as u64,
-            minimum: minimum as u64,
-        })
-    };
+/// A bad file: its name, its bytes and the error expected of it.
+type Case = (String, Vec<u8>, Expect);
 
-    // Magic, version, truncation.
-    add(
-        "empty file",
-        vec![],
-        Exact(E::Truncated {
-            needed: HEADER_LEN as u64,
-            available: 0,
-        }),
-    );
-    add(
-        "magic only",
-        MAGIC.to_vec(),
-        Exact(E::Truncated {
-            needed: 112,
-            available: 8,
-        }),
-    );
-    add(
-        "4 bytes of magic",
-        MAGIC[..4].to_vec(),
-        Exact(E::Truncated {
-            needed: 112,
-            available: 4,
-        }),
-    );
-    add(
-        "a GIF",
-        b"GIF89a\x01\x00\x01\x00".to_vec(),
-        Exact(E::BadMagic),
-    );
-    add("one byte, not magic", vec![0x00], Exact(E::BadMagic));
-    let mut x = v.clone();
-    x[0] = b'F';
-    add("first magic byte changed", x, Exact(E::BadMagic));
-    let mut x = v.clone();
-    x[4] = b'\n'; // a text-mode transfer turning \r\n into \n would shift this byte
-    add("CR of the magic changed", x, Exact(E::BadMagic));
-    add(
-        "version 0",
-        patched(&v, offsets::VERSION, 0),
-        Exact(E::UnsupportedVersion {
-            found: 0,
-            supported: FORMAT_VERSION,
-        }),
-    );
-    add(
-        "version + 1",
-        patched(&v, offsets::VERSION, FORMAT_VERSION + 1),
-        Exact(E::UnsupportedVersion {
-            found: FORMAT_VERSION + 1,
-            supported: FORMAT_VERSION,
-        }),
-    );
-    add(
-        "version u32::MAX in a 12-byte file",
-        patched(&v[..12], offsets::VERSION, u32::MAX),
-        Exact(E::UnsupportedVersion {
-            found: u32::MAX,
-            supported: FORMAT_VERSION,
-        }),
-    );
-    add(
-        "truncated at 50",
-        v[..50].to_vec(),
-        Exact(E::Truncated {
-            needed: 112,
-            available: 50,
-        }),
-    );
-    add(
-        "truncated at 111",
-        v[..111].to_vec(),
-        Exact(E::Truncated {
-            needed: 112,
-            available: 111,
-        }),
-    );
-    add(
-        "header only",
-        v[..HEADER_LEN].to_vec(),
-        Exact(E::Truncated {
-            needed: len,
-            available: 112,
-        }),
-    );
-    add(
-        "half the file",
-        v[..v.len() / 2].to_vec(),
-        Exact(E::Truncated {
-            needed: len,
-            available: len / 2,
-        }),
-    );
-    add(
-        "checksum missing",
-        v[..v.len() - 4].to_vec(),
-        Exact(E::Truncated {
-            needed: len,
-            available: len - 4,
-        }),
-    );
-    add(
-        "last byte missing",
-        v[..v.len() - 1].to_vec(),
-        Exact(E::Truncated {
-            needed: len,
-            available: len - 1,
-        }),
-    );
-    let mut x = v.clone();
-    x.push(0);
-    add(
-        "one trailing byte",
-        x,
-        Exact(E::TrailingBytes {
-            expected: len,
-            found: len + 1,
-        }),
-    );
-    let mut x = v.clone();
-    x.extend_from_slice(b"garbage after the model");
-    add(
-        "trailing garbage",
-        x,
-        Exact(E::TrailingBytes {
-            expected: len,
-            found: len + 23,
-        }),
-    );
-    let mut x = v.clone();
-    x.extend_from_slice(&v);
-    add(
-        "two models concatenated",
-        x,
-        Exact(E::TrailingBytes {
-            expected: len,
-            found: 2 * len,
-        }),
-    );
+fn case(name: impl Into<String>, bytes: Vec<u8>, expect: Expect) -> Case {
+    (name.into(), bytes, expect)
+}
 
-    // Header fields.
-    add(
-        "unknown storage tag",
-        patched(&v, offsets::STORAGE, 4),
-        Exact(E::BadStorageTag { tag: 4 }),
-    );
-    add(
-        "storage tag u32::MAX",
-        patched(&v, offsets::STORAGE, u32::MAX),
-        Exact(E::BadStorageTag { tag: u32::MAX }),
-    );
-    add(
-        "version 1 with reserved flags set",
-        patched(&patched(&v, offsets::VERSION, 1), offsets::FLAGS, 1),
-        Exact(E::ReservedFlags { value: 1 }),
-    );
-    // Version 3 allows a stated length beyond what the dimensions imply (the sections' bytes):
-    // a header that implies fewer bytes than the file has meets the checksum first, and with
-    // the checksum repaired, the arrays or the sections' framing.
-    add(
-        "f32 data labelled i6",
-        patched(&v, offsets::STORAGE, Storage::I6.tag()),
-        Like("ChecksumMismatch", |e| {
-            matches!(e, FormatError::ChecksumMismatch { .. })
-        }),
-    );
-    let mut x = patched(&v, offsets::STORAGE, Storage::I6.tag());
+/// `v` changed by `f` (the checksum left as it was).
+fn changed(v: &[u8], f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+    let mut x = v.to_vec();
+    f(&mut x);
+    x
+}
+
+/// `v` changed by `f` with the checksum rewritten, so that the validation itself must fire.
+fn fixed(v: &[u8], f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+    let mut x = changed(v, f);
     fix_crc(&mut x);
-    add(
-        "f32 data labelled i6, checksum repaired",
-        x,
-        Like("any error (arrays or sections)", |_| true),
+    x
+}
+
+fn truncated(needed: u64, available: u64) -> Expect {
+    Exact(E::Truncated { needed, available })
+}
+
+fn trailing(expected: u64, found: u64) -> Expect {
+    Exact(E::TrailingBytes { expected, found })
+}
+
+fn length_mismatch(stated: u64, implied: u64) -> Expect {
+    Exact(E::LengthMismatch { stated, implied })
+}
+
+fn unsupported(found: u32) -> Expect {
+    Exact(E::UnsupportedVersion {
+        found,
+        supported: FORMAT_VERSION,
+    })
+}
+
+fn over_limit(what: &'static str, value: u32, limit: u32) -> Expect {
+    Exact(E::LimitExceeded {
+        what,
+        value: value as u64,
+        limit: limit as u64,
+    })
+}
+
+fn below(what: &'static str, value: u32, minimum: u32) -> Expect {
+    Exact(E::BelowMinimum {
+        what,
+        value: value as u64,
+        minimum: minimum as u64,
+    })
+}
+
+fn non_finite(array: &'static str, index: u64) -> Expect {
+    Exact(E::NonFinite { array, index })
+}
+
+fn checksum_mismatch() -> Expect {
+    Like("ChecksumMismatch", |e| {
+        matches!(e, E::ChecksumMismatch { .. })
+    })
+}
+
+fn inconsistent() -> Expect {
+    Like("InconsistentDimensions", |e| {
+        matches!(e, E::InconsistentDimensions(_))
+    })
+}
+
+/// A header that implies fewer bytes than the file has, with its checksum repaired: version 3
+/// reads the rest as sections, so the arrays or the sections' framing refuse it.
+fn any_error() -> Expect {
+    Like("any error (arrays or sections)", |_| true)
+}
+
+/// What the bad files are made from: model `a` written as f32, its length and layout.
+struct Base {
+    a: &'static Model,
+    v: Vec<u8>,
+    len: u64,
+    lay: Layout,
+    /// `a`'s landmarks.
+    n: u32,
+}
+
+impl Base {
+    fn new() -> Base {
+        let a = &models().a;
+        let v = write_model_as(a, Storage::F32);
+        Base {
+            a,
+            len: v.len() as u64,
+            lay: layout(a),
+            n: a.landmarks() as u32,
+            v,
+        }
+    }
+}
+
+fn bad_cases() -> Vec<Case> {
+    let base = Base::new();
+    let mut cases = magic_version_and_length_cases(&base);
+    cases.extend(header_range_cases(&base));
+    cases.extend(header_cases(&base));
+    cases.extend(dimension_cases(&base));
+    cases.extend(hostile_header_cases(&base));
+    cases.extend(payload_cases(&base));
+    cases.extend(mode_cases(&base));
+    cases.extend(mesh_cases(&base));
+    cases
+}
+
+/// Magic, version, truncation and trailing bytes.
+fn magic_version_and_length_cases(base: &Base) -> Vec<Case> {
+    let (v, len) = (&base.v, base.len);
+    let n = v.len();
+    vec![
+        case("empty file", vec![], truncated(HEADER_LEN as u64, 0)),
+        case("magic only", MAGIC.to_vec(), truncated(112, 8)),
+        case("4 bytes of magic", MAGIC[..4].to_vec(), truncated(112, 4)),
+        case(
+            "a GIF",
+            b"GIF89a\x01\x00\x01\x00".to_vec(),
+            Exact(E::BadMagic),
+        ),
+        case("one byte, not magic", vec![0x00], Exact(E::BadMagic)),
+        case(
+            "first magic byte changed",
+            changed(v, |x| x[0] = b'F'),
+            Exact(E::BadMagic),
+        ),
+        // A text-mode transfer turning \r\n into \n would shift this byte.
+        case(
+            "CR of the magic changed",
+            changed(v, |x| x[4] = b'\n'),
+            Exact(E::BadMagic),
+        ),
+        case("version 0", patched(v, offsets::VERSION, 0), unsupported(0)),
+        case(
+            "version + 1",
+            patched(v, offsets::VERSION, FORMAT_VERSION + 1),
+            unsupported(FORMAT_VERSION + 1),
+        ),
+        case(
+            "version u32::MAX in a 12-byte file",
+            patched(&v[..12], offsets::VERSION, u32::MAX),
+            unsupported(u32::MAX),
+        ),
+        case("truncated at 50", v[..50].to_vec(), truncated(112, 50)),
+        case("truncated at 111", v[..111].to_vec(), truncated(112, 111)),
+        case("header only", v[..HEADER_LEN].to_vec(), truncated(len, 112)),
+        case(
+            "half the file",
+            v[..n / 2].to_vec(),
+            truncated(len, len / 2),
+        ),
+        case(
+            "checksum missing",
+            v[..n - 4].to_vec(),
+            truncated(len, len - 4),
+        ),
+        case(
+            "last byte missing",
+            v[..n - 1].to_vec(),
+            truncated(len, len - 1),
+        ),
+        case(
+            "one trailing byte",
+            changed(v, |x| x.push(0)),
+            trailing(len, len + 1),
+        ),
+        case(
+            "trailing garbage",
+            changed(v, |x| x.extend_from_slice(b"garbage after the model")),
+            trailing(len, len + 23),
+        ),
+        case(
+            "two models concatenated",
+            changed(v, |x| x.extend_from_slice(v)),
+            trailing(len, 2 * len),
+        ),
+    ]
+}
+
+/// The header's counts and sizes out of their range: each below its minimum (0 and the
+/// minimum - 1, where there is one), one over its limit, and `u32::MAX`.
+fn header_range_cases(base: &Base) -> Vec<Case> {
+    // (the name in the cases, the field, the name in the error, its minimum, its limit)
+    let ranges = [
+        ("landmarks", offsets::LANDMARKS, "landmarks", Some(3), 1024),
+        ("triangles", offsets::TRIANGLES, "triangles", Some(1), 8192),
+        (
+            "frame width",
+            offsets::FRAME_WIDTH,
+            "frame width",
+            Some(1),
+            2048,
+        ),
+        (
+            "frame height",
+            offsets::FRAME_HEIGHT,
+            "frame height",
+            Some(1),
+            2048,
+        ),
+        (
+            "pixels",
+            offsets::PIXELS,
+            "frame pixels",
+            Some(1),
+            4_194_304,
+        ),
+        (
+            "shape modes",
+            offsets::SHAPE_MODES,
+            "shape modes",
+            None,
+            256,
+        ),
+        (
+            "appearance modes",
+            offsets::APPEARANCE_MODES,
+            "appearance modes",
+            None,
+            256,
+        ),
+        (
+            "name length",
+            offsets::NAME_LEN,
+            "model name length",
+            None,
+            256,
+        ),
+    ];
+    let v = &base.v;
+    let mut cases = Vec::new();
+    for (name, field, what, minimum, limit) in ranges {
+        if let Some(min) = minimum {
+            let mut lows = vec![0, min - 1];
+            lows.dedup();
+            for low in lows {
+                cases.push(case(
+                    format!("{name} {low}"),
+                    patched(v, field, low),
+                    below(what, low, min),
+                ));
+            }
+        }
+        for (label, value) in [("limit+1", limit + 1), ("u32::MAX", u32::MAX)] {
+            let bytes = patched(v, field, value);
+            cases.push(case(
+                format!("{name} {label}"),
+                bytes,
+                over_limit(what, value, limit),
+            ));
+        }
+    }
+    let wb = write_model_as(&models().b, Storage::F32);
+    let (image_width, image_height) = (offsets::IMAGE_WIDTH, offsets::IMAGE_HEIGHT);
+    cases.extend([
+        case(
+            "reference name length limit+1",
+            patched(&wb, offsets::REFERENCE_NAME_LEN, 257),
+            over_limit("reference name length", 257, 256),
+        ),
+        case(
+            "image width 0",
+            patched(v, image_width, 0),
+            below("image width", 0, 1),
+        ),
+        case(
+            "image height limit+1",
+            patched(v, image_height, 8193),
+            over_limit("image height", 8193, 8192),
+        ),
+    ]);
+    cases
+}
+
+/// `v` with the header's u32 `fields` set: `(offset, value)`.
+fn fields(v: &[u8], fields: &[(usize, u32)]) -> Vec<u8> {
+    let mut x = v.to_vec();
+    for &(off, value) in fields {
+        set_u32(&mut x, off, value);
+    }
+    x
+}
+
+/// Header fields: the storage, flags, stated length, tags, origin and pose.
+fn header_cases(base: &Base) -> Vec<Case> {
+    use offsets::{FILE_LENGTH, ORIGIN_X, ORIGIN_Y, POSE, STORAGE};
+    let (v, len) = (&base.v, base.len);
+    let i6 = Storage::I6.tag();
+    let length = |stated: u64| changed(v, |x| set_u64(x, FILE_LENGTH, stated));
+    let f32_at = |off: usize, value: f32| changed(v, |x| set_f32(x, off, value));
+    // Values the reader does not know.
+    let mut cases = vec![
+        case(
+            "unknown storage tag",
+            patched(v, STORAGE, 4),
+            Exact(E::BadStorageTag { tag: 4 }),
+        ),
+        case(
+            "storage tag u32::MAX",
+            patched(v, STORAGE, u32::MAX),
+            Exact(E::BadStorageTag { tag: u32::MAX }),
+        ),
+        case(
+            "scheme tag 2",
+            patched(v, offsets::SCHEME, 2),
+            Exact(E::BadSchemeTag { tag: 2 }),
+        ),
+        case(
+            "reference tag 7",
+            patched(v, offsets::REFERENCE, 7),
+            Exact(E::BadReferenceTag { tag: 7 }),
+        ),
+    ];
+    for found in [4, 0] {
+        let bytes = patched(v, offsets::CHANNELS, found);
+        let e = Exact(E::UnsupportedChannels { found });
+        cases.push(case(format!("channels {found}"), bytes, e));
+    }
+    cases.extend([
+        case(
+            "version 1 with reserved flags set",
+            fields(v, &[(offsets::VERSION, 1), (offsets::FLAGS, 1)]),
+            Exact(E::ReservedFlags { value: 1 }),
+        ),
+        // Version 3 allows a stated length beyond what the dimensions imply (the sections'
+        // bytes): a header that implies fewer bytes than the file has meets the checksum first,
+        // and with the checksum repaired, the arrays or the sections' framing.
+        case(
+            "f32 data labelled i6",
+            patched(v, STORAGE, i6),
+            checksum_mismatch(),
+        ),
+        case(
+            "f32 data labelled i6, checksum repaired",
+            fixed(v, |x| set_u32(x, STORAGE, i6)),
+            any_error(),
+        ),
+        case(
+            "stated length + 4",
+            length(len + 4),
+            truncated(len + 4, len),
+        ),
+        case(
+            "stated length u64::MAX",
+            length(u64::MAX),
+            truncated(u64::MAX, len),
+        ),
+        case(
+            "origin x NaN",
+            f32_at(ORIGIN_X, f32::NAN),
+            non_finite("frame origin", 0),
+        ),
+        case(
+            "origin y infinite",
+            f32_at(ORIGIN_Y, f32::INFINITY),
+            non_finite("frame origin", 1),
+        ),
+        case(
+            "mean pose tx infinite",
+            f32_at(POSE + 8, f32::NEG_INFINITY),
+            non_finite("mean pose", 2),
+        ),
+        case(
+            "mean reference with a name",
+            patched(v, offsets::REFERENCE_NAME_LEN, 3),
+            inconsistent(),
+        ),
+    ]);
+    cases
+}
+
+/// The header's dimensions against each other and against the file's length.
+fn dimension_cases(base: &Base) -> Vec<Case> {
+    use offsets::{APPEARANCE_MODES, FRAME_HEIGHT, FRAME_WIDTH, LANDMARKS, PIXELS, SCHEME};
+    use offsets::{SHAPE_MODES, TRIANGLES};
+    let (a, v, len) = (base.a, &base.v, base.len);
+    let (t, px) = (
+        a.frame().triangles().len() as u32,
+        a.frame().n_pixels() as u32,
     );
-    let mut x = v.clone();
-    set_u64(&mut x, offsets::FILE_LENGTH, len + 4);
-    add(
-        "stated length + 4",
-        x,
-        Exact(E::Truncated {
-            needed: len + 4,
-            available: len,
-        }),
-    );
-    let mut x = v.clone();
-    set_u64(&mut x, offsets::FILE_LENGTH, u64::MAX);
-    add(
-        "stated length u64::MAX",
-        x,
-        Exact(E::Truncated {
-            needed: u64::MAX,
-            available: len,
-        }),
-    );
-    add(
-        "landmarks 0",
-        patched(&v, offsets::LANDMARKS, 0),
-        below("landmarks", 0, 3),
-    );
-    add(
-        "landmarks 2",
-        patched(&v, offsets::LANDMARKS, 2),
-        below("landmarks", 2, 3),
-    );
-    add(
-        "landmarks limit+1",
-        patched(&v, offsets::LANDMARKS, 1025),
-        lim("landmarks", 1025, 1024),
-    );
-    add(
-        "landmarks u32::MAX",
-        patched(&v, offsets::LANDMARKS, u32::MAX),
-        lim("landmarks", u32::MAX, 1024),
-    );
-    add(
-        "landmarks 69 with the iBUG-68 scheme",
-        patched(&v, offsets::LANDMARKS, 69),
-        Like("InconsistentDimensions", |e| {
-            matches!(e, E::InconsistentDimensions(_))
-        }),
-    );
-    let mut x = patched(&v, offsets::LANDMARKS, 69);
-    set_u32(&mut x, offsets::SCHEME, 0);
-    let implied = len + 4 * (2 * 2 + 2 * m);
-    add(
-        "landmarks 69 (generic)",
-        x,
-        Exact(E::LengthMismatch {
-            stated: len,
-            implied,
-        }),
-    );
-    add(
-        "triangles 0",
-        patched(&v, offsets::TRIANGLES, 0),
-        below("triangles", 0, 1),
-    );
-    add(
-        "triangles limit+1",
-        patched(&v, offsets::TRIANGLES, 8193),
-        lim("triangles", 8193, 8192),
-    );
-    add(
-        "triangles u32::MAX",
-        patched(&v, offsets::TRIANGLES, u32::MAX),
-        lim("triangles", u32::MAX, 8192),
-    );
-    add(
-        "triangles + 1",
-        patched(&v, offsets::TRIANGLES, t + 1),
-        Exact(E::LengthMismatch {
-            stated: len,
-            implied: len + 12,
-        }),
-    );
-    add(
-        "frame width 0",
-        patched(&v, offsets::FRAME_WIDTH, 0),
-        below("frame width", 0, 1),
-    );
-    add(
-        "frame width limit+1",
-        patched(&v, offsets::FRAME_WIDTH, 2049),
-        lim("frame width", 2049, 2048),
-    );
-    add(
-        "frame width u32::MAX",
-        patched(&v, offsets::FRAME_WIDTH, u32::MAX),
-        lim("frame width", u32::MAX, 2048),
-    );
-    add(
-        "frame height 0",
-        patched(&v, offsets::FRAME_HEIGHT, 0),
-        below("frame height", 0, 1),
-    );
-    add(
-        "frame height limit+1",
-        patched(&v, offsets::FRAME_HEIGHT, 2049),
-        lim("frame height", 2049, 2048),
-    );
-    add(
-        "frame height u32::MAX",
-        patched(&v, offsets::FRAME_HEIGHT, u32::MAX),
-        lim("frame height", u32::MAX, 2048),
-    );
-    let mut x = v.clone();
-    set_f32(&mut x, offsets::ORIGIN_X, f32::NAN);
-    add(
-        "origin x NaN",
-        x,
-        Exact(E::NonFinite {
-            array: "frame origin",
-            index: 0,
-        }),
-    );
-    let mut x = v.clone();
-    set_f32(&mut x, offsets::ORIGIN_Y, f32::INFINITY);
-    add(
-        "origin y infinite",
-        x,
-        Exact(E::NonFinite {
-            array: "frame origin",
-            index: 1,
-        }),
-    );
-    add(
-        "pixels 0",
-        patched(&v, offsets::PIXELS, 0),
-        below("frame pixels", 0, 1),
-    );
-    add(
-        "pixels limit+1",
-        patched(&v, offsets::PIXELS, 4_194_305),
-        lim("frame pixels", 4_194_305, 4_194_304),
-    );
-    add(
-        "pixels u32::MAX",
-        patched(&v, offsets::PIXELS, u32::MAX),
-        lim("frame pixels", u32::MAX, 4_194_304),
-    );
-    add(
-        "pixels more than the grid holds",
-        patched(&v, offsets::PIXELS, w * h + 1),
-        Like("InconsistentDimensions", |e| {
-            matches!(e, E::InconsistentDimensions(_))
-        }),
-    );
-    add(
-        "pixels + 1",
-        patched(&v, offsets::PIXELS, px + 1),
-        Exact(E::LengthMismatch {
-            stated: len,
-            implied: len + 12 * (1 + l),
-        }),
-    );
-    let mut x = patched(&v, offsets::FRAME_WIDTH, 2048);
-    set_u32(&mut x, offsets::FRAME_HEIGHT, 2048);
-    add(
-        "2048x2048 frame with few pixels",
-        x,
-        Exact(E::LimitExceeded {
-            what: "frame area (width x height) for the pixel count",
-            value: 2048 * 2048,
-            limit: 4 * px as u64 + LIMITS.area_slack,
-        }),
-    );
-    add(
-        "channels 4",
-        patched(&v, offsets::CHANNELS, 4),
-        Exact(E::UnsupportedChannels { found: 4 }),
-    );
-    add(
-        "channels 0",
-        patched(&v, offsets::CHANNELS, 0),
-        Exact(E::UnsupportedChannels { found: 0 }),
-    );
-    add(
-        "shape modes limit+1",
-        patched(&v, offsets::SHAPE_MODES, 257),
-        lim("shape modes", 257, 256),
-    );
-    add(
-        "shape modes u32::MAX",
-        patched(&v, offsets::SHAPE_MODES, u32::MAX),
-        lim("shape modes", u32::MAX, 256),
-    );
+    let (w, h) = (a.frame().width(), a.frame().height());
+    let (m, l) = (a.shape().n_modes() as u64, a.appearance().n_modes() as u64);
+    let mut cases = vec![
+        case(
+            "landmarks 69 with the iBUG-68 scheme",
+            patched(v, LANDMARKS, 69),
+            inconsistent(),
+        ),
+        case(
+            "landmarks 69 (generic)",
+            fields(v, &[(LANDMARKS, 69), (SCHEME, 0)]),
+            length_mismatch(len, len + 4 * (2 * 2 + 2 * m)),
+        ),
+        case(
+            "triangles + 1",
+            patched(v, TRIANGLES, t + 1),
+            length_mismatch(len, len + 12),
+        ),
+        case(
+            "pixels more than the grid holds",
+            patched(v, PIXELS, w * h + 1),
+            inconsistent(),
+        ),
+        case(
+            "pixels + 1",
+            patched(v, PIXELS, px + 1),
+            length_mismatch(len, len + 12 * (1 + l)),
+        ),
+        case(
+            "2048x2048 frame with few pixels",
+            fields(v, &[(FRAME_WIDTH, 2048), (FRAME_HEIGHT, 2048)]),
+            Exact(E::LimitExceeded {
+                what: "frame area (width x height) for the pixel count",
+                value: 2048 * 2048,
+                limit: 4 * px as u64 + LIMITS.area_slack,
+            }),
+        ),
+        case(
+            "more shape modes than shape values",
+            fields(v, &[(LANDMARKS, 3), (SCHEME, 0), (SHAPE_MODES, 7)]),
+            inconsistent(),
+        ),
+        case(
+            "more appearance modes than appearance values",
+            fields(v, &[(PIXELS, 1), (APPEARANCE_MODES, 4)]),
+            inconsistent(),
+        ),
+    ];
     // Fewer bytes implied than the file has: version 3 reads the rest as sections; the
     // checksum refuses the changed header first.
-    add(
-        "shape modes 0",
-        patched(&v, offsets::SHAPE_MODES, 0),
-        Like("ChecksumMismatch", |e| {
-            matches!(e, E::ChecksumMismatch { .. })
-        }),
-    );
-    let mut x = patched(&v, offsets::SHAPE_MODES, 0);
-    fix_crc(&mut x);
-    add(
-        "shape modes 0, checksum repaired",
-        x,
-        Like("any error (arrays or sections)", |_| true),
-    );
-    let mut x = patched(&v, offsets::LANDMARKS, 3);
-    set_u32(&mut x, offsets::SCHEME, 0);
-    set_u32(&mut x, offsets::SHAPE_MODES, 7);
-    add(
-        "more shape modes than shape values",
-        x,
-        Like("InconsistentDimensions", |e| {
-            matches!(e, E::InconsistentDimensions(_))
-        }),
-    );
-    add(
-        "appearance modes limit+1",
-        patched(&v, offsets::APPEARANCE_MODES, 257),
-        lim("appearance modes", 257, 256),
-    );
-    add(
-        "appearance modes u32::MAX",
-        patched(&v, offsets::APPEARANCE_MODES, u32::MAX),
-        lim("appearance modes", u32::MAX, 256),
-    );
-    add(
-        "appearance modes 0",
-        patched(&v, offsets::APPEARANCE_MODES, 0),
-        Like("ChecksumMismatch", |e| {
-            matches!(e, E::ChecksumMismatch { .. })
-        }),
-    );
-    let mut x = patched(&v, offsets::APPEARANCE_MODES, 0);
-    fix_crc(&mut x);
-    add(
-        "appearance modes 0, checksum repaired",
-        x,
-        Like("any error (arrays or sections)", |_| true),
-    );
-    let mut x = patched(&v, offsets::PIXELS, 1);
-    set_u32(&mut x, offsets::APPEARANCE_MODES, 4);
-    add(
-        "more appearance modes than appearance values",
-        x,
-        Like("InconsistentDimensions", |e| {
-            matches!(e, E::InconsistentDimensions(_))
-        }),
-    );
-    add(
-        "scheme tag 2",
-        patched(&v, offsets::SCHEME, 2),
-        Exact(E::BadSchemeTag { tag: 2 }),
-    );
-    add(
-        "reference tag 7",
-        patched(&v, offsets::REFERENCE, 7),
-        Exact(E::BadReferenceTag { tag: 7 }),
-    );
-    add(
-        "mean reference with a name",
-        patched(&v, offsets::REFERENCE_NAME_LEN, 3),
-        Like("InconsistentDimensions", |e| {
-            matches!(e, E::InconsistentDimensions(_))
-        }),
-    );
-    add(
-        "name length limit+1",
-        patched(&v, offsets::NAME_LEN, 257),
-        lim("model name length", 257, 256),
-    );
-    add(
-        "name length u32::MAX",
-        patched(&v, offsets::NAME_LEN, u32::MAX),
-        lim("model name length", u32::MAX, 256),
-    );
-    let wb = write_model_as(b, Storage::F32);
-    add(
-        "reference name length limit+1",
-        patched(&wb, offsets::REFERENCE_NAME_LEN, 257),
-        lim("reference name length", 257, 256),
-    );
-    let mut x = v.clone();
-    set_f32(&mut x, offsets::POSE + 8, f32::NEG_INFINITY);
-    add(
-        "mean pose tx infinite",
-        x,
-        Exact(E::NonFinite {
-            array: "mean pose",
-            index: 2,
-        }),
-    );
-    add(
-        "image width 0",
-        patched(&v, offsets::IMAGE_WIDTH, 0),
-        below("image width", 0, 1),
-    );
-    add(
-        "image height limit+1",
-        patched(&v, offsets::IMAGE_HEIGHT, 8193),
-        lim("image height", 8193, 8192),
-    );
+    for (name, field) in [("shape", SHAPE_MODES), ("appearance", APPEARANCE_MODES)] {
+        let (zero, repaired) = (patched(v, field, 0), fixed(v, |x| set_u32(x, field, 0)));
+        cases.push(case(format!("{name} modes 0"), zero, checksum_mismatch()));
+        cases.push(case(
+            format!("{name} modes 0, checksum repaired"),
+            repaired,
+            any_error(),
+        ));
+    }
+    cases
+}
 
-    // Hostile headers: a small file claiming a huge model.
-    let mut hostile = v[..HEADER_LEN].to_vec();
-    set_u32(&mut hostile, offsets::FRAME_WIDTH, 2048);
-    set_u32(&mut hostile, offsets::FRAME_HEIGHT, 2048);
-    set_u32(&mut hostile, offsets::PIXELS, 4_194_304);
-    set_u32(&mut hostile, offsets::SHAPE_MODES, 136);
-    set_u32(&mut hostile, offsets::APPEARANCE_MODES, 256);
-    set_u32(&mut hostile, offsets::TRIANGLES, 8192);
+/// Hostile headers: a small file claiming a huge model.
+fn hostile_header_cases(base: &Base) -> Vec<Case> {
+    use offsets::{APPEARANCE_MODES, FRAME_HEIGHT, FRAME_WIDTH, PIXELS, SHAPE_MODES, TRIANGLES};
+    let hostile = fields(
+        &base.v[..HEADER_LEN],
+        &[
+            (FRAME_WIDTH, 2048),
+            (FRAME_HEIGHT, 2048),
+            (PIXELS, 4_194_304),
+            (SHAPE_MODES, 136),
+            (APPEARANCE_MODES, 256),
+            (TRIANGLES, 8192),
+        ],
+    );
     let huge =
         112 + 8 + 4 * (2 * 68 * 136 + 4 * 68 + 136 + 3 * 8192 + 3 * 4_194_304 * 257 + 256) + 4;
-    let mut x = hostile.clone();
-    set_u64(&mut x, offsets::FILE_LENGTH, huge);
-    x.resize(200, 0);
-    add(
-        "200 bytes claiming 256 modes x 4M pixels",
-        x,
-        Exact(E::Truncated {
-            needed: huge,
-            available: 200,
-        }),
-    );
-    let mut x = hostile.clone();
-    set_u64(&mut x, offsets::FILE_LENGTH, 200);
-    x.resize(200, 0);
-    add(
-        "hostile header stating its real length",
-        x,
-        Exact(E::LengthMismatch {
-            stated: 200,
-            implied: huge,
-        }),
-    );
-
-    // Payload corruption.
-    let mut x = v.clone();
-    x[lay.app_base + 101] ^= 0x10;
-    add(
-        "flipped payload bit",
-        x,
-        Like("ChecksumMismatch", |e| {
-            matches!(e, E::ChecksumMismatch { .. })
-        }),
-    );
-    let mut x = v.clone();
-    x[lay.crc] ^= 0x01;
-    add(
-        "flipped checksum bit",
-        x,
-        Like("ChecksumMismatch", |e| {
-            matches!(e, E::ChecksumMismatch { .. })
-        }),
-    );
-    let mut x = v.clone();
-    x[offsets::FINGERPRINT] ^= 0x80;
-    add(
-        "flipped fingerprint bit, CRC left",
-        x,
-        Like("ChecksumMismatch", |e| {
-            matches!(e, E::ChecksumMismatch { .. })
-        }),
-    );
-
-    // Payload corruption with the checksum rewritten, so that the validation itself must fire.
-    let fixed = |f: &dyn Fn(&mut Vec<u8>)| {
-        let mut x = v.clone();
-        f(&mut x);
-        fix_crc(&mut x);
-        x
+    // The hostile header stating `stated` bytes, in a file of 200.
+    let stating = |stated: u64| {
+        changed(&hostile, |x| {
+            set_u64(x, offsets::FILE_LENGTH, stated);
+            x.resize(200, 0);
+        })
     };
-    add(
-        "NaN in the shape base",
-        fixed(&|x| set_f32(x, lay.shape_base, f32::NAN)),
-        Exact(E::NonFinite {
-            array: "shape base",
-            index: 0,
-        }),
-    );
-    add(
-        "infinity in the shape modes",
-        fixed(&|x| set_f32(x, lay.shape_modes + 4 * 5, f32::INFINITY)),
-        Exact(E::NonFinite {
-            array: "shape modes",
-            index: 5,
-        }),
-    );
-    add(
-        "NaN in the frame vertices",
-        fixed(&|x| set_f32(x, lay.vertices + 4 * 9, f32::NAN)),
-        Exact(E::NonFinite {
-            array: "frame vertices",
-            index: 9,
-        }),
-    );
-    add(
-        "NaN in the appearance modes",
-        fixed(&|x| set_f32(x, lay.app_modes + 4 * 17, f32::NAN)),
-        Exact(E::NonFinite {
-            array: "appearance modes",
-            index: 17,
-        }),
-    );
-    add(
-        "NaN in the appearance variances",
-        fixed(&|x| set_f32(x, lay.app_variances, f32::NAN)),
-        Exact(E::NonFinite {
-            array: "appearance variances",
-            index: 0,
-        }),
-    );
-    add(
-        "triangle index = landmarks",
-        fixed(&|x| set_u32(x, lay.triangles + 4, n)),
+    vec![
+        case(
+            "200 bytes claiming 256 modes x 4M pixels",
+            stating(huge),
+            truncated(huge, 200),
+        ),
+        case(
+            "hostile header stating its real length",
+            stating(200),
+            length_mismatch(200, huge),
+        ),
+    ]
+}
+
+/// Payload corruption: with the checksum as it was (the checksum refuses the file), then with
+/// the checksum rewritten (the arrays' validation must).
+fn payload_cases(base: &Base) -> Vec<Case> {
+    let (v, lay, n) = (&base.v, &base.lay, base.n);
+    let f32_at = |off: usize, value: f32| fixed(v, |x| set_f32(x, off, value));
+    let bad_index = |triangle: u32, index: u32| {
         Exact(E::InvalidTriangleIndex {
-            triangle: 0,
-            index: n,
+            triangle,
+            index,
             landmarks: n,
-        }),
-    );
-    add(
-        "triangle index u32::MAX",
-        fixed(&|x| set_u32(x, lay.triangles + 12 * 5 + 8, u32::MAX)),
-        Exact(E::InvalidTriangleIndex {
-            triangle: 5,
-            index: u32::MAX,
-            landmarks: n,
-        }),
-    );
-    add(
-        "model name not UTF-8",
-        fixed(&|x| x[HEADER_LEN + 2] = 0xFF),
-        Exact(E::InvalidUtf8 {
-            field: "model name",
-        }),
-    );
-    let lay_b = layout(b);
-    let mut x = wb.clone();
-    x[lay_b.pad - 1] = 0xC0; // last byte of the reference name: a truncated 2-byte sequence
-    fix_crc(&mut x);
-    add(
-        "reference name not UTF-8",
-        x,
-        Exact(E::InvalidUtf8 {
-            field: "reference name",
-        }),
-    );
+        })
+    };
+    let negative = |array: &'static str, index: u32, value: f32| {
+        Exact(E::NegativeVariance {
+            array,
+            index,
+            value,
+        })
+    };
+    let wb = write_model_as(&models().b, Storage::F32);
+    let lay_b = layout(&models().b);
     assert!(
         lay.shape_base > lay.pad,
         "model a's names must need padding"
     );
-    add(
-        "non-zero padding",
-        fixed(&|x| x[lay.pad] = 1),
-        Exact(E::NonZeroPadding),
-    );
-    add(
-        "negative shape variance",
-        fixed(&|x| set_f32(x, lay.shape_variances + 4, -1.0)),
-        Exact(E::NegativeVariance {
-            array: "shape variances",
-            index: 1,
-            value: -1.0,
-        }),
-    );
-    add(
-        "negative appearance variance",
-        fixed(&|x| set_f32(x, lay.app_variances, -0.5)),
-        Exact(E::NegativeVariance {
-            array: "appearance variances",
-            index: 0,
-            value: -0.5,
-        }),
-    );
-    add(
-        "shape mode 0 doubled",
-        fixed(&|x| {
-            for k in 0..2 * n as usize {
-                let off = lay.shape_modes + 4 * k;
-                let val = get_f32(x, off);
-                set_f32(x, off, 2.0 * val);
-            }
-        }),
-        Like(
-            "NotOrthonormal{shape modes, 0, 0}",
-            |e| matches!(e, E::NotOrthonormal { array: "shape modes", i: 0, j: 0, dot } if (dot - 4.0).abs() < 1e-3),
+    vec![
+        case(
+            "flipped payload bit",
+            changed(v, |x| x[lay.app_base + 101] ^= 0x10),
+            checksum_mismatch(),
         ),
-    );
-    add(
-        "shape mode 1 a copy of mode 0",
-        fixed(&|x| {
-            let d = 8 * n as usize;
-            let src = x[lay.shape_modes..lay.shape_modes + d].to_vec();
-            x[lay.shape_modes + d..lay.shape_modes + 2 * d].copy_from_slice(&src);
-        }),
-        Like(
-            "NotOrthonormal{shape modes, 1, 0}",
-            |e| matches!(e, E::NotOrthonormal { array: "shape modes", i: 1, j: 0, dot } if (dot - 1.0).abs() < 1e-3),
+        case(
+            "flipped checksum bit",
+            changed(v, |x| x[lay.crc] ^= 0x01),
+            checksum_mismatch(),
         ),
-    );
-    let d3 = 12 * px as usize;
-    add(
-        "appearance mode 1 zeroed",
-        fixed(&|x| x[lay.app_modes + d3..lay.app_modes + 2 * d3].fill(0)),
-        Exact(E::NotOrthonormal {
-            array: "appearance modes",
-            i: 1,
-            j: 1,
-            dot: 0.0,
-        }),
-    );
-    add(
-        "wrong fingerprint",
-        fixed(&|x| x[offsets::FINGERPRINT] ^= 1),
-        Exact(E::FingerprintMismatch {
-            stored: a.frame().fingerprint() ^ 1,
-            recomputed: a.frame().fingerprint(),
-        }),
-    );
-    add(
-        "mesh shrunk (pixel count no longer matches)",
-        fixed(&|x| {
-            for k in 0..2 * n as usize {
-                let off = lay.vertices + 4 * k;
-                let val = get_f32(x, off);
-                set_f32(x, off, 0.8 * val);
-            }
-        }),
-        Like("PixelCountMismatch", |e| {
-            matches!(e, E::PixelCountMismatch { .. })
-        }),
-    );
-    add(
-        "all triangles degenerate",
-        fixed(&|x| x[lay.triangles..lay.app_base].fill(0)),
-        Like("BadFrame", |e| matches!(e, E::BadFrame(_))),
-    );
-    // Every triangle spans the whole mesh: the rasterisation work exceeds its limit.
+        case(
+            "flipped fingerprint bit, CRC left",
+            changed(v, |x| x[offsets::FINGERPRINT] ^= 0x80),
+            checksum_mismatch(),
+        ),
+        case(
+            "NaN in the shape base",
+            f32_at(lay.shape_base, f32::NAN),
+            non_finite("shape base", 0),
+        ),
+        case(
+            "infinity in the shape modes",
+            f32_at(lay.shape_modes + 4 * 5, f32::INFINITY),
+            non_finite("shape modes", 5),
+        ),
+        case(
+            "NaN in the frame vertices",
+            f32_at(lay.vertices + 4 * 9, f32::NAN),
+            non_finite("frame vertices", 9),
+        ),
+        case(
+            "NaN in the appearance modes",
+            f32_at(lay.app_modes + 4 * 17, f32::NAN),
+            non_finite("appearance modes", 17),
+        ),
+        case(
+            "NaN in the appearance variances",
+            f32_at(lay.app_variances, f32::NAN),
+            non_finite("appearance variances", 0),
+        ),
+        case(
+            "negative shape variance",
+            f32_at(lay.shape_variances + 4, -1.0),
+            negative("shape variances", 1, -1.0),
+        ),
+        case(
+            "negative appearance variance",
+            f32_at(lay.app_variances, -0.5),
+            negative("appearance variances", 0, -0.5),
+        ),
+        case(
+            "triangle index = landmarks",
+            fixed(v, |x| set_u32(x, lay.triangles + 4, n)),
+            bad_index(0, n),
+        ),
+        case(
+            "triangle index u32::MAX",
+            fixed(v, |x| set_u32(x, lay.triangles + 12 * 5 + 8, u32::MAX)),
+            bad_index(5, u32::MAX),
+        ),
+        case(
+            "model name not UTF-8",
+            fixed(v, |x| x[HEADER_LEN + 2] = 0xFF),
+            Exact(E::InvalidUtf8 {
+                field: "model name",
+            }),
+        ),
+        // The last byte of the reference name: a truncated 2-byte sequence.
+        case(
+            "reference name not UTF-8",
+            fixed(&wb, |x| x[lay_b.pad - 1] = 0xC0),
+            Exact(E::InvalidUtf8 {
+                field: "reference name",
+            }),
+        ),
+        case(
+            "non-zero padding",
+            fixed(v, |x| x[lay.pad] = 1),
+            Exact(E::NonZeroPadding),
+        ),
+    ]
+}
+
+/// Multiplies the `count` f32 values at `off` by `factor`.
+fn scale_f32s(x: &mut [u8], off: usize, count: usize, factor: f32) {
+    for k in 0..count {
+        let at = off + 4 * k;
+        let value = get_f32(x, at);
+        set_f32(x, at, factor * value);
+    }
+}
+
+/// The modes' orthonormality and the frame's fingerprint, with the checksum rewritten.
+fn mode_cases(base: &Base) -> Vec<Case> {
+    let (a, v, lay) = (base.a, &base.v, &base.lay);
+    let d = 8 * base.n as usize; // bytes of one shape mode
+    let d3 = 12 * a.frame().n_pixels(); // bytes of one appearance mode
+    vec![
+        case(
+            "shape mode 0 doubled",
+            fixed(v, |x| {
+                scale_f32s(x, lay.shape_modes, 2 * base.n as usize, 2.0)
+            }),
+            Like(
+                "NotOrthonormal{shape modes, 0, 0}",
+                |e| matches!(e, E::NotOrthonormal { array: "shape modes", i: 0, j: 0, dot } if (dot - 4.0).abs() < 1e-3),
+            ),
+        ),
+        case(
+            "shape mode 1 a copy of mode 0",
+            fixed(v, |x| {
+                x.copy_within(lay.shape_modes..lay.shape_modes + d, lay.shape_modes + d)
+            }),
+            Like(
+                "NotOrthonormal{shape modes, 1, 0}",
+                |e| matches!(e, E::NotOrthonormal { array: "shape modes", i: 1, j: 0, dot } if (dot - 1.0).abs() < 1e-3),
+            ),
+        ),
+        case(
+            "appearance mode 1 zeroed",
+            fixed(v, |x| x[lay.app_modes + d3..lay.app_modes + 2 * d3].fill(0)),
+            Exact(E::NotOrthonormal {
+                array: "appearance modes",
+                i: 1,
+                j: 1,
+                dot: 0.0,
+            }),
+        ),
+        case(
+            "wrong fingerprint",
+            fixed(v, |x| x[offsets::FINGERPRINT] ^= 1),
+            Exact(E::FingerprintMismatch {
+                stored: a.frame().fingerprint() ^ 1,
+                recomputed: a.frame().fingerprint(),
+            }),
+        ),
+    ]
+}
+
+/// The mesh: shrunk, degenerate, or with triangles whose rasterisation is too much work.
+fn mesh_cases(base: &Base) -> Vec<Case> {
+    let (a, v, lay, n) = (base.a, &base.v, &base.lay, base.n as usize);
+    // The leftmost, rightmost, lowest and topmost vertices.
     let ext = {
         let vs = a.frame().vertices();
         let arg = |f: &dyn Fn(usize) -> f32| {
-            (0..n as usize)
-                .max_by(|&i, &j| f(i).total_cmp(&f(j)))
-                .unwrap() as u32
+            (0..n).max_by(|&i, &j| f(i).total_cmp(&f(j))).unwrap() as u32
         };
         [
             arg(&|i| -vs[2 * i]),
@@ -1262,31 +1168,42 @@ fn bad_cases() -> Vec<(String, Vec<u8>, Expect)> {
             arg(&|i| -vs[2 * i + 1]),
         ]
     };
-    add(
-        "overlapping triangles covering the grid",
-        fixed(&|x| {
-            for k in 0..t as usize {
-                let tri = if k % 2 == 0 {
-                    [ext[0], ext[1], ext[2]]
-                } else {
-                    [ext[0], ext[1], ext[3]]
-                };
-                for (c, &i) in tri.iter().enumerate() {
-                    set_u32(x, lay.triangles + 12 * k + 4 * c, i);
+    let t = a.frame().triangles().len();
+    vec![
+        case(
+            "mesh shrunk (pixel count no longer matches)",
+            fixed(v, |x| scale_f32s(x, lay.vertices, 2 * n, 0.8)),
+            Like("PixelCountMismatch", |e| {
+                matches!(e, E::PixelCountMismatch { .. })
+            }),
+        ),
+        case(
+            "all triangles degenerate",
+            fixed(v, |x| x[lay.triangles..lay.app_base].fill(0)),
+            Like("BadFrame", |e| matches!(e, E::BadFrame(_))),
+        ),
+        // Every triangle spans the whole mesh: the rasterisation work exceeds its limit.
+        case(
+            "overlapping triangles covering the grid",
+            fixed(v, |x| {
+                for k in 0..t {
+                    let last = if k % 2 == 0 { ext[2] } else { ext[3] };
+                    for (c, i) in [ext[0], ext[1], last].into_iter().enumerate() {
+                        set_u32(x, lay.triangles + 12 * k + 4 * c, i);
+                    }
                 }
-            }
-        }),
-        Like("LimitExceeded{sum of triangle bounding boxes}", |e| {
-            matches!(
-                e,
-                E::LimitExceeded {
-                    what: "sum of triangle bounding boxes (grid cells)",
-                    ..
-                }
-            )
-        }),
-    );
-    cases
+            }),
+            Like("LimitExceeded{sum of triangle bounding boxes}", |e| {
+                matches!(
+                    e,
+                    E::LimitExceeded {
+                        what: "sum of triangle bounding boxes (grid cells)",
+                        ..
+                    }
+                )
+            }),
+        ),
+    ]
 }
 
 #[wasm_bindgen_test::wasm_bindgen_test(unsupported = test)]

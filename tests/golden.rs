@@ -30,14 +30,13 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use common::pixels::{pixel_diff, PixelDiff};
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::tiny_skia::{Color, Pixmap};
 use facemimic::{
-    canvas_view, io, photo_model, picture_view, with_default_backdrop, BuildOptions, Builder,
-    Compositor, DrawOptions, FaceDrawer, Model, Params, Rasterizer, Similarity,
+    canvas_view, io, photo_model, picture_view, Compositor, DrawOptions, FaceDrawer, Model, Params,
+    Rasterizer, Similarity,
 };
 
 const TOLERANCE: i32 = 3;
@@ -53,37 +52,17 @@ fn golden_path(name: &str) -> PathBuf {
     root().join("tests/golden").join(format!("{name}.png"))
 }
 
-fn build(list: &str, name: &str) -> Model {
-    let images = common::list_images(list);
-    Builder::new(BuildOptions {
-        name: name.into(),
-        ..BuildOptions::default()
-    })
-    .build(&images, None)
-    .unwrap()
-}
-
 fn spk07() -> &'static Model {
-    static M: OnceLock<Model> = OnceLock::new();
-    M.get_or_init(|| build("data/grid/spk07_pwij3p/train20.txt", "spk07"))
+    common::list_model("data/grid/spk07_pwij3p/train20.txt", "spk07", false)
 }
 
 fn spk02() -> &'static Model {
-    static M: OnceLock<Model> = OnceLock::new();
-    M.get_or_init(|| build("data/grid/spk02_brbk7n/train20.txt", "spk02"))
+    common::list_model("data/grid/spk02_brbk7n/train20.txt", "spk02", false)
 }
 
 /// spk02 with its default backdrop (the training frame closest to the model's mean).
 fn spk02_backdrop() -> &'static Model {
-    static M: OnceLock<Model> = OnceLock::new();
-    M.get_or_init(|| {
-        let list = io::read_list(&root().join("data/grid/spk02_brbk7n/train20.txt")).unwrap();
-        let images: Vec<_> = list
-            .iter()
-            .map(|p| io::read_training_image(p).unwrap())
-            .collect();
-        with_default_backdrop(spk02().clone(), &images, None).unwrap()
-    })
+    common::list_model("data/grid/spk02_brbk7n/train20.txt", "spk02", true)
 }
 
 /// A one-photo target: spk03's first training frame.

@@ -4,6 +4,8 @@
 //! not trained on. The figures printed here are recorded in `docs/core-figures.md`
 //! (`cargo test --release --test realdata -- --nocapture`).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use facemimic::tiny_skia::Pixmap;
@@ -21,12 +23,7 @@ fn grid(rel: &str) -> PathBuf {
 /// The spk07 clip's frames: (training stems, unseen stems).
 fn spk07_split() -> (Vec<PathBuf>, Vec<PathBuf>) {
     let train = io::read_list(&grid("spk07_pwij3p/train20.txt")).unwrap();
-    let mut all: Vec<PathBuf> = std::fs::read_dir(grid("spk07_pwij3p"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
-        .collect();
-    all.sort();
+    let all = common::clip_frames(&grid("spk07_pwij3p"));
     let unseen = all.into_iter().filter(|p| !train.contains(p)).collect();
     (train, unseen)
 }

@@ -90,40 +90,20 @@ fn fit_scale_brings_the_face_to_the_model_size_within_the_limits() {
 #[test]
 fn the_policy_is_checked() {
     let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
-    for bad in [
-        TrackPolicy {
-            appearance_limit: f32::NAN,
-            ..TrackPolicy::default()
-        },
-        TrackPolicy {
-            appearance_limit: -1.0,
-            ..TrackPolicy::default()
-        },
-        TrackPolicy {
-            min_fit_side: 2000,
-            ..TrackPolicy::default()
-        },
-        TrackPolicy {
-            max_upscale: 0.5,
-            ..TrackPolicy::default()
-        },
-        TrackPolicy {
-            native_band: 0.9,
-            ..TrackPolicy::default()
-        },
-        TrackPolicy {
-            rescale_change: f32::INFINITY,
-            ..TrackPolicy::default()
-        },
-        TrackPolicy {
-            recentre_tau: f32::NAN,
-            ..TrackPolicy::default()
-        },
-        TrackPolicy {
-            recentre_tau: -1.0,
-            ..TrackPolicy::default()
-        },
-    ] {
+    // Each a field out of its range.
+    let bad_fields: [fn(&mut TrackPolicy); 8] = [
+        |p| p.appearance_limit = f32::NAN,
+        |p| p.appearance_limit = -1.0,
+        |p| p.min_fit_side = 2000,
+        |p| p.max_upscale = 0.5,
+        |p| p.native_band = 0.9,
+        |p| p.rescale_change = f32::INFINITY,
+        |p| p.recentre_tau = f32::NAN,
+        |p| p.recentre_tau = -1.0,
+    ];
+    for set in bad_fields {
+        let mut bad = TrackPolicy::default();
+        set(&mut bad);
         let e = t.set_policy(bad.clone()).unwrap_err().to_string();
         assert!(e.contains("tracking policy"), "{bad:?}: {e}");
     }

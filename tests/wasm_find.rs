@@ -9,6 +9,9 @@
 //! - Bad input (a buffer of the wrong length, 0x0, sizes over the limit and `u32::MAX`): a JS
 //!   `Error` (a `JsError`) naming the problem, never a trap; the finder keeps working after.
 
+mod common;
+
+use common::js::message;
 use facemimic::landmarks::parse_pts;
 use facemimic::wasm::JsFaceFinder;
 use js_sys::{Array, Float32Array, Reflect};
@@ -25,13 +28,6 @@ fn frame() -> (Vec<u8>, u32, u32) {
         .to_rgba8();
     let (w, h) = img.dimensions();
     (img.into_raw(), w, h)
-}
-
-fn message(e: JsError) -> String {
-    let v: JsValue = e.into();
-    v.dyn_into::<js_sys::Error>()
-        .map(|e| String::from(e.message()))
-        .unwrap_or_default()
 }
 
 fn get(o: &JsValue, k: &str) -> JsValue {
@@ -74,14 +70,7 @@ fn finds_the_face_of_a_grid_frame_near_its_landmarks() {
     let cx = truth.iter().step_by(2).sum::<f32>() as f64 / n;
     let cy = truth.iter().skip(1).step_by(2).sum::<f32>() as f64 / n;
     assert!(cx > bx && cx < bx + bw && cy > by && cy < by + bh);
-    let eyes = ((truth[72] - truth[90]).powi(2) + (truth[73] - truth[91]).powi(2)).sqrt();
-    let err = points
-        .chunks(2)
-        .zip(truth.chunks(2))
-        .map(|(p, t)| ((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2)).sqrt())
-        .sum::<f32>()
-        / 68.0
-        / eyes;
+    let err = facemimic::find::landmark_error(&points, &truth);
     assert!(err < 0.1, "mean landmark error {err} of the eye distance");
 }
 

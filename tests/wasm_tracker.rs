@@ -16,20 +16,15 @@
 //!   `tests/data/tiny-track.csv` that `tests/cli.rs` checks `facemimic fit` against (landmarks,
 //!   pose and `placed` in the frame's pixels, the fit scale chosen by the tracker).
 
+mod common;
+
+use common::js::message;
 use facemimic::wasm::{lerp_pose, recentre_pose, JsModel, WasmFollower, WasmTracker};
 use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
-use wasm_bindgen::JsCast;
 use wasm_bindgen_test::wasm_bindgen_test;
 
 const TINY: &[u8] = include_bytes!("data/tiny-v1.fmm");
-
-fn message(e: JsError) -> String {
-    let v: JsValue = e.into();
-    v.dyn_into::<js_sys::Error>()
-        .map(|e| String::from(e.message()))
-        .unwrap_or_default()
-}
 
 fn get(o: &JsValue, k: &str) -> f64 {
     Reflect::get(o, &JsValue::from_str(k))

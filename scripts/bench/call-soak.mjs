@@ -26,14 +26,11 @@
 
 import fs from 'node:fs';
 import path from 'node:path';
-import { launchBrowser, ROOT } from '../../tests/e2e/lib.mjs';
+import { ROOT } from '../../tests/e2e/lib.mjs';
 import { summarise, diff, report } from './heap-diff.mjs';
-import { fakeMedia, startDemoServer, status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
+import { status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
+import { arg, runCall } from './call-run.mjs';
 
-const arg = (name, def) => {
-  const i = process.argv.indexOf(`--${name}`);
-  return i > 0 ? process.argv[i + 1] : def;
-};
 const minutes = Number(arg('minutes', 30));
 const every = Number(arg('every', 30));
 const out = path.resolve(ROOT, arg('out', 'artifacts/call-soak.json'));
@@ -44,13 +41,8 @@ if (!(minutes > 1) || !(every > 0) || !['every', 'ends'].includes(gcMode)) {
   process.exit(2);
 }
 
-const cleanups = [];
-const args = await fakeMedia((fn) => cleanups.push(fn), 'soak');
-const browser = await launchBrowser([...args, '--enable-precise-memory-info']);
-const server = await startDemoServer();
 const t0 = Date.now();
 const samples = [];
-let exitCode = 0;
 
 /**
  * The page's live JS heap after forced collections: the least of three readings of
@@ -113,7 +105,7 @@ function timeFrames() {
   window.__soakReset = () => Object.assign(w, { frames: 0, maxGap: 0, gaps200: 0, since: performance.now(), events: [] });
 }
 
-try {
+await runCall('call-soak', { media: 'soak', browserArgs: ['--enable-precise-memory-info'] }, async ({ browser, server }) => {
   const { a, b } = await twoPages(browser, server);
   for (const p of [a, b]) await waitCall(p, () => window.facemimicCall.state === 'connected' && window.facemimicCall.remoteFrames > 30, 60000);
   const pages = { A: a, B: b };
@@ -251,12 +243,4 @@ try {
   fs.mkdirSync(path.dirname(out), { recursive: true });
   fs.writeFileSync(out, JSON.stringify({ summary, samples }, null, 1));
   console.log(`call-soak: samples and summary in ${path.relative(ROOT, out)}`);
-} catch (e) {
-  console.error(`call-soak: ${e.stack || e}`);
-  exitCode = 1;
-} finally {
-  await browser.close();
-  await server.stop();
-  for (const fn of cleanups) fn();
-}
-process.exit(exitCode);
+});

@@ -14,13 +14,10 @@
 
 import fs from 'node:fs';
 import path from 'node:path';
-import { launchBrowser, ROOT } from '../../tests/e2e/lib.mjs';
-import { fakeMedia, startDemoServer, status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
+import { ROOT } from '../../tests/e2e/lib.mjs';
+import { status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
+import { arg, runCall } from './call-run.mjs';
 
-const arg = (name, def) => {
-  const i = process.argv.indexOf(`--${name}`);
-  return i > 0 ? process.argv[i + 1] : def;
-};
 const seconds = Number(arg('seconds', 30));
 const warmup = Number(arg('warmup', 10));
 const out = path.resolve(ROOT, arg('out', 'artifacts/call-bench.json'));
@@ -35,12 +32,7 @@ const q = (arr, p) => {
 };
 const r1 = (x) => (x === null || x === undefined ? null : Math.round(x * 10) / 10);
 
-const cleanups = [];
-const args = await fakeMedia((fn) => cleanups.push(fn), 'bench');
-const browser = await launchBrowser(args);
-const server = await startDemoServer();
-let exitCode = 0;
-try {
+await runCall('call bench', { media: 'bench' }, async ({ browser, server }) => {
   const { a, b } = await twoPages(browser, server, { extra: '&bench=1' });
   const pages = { A: a, B: b };
   for (const p of Object.values(pages)) await waitCall(p, () => window.facemimicCall.state === 'connected' && window.facemimicCall.latencySource === 'stamp', 60000);
@@ -94,12 +86,4 @@ try {
   console.log(JSON.stringify(summary, null, 2));
   fs.mkdirSync(path.dirname(out), { recursive: true });
   fs.writeFileSync(out, JSON.stringify(summary, null, 1));
-} catch (e) {
-  console.error(`call bench: ${e.stack || e}`);
-  exitCode = 1;
-} finally {
-  await browser.close();
-  await server.stop();
-  for (const fn of cleanups) fn();
-}
-process.exit(exitCode);
+});

@@ -21,7 +21,10 @@ use std::path::{Path, PathBuf};
 
 use facemimic::Similarity;
 #[cfg(not(target_arch = "wasm32"))]
-use facemimic::{io, select_varied, TrainingImage};
+use facemimic::{
+    io, select_varied, with_default_backdrop, BuildOptions, Builder, FaceFinder, Image, Model,
+    TrainingImage,
+};
 
 /// Perturbs landmarks about their centroid: translation up to 5% of the face width (extent of
 /// the landmarks along x) in x and y, rotation up to 5 degrees, scale up to 5%; the cold starts
@@ -81,6 +84,45 @@ pub fn list_images(list: &str) -> Vec<TrainingImage> {
         .iter()
         .map(|p| io::read_training_image(p).unwrap())
         .collect()
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The model named `name` built with the default options from the list file `list` (a
+/// repository path), with its default backdrop if `backdrop`: built once per test binary and
+/// kept for the binary's life.
+pub fn list_model(list: &str, name: &str, backdrop: bool) -> &'static Model {
+    type Built = Vec<((String, String, bool), &'static Model)>;
+    static BUILT: std::sync::Mutex<Built> = std::sync::Mutex::new(Vec::new());
+    let key = (list.to_string(), name.to_string(), backdrop);
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(&(_, m)) = built.iter().find(|(k, _)| *k == key) {
+        return m;
+    }
+    let train = list_images(list);
+    let m = Builder::new(BuildOptions {
+        name: name.into(),
+        ..BuildOptions::default()
+    })
+    .build(&train, None)
+    .unwrap();
+    let m = if backdrop {
+        with_default_backdrop(m, &train, None).unwrap()
+    } else {
+        m
+    };
+    let m: &'static Model = Box::leak(Box::new(m));
+    built.push((key, m));
+    m
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// The landmarks of the first (most confident) face `finder` finds in `image`, if any.
+pub fn first_face(finder: &mut FaceFinder, image: &Image) -> Option<Vec<f32>> {
+    finder
+        .find(&image.view().unwrap())
+        .into_iter()
+        .next()
+        .map(|f| f.landmarks)
 }
 
 #[cfg(not(target_arch = "wasm32"))]

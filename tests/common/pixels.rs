@@ -48,3 +48,22 @@ pub fn mean_abs_diff(a: &[u8], b: &[u8]) -> f32 {
         .sum::<f32>()
         / a.len().max(1) as f32
 }
+
+/// Whether the pixel centre `(x, y)` lies in triangle `(a, b, c)`; `margin` (in barycentric
+/// units) widens (> 0) or narrows (< 0) it.
+pub fn in_triangle(
+    p: (f32, f32),
+    a: (f32, f32),
+    b: (f32, f32),
+    c: (f32, f32),
+    margin: f32,
+) -> bool {
+    let det = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
+    if det.abs() < 1e-9 {
+        return false;
+    }
+    let l1 = ((p.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (p.1 - a.1)) / det;
+    let l2 = ((b.0 - a.0) * (p.1 - a.1) - (p.0 - a.0) * (b.1 - a.1)) / det;
+    let l0 = 1.0 - l1 - l2;
+    l0 >= -margin && l1 >= -margin && l2 >= -margin
+}

@@ -18,6 +18,14 @@ import { launchBrowser, haveChromium, screenshot, serveStatic, ROOT } from './li
 import { fakeMedia, startDemoServer, status, waitCall, remotePicture, meanAbs, twoPages } from './call-lib.mjs';
 import path from 'node:path';
 
+/** Sets the input `selector` of `page` to `value` as the user would: an `input` event follows. */
+function setInput(page, selector, value) {
+  return page.$eval(selector, (el, v) => {
+    el.value = v;
+    el.dispatchEvent(new Event('input'));
+  }, value);
+}
+
 const HAVE_PKG = fs.existsSync(path.join(ROOT, 'www', 'pkg', 'facemimic_bg.wasm')) && fs.existsSync(path.join(ROOT, 'www', 'models', 'manifest.json'));
 const skip = !haveChromium() ? 'chromium is absent' : !HAVE_PKG ? 'www/pkg or www/models is missing (scripts/build-wasm.sh, scripts/build-models.sh)' : false;
 
@@ -157,24 +165,15 @@ test('identity switch mid-call (no renegotiation); the experimenter sets the oth
   assert.equal(afterA.avatar, 'spk05');
 
   // B (the experimenter) sets A's gain, head motion and avatar through the data channel.
-  await b.$eval('#peer-gain', (el) => {
-    el.value = '0.5';
-    el.dispatchEvent(new Event('input'));
-  });
-  await b.$eval('#peer-head', (el) => {
-    el.value = '0.2';
-    el.dispatchEvent(new Event('input'));
-  });
+  await setInput(b, '#peer-gain', '0.5');
+  await setInput(b, '#peer-head', '0.2');
   await waitCall(a, () => window.facemimicCall.settings.gain === 0.5 && window.facemimicCall.settings.head === 0.2, 5000);
   await b.selectOption('#peer-avatar', 'b:spk06.fmm');
   await waitCall(a, () => window.facemimicCall.avatar === 'spk06', 5000);
   assert.equal((await status(a)).negotiations, negA);
   // A refuses once "Let the other side set mine" is off.
   await a.uncheck('#allow-remote');
-  await b.$eval('#peer-gain', (el) => {
-    el.value = '2';
-    el.dispatchEvent(new Event('input'));
-  });
+  await setInput(b, '#peer-gain', '2');
   await a.waitForTimeout(800);
   assert.equal((await status(a)).settings.gain, 0.5);
   await a.check('#allow-remote');
@@ -211,14 +210,8 @@ test('identity switch mid-call (no renegotiation); the experimenter sets the oth
   assert.ok((await status(b)).remoteFps > 0);
 
   // Back to the defaults, and A's own controls.
-  await a.$eval('#gain', (el) => {
-    el.value = '1';
-    el.dispatchEvent(new Event('input'));
-  });
-  await a.$eval('#head', (el) => {
-    el.value = '1';
-    el.dispatchEvent(new Event('input'));
-  });
+  await setInput(a, '#gain', '1');
+  await setInput(a, '#head', '1');
   await waitCall(b, () => window.facemimicCall.peer.gain === 1 && window.facemimicCall.peer.head === 1, 5000);
 });
 

@@ -7,22 +7,21 @@
 //
 //   node --test --test-concurrency=1 tests/e2e/composite.test.mjs
 
-import { test, before, after } from 'node:test';
+import { test, before } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
 import zlib from 'node:zlib';
 import {
   ROOT,
-  serveStatic,
-  launchBrowser,
   screenshot,
   canvasStats,
   canvasPixels,
   meanAbsDiff,
   cornerDistances,
-  assertPageBuilt,
   openPage,
+  pageSuite,
+  dropFiles,
 } from './lib.mjs';
 
 const WWW = path.resolve(ROOT, process.env.FACEMIMIC_WWW || 'www');
@@ -35,47 +34,13 @@ const OTHER_PHOTO = path.join(GRID, 'spk08_sbia1a', fs.readdirSync(path.join(GRI
 const TARGETS = '.face-card.target canvas.face';
 const FACE_BG = [0x1b, 0x1d, 0x22]; // the page's canvas background (FACE_BG in www/app.js)
 
-let server;
-let browser;
-let manifest;
+const suite = pageSuite(WWW);
 
-before(async () => {
-  assertPageBuilt(WWW);
-  assert.ok(fs.existsSync(PHOTO), `${PHOTO} is missing`);
-  manifest = JSON.parse(fs.readFileSync(path.join(MODELS, 'manifest.json'), 'utf8'));
-  server = await serveStatic(WWW);
-  browser = await launchBrowser();
-});
-
-after(async () => {
-  await browser?.close();
-  await server?.close();
-});
+before(() => assert.ok(fs.existsSync(PHOTO), `${PHOTO} is missing`));
 
 /** Open the page in a fresh context (lib.mjs `openPage`). */
 function open(t, { width = 1440, height = 900 } = {}) {
-  return openPage(t, browser, server, { context: { viewport: { width, height }, deviceScaleFactor: 1, acceptDownloads: true } });
-}
-
-/** Drop files (`{ name, bytes, type? }`) on an element through a synthetic DataTransfer. */
-async function dropFiles(page, selector, files) {
-  const payload = files.map((f) => ({ name: f.name, type: f.type || '', b64: Buffer.from(f.bytes).toString('base64') }));
-  await page.$eval(
-    selector,
-    (el, payload) => {
-      const dt = new DataTransfer();
-      for (const f of payload) {
-        const bin = atob(f.b64);
-        const bytes = new Uint8Array(bin.length);
-        for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-        dt.items.add(new File([bytes], f.name, { type: f.type }));
-      }
-      for (const type of ['dragenter', 'dragover', 'drop']) {
-        el.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
-      }
-    },
-    payload,
-  );
+  return openPage(t, suite.browser, suite.server, { context: { viewport: { width, height }, deviceScaleFactor: 1, acceptDownloads: true } });
 }
 
 const file = (p, type = 'image/jpeg') => ({ name: path.basename(p), bytes: fs.readFileSync(p), type });
@@ -132,7 +97,7 @@ async function assertFaceOnly(page, selector, what) {
 
 test('targets open composited into their pictures; "Face only" shows the faces alone, Reset brings the pictures back', async (t) => {
   const { page, errors, frames } = await open(t);
-  const n = manifest.targets.length;
+  const n = suite.manifest.targets.length;
   assert.equal(await targetCount(page), n);
   assert.equal(await page.isChecked('#face-only'), false, 'Face only is off by default');
   await frames(3);
@@ -336,7 +301,7 @@ function damagedBackdrop(bytes) {
 
 test('a model whose backdrop is damaged says so once and is drawn face only', async (t) => {
   const { page, errors, frames } = await open(t);
-  const spare = (manifest.library || []).find((f) => !manifest.targets.includes(f));
+  const spare = (suite.manifest.library || []).find((f) => !suite.manifest.targets.includes(f));
   const bad = damagedBackdrop(fs.readFileSync(path.join(MODELS, spare)));
   const n0 = await targetCount(page);
   await dropFiles(page, '#add-card', [{ name: `damaged-${spare}`, bytes: bad }]);
@@ -358,7 +323,7 @@ test('a model whose backdrop is damaged says so once and is drawn face only', as
 test('the PNG snapshot and the WebM recording hold the pictures as shown', async (t) => {
   const { page, errors, frames } = await open(t);
   await dropFiles(page, '#add-card', [file(PHOTO), file(PHOTO_PTS, 'text/plain')]);
-  await page.waitForFunction((n) => document.querySelectorAll('.face-card.target').length === n, manifest.targets.length + 1, { timeout: 60_000 });
+  await page.waitForFunction((n) => document.querySelectorAll('.face-card.target').length === n, suite.manifest.targets.length + 1, { timeout: 60_000 });
   await frames(2);
   const snapshot = async () => {
     const [png] = await Promise.all([page.waitForEvent('download'), page.click('#snapshot')]);

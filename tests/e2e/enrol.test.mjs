@@ -9,7 +9,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, fakeCameraFile, fakeCameraArgs, assertPageBuilt } from './lib.mjs';
+import { ROOT, serveStatic, canvasStats, screenshot, fakeCameraFile, assertPageBuilt, cameraBrowser, assertTargetsMove, openPage, webcamLog } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const TRAIN = path.join(ROOT, 'data', 'grid', 'spk07_pwij3p');
@@ -31,15 +31,8 @@ function faceCamera(t) {
 
 test('a face created in the page becomes the source, and the webcam tracks it with its own model and drives the targets', async (t) => {
   const camera = await faceCamera(t);
-  const browser = await launchBrowser(fakeCameraArgs(camera));
-  t.after(() => browser.close());
-  const context = await browser.newContext({ viewport: { width: 1440, height: 1600 } });
-  const page = await context.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  await page.goto(server.url);
-  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
-  await page.waitForSelector('body[data-shelf="ready"]', { timeout: 30_000 });
+  const browser = await cameraBrowser(t, camera);
+  const { page, errors } = await openPage(t, browser, server, { context: { viewport: { width: 1440, height: 1600 } }, ready: ['body[data-shelf="ready"]'], console: false });
 
   // Create the face from photos.
   const stems = fs.readFileSync(path.join(TRAIN, 'train20.txt'), 'utf8').split('\n').map((s) => s.trim()).filter(Boolean);
@@ -57,10 +50,7 @@ test('a face created in the page becomes the source, and the webcam tracks it wi
   await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Me'));
 
   // The webcam source tracks the face with the enrolled model.
-  await page.selectOption('#source-kind', 'webcam');
-  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout: 30_000 });
-  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
-  const log = await page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+  const log = await webcamLog(page, 30_000);
   const lost = log.filter((l) => l.lost).length;
   const meanErr = log.reduce((s, l) => s + l.error, 0) / log.length;
   console.log(`# enrolled source on the face camera: ${log.length} fits, ${lost} lost, fit error mean ${meanErr.toFixed(4)}`);
@@ -68,14 +58,7 @@ test('a face created in the page becomes the source, and the webcam tracks it wi
   assert.ok(meanErr < 0.06, `fit error mean ${meanErr}`);
   assert.ok((await page.textContent('.face-card.source')).includes('Me'), 'the source is still the enrolled face');
   // Every target follows.
-  const targets = await page.$$eval('.face-card.target canvas.face', (c) => c.length);
-  assert.ok(targets >= 1);
-  const before = [];
-  for (let i = 0; i < targets; i++) before.push(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`));
-  await page.waitForTimeout(800);
-  for (let i = 0; i < targets; i++) {
-    assert.notEqual(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`), before[i], `target ${i} does not move`);
-  }
+  await assertTargetsMove(page, 800);
   await screenshot(page, 'enrol-drives-targets', { fullPage: false });
   assert.deepEqual(errors, []);
 });

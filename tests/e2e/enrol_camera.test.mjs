@@ -28,7 +28,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, fakeCameraArgs, mjpegCamera, FAKE_CAMERA_ARGS, assertPageBuilt, openPage } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, canvasDigest, canvasStats, screenshot, mjpegCamera, FAKE_CAMERA_ARGS, assertPageBuilt, openPage, cancelEnrolBuild, cameraBrowser, assertTargetsMove, webcamLog } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const DATA = path.join(ROOT, '..', 'shared', 'data', 'webcam-dev');
@@ -246,8 +246,7 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
   // webcam-dev frames 0-599 as they are (400x300 JPEGs, one after another: an MJPEG stream).
   const jpegs = Array.from({ length: 600 }, (_, i) => fs.readFileSync(path.join(DATA, `${String(i).padStart(6, '0')}.jpg`)));
   const camera = mjpegCamera(t, jpegs, 'enrol-webcam');
-  const browser = await launchBrowser(fakeCameraArgs(camera));
-  t.after(() => browser.close());
+  const browser = await cameraBrowser(t, camera);
   const { page, errors } = await open(t, browser);
   await openEnrol(page);
   await page.fill('#enrol .enrol-name', 'Webcam man');
@@ -321,22 +320,12 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
   await page.waitForFunction(() => document.querySelector('.face-card.source')?.textContent.includes('Webcam man'));
 
   // The webcam source tracks with the enrolled model and drives every target.
-  await page.selectOption('#source-kind', 'webcam');
-  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout: 60_000 });
-  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
-  const log = await page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+  const log = await webcamLog(page, 60_000);
   const lost = log.filter((l) => l.lost).length;
   console.log(`# tracking with the enrolled model: ${log.length} fits, ${lost} lost, fit error mean ${(log.reduce((s, l) => s + l.error, 0) / log.length).toFixed(4)}`);
   assert.ok(lost <= log.length / 4, `${lost} of ${log.length} frames lost`);
   assert.ok((await page.textContent('.face-card.source')).includes('Webcam man'));
-  const targets = await page.$$eval('.face-card.target canvas.face', (c) => c.length);
-  assert.ok(targets >= 1);
-  const digests = [];
-  for (let i = 0; i < targets; i++) digests.push(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`));
-  await page.waitForTimeout(1000);
-  for (let i = 0; i < targets; i++) {
-    assert.notEqual(await canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`), digests[i], `target ${i} does not move`);
-  }
+  await assertTargetsMove(page, 1000);
   await screenshot(page, 'enrol-webcam-drives-targets', { fullPage: false });
 
   // Enrolling again while the webcam source tracks: both find faces with the page's one finder
@@ -423,15 +412,8 @@ test('enrolment bad input: no face, too few frames, camera refused or stopping, 
     await page.setInputFiles('#enrol input[type="file"]', photos);
     await page.waitForFunction(() => /^\d+ usable faces out of 12 frames/.test(document.querySelector('#enrol .enrol-status').textContent), null, { timeout: 120_000 });
     assert.ok(await page.evaluate(() => window.facemimicEnrol.candidates.length) >= 8);
-    // Cancelled from the dialog while the build worker runs (its wasm held back, so the build is
-    // surely not over when Cancel is pressed: a 20-frame build takes well under a second).
-    await page.route('**/facemimic_bg.wasm', async (route) => {
-      await new Promise((r) => setTimeout(r, 1500));
-      await route.continue().catch(() => {}); // the cancelled worker is gone by then
-    });
-    await page.click('#enrol .btn.primary');
-    await page.getByRole('button', { name: 'Cancel' }).click();
-    await page.waitForFunction(() => /cancelled; nothing was kept/.test(document.querySelector('#enrol .enrol-status').textContent));
+    // Cancelled from the dialog while the build worker runs.
+    await cancelEnrolBuild(page);
     await page.waitForTimeout(500);
     assert.deepEqual(await shelf(page), []);
     await page.reload();

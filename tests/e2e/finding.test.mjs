@@ -13,7 +13,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, screenshot, readPts, fakeCameraFile, fakeCameraArgs, landmarkError, assertPageBuilt, openPage } from './lib.mjs';
+import { ROOT, serveStatic, launchBrowser, screenshot, readPts, fakeCameraFile, landmarkError, assertPageBuilt, openPage, cameraBrowser } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const UNSEEN = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
@@ -191,14 +191,8 @@ test('black frames are a lost face ("face lost"), and the face is tracked again 
   const BLACK = [30, 45];
   const black = new Set(Array.from({ length: BLACK[1] - BLACK[0] }, (_, i) => BLACK[0] + i));
   const camera = await fakeCameraFile(t, UNSEEN, { name: 'blackout-camera', black });
-  const b = await launchBrowser(fakeCameraArgs(camera));
-  t.after(() => b.close());
-  const context = await b.newContext({ viewport: { width: 1440, height: 1400 } });
-  const page = await context.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  await page.goto(server.url);
-  await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
+  const b = await cameraBrowser(t, camera);
+  const { page, errors } = await openPage(t, b, server, { context: { viewport: { width: 1440, height: 1400 } }, console: false });
   await page.selectOption('#source-kind', 'webcam');
   await page.waitForSelector(PANEL);
   await page.evaluate(() => {

@@ -14,6 +14,7 @@ import path from 'node:path';
 import { fileURLToPath, pathToFileURL } from 'node:url';
 import assert from 'node:assert/strict';
 import zlib from 'node:zlib';
+import { before, after } from 'node:test';
 import { chromium } from 'playwright-core';
 
 /** The repository root (two levels above this file). */
@@ -379,6 +380,76 @@ export function assertPageBuilt(www = path.join(ROOT, 'www')) {
 }
 
 /**
+ * Drops files (`{ name, bytes, type? }`; `type` defaults to `defaultType`) on the element
+ * `selector` of `page` through a synthetic DataTransfer, as a user's drag and drop would.
+ */
+export async function dropFiles(page, selector, files, defaultType = '') {
+  const payload = files.map((f) => ({ name: f.name, type: f.type || defaultType, b64: Buffer.from(f.bytes).toString('base64') }));
+  await page.$eval(
+    selector,
+    (el, payload) => {
+      const dt = new DataTransfer();
+      for (const f of payload) {
+        const bin = atob(f.b64);
+        const bytes = new Uint8Array(bin.length);
+        for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+        dt.items.add(new File([bytes], f.name, { type: f.type }));
+      }
+      for (const type of ['dragenter', 'dragover', 'drop']) {
+        el.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
+      }
+    },
+    payload,
+  );
+}
+
+/**
+ * Switches the page's source to the webcam and waits until it tracks (the panel within
+ * `timeout` ms) and has fitted 40 frames; returns the tracking log as `{ lost, error }` a fit.
+ */
+export async function webcamLog(page, timeout) {
+  await page.selectOption('#source-kind', 'webcam');
+  await page.waitForSelector('.trk-panel[data-phase="tracking"]', { timeout });
+  await page.waitForFunction(() => window.facemimicTracking?.log.length >= 40, null, { timeout: 60_000 });
+  return page.evaluate(() => window.facemimicTracking.log.map((l) => ({ lost: l.lost, error: l.error })));
+}
+
+/**
+ * A test file's page in `www` (the page's folder): before its tests, checks that the page is
+ * built, serves `www` and launches a browser; after them, closes both. Returns `{ server,
+ * browser, manifest }` (`manifest`: the default models' manifest.json), set by then.
+ */
+export function pageSuite(www) {
+  const suite = {};
+  before(async () => {
+    assertPageBuilt(www);
+    suite.manifest = JSON.parse(fs.readFileSync(path.join(www, 'models', 'manifest.json'), 'utf8'));
+    suite.server = await serveStatic(www);
+    suite.browser = await launchBrowser();
+  });
+  after(async () => {
+    await suite.browser?.close();
+    await suite.server?.close();
+  });
+  return suite;
+}
+
+/**
+ * Presses the enrol dialog's build button, then Cancel while the build worker runs (the
+ * worker's wasm is held back 1.5 s, so the build is surely not over when Cancel is pressed: a
+ * 20-frame build takes well under a second), and waits for the dialog to say nothing was kept.
+ */
+export async function cancelEnrolBuild(page) {
+  await page.route('**/facemimic_bg.wasm', async (route) => {
+    await new Promise((r) => setTimeout(r, 1500));
+    await route.continue().catch(() => {}); // the cancelled worker is gone by then
+  });
+  await page.click('#enrol .btn.primary');
+  await page.getByRole('button', { name: 'Cancel' }).click();
+  await page.waitForFunction(() => /cancelled; nothing was kept/.test(document.querySelector('#enrol .enrol-status').textContent));
+}
+
+/**
  * Opens `server`'s page in a fresh context of `browser` (`context`: its options; closed after
  * the test `t`) and waits until it has drawn (and `ready`, more selectors to wait for). Returns
  * `{ page, errors, offOrigin, frames }`: the page errors (and console errors unless `console`
@@ -418,6 +489,24 @@ export async function openPage(t, browser, server, { context: options = {}, read
       n,
     );
   return { page, errors, offOrigin, frames };
+}
+
+/** A browser whose camera plays `camera` (`fakeCameraArgs`), closed after the test `t`. */
+export async function cameraBrowser(t, camera) {
+  const browser = await launchBrowser(fakeCameraArgs(camera));
+  t.after(() => browser.close());
+  return browser;
+}
+
+/** Asserts that the page has a target card and that every target's face changes within `ms`. */
+export async function assertTargetsMove(page, ms) {
+  const targets = await page.$$eval('.face-card.target canvas.face', (c) => c.length);
+  assert.ok(targets >= 1);
+  const digest = (i) => canvasDigest(page, `.face-card.target >> nth=${i} >> canvas.face`);
+  const before = [];
+  for (let i = 0; i < targets; i++) before.push(await digest(i));
+  await page.waitForTimeout(ms);
+  for (let i = 0; i < targets; i++) assert.notEqual(await digest(i), before[i], `target ${i} does not move`);
 }
 
 /** Chromium's switches for a fake camera the page may use without asking (and autoplay). */

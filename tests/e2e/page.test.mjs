@@ -4,7 +4,7 @@
 //
 //   node --test --test-concurrency=1 tests/e2e/
 
-import { test, before, after } from 'node:test';
+import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
@@ -12,41 +12,26 @@ import path from 'node:path';
 import { execFileSync } from 'node:child_process';
 import {
   ROOT,
-  serveStatic,
-  launchBrowser,
   screenshot,
   canvasStats,
   canvasPixels,
   meanAbsDiff,
   faceBox,
   cornerDistances,
-  assertPageBuilt,
   openPage,
+  pageSuite,
+  dropFiles as dropFilesOn,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
 const WWW = path.resolve(ROOT, process.env.FACEMIMIC_WWW || 'www');
 const MODELS = path.join(WWW, 'models');
 
-let server;
-let browser;
-let manifest;
-
-before(async () => {
-  assertPageBuilt(WWW);
-  manifest = JSON.parse(fs.readFileSync(path.join(MODELS, 'manifest.json'), 'utf8'));
-  server = await serveStatic(WWW);
-  browser = await launchBrowser();
-});
-
-after(async () => {
-  await browser?.close();
-  await server?.close();
-});
+const suite = pageSuite(WWW);
 
 /** Open the page in a fresh context (lib.mjs `openPage`); `autoplay` false asks for reduced motion. */
 function open(t, { width = 1440, height = 900, dpr = 1, autoplay = true } = {}) {
-  return openPage(t, browser, server, {
+  return openPage(t, suite.browser, suite.server, {
     context: { viewport: { width, height }, deviceScaleFactor: dpr, acceptDownloads: true, reducedMotion: autoplay ? 'no-preference' : 'reduce' },
   });
 }
@@ -103,26 +88,8 @@ async function setSlider(page, id, value) {
   );
 }
 
-/** Drop files on an element through a synthetic DataTransfer (as a user's drag and drop would). */
-async function dropFiles(page, selector, files) {
-  const payload = files.map((f) => ({ name: f.name, b64: Buffer.from(f.bytes).toString('base64') }));
-  await page.$eval(
-    selector,
-    (el, payload) => {
-      const dt = new DataTransfer();
-      for (const f of payload) {
-        const bin = atob(f.b64);
-        const bytes = new Uint8Array(bin.length);
-        for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-        dt.items.add(new File([bytes], f.name, { type: 'application/octet-stream' }));
-      }
-      for (const type of ['dragenter', 'dragover', 'drop']) {
-        el.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
-      }
-    },
-    payload,
-  );
-}
+/** Drop model files on an element (lib.mjs `dropFiles`, as `application/octet-stream`). */
+const dropFiles = (page, selector, files) => dropFilesOn(page, selector, files, 'application/octet-stream');
 
 function modelBytes(file) {
   return fs.readFileSync(path.join(MODELS, file));
@@ -130,7 +97,7 @@ function modelBytes(file) {
 
 test('the page opens playing, with the source painted as a face and every default target as its picture', async (t) => {
   const { page, errors, offOrigin, frames } = await open(t);
-  const nTargets = manifest.targets.length;
+  const nTargets = suite.manifest.targets.length;
   assert.ok(nTargets >= 4, `the manifest lists ${nTargets} default targets`);
   assert.equal(await page.locator(TARGETS).count(), nTargets);
   assert.equal(await page.getAttribute('#play', 'data-state'), 'playing', 'the track plays on load');
@@ -265,8 +232,8 @@ test('play advances the track at 25 fps and the sliders follow it; space toggles
 
 test('dropping valid models adds and replaces targets; removing one works', async (t) => {
   const { page, errors, frames } = await open(t);
-  const loaded = new Set(manifest.targets);
-  const spare = (manifest.library || []).filter((f) => !loaded.has(f));
+  const loaded = new Set(suite.manifest.targets);
+  const spare = (suite.manifest.library || []).filter((f) => !loaded.has(f));
   assert.ok(spare.length >= 2, 'the library needs two models that are not default targets');
   const n0 = await page.locator(TARGETS).count();
 
@@ -297,7 +264,7 @@ test('dropping valid models adds and replaces targets; removing one works', asyn
 
 test('dropping a model on the source swaps the source; the track comes back with the bundled one', async (t) => {
   const { page, errors, frames } = await open(t);
-  const other = (manifest.library || []).find((f) => !manifest.targets.includes(f));
+  const other = (suite.manifest.library || []).find((f) => !suite.manifest.targets.includes(f));
   assert.ok(other, 'no spare model in the library');
   const before = await page.$$eval('#shape-sliders input', (els) => els.length);
   await dropFiles(page, '.face-card.source', [{ name: other, bytes: modelBytes(other) }]);
@@ -321,7 +288,7 @@ test('dropping a model on the source swaps the source; the track comes back with
   assert.ok(meanAbsDiff(a, await canvasPixels(page, `${TARGETS} >> nth=0`)) > 0.5, 'the new source does not drive the targets');
 
   // The bundled source back: the track is offered again and plays.
-  await dropFiles(page, '.face-card.source', [{ name: manifest.source, bytes: modelBytes(manifest.source) }]);
+  await dropFiles(page, '.face-card.source', [{ name: suite.manifest.source, bytes: modelBytes(suite.manifest.source) }]);
   await page.waitForFunction(() => document.querySelector('#source-kind').value === 'track');
   assert.equal(await page.$$eval('#shape-sliders input', (els) => els.length), before);
   await page.click('#play');
@@ -332,7 +299,7 @@ test('dropping a model on the source swaps the source; the track comes back with
 test('bad files show an error naming the file and the reason; the page keeps rendering', async (t) => {
   const { page, frames } = await open(t);
   const n0 = await page.locator(TARGETS).count();
-  const good = modelBytes(manifest.targets[0]);
+  const good = modelBytes(suite.manifest.targets[0]);
 
   const corrupt = Buffer.from(good);
   for (let i = 200; i < corrupt.length; i += 97) corrupt[i] ^= 0x5a; // bit rot after the header
@@ -355,7 +322,7 @@ test('bad files show an error naming the file and the reason; the page keeps ren
   // Dropped on the source, a bad file also leaves the source as it was.
   await dropFiles(page, '.face-card.source', [{ name: 'corrupt-source.fmm', bytes: corrupt }]);
   await page.locator('.toast.error', { hasText: 'corrupt-source.fmm' }).waitFor();
-  assert.equal(await page.textContent('.face-card.source .name'), manifest.source.replace(/\.fmm$/, ''));
+  assert.equal(await page.textContent('.face-card.source .name'), suite.manifest.source.replace(/\.fmm$/, ''));
 
   assert.equal(await page.locator(TARGETS).count(), n0, 'a bad file changed the targets');
   await screenshot(page, 'page-bad-files');
@@ -491,7 +458,7 @@ test('"Fast raster" (the scanline warp) is on by default; off, tiny-skia draws t
 test('first load (wasm, JS and the bundled models) is at most 6 MB', async (t) => {
   // A fresh context (empty cache; the server sends no-store): every byte the page fetches until
   // it is ready and has drawn a few frames, from the network log (response body + headers).
-  const context = await browser.newContext({ viewport: { width: 1440, height: 900 } });
+  const context = await suite.browser.newContext({ viewport: { width: 1440, height: 900 } });
   t.after(async () => {
     await context.close();
   });
@@ -505,7 +472,7 @@ test('first load (wasm, JS and the bundled models) is at most 6 MB', async (t) =
       })),
     );
   });
-  await page.goto(server.url);
+  await page.goto(suite.server.url);
   await page.waitForSelector('body[data-ready="1"]', { timeout: 30_000 });
   await page.waitForFunction(() => /^\d+$/.test(document.getElementById('ro-fps').textContent));
   const got = await Promise.all(sizes);
@@ -517,7 +484,7 @@ test('first load (wasm, JS and the bundled models) is at most 6 MB', async (t) =
       `${models.length} models ${(sum(/\.fmm$/) / 1e6).toFixed(3)} MB, wasm ${(sum(/\.wasm$/) / 1e6).toFixed(3)} MB, ` +
       `JS ${(sum(/\.m?js$/) / 1e6).toFixed(3)} MB, other ${((total - sum(/\.fmm$|\.wasm$|\.m?js$/)) / 1e6).toFixed(3)} MB`,
   );
-  const wanted = [manifest.source, ...manifest.targets].map((f) => `/models/${f}`);
+  const wanted = [suite.manifest.source, ...suite.manifest.targets].map((f) => `/models/${f}`);
   for (const w of wanted) assert.ok(models.some((r) => r.path === w), `${w} was not loaded`);
   assert.ok(sum(/\.wasm$/) > 0, 'no wasm in the network log');
   assert.ok(total <= 6e6, `first load ${total} bytes, more than 6 MB`);

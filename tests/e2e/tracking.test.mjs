@@ -22,9 +22,9 @@ import {
   canvasDigest,
   readPts,
   fakeCameraFile,
-  fakeCameraArgs,
   FAKE_CAMERA_ARGS,
   landmarkError,
+  cameraBrowser,
 } from './lib.mjs';
 
 // FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
@@ -409,8 +409,7 @@ test('the webcam auto-starts on a face in the guide and tracks it live', async (
     t.skip(`${CLIP_FRAMES} is absent`);
     return;
   }
-  const b = await launchBrowser(fakeCameraArgs(file));
-  t.after(() => b.close());
+  const b = await cameraBrowser(t, file);
   const { page, errors } = await openPage(t, b);
   await chooseSource(page, 'webcam');
   // Nobody presses Start: the face in the guide is found and tracking starts by itself.

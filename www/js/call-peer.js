@@ -188,21 +188,21 @@ export class PeerLink extends EventTarget {
 
   /** Without a server: the offer, with its candidates, as text to copy. */
   async offerText() {
-    this.manual = true;
-    const pc = this.fresh();
-    await pc.setLocalDescription(await pc.createOffer());
-    await this.gathered(pc);
-    this.negotiations++;
-    return encodeDescription(pc.localDescription);
+    return this.manualText(null);
   }
 
   /** Without a server: the other side's offer text -> our answer text. */
   async answerText(text) {
-    const d = decodeDescription(text, 'offer');
+    return this.manualText(decodeDescription(text, 'offer'));
+  }
+
+  /** A fresh connection's offer (or, given the other side's offer `offer`, its answer), with
+   *  its candidates, as text. */
+  async manualText(offer) {
     this.manual = true;
     const pc = this.fresh();
-    await pc.setRemoteDescription(d);
-    await pc.setLocalDescription(await pc.createAnswer());
+    if (offer) await pc.setRemoteDescription(offer);
+    await pc.setLocalDescription(await (offer ? pc.createAnswer() : pc.createOffer()));
     await this.gathered(pc);
     this.negotiations++;
     return encodeDescription(pc.localDescription);

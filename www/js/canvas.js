@@ -34,6 +34,12 @@ export function fitCanvas(canvas, entry) {
   let h = Math.round(cssH * dpr);
   w = Math.max(1, Math.min(4096, w));
   h = Math.max(1, Math.min(4096, h));
+  return setCanvasSize(canvas, w, h);
+}
+
+/** Give `canvas` a `w`x`h` backing store unless it has it already (a new size clears the
+ *  canvas, so it is set only when it changes); returns true when the size changed. */
+export function setCanvasSize(canvas, w, h) {
   if (canvas.width === w && canvas.height === h) return false;
   canvas.width = w;
   canvas.height = h;

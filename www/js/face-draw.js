@@ -2,6 +2,8 @@
 // webcam), landmarks as contours and points, and small labels. No state: every function draws
 // what it is given.
 
+import { setCanvasSize } from './canvas.js';
+
 export const MESH = 'rgba(120, 255, 200, 0.95)';
 export const MESH_LOST = 'rgba(255, 110, 110, 0.95)';
 export const GUIDE = 'rgba(124, 196, 255, 0.95)';
@@ -89,10 +91,7 @@ export function drawFrame(canvas, work, { mirror = false, haveFrame = true } = {
   const dpr = window.devicePixelRatio || 1;
   const cw = Math.max(1, Math.min(4096, Math.round(canvas.clientWidth * dpr)));
   const ch = Math.max(1, Math.min(4096, Math.round(canvas.clientHeight * dpr)));
-  if (canvas.width !== cw || canvas.height !== ch) {
-    canvas.width = cw;
-    canvas.height = ch;
-  }
+  setCanvasSize(canvas, cw, ch);
   const g = canvas.getContext('2d', { alpha: false });
   g.fillStyle = '#101114';
   g.fillRect(0, 0, cw, ch);

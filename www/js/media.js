@@ -4,6 +4,7 @@
 // enrolment (www/js/enrol.js) and the tracking panel (www/js/tracking.js) both use it.
 
 import { message } from './toasts.js';
+import { setCanvasSize } from './canvas.js';
 
 /** The frame shown (and placed on, and searched for faces) is at most this big (longer side, px). */
 export const MAX_WORK_SIDE = 640;
@@ -249,10 +250,7 @@ export class MediaFeed {
     const k = Math.min(1, MAX_WORK_SIDE / Math.max(vw, vh));
     const w = Math.max(1, Math.round(vw * k));
     const h = Math.max(1, Math.round(vh * k));
-    if (this.work.width !== w || this.work.height !== h) {
-      this.work.width = w;
-      this.work.height = h;
-    }
+    setCanvasSize(this.work, w, h);
     this.k = k;
     this.workCtx.drawImage(src, 0, 0, w, h);
     this.haveFrame = true;
@@ -269,10 +267,7 @@ export class MediaFeed {
     if (Math.abs(kFit - this.k) < 1e-9) return this.workImage();
     const w = Math.max(1, Math.round(this.width * kFit));
     const h = Math.max(1, Math.round(this.height * kFit));
-    if (this.fitCanvas.width !== w || this.fitCanvas.height !== h) {
-      this.fitCanvas.width = w;
-      this.fitCanvas.height = h;
-    }
+    setCanvasSize(this.fitCanvas, w, h);
     this.fitCtx.imageSmoothingQuality = 'medium';
     this.fitCtx.drawImage(this.still || this.video, 0, 0, w, h);
     return this.fitCtx.getImageData(0, 0, w, h);

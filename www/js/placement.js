@@ -6,6 +6,14 @@
 
 import { bounds, drawLandmarks, GUIDE, MESH, FOUND, FOUND_OTHER } from './face-draw.js';
 
+/** The arrow keys' moves of the box, in steps: [x, y]. */
+const ARROWS = new Map([
+  ['ArrowLeft', [-1, 0]],
+  ['ArrowRight', [1, 0]],
+  ['ArrowUp', [0, -1]],
+  ['ArrowDown', [0, 1]],
+]);
+
 export class Placement {
   /** `meanShape`: the model's mean landmarks (any placement; only their proportions are used). */
   constructor(meanShape) {
@@ -144,31 +152,16 @@ export class Placement {
       b.x = cx - b.w / 2;
       b.y = cy - b.h / 2;
     };
-    switch (e.key) {
-      case 'ArrowLeft':
-        b.x -= step;
-        break;
-      case 'ArrowRight':
-        b.x += step;
-        break;
-      case 'ArrowUp':
-        b.y -= step;
-        break;
-      case 'ArrowDown':
-        b.y += step;
-        break;
-      case '+':
-      case '=':
-      case 'PageUp':
-        grow(1.05);
-        break;
-      case '-':
-      case '_':
-      case 'PageDown':
-        grow(1 / 1.05);
-        break;
-      default:
-        return false;
+    const move = ARROWS.get(e.key);
+    if (move) {
+      b.x += move[0] * step;
+      b.y += move[1] * step;
+    } else if (['+', '=', 'PageUp'].includes(e.key)) {
+      grow(1.05);
+    } else if (['-', '_', 'PageDown'].includes(e.key)) {
+      grow(1 / 1.05);
+    } else {
+      return false;
     }
     this.selected = -1;
     this.touched = true;

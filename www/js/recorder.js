@@ -2,6 +2,7 @@
 // names, onto one canvas; a PNG snapshot is that canvas once, a WebM video is a MediaRecorder
 // on its captureStream, fed one composite per rendered frame.
 
+import { setCanvasSize } from './canvas.js';
 
 /**
  * Draw `tiles` ([{ canvas, label, render? }]) in one row onto `out` at height `tileH` (device
@@ -18,10 +19,7 @@ export function composite(out, tiles, tileH = 360) {
   // Even sizes: video encoders want them.
   const W = width + (width & 1);
   const H = height + (height & 1);
-  if (out.width !== W || out.height !== H) {
-    out.width = W;
-    out.height = H;
-  }
+  setCanvasSize(out, W, H);
   const ctx = out.getContext('2d', { alpha: false });
   ctx.fillStyle = '#121316';
   ctx.fillRect(0, 0, W, H);
