@@ -6,9 +6,7 @@
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(target_arch = "wasm32"))]
-fn main() {
-    native::main()
-}
+use native::main;
 
 /// Native only: the example reads files.
 #[cfg(not(target_arch = "wasm32"))]
