@@ -5,11 +5,11 @@
 //! everywhere: `cargo run --release --example calibration_figures`.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
 /// Native only: the example reads files.
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use facemimic::find::{add_face_offsets, landmark_error, mean_face_offsets, NET_OFFSETS};
     use facemimic::io::{annotated_images, read_image, read_landmarks};

@@ -6,11 +6,11 @@
 //! ones; the file in the repository is the definition, this is how it was made.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
 /// Native only: the example reads files.
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
 
     use std::path::Path;

@@ -26,10 +26,10 @@
 //! (defaults 2 4 0.01 0.03,0.02; the finder's landmarks are cached in target/convention-cache).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use std::path::{Path, PathBuf};
 

@@ -9,11 +9,11 @@
 
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
 /// Native only: the example reads files.
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use std::path::Path;
 

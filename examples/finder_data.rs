@@ -11,11 +11,11 @@
 //!   reference outputs of face-api.js's own code).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
 /// Native only: the example reads and writes files.
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use facemimic::io::{annotated_images, read_image, read_landmarks};
     use facemimic::{find, BBox, FaceFinder};

@@ -35,15 +35,15 @@
 //! Error: mean landmark distance / distance of landmarks 36 and 45 (dlib points).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 #[path = "../tests/common/mod.rs"]
 mod common;
 
 /// Native only: the example reads files.
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use std::path::{Path, PathBuf};
     use std::time::Instant;

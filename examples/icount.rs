@@ -13,11 +13,11 @@
 //! Models from the committed GRID frames (`data/grid/*/train20.txt`).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
 /// Native only: the example reads files.
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use facemimic::clone::{CloneOptions, Cloner, Method};
     use facemimic::fit::{FitOptions, Tracker};
