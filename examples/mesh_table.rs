@@ -6,11 +6,11 @@
 //! `cargo run --release --features mesh-finder --example mesh_table`.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
 /// Native only: the example reads and writes files.
-#[cfg(not(target_arch = "wasm32"))]
+#[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use facemimic::find::{face_frame, MESH_POINTS};
     use facemimic::io::{annotated_images, read_image, read_landmarks};
