@@ -6,7 +6,8 @@
 //! `cargo run --release --example icount -- WORK N`, WORK one of:
 //! - `clone`: `Cloner::clone_frame`, spk07 -> spk02 (map + residual), frame 17 of spk07's unseen
 //!   GRID clip;
-//! - `render`: the renderer's upload and piecewise-affine warp of that target onto 360x288;
+//! - `render`: the renderer's (tiny-skia) upload and piecewise-affine warp of that target onto
+//!   360x288; `scanline`: the same with the scanline rasteriser;
 //! - `track`: spk07's model tracking its unseen GRID clip (75 frames, looped), per frame;
 //! - `find`: `FaceFinder::find` on frame 4 of that clip centred on a black 640x480 frame.
 //!
@@ -21,7 +22,9 @@ use native::main;
 mod native {
     use facemimic::clone::{CloneOptions, Cloner, Method};
     use facemimic::fit::{FitOptions, Tracker};
-    use facemimic::{io, Builder, FaceFinder, Image, Model, Renderer, Similarity, TrainingImage};
+    use facemimic::{
+        io, Builder, FaceFinder, Image, Model, Renderer, Scanline, Similarity, TrainingImage,
+    };
     use std::hint::black_box;
     use std::path::{Path, PathBuf};
 
@@ -58,7 +61,7 @@ mod native {
     fn run(what: &str, n: usize) -> Result<f64, String> {
         let mut sink = 0.0f64;
         match what {
-            "clone" | "render" => {
+            "clone" | "render" | "scanline" => {
                 let source = model("spk07_pwij3p", None);
                 let target = model("spk02_brbk7n", Some(&source));
                 let frame = &clip()[17];
@@ -79,6 +82,24 @@ mod native {
                             .expect("clone");
                     }
                     sink += cloner.target_shape(0)[0] as f64;
+                } else if what == "scanline" {
+                    let frame = target.frame().clone();
+                    let mut scanline = Scanline::new();
+                    let mut pixmap = facemimic::tiny_skia::Pixmap::new(360, 288).expect("pixmap");
+                    for _ in 0..n {
+                        scanline
+                            .upload(&frame, cloner.target_appearance(0))
+                            .expect("upload");
+                        scanline
+                            .warp(
+                                &frame,
+                                black_box(cloner.target_shape(0)),
+                                &Similarity::IDENTITY,
+                                &mut pixmap.as_mut(),
+                            )
+                            .expect("warp");
+                    }
+                    sink += pixmap.data().iter().map(|&b| b as f64).sum::<f64>();
                 } else {
                     let frame = target.frame().clone();
                     let mut renderer = Renderer::new(&frame).expect("renderer");
@@ -125,7 +146,7 @@ mod native {
             }
             other => {
                 return Err(format!(
-                    "icount: unknown work '{other}' (clone, render, track or find)"
+                    "icount: unknown work '{other}' (clone, render, scanline, track or find)"
                 ))
             }
         }

@@ -5,7 +5,7 @@
 #
 #   scripts/icount.sh BEFORE [AFTER] [WORK...]
 #
-# BEFORE, AFTER: commits (AFTER defaults to the working tree). WORK: clone render track find
+# BEFORE, AFTER: commits (AFTER defaults to the working tree). WORK: clone render scanline track find
 # (default all). Each commit is checked out in a temporary worktree with this checkout's
 # examples/icount.rs (so an older commit is measured by the same program), built in release with
 # the same profile, and run under callgrind with 0 and N iterations; the figure is
@@ -18,8 +18,8 @@ command -v valgrind >/dev/null || { echo "icount: needs valgrind (apt-get instal
 BEFORE=$1; shift
 AFTER=WORKTREE
 if [ $# -ge 1 ] && git rev-parse --verify -q "$1^{commit}" >/dev/null; then AFTER=$1; shift; fi
-WORK=("$@"); [ ${#WORK[@]} -gt 0 ] || WORK=(clone render track find)
-declare -A N=([clone]=20 [render]=20 [track]=30 [find]=3)
+WORK=("$@"); [ ${#WORK[@]} -gt 0 ] || WORK=(clone render scanline track find)
+declare -A N=([clone]=20 [render]=20 [scanline]=20 [track]=30 [find]=3)
 
 TMP=$(mktemp -d /tmp/icount.XXXXXX)
 cleanup() { for d in "$TMP"/wt-*; do [ -d "$d" ] && git worktree remove --force "$d" >/dev/null 2>&1 || true; done; rm -rf "$TMP"; }
