@@ -54,7 +54,7 @@ export function report(d) {
   return lines.join('\n');
 }
 
-if (import.meta.url === pathToFileURL(process.argv[1]).href) {
+if (process.argv[1] && import.meta.url === pathToFileURL(process.argv[1]).href) {
   const [fa, fb] = process.argv.slice(2).filter((s) => !s.startsWith('--'));
   const i = process.argv.indexOf('--top');
   if (!fa || !fb) {
