@@ -82,40 +82,31 @@ mod native {
                             .expect("clone");
                     }
                     sink += cloner.target_shape(0)[0] as f64;
-                } else if what == "scanline" {
-                    let frame = target.frame().clone();
-                    let mut scanline = Scanline::new();
-                    let mut pixmap = facemimic::tiny_skia::Pixmap::new(360, 288).expect("pixmap");
-                    for _ in 0..n {
-                        scanline
-                            .upload(&frame, cloner.target_appearance(0))
-                            .expect("upload");
-                        scanline
-                            .warp(
-                                &frame,
-                                black_box(cloner.target_shape(0)),
-                                &Similarity::IDENTITY,
-                                &mut pixmap.as_mut(),
-                            )
-                            .expect("warp");
-                    }
-                    sink += pixmap.data().iter().map(|&b| b as f64).sum::<f64>();
                 } else {
                     let frame = target.frame().clone();
-                    let mut renderer = Renderer::new(&frame).expect("renderer");
                     let mut pixmap = facemimic::tiny_skia::Pixmap::new(360, 288).expect("pixmap");
-                    for _ in 0..n {
-                        renderer
-                            .upload(&frame, cloner.target_appearance(0))
-                            .expect("upload");
-                        renderer
-                            .warp(
-                                &frame,
-                                black_box(cloner.target_shape(0)),
-                                &Similarity::IDENTITY,
-                                &mut pixmap.as_mut(),
-                            )
-                            .expect("warp");
+                    // The same two calls on either rasteriser (two types at older commits).
+                    macro_rules! upload_and_warp {
+                        ($r:expr) => {
+                            for _ in 0..n {
+                                $r.upload(&frame, cloner.target_appearance(0))
+                                    .expect("upload");
+                                $r.warp(
+                                    &frame,
+                                    black_box(cloner.target_shape(0)),
+                                    &Similarity::IDENTITY,
+                                    &mut pixmap.as_mut(),
+                                )
+                                .expect("warp");
+                            }
+                        };
+                    }
+                    if what == "scanline" {
+                        let mut scanline = Scanline::new();
+                        upload_and_warp!(scanline);
+                    } else {
+                        let mut renderer = Renderer::new(&frame).expect("renderer");
+                        upload_and_warp!(renderer);
                     }
                     sink += pixmap.data().iter().map(|&b| b as f64).sum::<f64>();
                 }
