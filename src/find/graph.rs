@@ -75,6 +75,172 @@ pub(crate) struct GraphScratch {
     maps: Vec<Map>,
 }
 
+/// A graph entry as a slot index (`None` for -1, "no slot"); anything else is an error.
+fn as_index(v: f32) -> Result<Option<usize>> {
+    if v == -1.0 {
+        Ok(None)
+    } else if (0.0..1e6).contains(&v) && v.fract() == 0.0 {
+        Ok(Some(v as usize))
+    } else {
+        Err(bad(format!("graph entry {v}")))
+    }
+}
+
+/// Layer `i` from its graph row (kind, output slot, input slots, stride, same, kernel, extra)
+/// and its tensors in `w`, checked against the channels of the slots before it; `out` and
+/// `inputs` are still logical slots (see [`assign_buffers`]).
+fn parse_layer(w: &Weights, i: usize, row: &[f32], channels: &[usize]) -> Result<Layer> {
+    let get = |k: usize| as_index(row[k]);
+    let kind = match get(0)? {
+        Some(0) => Kind::Conv,
+        Some(1) => Kind::Depthwise,
+        Some(2) => Kind::Relu,
+        Some(3) => Kind::Prelu,
+        Some(4) => Kind::Add,
+        Some(5) => Kind::PadChannels,
+        Some(6) => Kind::MaxPool,
+        k => return Err(bad(format!("layer {i}: kind {k:?}"))),
+    };
+    let out = get(1)?.ok_or_else(|| bad("layer without output"))?;
+    let in0 = get(2)?.ok_or_else(|| bad("layer without input"))?;
+    let in1 = get(3)?;
+    if out != channels.len() || in0 >= out || in1.is_some_and(|s| s >= out) {
+        return Err(bad(format!("layer {i}: slots out of order")));
+    }
+    let cin = channels[in0];
+    let stride = get(4)?.unwrap_or(1).max(1);
+    let same = get(5)? == Some(1);
+    let kernel = get(6)?.unwrap_or(0);
+    let extra = get(7)?.unwrap_or(0);
+    let mut layer = Layer {
+        kind,
+        out,
+        inputs: [in0, in1.unwrap_or(in0)],
+        stride,
+        same,
+        kernel,
+        extra,
+        cout: cin,
+        in_place: false,
+        w: Vec::new(),
+        bias: Vec::new(),
+    };
+    let tensor = |name: &str| {
+        w.tensor(&format!("op{i}/{name}"))
+            .ok_or_else(|| bad(format!("layer {i}: no {name}")))
+    };
+    match kind {
+        Kind::Conv => {
+            let f = tensor("w")?;
+            let [cout, kh, kw, c] = f.shape[..] else {
+                return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
+            };
+            if kh != kernel || kw != kernel || c != cin || kernel == 0 {
+                return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
+            }
+            // [cout][kh][kw][cin] -> [kh][kw][cin][cout]
+            let mut r = vec![0.0; f.data.len()];
+            for o in 0..cout {
+                for t in 0..kh * kw {
+                    for ci in 0..cin {
+                        r[(t * cin + ci) * cout + o] = f.data[(o * kh * kw + t) * cin + ci];
+                    }
+                }
+            }
+            layer.w = r;
+            layer.cout = cout;
+            layer.bias = tensor("b")?.data.clone();
+        }
+        Kind::Depthwise => {
+            let f = tensor("w")?;
+            if f.shape != [1, kernel, kernel, cin] || kernel == 0 {
+                return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
+            }
+            layer.w = f.data.clone();
+            layer.bias = tensor("b")?.data.clone();
+        }
+        Kind::Prelu => layer.w = tensor("a")?.data.clone(),
+        Kind::PadChannels => layer.cout = cin + extra,
+        Kind::Add => {
+            if channels[layer.inputs[1]] != cin {
+                return Err(bad(format!("layer {i}: adding maps of other depths")));
+            }
+        }
+        Kind::Relu => {}
+        Kind::MaxPool => {
+            if kernel == 0 {
+                return Err(bad(format!("layer {i}: pooling kernel 0")));
+            }
+        }
+    }
+    if (matches!(kind, Kind::Conv | Kind::Depthwise) && layer.bias.len() != layer.cout)
+        || (kind == Kind::Prelu && layer.w.len() != cin)
+    {
+        return Err(bad(format!("layer {i}: bias or slope size")));
+    }
+    Ok(layer)
+}
+
+/// Gives every logical slot of `rows` (`slots` of them) a buffer, reusing a buffer once the
+/// last layer reading its slot has run and running ReLU, PReLU and Add in place on an input
+/// read by nobody else; slot 0 (the input) keeps buffer 0 and `outputs` are never freed.
+/// Rewrites each layer's `out` and `inputs` as buffers; returns the number of buffers and each
+/// slot's last buffer.
+fn assign_buffers(rows: &mut [Layer], slots: usize, outputs: &[usize]) -> (usize, Vec<usize>) {
+    // Buffers: a slot's buffer is free again after the last layer reading it.
+    let mut last_use = vec![0usize; slots];
+    for (i, l) in rows.iter().enumerate() {
+        for &s in &l.inputs {
+            last_use[s] = i;
+        }
+    }
+    for &o in outputs {
+        last_use[o] = usize::MAX;
+    }
+    let mut buffer_of = vec![usize::MAX; slots];
+    buffer_of[0] = 0;
+    let mut free: Vec<usize> = Vec::new();
+    let mut buffers = 1;
+    for (i, l) in rows.iter_mut().enumerate() {
+        let [in0, in1] = l.inputs;
+        l.in_place = matches!(l.kind, Kind::Relu | Kind::Prelu | Kind::Add)
+            && in0 != 0
+            && last_use[in0] == i
+            && (l.kind != Kind::Add || in1 != in0);
+        let b = if l.in_place {
+            let b = buffer_of[in0];
+            // The buffer now holds `out`: `in0` no longer frees it.
+            buffer_of[in0] = usize::MAX;
+            b
+        } else {
+            free.pop().unwrap_or_else(|| {
+                buffers += 1;
+                buffers - 1
+            })
+        };
+        l.inputs = [in0, in1].map(|s| {
+            if s == in0 && l.in_place {
+                b
+            } else {
+                buffer_of[s]
+            }
+        });
+        buffer_of[l.out] = b;
+        l.out = b;
+        for s in 0..slots {
+            // The input (buffer 0) stays the input.
+            if s != 0
+                && last_use[s] == i
+                && buffer_of[s] != usize::MAX
+                && !free.contains(&buffer_of[s])
+            {
+                free.push(buffer_of[s]);
+            }
+        }
+    }
+    (buffers, buffer_of)
+}
+
 /// Output size and padding before for a kernel `k` and stride `s` on `input` pixels.
 fn geometry(input: usize, k: usize, s: usize, same: bool) -> Option<(usize, usize)> {
     if same {
@@ -95,107 +261,11 @@ impl Graph {
         if g.shape.len() != 2 || g.shape[1] != 8 {
             return Err(bad(format!("graph shape {:?}", g.shape)));
         }
-        let as_index = |v: f32| -> Result<Option<usize>> {
-            if v == -1.0 {
-                Ok(None)
-            } else if (0.0..1e6).contains(&v) && v.fract() == 0.0 {
-                Ok(Some(v as usize))
-            } else {
-                Err(bad(format!("graph entry {v}")))
-            }
-        };
         // Channels of every logical slot, to check the weights' shapes.
         let mut channels = vec![input.1];
         let mut rows = Vec::new();
         for (i, row) in g.data.chunks_exact(8).enumerate() {
-            let get = |k: usize| as_index(row[k]);
-            let kind = match get(0)? {
-                Some(0) => Kind::Conv,
-                Some(1) => Kind::Depthwise,
-                Some(2) => Kind::Relu,
-                Some(3) => Kind::Prelu,
-                Some(4) => Kind::Add,
-                Some(5) => Kind::PadChannels,
-                Some(6) => Kind::MaxPool,
-                k => return Err(bad(format!("layer {i}: kind {k:?}"))),
-            };
-            let out = get(1)?.ok_or_else(|| bad("layer without output"))?;
-            let in0 = get(2)?.ok_or_else(|| bad("layer without input"))?;
-            let in1 = get(3)?;
-            if out != channels.len() || in0 >= out || in1.is_some_and(|s| s >= out) {
-                return Err(bad(format!("layer {i}: slots out of order")));
-            }
-            let cin = channels[in0];
-            let stride = get(4)?.unwrap_or(1).max(1);
-            let same = get(5)? == Some(1);
-            let kernel = get(6)?.unwrap_or(0);
-            let extra = get(7)?.unwrap_or(0);
-            let mut layer = Layer {
-                kind,
-                out,
-                inputs: [in0, in1.unwrap_or(in0)],
-                stride,
-                same,
-                kernel,
-                extra,
-                cout: cin,
-                in_place: false,
-                w: Vec::new(),
-                bias: Vec::new(),
-            };
-            let tensor = |name: &str| {
-                w.tensor(&format!("op{i}/{name}"))
-                    .ok_or_else(|| bad(format!("layer {i}: no {name}")))
-            };
-            match kind {
-                Kind::Conv => {
-                    let f = tensor("w")?;
-                    let [cout, kh, kw, c] = f.shape[..] else {
-                        return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
-                    };
-                    if kh != kernel || kw != kernel || c != cin || kernel == 0 {
-                        return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
-                    }
-                    // [cout][kh][kw][cin] -> [kh][kw][cin][cout]
-                    let mut r = vec![0.0; f.data.len()];
-                    for o in 0..cout {
-                        for t in 0..kh * kw {
-                            for ci in 0..cin {
-                                r[(t * cin + ci) * cout + o] = f.data[(o * kh * kw + t) * cin + ci];
-                            }
-                        }
-                    }
-                    layer.w = r;
-                    layer.cout = cout;
-                    layer.bias = tensor("b")?.data.clone();
-                }
-                Kind::Depthwise => {
-                    let f = tensor("w")?;
-                    if f.shape != [1, kernel, kernel, cin] || kernel == 0 {
-                        return Err(bad(format!("layer {i}: filter shape {:?}", f.shape)));
-                    }
-                    layer.w = f.data.clone();
-                    layer.bias = tensor("b")?.data.clone();
-                }
-                Kind::Prelu => layer.w = tensor("a")?.data.clone(),
-                Kind::PadChannels => layer.cout = cin + extra,
-                Kind::Add => {
-                    if channels[layer.inputs[1]] != cin {
-                        return Err(bad(format!("layer {i}: adding maps of other depths")));
-                    }
-                }
-                Kind::Relu => {}
-                Kind::MaxPool => {
-                    if kernel == 0 {
-                        return Err(bad(format!("layer {i}: pooling kernel 0")));
-                    }
-                }
-            }
-            if (matches!(kind, Kind::Conv | Kind::Depthwise) && layer.bias.len() != layer.cout)
-                || (kind == Kind::Prelu && layer.w.len() != cin)
-            {
-                return Err(bad(format!("layer {i}: bias or slope size")));
-            }
+            let layer = parse_layer(&w, i, row, &channels)?;
             channels.push(layer.cout);
             rows.push(layer);
         }
@@ -208,60 +278,9 @@ impl Graph {
             let s = as_index(v)?.filter(|&s| s < channels.len());
             outputs.push(s.ok_or_else(|| bad(format!("output slot {v}")))?);
         }
-        // Buffers: a slot's buffer is free again after the last layer reading it.
-        let slots = channels.len();
-        let mut last_use = vec![0usize; slots];
-        for (i, l) in rows.iter().enumerate() {
-            for &s in &l.inputs {
-                last_use[s] = i;
-            }
-        }
-        for &o in &outputs {
-            last_use[o] = usize::MAX;
-        }
-        let mut buffer_of = vec![usize::MAX; slots];
-        buffer_of[0] = 0;
-        let mut free: Vec<usize> = Vec::new();
-        let mut buffers = 1;
         #[cfg(test)]
         let logical: Vec<usize> = rows.iter().map(|l| l.out).collect();
-        for (i, l) in rows.iter_mut().enumerate() {
-            let [in0, in1] = l.inputs;
-            l.in_place = matches!(l.kind, Kind::Relu | Kind::Prelu | Kind::Add)
-                && in0 != 0
-                && last_use[in0] == i
-                && (l.kind != Kind::Add || in1 != in0);
-            let b = if l.in_place {
-                let b = buffer_of[in0];
-                // The buffer now holds `out`: `in0` no longer frees it.
-                buffer_of[in0] = usize::MAX;
-                b
-            } else {
-                free.pop().unwrap_or_else(|| {
-                    buffers += 1;
-                    buffers - 1
-                })
-            };
-            l.inputs = [in0, in1].map(|s| {
-                if s == in0 && l.in_place {
-                    b
-                } else {
-                    buffer_of[s]
-                }
-            });
-            buffer_of[l.out] = b;
-            l.out = b;
-            for s in 0..slots {
-                // The input (buffer 0) stays the input.
-                if s != 0
-                    && last_use[s] == i
-                    && buffer_of[s] != usize::MAX
-                    && !free.contains(&buffer_of[s])
-                {
-                    free.push(buffer_of[s]);
-                }
-            }
-        }
+        let (buffers, buffer_of) = assign_buffers(&mut rows, channels.len(), &outputs);
         Ok(Graph {
             layers: rows,
             buffers,
