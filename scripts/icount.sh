@@ -32,7 +32,6 @@ build() {
     dir=$TMP/wt-$rev
     git worktree add -q --detach "$dir" "$rev"
     cp examples/icount.rs "$dir/examples/icount.rs"
-    [ -d examples/common ] && cp -r examples/common "$dir/examples/" 2>/dev/null || true
   fi
   (cd "$dir" && CARGO_TARGET_DIR=${ICOUNT_TARGET_DIR:-$ROOT/target/icount} cargo build -q --release --example icount >&2)
   local bin=$TMP/icount-$rev

@@ -617,7 +617,6 @@ impl std::fmt::Debug for Tracker {
     }
 }
 
-/// Width and height of the bounding box of interleaved points.
 /// Of the `faces` with finite points that pass `ok`, the one whose `centre` is nearest `near`
 /// (the first such one when `near` is `None`; the first of equally near ones): how a tracker
 /// and a follower pick the face to acquire.
@@ -641,6 +640,7 @@ pub(super) fn nearest_face(
         .min_by(|a, b| d(a).total_cmp(&d(b)))
 }
 
+/// Width and height of the bounding box of interleaved points.
 fn extent(points: &[f32]) -> (f32, f32) {
     let b = crate::geometry::BBox::of_points(points);
     (b.width.max(0.0), b.height.max(0.0))
