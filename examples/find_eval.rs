@@ -1,7 +1,8 @@
 //! The face finder's detection rate and landmark error on the shared data, against the dlib
 //! landmarks: `cargo run --release --example find_eval -- [STEP] [SET...]` (default step 1, the
 //! sets grid franck-dev franck-dev2 webcam-dev under ../shared/data). Each frame is found on
-//! its own. `FIND_MESH=1` with `--features mesh-finder`: MediaPipe's nets (`MeshFinder`). A frame counts as found when the most confident face's landmarks lie within 0.25 of
+//! its own (`FIND_THRESHOLD`: the detector's threshold). A frame counts as found when the most
+//! confident face's landmarks lie within 0.25 of
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
 //! the found frames.
 #![cfg_attr(target_arch = "wasm32", no_main)]
@@ -36,28 +37,7 @@ mod native {
         if let Ok(t) = std::env::var("FIND_THRESHOLD") {
             opts.score_threshold = t.parse().unwrap();
         }
-        if let Ok(t) = std::env::var("FIND_INPUT") {
-            opts.input_size = t.parse().unwrap();
-        }
-        if let Ok(t) = std::env::var("FIND_QUICK") {
-            opts.quick_input_size = t.parse().unwrap();
-        }
-        if let Ok(t) = std::env::var("FIND_DISAGREEMENT") {
-            opts.max_disagreement = t.parse().unwrap();
-        }
         finder.set_options(opts);
-        // FIND_MESH=1 (with `--features mesh-finder`): MediaPipe's nets (`MeshFinder`).
-        #[cfg(feature = "mesh-finder")]
-        let mut mesh = std::env::var_os("FIND_MESH").map(|_| {
-            let mut m = facemimic::MeshFinder::new().unwrap();
-            m.set_options(opts);
-            m
-        });
-        #[cfg(not(feature = "mesh-finder"))]
-        assert!(
-            std::env::var_os("FIND_MESH").is_none(),
-            "FIND_MESH needs --features mesh-finder"
-        );
         for set in sets {
             let all = frames(&root.join(&set));
             let (mut n, mut found, mut err_sum, mut worst, mut secs, mut extra) =
@@ -70,12 +50,6 @@ mod native {
                     read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
                 let view = img.view().unwrap();
                 let t = Instant::now();
-                #[cfg(feature = "mesh-finder")]
-                let faces = match mesh.as_mut() {
-                    Some(m) => m.find(&view),
-                    None => finder.find(&view),
-                };
-                #[cfg(not(feature = "mesh-finder"))]
                 let faces = finder.find(&view);
                 secs += t.elapsed().as_secs_f64();
                 n += 1;

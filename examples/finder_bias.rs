@@ -5,8 +5,6 @@
 //! error left after removing a bias learned on *another* clip.
 //!
 //!   cargo run --release --example finder_bias -- [STEP]
-//!
-//! `FIND_MESH=1` with `--features mesh-finder`: MediaPipe's nets (`MeshFinder`).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(any(target_arch = "wasm32", test)))]
@@ -74,21 +72,7 @@ mod native {
             .unwrap_or(10);
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
         let mut finder = FaceFinder::new().unwrap();
-        // FIND_MESH=1 (with `--features mesh-finder`): MediaPipe's nets (`MeshFinder`).
-        #[cfg(feature = "mesh-finder")]
-        let mut mesh = std::env::var_os("FIND_MESH").map(|_| facemimic::MeshFinder::new().unwrap());
-        #[cfg(not(feature = "mesh-finder"))]
-        assert!(
-            std::env::var_os("FIND_MESH").is_none(),
-            "FIND_MESH needs --features mesh-finder"
-        );
-        let mut find = |image: &facemimic::ImageRef| {
-            #[cfg(feature = "mesh-finder")]
-            if let Some(m) = mesh.as_mut() {
-                return m.find(image);
-            }
-            finder.find(image)
-        };
+        let mut find = |image: &facemimic::ImageRef| finder.find(image);
         let clips = [
             "franck-dev",
             "franck-dev2",

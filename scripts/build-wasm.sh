@@ -70,7 +70,7 @@ rm -f "$PKG"/facemimic* "$PKG"/package.json "$PKG"/README.md "$PKG"/LICENSE*
 cp "$TMP"/facemimic.js "$TMP"/facemimic.d.ts "$TMP"/facemimic_bg.wasm "$TMP"/facemimic_bg.wasm.d.ts "$PKG"/
 cp npm/README.md npm/LICENSE-MIT npm/LICENSE-APACHE "$PKG"/
 # The face finder's weights are embedded in the wasm: their MIT licence and credit ship with it.
-cp data/weights/LICENSE-face-api "$PKG"/
+cp data/weights/LICENSE-mediapipe "$PKG"/
 node -e '
   const fs = require("fs");
   const p = JSON.parse(fs.readFileSync(process.argv[1], "utf8"));

@@ -19,11 +19,6 @@ RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -q
 step "native tests"
 cargo test --all-targets
 
-step "the MediaPipe finder (cargo feature mesh-finder, not in the default build)"
-cargo clippy --all-targets --features mesh-finder -q -- -D warnings
-cargo test --release --features mesh-finder --lib find::
-cargo test --release --features mesh-finder --test find
-
 step "build the wasm package and the default models"
 bash scripts/build-wasm.sh
 bash scripts/build-models.sh

@@ -48,8 +48,6 @@ mod train;
 pub mod wasm;
 
 pub use error::{Error, FormatError, Result};
-#[cfg(feature = "mesh-finder")]
-pub use find::MeshFinder;
 pub use find::{Face, FaceFinder, FindOptions};
 pub use geometry::BBox;
 pub use glam;

@@ -3,10 +3,12 @@
 //!
 //! - Accuracy on the shared clips (`../shared/data`: GRID, franck-dev, franck-dev2, webcam-dev;
 //!   every 25th frame here, the whole sets with `cargo run --release --example find_eval`): the
-//!   finder's nets were trained by face-api.js on other data, so every frame is unseen. Skips
+//!   finder's nets were trained by MediaPipe on other data, so every frame is unseen (its
+//!   468 -> 68 table and convention offsets were learned on the committed GRID frames). Skips
 //!   with a message when `../shared` is absent, fails when `CI` is set.
 //! - No face reported on a generated non-face set: crops of the frames' backgrounds (away from
-//!   the dlib landmarks), flat, gradient, noise and text-like images.
+//!   the dlib landmarks), flat, gradient, noise and text-like images, title cards, logos (a
+//!   drawn smiley among them) and fabric.
 //! - Bad input: tiny, greyscale, faces partly outside the frame.
 
 mod common;
@@ -29,7 +31,8 @@ fn frames(dir: &Path) -> Vec<PathBuf> {
 fn finds_every_face_of_the_shared_clips_with_accurate_landmarks() {
     let Some(root) = shared() else { return };
     let mut finder = FaceFinder::new().unwrap();
-    assert_finds_shared_faces(&root, "", 0.05, |img| first_face(&mut finder, img));
+    // Every 25th frame measured 0.0257 / 0.0283 / 0.0325 / 0.0287 (docs/finding.md).
+    assert_finds_shared_faces(&root, "", 0.04, |img| first_face(&mut finder, img));
 }
 
 /// Asserts that `first_face` finds the face of at least 99.5% of the frames of each shared set
@@ -395,90 +398,14 @@ fn reports_no_face_on_images_without_one() {
         false_faces.len(),
         set.len()
     );
-    // Issue 20: no false face at all (the printed page's 0.04 face is below the score floor).
+    // Issue 20: no false face at all (the smiley, which the mesh scores 0.70, is left out as a
+    // drawing: its vertices lie on flat colour).
     assert!(
         false_faces.is_empty(),
         "{} of {}: {false_faces:?}",
         false_faces.len(),
         set.len()
     );
-}
-
-/// MediaPipe's nets (`MeshFinder`) on the same images: no face, except on the drawn smiley (a
-/// cartoon face, which the mesh scores 0.70; measured and written down in docs/finding.md).
-#[cfg(feature = "mesh-finder")]
-#[test]
-fn mesh_finder_reports_no_face_on_images_without_one() {
-    let set = non_faces();
-    let mut finder = facemimic::MeshFinder::new().unwrap();
-    let false_faces: Vec<String> = set
-        .iter()
-        .filter_map(|(name, img)| {
-            let faces = finder.find(&img.view().unwrap());
-            faces.first().map(|f| format!("{name} ({:.2})", f.score))
-        })
-        .collect();
-    println!(
-        "mesh finder: false faces {} of {} images: {false_faces:?}",
-        false_faces.len(),
-        set.len()
-    );
-    assert!(
-        false_faces.iter().all(|f| f.starts_with("smiley ")),
-        "{false_faces:?}"
-    );
-}
-
-/// `MeshFinder` on the shared clips (every 25th frame) and on odd images.
-#[cfg(feature = "mesh-finder")]
-#[test]
-fn mesh_finder_finds_the_shared_faces_and_survives_odd_images() {
-    let mut finder = facemimic::MeshFinder::new().unwrap();
-    if let Some(root) = shared() {
-        assert_finds_shared_faces(&root, "mesh finder ", 0.04, |img| {
-            finder
-                .find(&img.view().unwrap())
-                .into_iter()
-                .next()
-                .map(|f| f.landmarks)
-        });
-    }
-    let [frame, grey, half, tiny, thin] = odd_images(|[r, g, b]| r / 3 + g / 2 + b / 6);
-    let empty = Image {
-        width: 0,
-        height: 0,
-        data: Vec::new(),
-    };
-    assert_eq!(
-        finder.find(&grey.view().unwrap()).len(),
-        1,
-        "the greyscale face"
-    );
-    assert_eq!(
-        finder.find(&frame.view().unwrap()).len(),
-        1,
-        "the colour face"
-    );
-    for img in [&half, &tiny, &thin] {
-        for f in finder.find(&img.view().unwrap()) {
-            assert!(f.landmarks.len() == 136 && f.landmarks.iter().all(|v| v.is_finite()));
-            assert!(f.score > 0.0 && f.score <= 1.0);
-        }
-    }
-    if let Ok(v) = empty.view() {
-        assert!(finder.find(&v).is_empty());
-    }
-    assert!(finder.find(&tiny.view().unwrap()).is_empty());
-    let view: ImageRef = frame.view().unwrap();
-    let face = finder.find(&view).remove(0);
-    let again = finder.landmarks(&view, face.bbox).unwrap();
-    assert!(facemimic::find::landmark_error(&again, &face.landmarks) < 0.05);
-    for bad in BAD_BOXES {
-        assert!(finder.landmarks(&view, bad).is_err());
-    }
-    if let Ok(p) = finder.landmarks(&view, FAR_BOX) {
-        assert!(p.iter().all(|v| v.is_finite()));
-    }
 }
 
 /// A box far outside the odd images' frame: a finder gives finite points or an error.
@@ -532,6 +459,21 @@ fn odd_images_give_an_empty_result_or_finite_faces() {
         odd_images(|[r, g, b]| ((r as u32 * 3 + g as u32 * 6 + b as u32) / 10) as u8);
     let gf = finder.find(&grey.view().unwrap());
     assert_eq!(gf.len(), 1, "the greyscale face");
+    let [_, grey2, ..] = odd_images(|[r, g, b]| r / 3 + g / 2 + b / 6);
+    assert_eq!(finder.find(&grey2.view().unwrap()).len(), 1, "another grey");
+    assert_eq!(
+        finder.find(&frame.view().unwrap()).len(),
+        1,
+        "the colour face"
+    );
+    let empty = Image {
+        width: 0,
+        height: 0,
+        data: Vec::new(),
+    };
+    if let Ok(v) = empty.view() {
+        assert!(finder.find(&v).is_empty());
+    }
     for img in [&half, &tiny, &thin, &frame] {
         for f in finder.find(&img.view().unwrap()) {
             assert!(f.landmarks.len() == 136 && f.landmarks.iter().all(|v| v.is_finite()));
@@ -547,4 +489,8 @@ fn odd_images_give_an_empty_result_or_finite_faces() {
     for bad in BAD_BOXES {
         assert!(finder.landmarks(&view, bad).is_err());
     }
+    // The face's own box gives its points again.
+    let face = finder.find(&view).remove(0);
+    let again = finder.landmarks(&view, face.bbox).unwrap();
+    assert!(facemimic::find::landmark_error(&again, &face.landmarks) < 0.05);
 }

@@ -3,7 +3,7 @@
 //! `cargo test --target wasm32-unknown-unknown --test wasm_find`.
 //!
 //! - A GRID frame (`data/grid/spk01_bbaf2n/000004`, committed; the finder's nets were trained by
-//!   face-api.js on other data, so the frame is unseen): one face, 68 finite landmarks, close
+//!   MediaPipe on other data, so the frame is unseen): one face, 68 finite landmarks, close
 //!   to the frame's dlib `.pts` (mean distance below 0.1 of the outer-eye-corner distance).
 //! - A flat grey image: an empty array.
 //! - Bad input (a buffer of the wrong length, 0x0, sizes over the limit and `u32::MAX`): a JS

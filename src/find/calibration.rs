@@ -1,33 +1,25 @@
-//! The landmark net's points moved onto the iBUG / dlib convention the rest of the project
-//! uses (the `.pts` files the default models are built from, the figures' ground truth).
+//! The finder's points moved onto the iBUG / dlib convention the rest of the project uses (the
+//! `.pts` files the default models are built from, the figures' ground truth).
 //!
-//! face-api.js's 68-point net was trained on other annotations than dlib's: its points sit a
-//! little off dlib's in the same way on every face (brows higher, the jaw wider, ...). The
-//! offsets below are that mean difference, measured in each face's own frame (centred, scaled
-//! by the points' RMS radius, rotated so the outer eye corners 36-45 are level) on the GRID
-//! frames committed in `data/grid` (330 frames, 10 speakers, CC BY 4.0). Adding them back in
-//! each face's frame removes the shared part of the difference; what is left varies from face
-//! to face. Measured (docs/finding.md): the finder's mean error against dlib drops from
-//! 0.033-0.047 to 0.024-0.034 on the shared clips, none of whose frames the offsets came from.
+//! The face mesh's vertices chosen as iBUG points (`mesh_table.rs`) sit a little off dlib's
+//! points in the same way on every face (the jaw vertices on the skin rather than on the
+//! outline, the brows' vertices higher, ...). The offsets below are that mean difference,
+//! measured in each face's own frame (centred, scaled by the points' RMS radius, rotated so the
+//! outer eye corners 36-45 are level) on the GRID frames committed in `data/grid` (330 frames,
+//! 10 speakers, CC BY 4.0). Adding them back in each face's frame removes the shared part of
+//! the difference; what is left varies from face to face (docs/finding.md measures both on
+//! clips none of whose frames the offsets came from).
 //!
 //! Regenerate with `cargo run --release --example finder_data -- calibration` (it writes
-//! `src/find/calibration_table.rs`); `table_is_reproducible` checks that the
-//! committed table is what the committed frames give.
+//! `src/find/calibration_table.rs`); `table_is_reproducible` checks that the committed table
+//! is what the committed frames give.
 
 include!("calibration_table.rs");
-#[cfg(feature = "mesh-finder")]
-include!("calibration_table_mesh.rs");
 
 /// The committed offsets [`FaceFinder`](super::FaceFinder) adds to its net's points in each
 /// face's frame (`calibration_table.rs`, made by `examples/finder_data.rs`; the argument of
 /// [`add_face_offsets`]).
 pub const NET_OFFSETS: &[f32; 136] = &OFFSETS;
-
-/// Adds the face mesh's convention offsets (`MESH_OFFSETS`) to 68 points in place.
-#[cfg(feature = "mesh-finder")]
-pub(crate) fn apply_mesh(points: &mut [f32]) {
-    add_face_offsets(points, &MESH_OFFSETS);
-}
 
 /// The face frame of 68 points (the frame of [`face_offsets`]): centroid, RMS radius, and the
 /// cosine and sine of the angle of the line from point 36 to point 45. `None` for a
@@ -205,7 +197,7 @@ mod tests {
     /// dlib points, and the frame's path.
     fn raw_pairs(paths: &[PathBuf]) -> Vec<(PathBuf, Vec<f32>, Vec<f32>)> {
         let mut finder = FaceFinder::new().unwrap();
-        finder.calibrate = false;
+        finder.set_calibrated(false);
         paths
             .iter()
             .filter_map(|p| {

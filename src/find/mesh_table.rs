@@ -4,8 +4,8 @@
 //! from dlib's point (in dlib's face frame: centred, scaled by the RMS radius, eye line level)
 //! over the 330 GRID frames committed in `data/grid` (10 speakers) has the least variance plus
 //! half its squared mean. The mean offset that remains
-//! is then removed by the calibration (`calibration.rs`, `MESH_OFFSETS`), as for any
-//! landmarker. Regenerate with `cargo run --release --features mesh-finder --example
+//! is then removed by the calibration (`calibration.rs`), as for any
+//! landmarker. Regenerate with `cargo run --release --example
 //! mesh_table` (it rewrites `mesh_table_data.rs`), then the calibration.
 
 include!("mesh_table_data.rs");

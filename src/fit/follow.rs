@@ -5,7 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::filter::OneEuro;
-use crate::find::{landmark_error, BBox, FaceFinder};
+use crate::find::{BBox, FaceFinder};
 use crate::image::ImageRef;
 use crate::model::limits::{check_face_box, check_landmarks_len};
 use crate::model::Model;
@@ -44,10 +44,10 @@ pub struct FollowOptions {
     /// Mapped shape parameters are clamped to `+-max_sigmas` standard deviations of the
     /// source model's modes.
     pub max_sigmas: f32,
-    /// While following, two landmark passes are run on the box of the last face; when they
-    /// disagree by more than this (mean point distance over the eye distance), the face is
-    /// searched for again. The finder's own threshold by default.
-    pub max_disagreement: f32,
+    /// While following, the finder's mesh runs on the box of the last face; when its
+    /// face-presence score is below this (0..1), the face is searched for again. The finder's
+    /// own threshold ([`FindOptions::min_face_score`](crate::FindOptions)) by default.
+    pub min_face_score: f32,
     /// At least this fraction of the landmarks must lie inside the frame, else the face is
     /// lost (it left the picture).
     pub min_inside: f32,
@@ -63,7 +63,7 @@ impl Default for FollowOptions {
             neutral_step: 0.05,
             mouth_margin: 0.02,
             max_sigmas: 3.0,
-            max_disagreement: 0.05,
+            min_face_score: 0.5,
             min_inside: 0.5,
         }
     }
@@ -76,7 +76,6 @@ impl FollowOptions {
             ("min_cutoff", self.min_cutoff),
             ("d_cutoff", self.d_cutoff),
             ("max_sigmas", self.max_sigmas),
-            ("max_disagreement", self.max_disagreement),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -96,11 +95,15 @@ impl FollowOptions {
                 )));
             }
         }
-        if !(0.0..=1.0).contains(&self.min_inside) {
-            return Err(Error::Params(format!(
-                "follow option min_inside is {}: a fraction in 0..=1 is needed",
-                self.min_inside
-            )));
+        for (name, v) in [
+            ("min_inside", self.min_inside),
+            ("min_face_score", self.min_face_score),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(Error::Params(format!(
+                    "follow option {name} is {v}: a fraction in 0..=1 is needed"
+                )));
+            }
         }
         Ok(())
     }
@@ -114,9 +117,11 @@ impl FollowOptions {
 /// standard deviations).
 ///
 /// Each frame ([`Follower::track`]):
-/// 1. **Landmarks.** While a face is followed, two landmark passes run on the box of its last
-///    points (the tracker's idea of searching near the last face, at one pass's cost each); if
-///    they disagree, or no face is followed yet, the finder searches the whole frame (or the
+/// 1. **Landmarks.** While a face is followed, the finder's mesh runs on the box of its last
+///    points ([`FaceFinder::scored_landmarks_into`]: two mesh passes, the tracker's idea of
+///    searching near the last face); if the mesh says the box holds no face
+///    ([`FollowOptions::min_face_score`]), or no face is followed yet, the finder searches the
+///    whole frame (or the
 ///    faces offered by [`Follower::offer_faces`] are used) and the face nearest the last one is
 ///    taken. No face: the frame is lost.
 /// 2. **Expression.** The pose `P` is the least-squares similarity from the neutral shape `n`
@@ -139,10 +144,10 @@ impl FollowOptions {
 /// source model's appearance modes, which describe another person's face; projecting them
 /// would drive the targets' appearance with lighting and identity, not expression);
 /// `landmarks = P(n + S p)`, the person's neutral plus the mapped deviation, posed (the face
-/// as the source model can express it); `error` = the disagreement of the frame's last two
-/// landmark passes near the last face (eye distances; 0 for a face taken from a search or an
-/// offer); `iterations` = the landmark passes run near the last face this frame (0 when a
-/// search alone gave the face; the finder's own passes are not counted). A frame with no face has `lost = true` and
+/// as the source model can express it); `error` = 1 minus the mesh's face-presence score near
+/// the last face (0 for a face taken from a search or an offer); `iterations` = the mesh
+/// passes run near the last face this frame (0 when a search alone gave the face; the
+/// finder's own passes are not counted). A frame with no face has `lost = true` and
 /// carries the last good result; the next frames search until a face is found
 /// (`reacquired = true` on that frame).
 ///
@@ -170,9 +175,7 @@ pub struct Follower {
     neutral_frames: u32,
     /// The person's neutral shape (model coordinates, aligned to `s0`).
     neutral: [f32; 136],
-    /// Scratch: the two landmark passes, the smoothed points, the shape in model coordinates,
-    /// the followed shape.
-    pass: [f32; 136],
+    /// Scratch: the frame's points, the shape in model coordinates, the followed shape.
     points: [f32; 136],
     shape: [f32; 136],
     followed: [f32; 136],
@@ -241,7 +244,6 @@ impl Follower {
             seen: false,
             neutral_frames: 0,
             neutral: [0.0; 136],
-            pass: [0.0; 136],
             points: [0.0; 136],
             shape: [0.0; 136],
             followed: [0.0; 136],
@@ -323,8 +325,8 @@ impl Follower {
     }
 
     /// Starts a new person from a face box on the next frame (image coordinates: left, top,
-    /// width, height): [`Follower::restart`], then two landmark passes in the box; if they
-    /// disagree, the frame is searched as usual. Fails with [`Error::Params`] for a
+    /// width, height): [`Follower::restart`], then the mesh in the box; if it holds no face,
+    /// the frame is searched as usual. Fails with [`Error::Params`] for a
     /// non-finite box or one under 4x4.
     pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
         check_face_box(x, y, w, h)?;
@@ -377,25 +379,15 @@ impl Follower {
         let reacquired;
         let start_box = self.start_box.take();
         if self.following || start_box.is_some() {
-            // Near the last face (or in the box given): a pass on its box, then one on the box
-            // of that pass's points.
-            let first = start_box.unwrap_or_else(|| BBox::around_landmarks(&self.last_raw));
-            if self
+            // Near the last face (or in the box given): the mesh on its box.
+            let near = start_box.unwrap_or_else(|| BBox::around_landmarks(&self.last_raw));
+            if let Ok(score) = self
                 .finder
-                .landmarks_into(frame, first, &mut self.pass)
-                .is_ok()
+                .scored_landmarks_into(frame, near, &mut self.points)
             {
-                let second = BBox::around_landmarks(&self.pass);
-                if self
-                    .finder
-                    .landmarks_into(frame, second, &mut self.points)
-                    .is_ok()
-                {
-                    passes = 2;
-                    disagreement = landmark_error(&self.pass, &self.points);
-                    found = disagreement <= self.options.max_disagreement
-                        && self.inside(frame, &self.points);
-                }
+                passes = 2;
+                disagreement = 1.0 - score;
+                found = score >= self.options.min_face_score && self.inside(frame, &self.points);
             }
         }
         if found {

@@ -1,5 +1,5 @@
 //! Landmarks for enrolment: the face finder's points, steadied by averaging several passes of
-//! its landmark net (on boxes shifted a little and on the mirrored image).
+//! its face mesh (on boxes shifted a little and on the mirrored image).
 //!
 //! Why: a model is built from ~20 frames chosen by farthest-point sampling
 //! ([`crate::select_varied`]), which picks the most unusual shapes first, and a frame whose

@@ -20,7 +20,8 @@ export interface FoundFace {
 }
 "##;
 
-/// Finds faces (face-api.js's tiny detector and 68-point landmark net, embedded weights).
+/// Finds faces (MediaPipe's BlazeFace detector and 468-point face mesh, embedded weights; 68
+/// iBUG points in dlib's convention).
 /// Holds one finder for `find`, `landmarks` and `enrol` (a page's worker serves both tracking
 /// and enrolment with one copy of the nets).
 #[wasm_bindgen(js_name = FaceFinder)]
@@ -71,7 +72,7 @@ impl JsFaceFinder {
     }
 
     /// The 68 landmarks of the face inside `box` (`{x, y, width, height}`, image pixels) of a
-    /// straight RGBA frame: one pass of the landmark net, no detection and no check that a face
+    /// straight RGBA frame: two passes of the face mesh, no detection and no check that a face
     /// is there.
     #[wasm_bindgen(unchecked_return_type = "Float32Array")]
     pub fn landmarks(

@@ -58,7 +58,7 @@ test('the packed npm package installs, and the embed example drives a target fro
   try {
     // The tarball holds what an npm user needs, and nothing from the build tree.
     for (const f of ['package.json', 'facemimic.js', 'facemimic.d.ts', 'facemimic_bg.wasm', 'README.md',
-      'LICENSE-MIT', 'LICENSE-APACHE', 'LICENSE-face-api']) {
+      'LICENSE-MIT', 'LICENSE-APACHE', 'LICENSE-mediapipe']) {
       assert.ok(files.includes(f), `tarball lacks ${f} (has ${files.join(', ')})`);
     }
     const installed = path.join(site, 'node_modules', 'facemimic');

@@ -1,0 +1,275 @@
+//! [`FaceFinder`]: faces and their 68 iBUG points from MediaPipe's face detector and face mesh
+//! (`mesh.rs`).
+
+use super::calibration;
+use super::mesh::{self, Detection, MeshNets, Roi, MESH_POINTS};
+use super::mesh_table;
+use super::{Face, FindOptions};
+use crate::error::{Error, Result};
+use crate::geometry::BBox;
+use crate::image::ImageRef;
+
+/// Mesh passes per face in [`FaceFinder::find`] and [`FaceFinder::landmarks`]: the first on
+/// the detector's region (or the box given), the next on the region of the previous pass's
+/// points (as MediaPipe does from frame to frame). Measured on every 4th frame of franck-dev,
+/// franck-dev2 and webcam-dev: one pass 0.0288 / 0.0344 / 0.0309, two passes 0.0279 / 0.0329 /
+/// 0.0287.
+const MESH_PASSES: usize = 2;
+
+/// A region whose mesh vertices lie on flat-filled pixels this often is a drawing, not a face
+/// (see [`flat_fraction`]).
+const MAX_FLAT: f32 = 0.5;
+
+/// Finds faces and places their 68 landmarks with MediaPipe's BlazeFace (short range) and its
+/// 468-point face mesh (Apache-2.0, Google LLC; `data/weights/LICENSE-mediapipe`), run by the
+/// crate's own layers (`graph.rs`).
+///
+/// Represents: the two nets, their anchors and every scratch buffer; reuse one finder (after
+/// the first call, `find` and `landmarks` allocate only their results).
+///
+/// Ensures: every face reported has 68 finite points in dlib's iBUG convention (the mesh's
+/// vertices of `mesh_table.rs`, moved by the convention offsets of `calibration.rs`), a box
+/// ([`BBox::around_landmarks`]) and a score in 0..=1; see `docs/finding.md` for the measured
+/// rates, errors and speed.
+pub struct FaceFinder {
+    nets: MeshNets,
+    options: FindOptions,
+    calibrate: bool,
+    detections: Vec<Detection>,
+    /// The scratch mesh of `landmarks_into`.
+    pass: Vec<f32>,
+}
+
+impl std::fmt::Debug for FaceFinder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FaceFinder")
+            .field("options", &self.options)
+            .finish_non_exhaustive()
+    }
+}
+
+impl FaceFinder {
+    /// A finder with the converted MediaPipe weights shipped in the crate.
+    pub fn new() -> Result<Self> {
+        Self::from_weights(mesh::BLAZEFACE_WEIGHTS, mesh::MESH_WEIGHTS)
+    }
+
+    /// A finder from weight files in the `scripts/convert-mediapipe.py` format (the detector's,
+    /// then the mesh's).
+    pub fn from_weights(detector: &[u8], mesh: &[u8]) -> Result<Self> {
+        Ok(FaceFinder {
+            nets: MeshNets::load(detector, mesh)?,
+            options: FindOptions::default(),
+            calibrate: true,
+            detections: Vec::new(),
+            pass: Vec::new(),
+        })
+    }
+
+    /// Whether the points are moved onto dlib's convention (the default); off only to measure
+    /// that calibration (`examples/finder_data.rs calibration`).
+    pub fn set_calibrated(&mut self, on: bool) {
+        self.calibrate = on;
+    }
+
+    /// The options [`find`](Self::find) uses.
+    pub fn options(&self) -> FindOptions {
+        self.options
+    }
+
+    /// Sets the options (a threshold that is not a finite number keeps its default).
+    pub fn set_options(&mut self, mut options: FindOptions) {
+        let d = FindOptions::default();
+        for (v, d) in [
+            (&mut options.score_threshold, d.score_threshold),
+            (&mut options.iou_threshold, d.iou_threshold),
+            (&mut options.min_face_score, d.min_face_score),
+        ] {
+            if !v.is_finite() {
+                *v = d;
+            }
+        }
+        self.options = options;
+    }
+
+    /// Every face's dense mesh (468 points, x, y, z interleaved; x, y in image pixels), its
+    /// detection and face score, most confident detection first; drawings (see
+    /// [`flat_fraction`]) left out.
+    fn meshes(&mut self, image: &ImageRef) -> Vec<(Detection, f32, Vec<f32>)> {
+        let mut dets = std::mem::take(&mut self.detections);
+        self.nets
+            .detect(image, self.options.score_threshold, &mut dets);
+        let mut out: Vec<(Detection, f32, Vec<f32>)> = Vec::new();
+        for det in dets.iter().take(self.options.max_candidates) {
+            // A second detection of a face already meshed costs no passes.
+            if out.iter().any(|(_, _, m)| {
+                BBox::of_pairs(m.chunks_exact(3).map(|p| (p[0], p[1]))).iou(&det.bbox) > 0.3
+            }) {
+                continue;
+            }
+            let mut pts = vec![0.0; MESH_POINTS * 3];
+            if let Some(score) = self.passes(image, Roi::from_detection(det), &mut pts) {
+                if score >= self.options.min_face_score && flat_fraction(image, &pts) <= MAX_FLAT {
+                    out.push((*det, score, pts));
+                }
+            }
+        }
+        self.detections = dets;
+        out
+    }
+
+    /// Every face's dense mesh ([`MESH_POINTS`](super::MESH_POINTS) points, x, y, z
+    /// interleaved; x, y in image pixels, z in the same scale), most confident detection
+    /// first: the points [`FaceFinder::find`] takes its 68 from (`examples/mesh_table.rs`
+    /// learns which from these). The forehead and the face's outline are there too.
+    pub fn dense_meshes(&mut self, image: &ImageRef) -> Vec<Vec<f32>> {
+        self.meshes(image).into_iter().map(|(_, _, m)| m).collect()
+    }
+
+    /// [`MESH_PASSES`] mesh passes from `roi` into `pts`; the last pass's face score (`None`
+    /// when a pass fails).
+    fn passes(&mut self, image: &ImageRef, roi: Roi, pts: &mut [f32]) -> Option<f32> {
+        let mut score = self.nets.mesh(image, &roi, pts).ok()?;
+        for _ in 1..MESH_PASSES {
+            if score < self.options.min_face_score {
+                break;
+            }
+            let roi = Roi::from_mesh(pts);
+            score = self.nets.mesh(image, &roi, pts).ok()?;
+        }
+        Some(score)
+    }
+
+    /// Every face in `image`, most confident first.
+    ///
+    /// The detector (BlazeFace on the image letterboxed into 128x128) proposes faces down to
+    /// [`FindOptions::score_threshold`]; on each of the [`FindOptions::max_candidates`] most
+    /// confident (skipping those over a face already meshed) the mesh runs twice, first on
+    /// the detection's region (1.5 times its box, turned level with its eyes), then on the
+    /// region of the first pass's points. A region is a face when the mesh's own face score is
+    /// [`FindOptions::min_face_score`] or more and its vertices do not lie on flat-filled
+    /// pixels (a drawing: see `docs/finding.md`, "False faces"). The score is the geometric
+    /// mean of the detector's and the mesh's.
+    pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
+        let mut faces: Vec<Face> = Vec::new();
+        for (det, score, pts) in self.meshes(image) {
+            let mut landmarks = vec![0.0; 136];
+            mesh_table::to_ibug(&pts, &mut landmarks);
+            let bbox = BBox::around_landmarks(&landmarks);
+            if faces
+                .iter()
+                .any(|f| f.bbox.iou(&bbox) > self.options.iou_threshold)
+            {
+                continue;
+            }
+            if self.calibrate {
+                calibration::apply(&mut landmarks);
+            }
+            if landmarks.iter().all(|v| v.is_finite()) {
+                faces.push(Face {
+                    bbox,
+                    score: (det.score * score).sqrt(),
+                    landmarks,
+                });
+            }
+        }
+        faces.sort_by(|a, b| b.score.total_cmp(&a.score));
+        faces.truncate(self.options.max_faces);
+        faces
+    }
+
+    /// The 68 points of the face in `bbox` (a box like [`Face::bbox`]), in dlib's convention.
+    pub fn landmarks(&mut self, image: &ImageRef, bbox: BBox) -> Result<Vec<f32>> {
+        let mut out = vec![0.0; 136];
+        self.landmarks_into(image, bbox, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`landmarks`](Self::landmarks) into a caller's buffer of 136 values.
+    pub fn landmarks_into(&mut self, image: &ImageRef, bbox: BBox, out: &mut [f32]) -> Result<()> {
+        self.scored_landmarks_into(image, bbox, out).map(|_| ())
+    }
+
+    /// [`landmarks_into`](Self::landmarks_into), returning the mesh's face score (0..1: under
+    /// [`FindOptions::min_face_score`] the box holds no face): a mesh pass on the square of
+    /// 1.5 times the box's longer side about its centre, then one on the region of that pass's
+    /// points.
+    pub fn scored_landmarks_into(
+        &mut self,
+        image: &ImageRef,
+        bbox: BBox,
+        out: &mut [f32],
+    ) -> Result<f32> {
+        if out.len() != 136 {
+            return Err(Error::Landmarks(format!(
+                "{} values, expected 136",
+                out.len()
+            )));
+        }
+        if !bbox.is_valid() {
+            return Err(Error::Image(format!("invalid face box {bbox:?}")));
+        }
+        let roi = Roi {
+            cx: bbox.x + 0.5 * bbox.width,
+            cy: bbox.y + 0.5 * bbox.height,
+            side: mesh::ROI_SCALE * bbox.width.max(bbox.height),
+            angle: 0.0,
+        };
+        let mut pts = std::mem::take(&mut self.pass);
+        pts.resize(MESH_POINTS * 3, 0.0);
+        let r = self.nets.mesh(image, &roi, &mut pts).and_then(|_| {
+            let roi = Roi::from_mesh(&pts);
+            self.nets.mesh(image, &roi, &mut pts)
+        });
+        if r.is_ok() {
+            mesh_table::to_ibug(&pts, out);
+        }
+        self.pass = pts;
+        let score = r?;
+        if self.calibrate {
+            calibration::apply(out);
+        }
+        if out.iter().all(|v| v.is_finite()) {
+            Ok(score)
+        } else {
+            Err(Error::Image("the mesh gave non-finite points".into()))
+        }
+    }
+}
+
+/// The fraction of a mesh's vertices (inside the image) whose 5x5 pixel neighbourhood is one
+/// flat colour: the filled areas of a drawing (a smiley, a logo) that a photographed face,
+/// with its shading, sensor noise and compression, does not have.
+///
+/// Measured (every 5th frame of GRID, franck-dev, franck-dev2 and webcam-dev, 833 faces): at
+/// most 0.004 on a face; the drawn smiley of the no-face test set, which the mesh scores 0.70,
+/// is flat at 0.95 of its vertices even with the 1-pixel neighbourhood (faces: 0.043 at most).
+/// A face magnified with nearest-neighbour scaling by 5 or more would look flat too.
+pub(crate) fn flat_fraction(image: &ImageRef, mesh: &[f32]) -> f32 {
+    let (w, h) = (image.width() as i64, image.height() as i64);
+    let data = image.data();
+    let grey = |x: i64, y: i64| {
+        let i = ((y * w + x) * 4) as usize;
+        u32::from(data[i]) + u32::from(data[i + 1]) + u32::from(data[i + 2])
+    };
+    let (mut inside, mut flat) = (0u32, 0u32);
+    for p in mesh.chunks_exact(3) {
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            continue;
+        }
+        let (x, y) = (p[0].round() as i64, p[1].round() as i64);
+        if x < 2 || y < 2 || x + 2 >= w || y + 2 >= h {
+            continue;
+        }
+        inside += 1;
+        let c = grey(x, y);
+        if (-2..=2).all(|dy| (-2..=2).all(|dx| grey(x + dx, y + dy) == c)) {
+            flat += 1;
+        }
+    }
+    if inside == 0 {
+        0.0
+    } else {
+        flat as f32 / inside as f32
+    }
+}
