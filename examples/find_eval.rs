@@ -5,6 +5,12 @@
 //! confident face's landmarks lie within 0.25 of
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
 //! the found frames.
+//!
+//! To compare two builds frame by frame (e.g. MediaPipe's nets with float16 and with int8
+//! weights): `FIND_EVAL_DUMP=FILE` writes each frame's most confident face's 68 points to FILE;
+//! a later run with `FIND_EVAL_AGAINST=FILE` also prints, per set, the mean and p95 of the
+//! landmark error of its points against FILE's (same normalisation: FILE's inter-ocular
+//! distance) over the frames where both found a face, and how many frames only one found.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(any(target_arch = "wasm32", test)))]
@@ -15,11 +21,34 @@ use native::main;
 mod native {
     use facemimic::io::{read_image, read_landmarks};
     use facemimic::FaceFinder;
+    use std::collections::HashMap;
+    use std::io::Write;
     use std::path::{Path, PathBuf};
     use std::time::Instant;
 
     fn frames(dir: &Path) -> Vec<PathBuf> {
         facemimic::io::annotated_images(dir).unwrap()
+    }
+
+    /// A `FIND_EVAL_DUMP` file: per frame, `set/name` and the points (none when no face).
+    fn read_dump(path: &str) -> HashMap<String, Vec<f32>> {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .map(|l| {
+                let mut it = l.split(' ');
+                let key = it.next().unwrap().to_string();
+                (key, it.map(|v| v.parse().unwrap()).collect())
+            })
+            .collect()
+    }
+
+    /// The p95 of sorted `errors` (NaN when empty).
+    fn p95(errors: &[f32]) -> f32 {
+        errors
+            .get((errors.len() * 95 / 100).min(errors.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(f32::NAN)
     }
 
     pub(crate) fn main() {
@@ -38,8 +67,14 @@ mod native {
             opts.score_threshold = t.parse().unwrap();
         }
         finder.set_options(opts);
+        let mut dump = std::env::var_os("FIND_EVAL_DUMP")
+            .map(|p| std::io::BufWriter::new(std::fs::File::create(p).unwrap()));
+        let against = std::env::var("FIND_EVAL_AGAINST")
+            .ok()
+            .map(|p| read_dump(&p));
         for set in sets {
             let all = frames(&root.join(&set));
+            let (mut versus, mut only_one) = (Vec::new(), 0);
             let (mut n, mut found, mut err_sum, mut worst, mut secs, mut extra) =
                 (0, 0, 0.0, 0.0f32, 0.0, 0);
             let mut missed = Vec::new();
@@ -53,6 +88,21 @@ mod native {
                 let faces = finder.find(&view);
                 secs += t.elapsed().as_secs_f64();
                 n += 1;
+                let key = p.strip_prefix(&root).unwrap().to_string_lossy().to_string();
+                let points = faces.first().map_or(&[][..], |f| &f.landmarks[..]);
+                if let Some(d) = dump.as_mut() {
+                    let values: Vec<String> = points.iter().map(|v| v.to_string()).collect();
+                    writeln!(d, "{key} {}", values.join(" ")).unwrap();
+                }
+                if let Some(other) = against.as_ref().and_then(|a| a.get(&key)) {
+                    match (points.is_empty(), other.is_empty()) {
+                        (false, false) => {
+                            versus.push(facemimic::find::landmark_error(points, other))
+                        }
+                        (true, true) => {}
+                        _ => only_one += 1,
+                    }
+                }
                 extra += faces.len().saturating_sub(1);
                 match faces
                     .first()
@@ -81,18 +131,25 @@ mod native {
                 }
             }
             errors.sort_by(f32::total_cmp);
-            let p95 = errors
-                .get((errors.len() * 95 / 100).min(errors.len().saturating_sub(1)))
-                .copied()
-                .unwrap_or(f32::NAN);
+            let p95_error = p95(&errors);
             println!(
-                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, p95 {p95:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
+                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, p95 {p95_error:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
                 100.0 * found as f64 / n as f64,
                 err_sum / found.max(1) as f32,
                 worst,
                 1000.0 * secs / n as f64,
                 &missed[..missed.len().min(8)]
             );
+            if against.is_some() {
+                versus.sort_by(f32::total_cmp);
+                println!(
+                    "{set} against FIND_EVAL_AGAINST: {} frames, mean error {:.5}, p95 {:.5}, worst {:.5}; found by only one {only_one}",
+                    versus.len(),
+                    versus.iter().sum::<f32>() / versus.len().max(1) as f32,
+                    p95(&versus),
+                    versus.last().copied().unwrap_or(f32::NAN)
+                );
+            }
         }
     }
 }

@@ -16,7 +16,11 @@ and writes `blazeface_short.fmw` and `face_mesh.fmw` to OUT_DIR (default data/we
 
 The TFLite files store their weights as float16 (dequantised at load by DEQUANTIZE ops); they
 are kept as float16 here (encoding 2), so the converted nets compute with exactly the same
-weights. Besides the weights, each file holds two float32 tensors that describe the graph:
+weights. scripts/quantise-fmw.py then makes the smaller files the crate embeds
+(`*_q8.fmw`): the filters `op{i}/w` requantised to encoding 3 of `FMW1` (src/find/weights.rs: a
+`u32` axis, one `f32` scale per index along it, `i8` values, value = scale * q), per output
+channel: axis 0 of a convolution's `[cout, kh, kw, cin]`, axis 3 of a depthwise `[1, kh, kw, c]`;
+biases, PReLU slopes (one value per channel) and the `graph`/`outputs` tensors unchanged. Besides the weights, each file holds two float32 tensors that describe the graph:
 
 - `graph` `[ops, 8]`: one row per layer, `[kind, out, in0, in1, stride, same, kernel, extra]`,
   where `out`/`in*` are activation slots (slot 0 is the input image, -1 none), `same` is 1 for

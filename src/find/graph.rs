@@ -12,11 +12,19 @@ use super::nn::{self, Map};
 use super::weights::{bad, Weights};
 use crate::error::{Error, Result};
 
-/// The detector's weights (float16, `scripts/convert-mediapipe.py`); here, below the pipeline
-/// that runs them (`mesh.rs`), so the graph's own tests can load them.
-pub const BLAZEFACE_WEIGHTS: &[u8] = include_bytes!("../../data/weights/blazeface_short.fmw");
-/// The face mesh's weights (float16).
-pub const MESH_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_mesh.fmw");
+/// The detector's weights: filters in int8 per channel (`scripts/quantise-fmw.py`), biases and
+/// slopes float16 (`scripts/convert-mediapipe.py`); here, below the pipeline that runs them
+/// (`mesh.rs`), so the graph's own tests can load them.
+pub const BLAZEFACE_WEIGHTS: &[u8] = include_bytes!("../../data/weights/blazeface_short_q8.fmw");
+/// The face mesh's weights (int8 filters, like the detector's).
+pub const MESH_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_mesh_q8.fmw");
+/// The detector's float16 weights, as TFLite computes with them: tests only (the
+/// layer-by-layer reference).
+#[cfg(test)]
+pub const BLAZEFACE_WEIGHTS_F16: &[u8] = include_bytes!("../../data/weights/blazeface_short.fmw");
+/// The face mesh's float16 weights: tests only.
+#[cfg(test)]
+pub const MESH_WEIGHTS_F16: &[u8] = include_bytes!("../../data/weights/face_mesh.fmw");
 
 /// What a layer computes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -107,6 +107,8 @@ pub(crate) struct MeshNets {
 }
 
 pub use super::graph::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
+#[cfg(test)]
+pub use super::graph::{BLAZEFACE_WEIGHTS_F16, MESH_WEIGHTS_F16};
 
 /// The SSD anchors of BlazeFace short range (see the module's documentation).
 fn anchors() -> Vec<[f32; 2]> {

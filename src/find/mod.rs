@@ -13,7 +13,6 @@ mod finder;
 mod graph;
 mod mesh;
 mod mesh_table;
-mod nets;
 mod nn;
 mod weights;
 
