@@ -36,7 +36,8 @@ pub struct FaceFinder {
     options: FindOptions,
     calibrate: bool,
     detections: Vec<Detection>,
-    /// The scratch mesh of `landmarks_into`.
+    /// The dense mesh of the last `scored_landmarks_into` or `follow_into` (where
+    /// `follow_into` looks next); empty when there is none.
     pass: Vec<f32>,
 }
 
@@ -221,17 +222,51 @@ impl FaceFinder {
             let roi = Roi::from_mesh(&pts);
             self.nets.mesh(image, &roi, &mut pts)
         });
-        if r.is_ok() {
-            mesh_table::to_ibug(&pts, out);
-        }
         self.pass = pts;
-        let score = r?;
+        self.finish(r, out)
+    }
+
+    /// Follows the face of the last [`scored_landmarks_into`](Self::scored_landmarks_into) or
+    /// `follow_into` into the next frame `image`: one mesh pass on the region of that call's
+    /// mesh (MediaPipe's tracking from frame to frame, half the cost of a call from a box); the
+    /// 68 points into `out` and the mesh's face score, as `scored_landmarks_into`. Fails with
+    /// [`Error::Landmarks`] when there is no such face (no call yet, or the last one failed).
+    pub fn follow_into(&mut self, image: &ImageRef, out: &mut [f32]) -> Result<f32> {
+        if out.len() != 136 {
+            return Err(Error::Landmarks(format!(
+                "{} values, expected 136",
+                out.len()
+            )));
+        }
+        if self.pass.len() != MESH_POINTS * 3 {
+            return Err(Error::Landmarks("no face to follow".into()));
+        }
+        let roi = Roi::from_mesh(&self.pass);
+        let mut pts = std::mem::take(&mut self.pass);
+        let r = self.nets.mesh(image, &roi, &mut pts);
+        self.pass = pts;
+        self.finish(r, out)
+    }
+
+    /// The end of a mesh call: on success the 68 points of `self.pass` into `out` (calibrated)
+    /// and the score; on failure `self.pass` is cleared, so `follow_into` fails until a new face
+    /// is given.
+    fn finish(&mut self, r: Result<f32>, out: &mut [f32]) -> Result<f32> {
+        let score = match r {
+            Ok(s) => s,
+            Err(e) => {
+                self.pass.clear();
+                return Err(e);
+            }
+        };
+        mesh_table::to_ibug(&self.pass, out);
         if self.calibrate {
             calibration::apply(out);
         }
         if out.iter().all(|v| v.is_finite()) {
             Ok(score)
         } else {
+            self.pass.clear();
             Err(Error::Image("the mesh gave non-finite points".into()))
         }
     }

@@ -117,9 +117,10 @@ impl FollowOptions {
 /// standard deviations).
 ///
 /// Each frame ([`Follower::track`]):
-/// 1. **Landmarks.** While a face is followed, the finder's mesh runs on the box of its last
-///    points ([`FaceFinder::scored_landmarks_into`]: two mesh passes, the tracker's idea of
-///    searching near the last face); if the mesh says the box holds no face
+/// 1. **Landmarks.** While a face is followed, the finder's mesh runs near it: one pass on the
+///    region of the last frame's mesh ([`FaceFinder::follow_into`]), or two from the box of
+///    its last points after a search ([`FaceFinder::scored_landmarks_into`]); if the mesh
+///    says the region holds no face
 ///    ([`FollowOptions::min_face_score`]), or no face is followed yet, the finder searches the
 ///    whole frame (or the
 ///    faces offered by [`Follower::offer_faces`] are used) and the face nearest the last one is
@@ -185,6 +186,9 @@ pub struct Follower {
     search: bool,
     /// A box to look in on the next frame ([`Follower::start_from_box`]).
     start_box: Option<BBox>,
+    /// The last frame's points came from the finder's mesh near the last face (not from a
+    /// search), so the next frame can follow that mesh (`FaceFinder::follow_into`).
+    meshed: bool,
     /// The policy: its pose anchor's time constant (the follower reads frames at their own
     /// size, so its resampling rule is not used).
     policy: TrackPolicy,
@@ -250,6 +254,7 @@ impl Follower {
             offered: None,
             search: true,
             start_box: None,
+            meshed: false,
             policy: TrackPolicy::default(),
             seq: Sequence::new(base.pose),
             result: FitResult {
@@ -306,6 +311,7 @@ impl Follower {
     /// estimated again from the first frames.
     pub fn restart(&mut self) {
         self.following = false;
+        self.meshed = false;
         self.seen = false;
         self.neutral_frames = 0;
         self.offered = None;
@@ -379,17 +385,23 @@ impl Follower {
         let reacquired;
         let start_box = self.start_box.take();
         if self.following || start_box.is_some() {
-            // Near the last face (or in the box given): the mesh on its box.
-            let near = start_box.unwrap_or_else(|| BBox::around_landmarks(&self.last_raw));
-            if let Ok(score) = self
-                .finder
-                .scored_landmarks_into(frame, near, &mut self.points)
-            {
+            // Near the last face: one mesh pass on the region of its last mesh when this
+            // finder made it (MediaPipe's tracking), else two from its box (or the box given).
+            let r = if self.meshed && start_box.is_none() {
+                passes = 1;
+                self.finder.follow_into(frame, &mut self.points)
+            } else {
                 passes = 2;
+                let near = start_box.unwrap_or_else(|| BBox::around_landmarks(&self.last_raw));
+                self.finder
+                    .scored_landmarks_into(frame, near, &mut self.points)
+            };
+            if let Ok(score) = r {
                 disagreement = 1.0 - score;
                 found = score >= self.options.min_face_score && self.inside(frame, &self.points);
             }
         }
+        self.meshed = found;
         if found {
             reacquired = start_box.is_some();
         } else {
