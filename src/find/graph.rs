@@ -73,6 +73,8 @@ pub(crate) struct Graph {
 #[derive(Default, Debug)]
 pub(crate) struct GraphScratch {
     maps: Vec<Map>,
+    /// The gathered windows of one output row of a convolution larger than 1x1.
+    patches: Vec<f32>,
 }
 
 /// A graph entry as a slot index (`None` for -1, "no slot"); anything else is an error.
@@ -327,7 +329,7 @@ impl Graph {
                 Kind::Conv if l.kernel == 1 && l.stride == 1 => {
                     nn::pointwise(x, &l.w, &l.bias, &mut y)
                 }
-                Kind::Conv => conv(x, l, &mut y)?,
+                Kind::Conv => conv(x, l, &mut s.patches, &mut y)?,
                 Kind::Depthwise => depthwise(x, l, &mut y)?,
                 Kind::Relu => {
                     copy(x, &mut y);
@@ -397,18 +399,45 @@ fn too_small(l: &Layer) -> Error {
     ))
 }
 
-/// A full convolution of any square kernel and stride, plus bias (filters `[kh][kw][cin][cout]`).
-/// The common output depths run with their accumulators in registers ([`conv_fixed`]); the sums
-/// are made in the same order either way.
-fn conv(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
-    let (oh, py) = geometry(x.h, l.kernel, l.stride, l.same).ok_or_else(|| too_small(l))?;
-    let (ow, px) = geometry(x.w, l.kernel, l.stride, l.same).ok_or_else(|| too_small(l))?;
-    y.reset(oh, ow, l.cout);
-    let g = (oh, ow, py, px);
-    match l.cout {
-        16 => conv_fixed::<16>(x, l, g, y),
-        24 => conv_fixed::<24>(x, l, g, y),
-        _ => conv_any(x, l, g, y),
+/// A full convolution of any square kernel and stride, plus bias (filters `[kh][kw][cin][cout]`):
+/// each output row's windows are gathered into `patches` (a row of `kh kw cin` values a pixel,
+/// zeros for the padding) and multiplied by the filters with [`nn::matmul`], the blocked
+/// product the 1x1 convolutions use. The sums are made in the same order as a direct loop
+/// (`ky`, `kx`, input channel), the padding adding zeros.
+fn conv(x: &Map, l: &Layer, patches: &mut Vec<f32>, y: &mut Map) -> Result<()> {
+    let (k, s, cin, cout) = (l.kernel, l.stride, x.c, l.cout);
+    let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
+    let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
+    y.reset(oh, ow, cout);
+    let row = k * k * cin;
+    let span = k * cin;
+    patches.clear();
+    patches.resize(ow * row, 0.0);
+    for (oy, out) in y.data.chunks_exact_mut(ow * cout).enumerate() {
+        for (ox, patch) in patches.chunks_exact_mut(row).enumerate() {
+            let ix0 = (ox * s) as isize - px as isize;
+            for (ky, seg) in patch.chunks_exact_mut(span).enumerate() {
+                let iy = (oy * s + ky) as isize - py as isize;
+                if iy < 0 || iy >= x.h as isize {
+                    seg.fill(0.0);
+                    continue;
+                }
+                let line = &x.data[iy as usize * x.w * cin..][..x.w * cin];
+                if ix0 >= 0 && ix0 as usize + k <= x.w {
+                    seg.copy_from_slice(&line[ix0 as usize * cin..][..span]);
+                    continue;
+                }
+                for (kx, tap) in seg.chunks_exact_mut(cin).enumerate() {
+                    let ix = ix0 + kx as isize;
+                    if ix < 0 || ix >= x.w as isize {
+                        tap.fill(0.0);
+                    } else {
+                        tap.copy_from_slice(&line[ix as usize * cin..][..cin]);
+                    }
+                }
+            }
+        }
+        nn::matmul(patches, row, &l.w, cout, &l.bias, out);
     }
     Ok(())
 }
@@ -437,51 +466,6 @@ fn taps(
                 continue;
             }
             tap(ky * k + kx, iy as usize * x.w + ix as usize);
-        }
-    }
-}
-
-fn conv_fixed<const C: usize>(x: &Map, l: &Layer, g: (usize, usize, usize, usize), y: &mut Map) {
-    let (oh, ow, py, px) = g;
-    let cin = x.c;
-    let bias: [f32; C] = l.bias[..C].try_into().unwrap_or([0.0; C]);
-    for oy in 0..oh {
-        for ox in 0..ow {
-            let mut acc = bias;
-            taps(x, l, py, px, oy, ox, |t, i| {
-                let inp = &x.data[i * cin..][..cin];
-                let f = &l.w[t * cin * C..][..cin * C];
-                for (&a, fr) in inp.iter().zip(f.chunks_exact(C)) {
-                    // A fixed-length row, so the loop unrolls over registers.
-                    let Ok(fr) = <&[f32; C]>::try_from(fr) else {
-                        continue;
-                    };
-                    for (o, &ff) in acc.iter_mut().zip(fr) {
-                        *o += a * ff;
-                    }
-                }
-            });
-            y.data[(oy * ow + ox) * C..][..C].copy_from_slice(&acc);
-        }
-    }
-}
-
-fn conv_any(x: &Map, l: &Layer, g: (usize, usize, usize, usize), y: &mut Map) {
-    let (oh, ow, py, px) = g;
-    let (cin, cout) = (x.c, l.cout);
-    for oy in 0..oh {
-        for ox in 0..ow {
-            let o = &mut y.data[(oy * ow + ox) * cout..][..cout];
-            o.copy_from_slice(&l.bias);
-            taps(x, l, py, px, oy, ox, |t, i| {
-                let inp = &x.data[i * cin..][..cin];
-                let f = &l.w[t * cin * cout..][..cin * cout];
-                for (&a, fr) in inp.iter().zip(f.chunks_exact(cout)) {
-                    for (oo, &ff) in o.iter_mut().zip(fr) {
-                        *oo += a * ff;
-                    }
-                }
-            });
         }
     }
 }
@@ -547,16 +531,19 @@ fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
 }
 
 /// The time of MediaPipe's two nets by layer kind, on one fixed input: what
-/// `examples/finder_profile.rs` prints (a profile, not a check).
+/// `examples/finder_profile.rs` prints (a profile, not a check). Minima over the runs, the
+/// figure least moved by other work on a shared machine.
 #[cfg(not(target_arch = "wasm32"))]
 #[derive(Clone, Debug, PartialEq)]
 pub struct NetProfile {
     /// The net's input side: 128 for BlazeFace, 192 for the face mesh.
     pub side: usize,
-    /// Seconds a run, the mean over the runs.
+    /// Seconds a run: the fastest run.
     pub run: f64,
+    /// Seconds a run: the median run.
+    pub median: f64,
     /// Per layer kind (`"Conv k3 s1"`, ...: kind, kernel and stride), the seconds a run its
-    /// layers take, by name.
+    /// layers take (each layer's fastest time over the runs, summed), by name.
     pub layers: Vec<(String, f64)>,
 }
 
@@ -564,6 +551,7 @@ pub struct NetProfile {
 /// warm-up run and times them, layer by layer (native only: it reads the clock).
 #[cfg(not(target_arch = "wasm32"))]
 pub fn profile_mesh_nets(reps: usize) -> Result<Vec<NetProfile>> {
+    use std::time::Instant;
     let reps = reps.max(1);
     let mut out = Vec::new();
     for (bytes, n) in [(BLAZEFACE_WEIGHTS, 128), (MESH_WEIGHTS, 192)] {
@@ -575,22 +563,29 @@ pub fn profile_mesh_nets(reps: usize) -> Result<Vec<NetProfile>> {
             *v = ((i * 7919) % 255) as f32 / 255.0;
         }
         g.run(&mut s, |_, _| {})?;
-        let mut times = std::collections::BTreeMap::<String, f64>::new();
-        let t0 = std::time::Instant::now();
+        let mut best = vec![f64::INFINITY; g.layers.len()];
+        let mut runs = Vec::with_capacity(reps);
         for _ in 0..reps {
-            let mut last = std::time::Instant::now();
+            let t0 = Instant::now();
+            let mut last = t0;
             g.run(&mut s, |i, _| {
-                let l = &g.layers[i];
-                let key = format!("{:?} k{} s{}", l.kind, l.kernel, l.stride);
-                *times.entry(key).or_default() += last.elapsed().as_secs_f64();
-                last = std::time::Instant::now();
+                let now = Instant::now();
+                best[i] = best[i].min((now - last).as_secs_f64());
+                last = now;
             })?;
+            runs.push(t0.elapsed().as_secs_f64());
         }
-        let reps = reps as f64;
+        let mut times = std::collections::BTreeMap::<String, f64>::new();
+        for (l, t) in g.layers.iter().zip(&best) {
+            let key = format!("{:?} k{} s{}", l.kind, l.kernel, l.stride);
+            *times.entry(key).or_default() += t;
+        }
+        runs.sort_by(f64::total_cmp);
         out.push(NetProfile {
             side: n,
-            run: t0.elapsed().as_secs_f64() / reps,
-            layers: times.into_iter().map(|(k, t)| (k, t / reps)).collect(),
+            run: runs[0],
+            median: runs[reps / 2],
+            layers: times.into_iter().collect(),
         });
     }
     Ok(out)

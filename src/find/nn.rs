@@ -120,73 +120,119 @@ pub(crate) fn depthwise3x3(
     }
 }
 
-/// A 1x1 convolution (`filters` `[cin][cout]`) plus bias: a matrix product per pixel.
-///
-/// This is where the nets spend most of their time, so it is blocked like a small matrix
-/// product: [`POINTWISE_COUT`] output channels at a time (their `cin x 16` filter slice stays in
-/// cache while every pixel passes), and [`POINTWISE_PIXELS`] pixels at a time whose
-/// accumulators stay in registers. Each output still sums `bias + a0 f0 + a1 f1 + ...` in
-/// input-channel order, so the result is bit-identical to the plain loop.
+/// A 1x1 convolution (`filters` `[cin][cout]`) plus bias: a matrix product per pixel
+/// ([`matmul`]).
 pub(crate) fn pointwise(x: &Map, filters: &[f32], bias: &[f32], y: &mut Map) {
     let cout = bias.len();
-    let cin = x.c;
-    debug_assert_eq!(filters.len(), cin * cout);
+    debug_assert_eq!(filters.len(), x.c * cout);
     y.reset(x.h, x.w, cout);
-    let pixels = x.h * x.w;
-    let full = cout - cout % POINTWISE_COUT;
-    for c0 in (0..full).step_by(POINTWISE_COUT) {
-        let b: &[f32; POINTWISE_COUT] = bias[c0..c0 + POINTWISE_COUT].try_into().unwrap();
-        let mut p = 0;
-        while p + POINTWISE_PIXELS <= pixels {
-            let mut acc = [*b; POINTWISE_PIXELS];
-            let inp = &x.data[p * cin..(p + POINTWISE_PIXELS) * cin];
-            for ci in 0..cin {
-                let f: &[f32; POINTWISE_COUT] = filters[ci * cout + c0..][..POINTWISE_COUT]
-                    .try_into()
-                    .unwrap();
-                for (k, acc) in acc.iter_mut().enumerate() {
-                    let a = inp[k * cin + ci];
-                    for (o, &ff) in acc.iter_mut().zip(f) {
-                        *o += a * ff;
-                    }
-                }
-            }
-            for (k, acc) in acc.iter().enumerate() {
-                y.data[(p + k) * cout + c0..][..POINTWISE_COUT].copy_from_slice(acc);
-            }
-            p += POINTWISE_PIXELS;
-        }
-        for p in p..pixels {
-            let mut acc = *b;
-            let inp = &x.data[p * cin..][..cin];
-            for (ci, &a) in inp.iter().enumerate() {
-                let f = &filters[ci * cout + c0..][..POINTWISE_COUT];
-                for (o, &ff) in acc.iter_mut().zip(f) {
-                    *o += a * ff;
-                }
-            }
-            y.data[p * cout + c0..][..POINTWISE_COUT].copy_from_slice(&acc);
-        }
+    matmul(&x.data, x.c, filters, cout, bias, &mut y.data);
+}
+
+/// `out[p][o] = bias[o] + sum_i a[p][i] f[i][o]` for every row `p` of `a` (rows of `k`
+/// values; `out` rows of `bias.len()` values); `f` has rows of `fs >= bias.len()` values (a
+/// caller may pad them). What the 1x1 convolutions are, and the larger ones once their
+/// windows are gathered into rows.
+///
+/// This is where the nets spend most of their time, so it is blocked like a small matrix
+/// product: [`BLOCK_COUT`] output channels by [`BLOCK_ROWS`] rows at a time, whose
+/// accumulators stay in registers, then blocks of 4 channels and single rows for the rest. Each
+/// output still sums `bias + a0 f0 + a1 f1 + ...` in input order, so the result is
+/// bit-identical to the plain loop.
+pub(crate) fn matmul(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], out: &mut [f32]) {
+    let n = bias.len();
+    debug_assert!(fs >= n && f.len() >= k * fs - (fs - n));
+    let rows = a.len().checked_div(k).unwrap_or(0);
+    debug_assert_eq!(out.len(), rows * n);
+    let mut c0 = 0;
+    while c0 + BLOCK_COUT <= n {
+        channel_block::<BLOCK_COUT>(a, k, rows, &f[c0..], fs, &bias[c0..], &mut out[c0..], n);
+        c0 += BLOCK_COUT;
     }
-    if full < cout {
-        // The last `cout % 16` channels (the detector's 25-channel head), plainly.
-        for (inp, o) in x.data.chunks_exact(cin).zip(y.data.chunks_exact_mut(cout)) {
-            let o = &mut o[full..];
-            o.copy_from_slice(&bias[full..]);
-            for (ci, &a) in inp.iter().enumerate() {
-                let fr = &filters[ci * cout + full..][..cout - full];
+    while c0 + 4 <= n {
+        channel_block::<4>(a, k, rows, &f[c0..], fs, &bias[c0..], &mut out[c0..], n);
+        c0 += 4;
+    }
+    if c0 < n {
+        // The last `n % 4` channels, plainly.
+        for (inp, o) in a.chunks_exact(k).zip(out.chunks_exact_mut(n)) {
+            let o = &mut o[c0..];
+            o.copy_from_slice(&bias[c0..]);
+            for (ci, &v) in inp.iter().enumerate() {
+                let fr = &f[ci * fs + c0..][..n - c0];
                 for (oo, &ff) in o.iter_mut().zip(fr) {
-                    *oo += a * ff;
+                    *oo += v * ff;
                 }
             }
         }
     }
 }
 
-/// Output channels per block of [`pointwise`].
-const POINTWISE_COUT: usize = 16;
-/// Pixels per block of [`pointwise`].
-const POINTWISE_PIXELS: usize = 4;
+/// Output channels `0..N` of `f`, `bias` and `out` (slices starting at the block's first
+/// channel) for all `rows` rows of `a`: [`BLOCK_ROWS`] rows at a time, then one at a time.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn channel_block<const N: usize>(
+    a: &[f32],
+    k: usize,
+    rows: usize,
+    f: &[f32],
+    fs: usize,
+    bias: &[f32],
+    out: &mut [f32],
+    n: usize,
+) {
+    let b: &[f32; N] = bias[..N].try_into().unwrap();
+    let mut p = 0;
+    while p + BLOCK_ROWS <= rows {
+        kernel::<N, BLOCK_ROWS>(
+            &a[p * k..][..BLOCK_ROWS * k],
+            k,
+            f,
+            fs,
+            b,
+            &mut out[p * n..],
+            n,
+        );
+        p += BLOCK_ROWS;
+    }
+    while p < rows {
+        kernel::<N, 1>(&a[p * k..][..k], k, f, fs, b, &mut out[p * n..], n);
+        p += 1;
+    }
+}
+
+/// `P` rows of `a` (`P x k` values) times `N` columns of `f`: `P x N` accumulators.
+#[inline(always)]
+fn kernel<const N: usize, const P: usize>(
+    a: &[f32],
+    k: usize,
+    f: &[f32],
+    fs: usize,
+    b: &[f32; N],
+    out: &mut [f32],
+    n: usize,
+) {
+    let mut acc = [*b; P];
+    let rows: [&[f32]; P] = std::array::from_fn(|r| &a[r * k..][..k]);
+    for ci in 0..k {
+        let fr: &[f32; N] = f[ci * fs..][..N].try_into().unwrap();
+        for (acc, row) in acc.iter_mut().zip(&rows) {
+            let v = row[ci];
+            for (o, &w) in acc.iter_mut().zip(fr) {
+                *o += v * w;
+            }
+        }
+    }
+    for (r, acc) in acc.iter().enumerate() {
+        out[r * n..][..N].copy_from_slice(acc);
+    }
+}
+
+/// Output channels per register block of [`matmul`].
+const BLOCK_COUT: usize = 8;
+/// Rows (pixels) per register block of [`matmul`].
+const BLOCK_ROWS: usize = 4;
 
 /// Leaky ReLU with slope 0.1 (the tiny detector's activation), in place.
 pub(crate) fn leaky(x: &mut Map) {
@@ -292,7 +338,8 @@ mod tests {
 
     #[test]
     fn pointwise_blocks_match_the_plain_product_exactly() {
-        // 7 pixels (one block of 4 and a tail of 3) and 37 outputs (two blocks of 16 and 5).
+        // 7 pixels (one block of 4 and a tail of 3) and 37 outputs (four blocks of 8, one of 4
+        // and one plain channel).
         let x = map(1, 7, 5, |i| (i as f32 * 0.29).sin());
         let f: Vec<f32> = (0..5 * 37).map(|i| (i as f32 * 0.13).cos()).collect();
         let b: Vec<f32> = (0..37).map(|i| i as f32 * 0.01 - 0.2).collect();
