@@ -498,8 +498,104 @@ fn windows(
     Ok(())
 }
 
-/// A depthwise convolution (filters `[kh][kw][c]`) plus bias.
+/// A depthwise convolution (filters `[kh][kw][c]`) plus bias. For a 3x3 kernel the windows
+/// wholly inside the map (all but the border pixels) take [`depthwise3x3_row`]; the rest take
+/// the general loop. Both sum `bias + tap 0 + tap 1 + ...` in the window's order.
 fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
+    let (k, s, c) = (l.kernel, l.stride, x.c);
+    if k != 3 {
+        return depthwise_any(x, l, y);
+    }
+    let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
+    let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
+    y.reset(oh, ow, c);
+    let line = x.w * c;
+    // Output columns whose window is inside the map: `lo..hi`.
+    let lo = px.div_ceil(s).min(ow);
+    let hi = if x.w + px >= 3 {
+        ((x.w + px - 3) / s + 1).clamp(lo, ow)
+    } else {
+        lo
+    };
+    for (oy, out) in y.data.chunks_exact_mut(ow * c).enumerate() {
+        let iy0 = (oy * s) as isize - py as isize;
+        let inside = iy0 >= 0 && iy0 as usize + 3 <= x.h;
+        let border = |ox: usize, o: &mut [f32]| {
+            o.copy_from_slice(&l.bias);
+            taps(x, l, py, px, oy, ox, |t, i| {
+                let inp = &x.data[i * c..][..c];
+                let f = &l.w[t * c..][..c];
+                for ((oo, &a), &ff) in o.iter_mut().zip(inp).zip(f) {
+                    *oo += a * ff;
+                }
+            });
+        };
+        if !inside {
+            for (ox, o) in out.chunks_exact_mut(c).enumerate() {
+                border(ox, o);
+            }
+            continue;
+        }
+        let rows: [&[f32]; 3] =
+            std::array::from_fn(|ky| &x.data[(iy0 as usize + ky) * line..][..line]);
+        depthwise3x3_row(&rows, c, s, px, lo..hi, &l.w, &l.bias, out);
+        for ox in (0..lo).chain(hi..ow) {
+            border(ox, &mut out[ox * c..][..c]);
+        }
+    }
+    Ok(())
+}
+
+/// Output columns `cols` of one row of a 3x3 depthwise convolution whose windows lie inside
+/// the three input `rows` (`c` channels, stride `s`, `px` padding columns before): four
+/// channels at a time, their nine filter taps held in registers along the row.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn depthwise3x3_row(
+    rows: &[&[f32]; 3],
+    c: usize,
+    s: usize,
+    px: usize,
+    cols: std::ops::Range<usize>,
+    w: &[f32],
+    bias: &[f32],
+    out: &mut [f32],
+) {
+    const L: usize = 4;
+    let full = c - c % L;
+    for j in (0..full).step_by(L) {
+        let f: [[f32; L]; 9] = std::array::from_fn(|t| w[t * c + j..][..L].try_into().unwrap());
+        let b: [f32; L] = bias[j..j + L].try_into().unwrap();
+        for ox in cols.clone() {
+            let at = (ox * s - px) * c + j;
+            let mut acc = b;
+            for (ky, row) in rows.iter().enumerate() {
+                for kx in 0..3 {
+                    let a: &[f32; L] = row[at + kx * c..][..L].try_into().unwrap();
+                    for ((o, &a), &f) in acc.iter_mut().zip(a).zip(&f[ky * 3 + kx]) {
+                        *o += a * f;
+                    }
+                }
+            }
+            out[ox * c + j..][..L].copy_from_slice(&acc);
+        }
+    }
+    for j in full..c {
+        for ox in cols.clone() {
+            let at = (ox * s - px) * c + j;
+            let mut acc = bias[j];
+            for (ky, row) in rows.iter().enumerate() {
+                for kx in 0..3 {
+                    acc += row[at + kx * c] * w[(ky * 3 + kx) * c + j];
+                }
+            }
+            out[ox * c + j] = acc;
+        }
+    }
+}
+
+/// A depthwise convolution of any kernel, plainly.
+fn depthwise_any(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
     let c = x.c;
     windows(
         x,
@@ -589,4 +685,132 @@ pub fn profile_mesh_nets(reps: usize) -> Result<Vec<NetProfile>> {
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layer(
+        kind: Kind,
+        kernel: usize,
+        stride: usize,
+        same: bool,
+        cin: usize,
+        cout: usize,
+    ) -> Layer {
+        let wlen = if kind == Kind::Depthwise {
+            kernel * kernel * cin
+        } else {
+            kernel * kernel * cin * cout
+        };
+        Layer {
+            kind,
+            out: 1,
+            inputs: [0, 0],
+            stride,
+            same,
+            kernel,
+            extra: 0,
+            cout,
+            in_place: false,
+            w: (0..wlen).map(|i| (i as f32 * 0.71).sin()).collect(),
+            bias: (0..cout).map(|i| i as f32 * 0.1 - 0.3).collect(),
+        }
+    }
+
+    fn map(h: usize, w: usize, c: usize) -> Map {
+        Map {
+            h,
+            w,
+            c,
+            data: (0..h * w * c).map(|i| (i as f32 * 0.37).cos()).collect(),
+        }
+    }
+
+    /// The direct sum of a convolution (`depthwise`: one input channel per output) at every
+    /// output, padding skipped.
+    fn direct(x: &Map, l: &Layer, depthwise: bool) -> Map {
+        let (k, s) = (l.kernel, l.stride);
+        let (oh, py) = geometry(x.h, k, s, l.same).unwrap();
+        let (ow, px) = geometry(x.w, k, s, l.same).unwrap();
+        let mut y = Map::default();
+        y.reset(oh, ow, l.cout);
+        for oy in 0..oh {
+            for ox in 0..ow {
+                for co in 0..l.cout {
+                    let mut v = l.bias[co];
+                    for ky in 0..k {
+                        for kx in 0..k {
+                            let iy = (oy * s + ky) as isize - py as isize;
+                            let ix = (ox * s + kx) as isize - px as isize;
+                            if iy < 0 || ix < 0 || iy >= x.h as isize || ix >= x.w as isize {
+                                continue;
+                            }
+                            let i = (iy as usize * x.w + ix as usize) * x.c;
+                            let t = ky * k + kx;
+                            if depthwise {
+                                v += x.data[i + co] * l.w[t * x.c + co];
+                            } else {
+                                for ci in 0..x.c {
+                                    v += x.data[i + ci] * l.w[(t * x.c + ci) * l.cout + co];
+                                }
+                            }
+                        }
+                    }
+                    y.data[(oy * ow + ox) * l.cout + co] = v;
+                }
+            }
+        }
+        y
+    }
+
+    fn assert_close(got: &Map, want: &Map, what: &str) {
+        assert_eq!((got.h, got.w, got.c), (want.h, want.w, want.c), "{what}");
+        for (i, (a, b)) in got.data.iter().zip(&want.data).enumerate() {
+            assert!((a - b).abs() < 1e-5, "{what}: element {i}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn depthwise_matches_a_direct_sum_inside_and_on_the_border() {
+        // 6 channels (one block of 4 and 2 plainly), odd and even sizes, both paddings.
+        for (h, w) in [(7, 9), (8, 8), (3, 4), (2, 2)] {
+            for stride in [1, 2] {
+                for same in [true, false] {
+                    let x = map(h, w, 6);
+                    let l = layer(Kind::Depthwise, 3, stride, same, 6, 6);
+                    if geometry(h, 3, stride, same).is_none()
+                        || geometry(w, 3, stride, same).is_none()
+                    {
+                        continue;
+                    }
+                    let mut y = Map::default();
+                    depthwise(&x, &l, &mut y).unwrap();
+                    let what = format!("{h}x{w} stride {stride} same {same}");
+                    assert_close(&y, &direct(&x, &l, true), &what);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn conv_matches_a_direct_sum() {
+        let mut patches = Vec::new();
+        for (k, stride, same, cin, cout) in [
+            (5, 2, true, 3, 10),
+            (3, 2, true, 3, 16),
+            (3, 1, false, 2, 5),
+            (3, 3, false, 4, 13),
+        ] {
+            for (h, w) in [(9, 7), (6, 6)] {
+                let x = map(h, w, cin);
+                let l = layer(Kind::Conv, k, stride, same, cin, cout);
+                let mut y = Map::default();
+                conv(&x, &l, &mut patches, &mut y).unwrap();
+                let what = format!("{h}x{w} k{k} s{stride} same {same}");
+                assert_close(&y, &direct(&x, &l, false), &what);
+            }
+        }
+    }
 }
