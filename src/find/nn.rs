@@ -243,10 +243,21 @@ pub(crate) fn leaky(x: &mut Map) {
     }
 }
 
-/// ReLU, in place.
+/// ReLU, in place. A select, not `f32::max`, which wasm32 compiles to a call of libm's
+/// `fmaxf` per value (Rust's NaN rule for `max` is not wasm's `f32.max`); so it vectorises.
 pub(crate) fn relu(x: &mut [f32]) {
     for v in x {
-        *v = v.max(0.0);
+        *v = if *v < 0.0 { 0.0 } else { *v };
+    }
+}
+
+/// `a.max(b)` for the values here (no NaN) as a select: see [`relu`].
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if b > a {
+        b
+    } else {
+        a
     }
 }
 
@@ -268,7 +279,7 @@ pub(crate) fn maxpool2(x: &Map, stride: usize, y: &mut Map) {
             let d = &x.data[(y1 * x.w + x0) * c..][..c];
             let e = &x.data[(y1 * x.w + x1) * c..][..c];
             for i in 0..c {
-                o[i] = a[i].max(b[i]).max(d[i].max(e[i]));
+                o[i] = max(max(a[i], b[i]), max(d[i], e[i]));
             }
         }
     }
