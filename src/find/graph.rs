@@ -400,7 +400,17 @@ fn prelu(y: &mut Map, slopes: &[f32]) {
 
 /// `y += x`, elementwise (the two have the same length).
 fn add(y: &mut [f32], x: &[f32]) {
-    for (y, &x) in y.iter_mut().zip(x) {
+    const L: usize = 16;
+    let mut ys = y.chunks_exact_mut(L);
+    let mut xs = x.chunks_exact(L);
+    for (y, x) in (&mut ys).zip(&mut xs) {
+        let y: &mut [f32; L] = y.try_into().unwrap();
+        let x: &[f32; L] = x.try_into().unwrap();
+        for (y, &x) in y.iter_mut().zip(x) {
+            *y += x;
+        }
+    }
+    for (y, &x) in ys.into_remainder().iter_mut().zip(xs.remainder()) {
         *y += x;
     }
 }

@@ -243,15 +243,31 @@ pub(crate) fn leaky(x: &mut Map) {
     }
 }
 
-/// ReLU, in place. A select, not `f32::max`, which wasm32 compiles to a call of libm's
-/// `fmaxf` per value (Rust's NaN rule for `max` is not wasm's `f32.max`); so it vectorises.
+/// ReLU, in place: the sign bit's mask clears the negative values (to +0.0), sixteen at a
+/// time. Integer operations on fixed-size arrays, so that it vectorises in wasm32 too
+/// (`f32::max` is a call of libm's `fmaxf` per value there: Rust's NaN rule for `max` is not
+/// wasm's `f32.max`).
 pub(crate) fn relu(x: &mut [f32]) {
-    for v in x {
-        *v = if *v < 0.0 { 0.0 } else { *v };
+    const L: usize = 16;
+    let mut chunks = x.chunks_exact_mut(L);
+    for v in &mut chunks {
+        let v: &mut [f32; L] = v.try_into().unwrap();
+        for v in v {
+            *v = relu1(*v);
+        }
+    }
+    for v in chunks.into_remainder() {
+        *v = relu1(*v);
     }
 }
 
-/// `a.max(b)` for the values here (no NaN) as a select: see [`relu`].
+#[inline(always)]
+fn relu1(v: f32) -> f32 {
+    let b = v.to_bits();
+    f32::from_bits(b & !(((b as i32) >> 31) as u32))
+}
+
+/// `a.max(b)` for the values here (no NaN) as a select (`f32::max` is a libm call in wasm32).
 #[inline(always)]
 fn max(a: f32, b: f32) -> f32 {
     if b > a {
