@@ -141,7 +141,7 @@ pub(crate) fn pointwise(x: &Map, filters: &[f32], bias: &[f32], y: &mut Map) {
 /// bit-identical to the plain loop.
 pub(crate) fn matmul(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], out: &mut [f32]) {
     let n = bias.len();
-    debug_assert!(fs >= n && f.len() >= k * fs - (fs - n));
+    debug_assert!(fs >= n && (k == 0 || f.len() >= (k - 1) * fs + n));
     let rows = a.len().checked_div(k).unwrap_or(0);
     debug_assert_eq!(out.len(), rows * n);
     let mut c0 = 0;
@@ -384,6 +384,26 @@ mod tests {
                     s.to_bits(),
                     "pixel {p} channel {co}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn matmul_reads_filter_rows_of_a_longer_stride() {
+        // 9 rows of 6 inputs, 13 outputs read from filter rows of 16 (the rest ignored).
+        let (rows, k, n, fs) = (9, 6, 13, 16);
+        let a: Vec<f32> = (0..rows * k).map(|i| (i as f32 * 0.41).sin()).collect();
+        let f: Vec<f32> = (0..k * fs).map(|i| (i as f32 * 0.17).cos()).collect();
+        let b: Vec<f32> = (0..n).map(|i| 0.3 - i as f32 * 0.02).collect();
+        let mut out = vec![f32::NAN; rows * n];
+        matmul(&a, k, &f, fs, &b, &mut out);
+        for p in 0..rows {
+            for o in 0..n {
+                let mut s = b[o];
+                for i in 0..k {
+                    s += a[p * k + i] * f[i * fs + o];
+                }
+                assert_eq!(out[p * n + o].to_bits(), s.to_bits(), "row {p} output {o}");
             }
         }
     }
