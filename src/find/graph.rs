@@ -341,7 +341,7 @@ impl Graph {
                     add(&mut y.data, &s.maps[l.inputs[1]].data);
                 }
                 Kind::PadChannels => {
-                    y.reset(x.h, x.w, x.c + l.extra);
+                    y.reshape(x.h, x.w, x.c + l.extra);
                     for (o, i) in y.data.chunks_exact_mut(y.c).zip(x.data.chunks_exact(x.c)) {
                         o[..x.c].copy_from_slice(i);
                         o[x.c..].fill(0.0);
@@ -416,7 +416,7 @@ fn add(y: &mut [f32], x: &[f32]) {
 }
 
 fn copy(x: &Map, y: &mut Map) {
-    y.reset(x.h, x.w, x.c);
+    y.reshape(x.h, x.w, x.c);
     y.data.copy_from_slice(&x.data);
 }
 
@@ -436,7 +436,7 @@ fn conv(x: &Map, l: &Layer, patches: &mut Vec<f32>, y: &mut Map) -> Result<()> {
     let (k, s, cin, cout) = (l.kernel, l.stride, x.c, l.cout);
     let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
     let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
-    y.reset(oh, ow, cout);
+    y.reshape(oh, ow, cout);
     let row = k * k * cin;
     let span = k * cin;
     patches.clear();
@@ -513,7 +513,7 @@ fn windows(
     let (k, s, c) = (l.kernel, l.stride, x.c);
     let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
     let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
-    y.reset(oh, ow, c);
+    y.reshape(oh, ow, c);
     for oy in 0..oh {
         for ox in 0..ow {
             let o = &mut y.data[(oy * ow + ox) * c..][..c];
@@ -536,7 +536,7 @@ fn depthwise(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
     }
     let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
     let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
-    y.reset(oh, ow, c);
+    y.reshape(oh, ow, c);
     let line = x.w * c;
     // Output columns whose window is inside the map: `lo..hi`.
     let lo = px.div_ceil(s).min(ow);
@@ -800,6 +800,15 @@ mod tests {
         y
     }
 
+    /// An output buffer holding NaNs from an earlier use: a value a layer does not write
+    /// stays NaN.
+    fn stale() -> Map {
+        Map {
+            data: vec![f32::NAN; 4096],
+            ..Map::default()
+        }
+    }
+
     fn assert_close(got: &Map, want: &Map, what: &str) {
         assert_eq!((got.h, got.w, got.c), (want.h, want.w, want.c), "{what}");
         for (i, (a, b)) in got.data.iter().zip(&want.data).enumerate() {
@@ -820,7 +829,7 @@ mod tests {
                     {
                         continue;
                     }
-                    let mut y = Map::default();
+                    let mut y = stale();
                     depthwise(&x, &l, &mut y).unwrap();
                     let what = format!("{h}x{w} stride {stride} same {same}");
                     assert_close(&y, &direct(&x, &l, true), &what);
@@ -841,7 +850,7 @@ mod tests {
             for (h, w) in [(9, 7), (6, 6)] {
                 let x = map(h, w, cin);
                 let l = layer(Kind::Conv, k, stride, same, cin, cout);
-                let mut y = Map::default();
+                let mut y = stale();
                 conv(&x, &l, &mut patches, &mut y).unwrap();
                 let what = format!("{h}x{w} k{k} s{stride} same {same}");
                 assert_close(&y, &direct(&x, &l, false), &what);

@@ -23,6 +23,15 @@ impl Map {
         self.data.clear();
         self.data.resize(h * w * c, 0.0);
     }
+
+    /// [`Map::reset`] for a layer that then writes every value: no pass clearing the old
+    /// values first (they stay where the sizes overlap).
+    pub fn reshape(&mut self, h: usize, w: usize, c: usize) {
+        self.h = h;
+        self.w = w;
+        self.c = c;
+        self.data.resize(h * w * c, 0.0);
+    }
 }
 
 /// Output size and padding before, for TensorFlow `same` padding.
@@ -47,7 +56,7 @@ pub(crate) fn conv3x3(
     let cout = bias.len();
     let cin = x.c;
     debug_assert_eq!(filters.len(), 9 * cin * cout);
-    y.reset(out_hw.0, out_hw.1, cout);
+    y.reshape(out_hw.0, out_hw.1, cout);
     for oy in 0..out_hw.0 {
         for ox in 0..out_hw.1 {
             let o = &mut y.data[(oy * out_hw.1 + ox) * cout..][..cout];
@@ -125,7 +134,7 @@ pub(crate) fn depthwise3x3(
 pub(crate) fn pointwise(x: &Map, filters: &[f32], bias: &[f32], y: &mut Map) {
     let cout = bias.len();
     debug_assert_eq!(filters.len(), x.c * cout);
-    y.reset(x.h, x.w, cout);
+    y.reshape(x.h, x.w, cout);
     matmul(&x.data, x.c, filters, cout, bias, &mut y.data);
 }
 
@@ -282,7 +291,7 @@ pub(crate) fn maxpool2(x: &Map, stride: usize, y: &mut Map) {
     let (oh, _) = same(x.h, 2, stride);
     let (ow, _) = same(x.w, 2, stride);
     let c = x.c;
-    y.reset(oh, ow, c);
+    y.reshape(oh, ow, c);
     for oy in 0..oh {
         let y0 = oy * stride;
         let y1 = (y0 + 1).min(x.h - 1);
