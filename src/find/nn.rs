@@ -23,6 +23,15 @@ impl Map {
         self.data.clear();
         self.data.resize(h * w * c, 0.0);
     }
+
+    /// [`Map::reset`] for a layer that then writes every value: no pass clearing the old
+    /// values first (they stay where the sizes overlap).
+    pub fn reshape(&mut self, h: usize, w: usize, c: usize) {
+        self.h = h;
+        self.w = w;
+        self.c = c;
+        self.data.resize(h * w * c, 0.0);
+    }
 }
 
 /// Output size and padding before, for TensorFlow `same` padding.
@@ -47,7 +56,7 @@ pub(crate) fn conv3x3(
     let cout = bias.len();
     let cin = x.c;
     debug_assert_eq!(filters.len(), 9 * cin * cout);
-    y.reset(out_hw.0, out_hw.1, cout);
+    y.reshape(out_hw.0, out_hw.1, cout);
     for oy in 0..out_hw.0 {
         for ox in 0..out_hw.1 {
             let o = &mut y.data[(oy * out_hw.1 + ox) * cout..][..cout];
@@ -120,73 +129,119 @@ pub(crate) fn depthwise3x3(
     }
 }
 
-/// A 1x1 convolution (`filters` `[cin][cout]`) plus bias: a matrix product per pixel.
-///
-/// This is where the nets spend most of their time, so it is blocked like a small matrix
-/// product: [`POINTWISE_COUT`] output channels at a time (their `cin x 16` filter slice stays in
-/// cache while every pixel passes), and [`POINTWISE_PIXELS`] pixels at a time whose
-/// accumulators stay in registers. Each output still sums `bias + a0 f0 + a1 f1 + ...` in
-/// input-channel order, so the result is bit-identical to the plain loop.
+/// A 1x1 convolution (`filters` `[cin][cout]`) plus bias: a matrix product per pixel
+/// ([`matmul`]).
 pub(crate) fn pointwise(x: &Map, filters: &[f32], bias: &[f32], y: &mut Map) {
     let cout = bias.len();
-    let cin = x.c;
-    debug_assert_eq!(filters.len(), cin * cout);
-    y.reset(x.h, x.w, cout);
-    let pixels = x.h * x.w;
-    let full = cout - cout % POINTWISE_COUT;
-    for c0 in (0..full).step_by(POINTWISE_COUT) {
-        let b: &[f32; POINTWISE_COUT] = bias[c0..c0 + POINTWISE_COUT].try_into().unwrap();
-        let mut p = 0;
-        while p + POINTWISE_PIXELS <= pixels {
-            let mut acc = [*b; POINTWISE_PIXELS];
-            let inp = &x.data[p * cin..(p + POINTWISE_PIXELS) * cin];
-            for ci in 0..cin {
-                let f: &[f32; POINTWISE_COUT] = filters[ci * cout + c0..][..POINTWISE_COUT]
-                    .try_into()
-                    .unwrap();
-                for (k, acc) in acc.iter_mut().enumerate() {
-                    let a = inp[k * cin + ci];
-                    for (o, &ff) in acc.iter_mut().zip(f) {
-                        *o += a * ff;
-                    }
-                }
-            }
-            for (k, acc) in acc.iter().enumerate() {
-                y.data[(p + k) * cout + c0..][..POINTWISE_COUT].copy_from_slice(acc);
-            }
-            p += POINTWISE_PIXELS;
-        }
-        for p in p..pixels {
-            let mut acc = *b;
-            let inp = &x.data[p * cin..][..cin];
-            for (ci, &a) in inp.iter().enumerate() {
-                let f = &filters[ci * cout + c0..][..POINTWISE_COUT];
-                for (o, &ff) in acc.iter_mut().zip(f) {
-                    *o += a * ff;
-                }
-            }
-            y.data[p * cout + c0..][..POINTWISE_COUT].copy_from_slice(&acc);
-        }
+    debug_assert_eq!(filters.len(), x.c * cout);
+    y.reshape(x.h, x.w, cout);
+    matmul(&x.data, x.c, filters, cout, bias, &mut y.data);
+}
+
+/// `out[p][o] = bias[o] + sum_i a[p][i] f[i][o]` for every row `p` of `a` (rows of `k`
+/// values; `out` rows of `bias.len()` values); `f` has rows of `fs >= bias.len()` values (a
+/// caller may pad them). What the 1x1 convolutions are, and the larger ones once their
+/// windows are gathered into rows.
+///
+/// This is where the nets spend most of their time, so it is blocked like a small matrix
+/// product: [`BLOCK_COUT`] output channels by [`BLOCK_ROWS`] rows at a time, whose
+/// accumulators stay in registers, then blocks of 4 channels and single rows for the rest. Each
+/// output still sums `bias + a0 f0 + a1 f1 + ...` in input order, so the result is
+/// bit-identical to the plain loop.
+pub(crate) fn matmul(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], out: &mut [f32]) {
+    let n = bias.len();
+    debug_assert!(fs >= n && (k == 0 || f.len() >= (k - 1) * fs + n));
+    let rows = a.len().checked_div(k).unwrap_or(0);
+    debug_assert_eq!(out.len(), rows * n);
+    let mut c0 = 0;
+    while c0 + BLOCK_COUT <= n {
+        channel_block::<BLOCK_COUT>(a, k, rows, &f[c0..], fs, &bias[c0..], &mut out[c0..], n);
+        c0 += BLOCK_COUT;
     }
-    if full < cout {
-        // The last `cout % 16` channels (the detector's 25-channel head), plainly.
-        for (inp, o) in x.data.chunks_exact(cin).zip(y.data.chunks_exact_mut(cout)) {
-            let o = &mut o[full..];
-            o.copy_from_slice(&bias[full..]);
-            for (ci, &a) in inp.iter().enumerate() {
-                let fr = &filters[ci * cout + full..][..cout - full];
+    while c0 + 4 <= n {
+        channel_block::<4>(a, k, rows, &f[c0..], fs, &bias[c0..], &mut out[c0..], n);
+        c0 += 4;
+    }
+    if c0 < n {
+        // The last `n % 4` channels, plainly.
+        for (inp, o) in a.chunks_exact(k).zip(out.chunks_exact_mut(n)) {
+            let o = &mut o[c0..];
+            o.copy_from_slice(&bias[c0..]);
+            for (ci, &v) in inp.iter().enumerate() {
+                let fr = &f[ci * fs + c0..][..n - c0];
                 for (oo, &ff) in o.iter_mut().zip(fr) {
-                    *oo += a * ff;
+                    *oo += v * ff;
                 }
             }
         }
     }
 }
 
-/// Output channels per block of [`pointwise`].
-const POINTWISE_COUT: usize = 16;
-/// Pixels per block of [`pointwise`].
-const POINTWISE_PIXELS: usize = 4;
+/// Output channels `0..N` of `f`, `bias` and `out` (slices starting at the block's first
+/// channel) for all `rows` rows of `a`: [`BLOCK_ROWS`] rows at a time, then one at a time.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn channel_block<const N: usize>(
+    a: &[f32],
+    k: usize,
+    rows: usize,
+    f: &[f32],
+    fs: usize,
+    bias: &[f32],
+    out: &mut [f32],
+    n: usize,
+) {
+    let b: &[f32; N] = bias[..N].try_into().unwrap();
+    let mut p = 0;
+    while p + BLOCK_ROWS <= rows {
+        kernel::<N, BLOCK_ROWS>(
+            &a[p * k..][..BLOCK_ROWS * k],
+            k,
+            f,
+            fs,
+            b,
+            &mut out[p * n..],
+            n,
+        );
+        p += BLOCK_ROWS;
+    }
+    while p < rows {
+        kernel::<N, 1>(&a[p * k..][..k], k, f, fs, b, &mut out[p * n..], n);
+        p += 1;
+    }
+}
+
+/// `P` rows of `a` (`P x k` values) times `N` columns of `f`: `P x N` accumulators.
+#[inline(always)]
+fn kernel<const N: usize, const P: usize>(
+    a: &[f32],
+    k: usize,
+    f: &[f32],
+    fs: usize,
+    b: &[f32; N],
+    out: &mut [f32],
+    n: usize,
+) {
+    let mut acc = [*b; P];
+    let rows: [&[f32]; P] = std::array::from_fn(|r| &a[r * k..][..k]);
+    for ci in 0..k {
+        let fr: &[f32; N] = f[ci * fs..][..N].try_into().unwrap();
+        for (acc, row) in acc.iter_mut().zip(&rows) {
+            let v = row[ci];
+            for (o, &w) in acc.iter_mut().zip(fr) {
+                *o += v * w;
+            }
+        }
+    }
+    for (r, acc) in acc.iter().enumerate() {
+        out[r * n..][..N].copy_from_slice(acc);
+    }
+}
+
+/// Output channels per register block of [`matmul`].
+const BLOCK_COUT: usize = 8;
+/// Rows (pixels) per register block of [`matmul`].
+const BLOCK_ROWS: usize = 4;
 
 /// Leaky ReLU with slope 0.1 (the tiny detector's activation), in place.
 pub(crate) fn leaky(x: &mut Map) {
@@ -197,10 +252,37 @@ pub(crate) fn leaky(x: &mut Map) {
     }
 }
 
-/// ReLU, in place.
+/// ReLU, in place: the sign bit's mask clears the negative values (to +0.0), sixteen at a
+/// time. Integer operations on fixed-size arrays, so that it vectorises in wasm32 too
+/// (`f32::max` is a call of libm's `fmaxf` per value there: Rust's NaN rule for `max` is not
+/// wasm's `f32.max`).
 pub(crate) fn relu(x: &mut [f32]) {
-    for v in x {
-        *v = v.max(0.0);
+    const L: usize = 16;
+    let mut chunks = x.chunks_exact_mut(L);
+    for v in &mut chunks {
+        let v: &mut [f32; L] = v.try_into().unwrap();
+        for v in v {
+            *v = relu1(*v);
+        }
+    }
+    for v in chunks.into_remainder() {
+        *v = relu1(*v);
+    }
+}
+
+#[inline(always)]
+fn relu1(v: f32) -> f32 {
+    let b = v.to_bits();
+    f32::from_bits(b & !(((b as i32) >> 31) as u32))
+}
+
+/// `a.max(b)` for the values here (no NaN) as a select (`f32::max` is a libm call in wasm32).
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if b > a {
+        b
+    } else {
+        a
     }
 }
 
@@ -209,7 +291,7 @@ pub(crate) fn maxpool2(x: &Map, stride: usize, y: &mut Map) {
     let (oh, _) = same(x.h, 2, stride);
     let (ow, _) = same(x.w, 2, stride);
     let c = x.c;
-    y.reset(oh, ow, c);
+    y.reshape(oh, ow, c);
     for oy in 0..oh {
         let y0 = oy * stride;
         let y1 = (y0 + 1).min(x.h - 1);
@@ -222,7 +304,7 @@ pub(crate) fn maxpool2(x: &Map, stride: usize, y: &mut Map) {
             let d = &x.data[(y1 * x.w + x0) * c..][..c];
             let e = &x.data[(y1 * x.w + x1) * c..][..c];
             for i in 0..c {
-                o[i] = a[i].max(b[i]).max(d[i].max(e[i]));
+                o[i] = max(max(a[i], b[i]), max(d[i], e[i]));
             }
         }
     }
@@ -292,7 +374,8 @@ mod tests {
 
     #[test]
     fn pointwise_blocks_match_the_plain_product_exactly() {
-        // 7 pixels (one block of 4 and a tail of 3) and 37 outputs (two blocks of 16 and 5).
+        // 7 pixels (one block of 4 and a tail of 3) and 37 outputs (four blocks of 8, one of 4
+        // and one plain channel).
         let x = map(1, 7, 5, |i| (i as f32 * 0.29).sin());
         let f: Vec<f32> = (0..5 * 37).map(|i| (i as f32 * 0.13).cos()).collect();
         let b: Vec<f32> = (0..37).map(|i| i as f32 * 0.01 - 0.2).collect();
@@ -310,6 +393,26 @@ mod tests {
                     s.to_bits(),
                     "pixel {p} channel {co}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn matmul_reads_filter_rows_of_a_longer_stride() {
+        // 9 rows of 6 inputs, 13 outputs read from filter rows of 16 (the rest ignored).
+        let (rows, k, n, fs) = (9, 6, 13, 16);
+        let a: Vec<f32> = (0..rows * k).map(|i| (i as f32 * 0.41).sin()).collect();
+        let f: Vec<f32> = (0..k * fs).map(|i| (i as f32 * 0.17).cos()).collect();
+        let b: Vec<f32> = (0..n).map(|i| 0.3 - i as f32 * 0.02).collect();
+        let mut out = vec![f32::NAN; rows * n];
+        matmul(&a, k, &f, fs, &b, &mut out);
+        for p in 0..rows {
+            for o in 0..n {
+                let mut s = b[o];
+                for i in 0..k {
+                    s += a[p * k + i] * f[i * fs + o];
+                }
+                assert_eq!(out[p * n + o].to_bits(), s.to_bits(), "row {p} output {o}");
             }
         }
     }
