@@ -4,14 +4,15 @@
 //! (nearest) to 540x432 and centred on a 640x480 black frame (one face, about 150 px wide), the
 //! size of a typical webcam frame.
 //!
-//! - `find/find/640x480`: `FaceFinder::find` (detector + three landmark passes per candidate).
-//! - `find/landmarks/640x480`: `FaceFinder::landmarks_into` given the box `find` returned (one
-//!   landmark pass).
+//! - `find/find/640x480`: `FaceFinder::find` (the detector, then two mesh passes on its face).
+//! - `find/landmarks/640x480`: `FaceFinder::landmarks_into` given the box `find` returned (two
+//!   mesh passes).
+//! - `find/follow/640x480`: `FaceFinder::follow_into`, the next frame of a followed face (one
+//!   mesh pass on the region of the last mesh; what the `Follower` runs per frame).
+//! - `find/no_face/640x480`: `FaceFinder::find` on the frame blacked out (the detector alone:
+//!   what a search costs while the face is away).
 //!
-//! - `find/mesh_find/640x480`, `find/mesh_landmarks/640x480` (with `--features mesh-finder`):
-//!   the same for `MeshFinder` (MediaPipe's detector and two mesh passes; two mesh passes).
-//!
-//! Run: `cargo bench --bench find` (`--features mesh-finder` for the MediaPipe finder).
+//! Run: `cargo bench --bench find`.
 
 use std::path::Path;
 
@@ -70,21 +71,16 @@ fn bench_find(c: &mut Criterion) {
                 .expect("landmarks")
         })
     });
-    #[cfg(feature = "mesh-finder")]
-    {
-        // MediaPipe's nets (`cargo bench --features mesh-finder --bench find`).
-        let mut mesh = facemimic::MeshFinder::new().expect("mesh finder");
-        let faces = mesh.find(&view);
-        assert_eq!(faces.len(), 1, "the mesh finder finds the face");
-        let mbox = faces[0].bbox;
-        group.bench_function("mesh_find/640x480", |b| b.iter(|| mesh.find(&view)));
-        group.bench_function("mesh_landmarks/640x480", |b| {
-            b.iter(|| {
-                mesh.landmarks_into(&view, mbox, &mut out)
-                    .expect("landmarks")
-            })
-        });
-    }
+    group.bench_function("follow/640x480", |b| {
+        b.iter(|| finder.follow_into(&view, &mut out).expect("follow"))
+    });
+    let black = Image {
+        data: vec![0; image.data.len()],
+        ..image.clone()
+    };
+    let black = black.view().expect("view");
+    assert!(finder.find(&black).is_empty());
+    group.bench_function("no_face/640x480", |b| b.iter(|| finder.find(&black)));
     group.finish();
 }
 

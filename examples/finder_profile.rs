@@ -1,7 +1,7 @@
-//! MediaPipe's nets (`MeshFinder`) timed layer by layer on a fixed input: the fastest and the
+//! The face finder's nets (MediaPipe's) timed layer by layer on a fixed input: the fastest and the
 //! median run over REPS runs (default 20), and each layer kind's time (the sum of its layers'
 //! fastest times). A profile, not a check:
-//! `cargo run --release --features mesh-finder --example finder_profile -- [REPS]`.
+//! `cargo run --release --example finder_profile -- [REPS]`.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(target_arch = "wasm32"))]

@@ -20,10 +20,10 @@ pub const BLAZEFACE_WEIGHTS: &[u8] = include_bytes!("../../data/weights/blazefac
 pub const MESH_WEIGHTS: &[u8] = include_bytes!("../../data/weights/face_mesh_q8.fmw");
 /// The detector's float16 weights, as TFLite computes with them: tests only (the
 /// layer-by-layer reference).
-#[cfg(test)]
+#[cfg(all(test, not(target_arch = "wasm32")))]
 pub const BLAZEFACE_WEIGHTS_F16: &[u8] = include_bytes!("../../data/weights/blazeface_short.fmw");
 /// The face mesh's float16 weights: tests only.
-#[cfg(test)]
+#[cfg(all(test, not(target_arch = "wasm32")))]
 pub const MESH_WEIGHTS_F16: &[u8] = include_bytes!("../../data/weights/face_mesh.fmw");
 
 /// What a layer computes.
@@ -73,7 +73,7 @@ pub(crate) struct Graph {
     /// The expected input: side and channels.
     input: (usize, usize),
     /// For the layer-by-layer reference test: each layer's buffer (the logical slot it wrote).
-    #[cfg(test)]
+    #[cfg(all(test, not(target_arch = "wasm32")))]
     pub slots: Vec<usize>,
 }
 
@@ -288,7 +288,7 @@ impl Graph {
             let s = as_index(v)?.filter(|&s| s < channels.len());
             outputs.push(s.ok_or_else(|| bad(format!("output slot {v}")))?);
         }
-        #[cfg(test)]
+        #[cfg(all(test, not(target_arch = "wasm32")))]
         let logical: Vec<usize> = rows.iter().map(|l| l.out).collect();
         let (buffers, buffer_of) = assign_buffers(&mut rows, channels.len(), &outputs);
         Ok(Graph {
@@ -296,7 +296,7 @@ impl Graph {
             buffers,
             outputs: outputs.iter().map(|&s| buffer_of[s]).collect(),
             input,
-            #[cfg(test)]
+            #[cfg(all(test, not(target_arch = "wasm32")))]
             slots: logical,
         })
     }
@@ -868,8 +868,8 @@ mod tests {
 }
 
 /// The nets' speed in wasm under Node (V8, Chromium's engine), the native profile's figures,
-/// printed, not checked: `cargo test --release --target wasm32-unknown-unknown --features
-/// mesh-finder --lib graph::wasm_speed -- --nocapture`.
+/// printed, not checked: `cargo test --release --target wasm32-unknown-unknown --lib
+/// graph::wasm_speed -- --nocapture`.
 #[cfg(all(test, target_arch = "wasm32"))]
 mod wasm_speed {
     use wasm_bindgen::prelude::wasm_bindgen;

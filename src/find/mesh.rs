@@ -107,7 +107,7 @@ pub(crate) struct MeshNets {
 }
 
 pub use super::graph::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
-#[cfg(test)]
+#[cfg(all(test, not(target_arch = "wasm32")))]
 pub use super::graph::{BLAZEFACE_WEIGHTS_F16, MESH_WEIGHTS_F16};
 
 /// The SSD anchors of BlazeFace short range (see the module's documentation).
@@ -263,7 +263,7 @@ impl MeshNets {
     }
 
     /// The nets, for the reference test.
-    #[cfg(test)]
+    #[cfg(all(test, not(target_arch = "wasm32")))]
     pub fn graphs(&self) -> (&Graph, &Graph) {
         (&self.detector, &self.mesh)
     }

@@ -83,7 +83,7 @@ pub struct FindOptions {
 impl Default for FindOptions {
     fn default() -> Self {
         FindOptions {
-            score_threshold: 0.5,
+            score_threshold: mesh::DETECTOR_MIN_SCORE,
             iou_threshold: 0.4,
             max_faces: 16,
             max_candidates: 10,

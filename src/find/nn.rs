@@ -1,5 +1,5 @@
-//! The few layers the finder's two nets use, on channels-last (`[h][w][c]`, the tfjs layout)
-//! `f32` feature maps. Every layer writes into a caller-owned buffer that keeps its capacity, so
+//! The kernels under the finder's layers (`graph.rs`), on channels-last (`[h][w][c]`) `f32`
+//! feature maps. Every layer writes into a caller-owned buffer that keeps its capacity, so
 //! a net run after the first allocates nothing.
 //!
 //! Padding follows TensorFlow's `same` rule: `total = max((out - 1) * stride + k - in, 0)`, with
@@ -39,94 +39,6 @@ pub(crate) fn same(input: usize, k: usize, stride: usize) -> (usize, usize) {
     let out = input.div_ceil(stride);
     let total = ((out - 1) * stride + k).saturating_sub(input);
     (out, total / 2)
-}
-
-/// A full 3x3 convolution (`filters` `[3][3][cin][cout]`, tfjs order) plus bias. `pad`: `None`
-/// for `valid`, `Some(before)` for explicit zero padding before (and as needed after) each axis,
-/// giving `out` rows/columns.
-pub(crate) fn conv3x3(
-    x: &Map,
-    filters: &[f32],
-    bias: &[f32],
-    stride: usize,
-    pad: usize,
-    out_hw: (usize, usize),
-    y: &mut Map,
-) {
-    let cout = bias.len();
-    let cin = x.c;
-    debug_assert_eq!(filters.len(), 9 * cin * cout);
-    y.reshape(out_hw.0, out_hw.1, cout);
-    for oy in 0..out_hw.0 {
-        for ox in 0..out_hw.1 {
-            let o = &mut y.data[(oy * out_hw.1 + ox) * cout..][..cout];
-            o.copy_from_slice(bias);
-            window3x3(x, stride, pad, oy, ox, |k, i| {
-                let inp = &x.data[i * cin..][..cin];
-                let f = &filters[k * cin * cout..][..cin * cout];
-                for (ci, &a) in inp.iter().enumerate() {
-                    let fr = &f[ci * cout..][..cout];
-                    for (oo, &ff) in o.iter_mut().zip(fr) {
-                        *oo += a * ff;
-                    }
-                }
-            });
-        }
-    }
-}
-
-/// The taps of the 3x3 window of output pixel `(oy, ox)` that fall inside `x` (stride
-/// `stride`, zero padding `pad` before): calls `tap(k, i)` with `k = ky * 3 + kx` the filter
-/// tap and `i` the input pixel, `ky` then `kx` in increasing order (the order the sums are
-/// made in, so the results do not depend on this helper).
-#[inline(always)]
-fn window3x3(
-    x: &Map,
-    stride: usize,
-    pad: usize,
-    oy: usize,
-    ox: usize,
-    mut tap: impl FnMut(usize, usize),
-) {
-    for ky in 0..3 {
-        let iy = (oy * stride + ky) as isize - pad as isize;
-        if iy < 0 || iy >= x.h as isize {
-            continue;
-        }
-        for kx in 0..3 {
-            let ix = (ox * stride + kx) as isize - pad as isize;
-            if ix < 0 || ix >= x.w as isize {
-                continue;
-            }
-            tap(ky * 3 + kx, iy as usize * x.w + ix as usize);
-        }
-    }
-}
-
-/// A 3x3 depthwise convolution (`filters` `[3][3][c][1]`), no bias, zero padding `pad` before.
-pub(crate) fn depthwise3x3(
-    x: &Map,
-    filters: &[f32],
-    stride: usize,
-    pad: usize,
-    out_hw: (usize, usize),
-    y: &mut Map,
-) {
-    let c = x.c;
-    debug_assert_eq!(filters.len(), 9 * c);
-    y.reset(out_hw.0, out_hw.1, c);
-    for oy in 0..out_hw.0 {
-        for ox in 0..out_hw.1 {
-            let o = &mut y.data[(oy * out_hw.1 + ox) * c..][..c];
-            window3x3(x, stride, pad, oy, ox, |k, i| {
-                let inp = &x.data[i * c..][..c];
-                let f = &filters[k * c..][..c];
-                for ((oo, &a), &ff) in o.iter_mut().zip(inp).zip(f) {
-                    *oo += a * ff;
-                }
-            });
-        }
-    }
 }
 
 /// A 1x1 convolution (`filters` `[cin][cout]`) plus bias: a matrix product per pixel
@@ -243,15 +155,6 @@ const BLOCK_COUT: usize = 8;
 /// Rows (pixels) per register block of [`matmul`].
 const BLOCK_ROWS: usize = 4;
 
-/// Leaky ReLU with slope 0.1 (the tiny detector's activation), in place.
-pub(crate) fn leaky(x: &mut Map) {
-    for v in &mut x.data {
-        if *v < 0.0 {
-            *v *= 0.1;
-        }
-    }
-}
-
 /// ReLU, in place: the sign bit's mask clears the negative values (to +0.0), sixteen at a
 /// time. Integer operations on fixed-size arrays, so that it vectorises in wasm32 too
 /// (`f32::max` is a call of libm's `fmaxf` per value there: Rust's NaN rule for `max` is not
@@ -276,51 +179,6 @@ fn relu1(v: f32) -> f32 {
     f32::from_bits(b & !(((b as i32) >> 31) as u32))
 }
 
-/// `a.max(b)` for the values here (no NaN) as a select (`f32::max` is a libm call in wasm32).
-#[inline(always)]
-fn max(a: f32, b: f32) -> f32 {
-    if b > a {
-        b
-    } else {
-        a
-    }
-}
-
-/// 2x2 max pooling with `same` padding (padded cells never win), stride 1 or 2.
-pub(crate) fn maxpool2(x: &Map, stride: usize, y: &mut Map) {
-    let (oh, _) = same(x.h, 2, stride);
-    let (ow, _) = same(x.w, 2, stride);
-    let c = x.c;
-    y.reshape(oh, ow, c);
-    for oy in 0..oh {
-        let y0 = oy * stride;
-        let y1 = (y0 + 1).min(x.h - 1);
-        for ox in 0..ow {
-            let x0 = ox * stride;
-            let x1 = (x0 + 1).min(x.w - 1);
-            let o = &mut y.data[(oy * ow + ox) * c..][..c];
-            let a = &x.data[(y0 * x.w + x0) * c..][..c];
-            let b = &x.data[(y0 * x.w + x1) * c..][..c];
-            let d = &x.data[(y1 * x.w + x0) * c..][..c];
-            let e = &x.data[(y1 * x.w + x1) * c..][..c];
-            for i in 0..c {
-                o[i] = max(max(a[i], b[i]), max(d[i], e[i]));
-            }
-        }
-    }
-}
-
-/// A fully-connected layer: `out = x * weights + bias` with `weights` `[in][out]`.
-pub(crate) fn dense(x: &[f32], weights: &[f32], bias: &[f32], out: &mut [f32]) {
-    let n = bias.len();
-    out.copy_from_slice(bias);
-    for (i, &a) in x.iter().enumerate() {
-        for (o, &w) in out.iter_mut().zip(&weights[i * n..][..n]) {
-            *o += a * w;
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -341,35 +199,6 @@ mod tests {
         assert_eq!(same(56, 3, 1), (56, 1));
         assert_eq!(same(207, 2, 2), (104, 0));
         assert_eq!(same(13, 2, 1), (13, 0));
-    }
-
-    #[test]
-    fn conv_matches_a_direct_sum() {
-        let x = map(5, 4, 2, |i| (i as f32 * 0.37).sin());
-        let f: Vec<f32> = (0..9 * 2 * 3).map(|i| (i as f32 * 0.11).cos()).collect();
-        let b = [0.1, -0.2, 0.3];
-        let mut y = Map::default();
-        conv3x3(&x, &f, &b, 2, 0, (3, 2), &mut y);
-        for oy in 0..3 {
-            for ox in 0..2 {
-                for co in 0..3 {
-                    let mut s = b[co];
-                    for ky in 0..3 {
-                        for kx in 0..3 {
-                            let (iy, ix) = (oy * 2 + ky, ox * 2 + kx);
-                            if iy >= 5 || ix >= 4 {
-                                continue;
-                            }
-                            for ci in 0..2 {
-                                s += x.data[(iy * 4 + ix) * 2 + ci]
-                                    * f[((ky * 3 + kx) * 2 + ci) * 3 + co];
-                            }
-                        }
-                    }
-                    assert!((y.data[(oy * 2 + ox) * 3 + co] - s).abs() < 1e-5);
-                }
-            }
-        }
     }
 
     #[test]
@@ -415,16 +244,5 @@ mod tests {
                 assert_eq!(out[p * n + o].to_bits(), s.to_bits(), "row {p} output {o}");
             }
         }
-    }
-
-    #[test]
-    fn maxpool_same_keeps_the_border() {
-        let x = map(3, 3, 1, |i| i as f32);
-        let mut y = Map::default();
-        maxpool2(&x, 2, &mut y);
-        assert_eq!((y.h, y.w), (2, 2));
-        assert_eq!(y.data, vec![4.0, 5.0, 7.0, 8.0]);
-        maxpool2(&x, 1, &mut y);
-        assert_eq!(y.data, vec![4.0, 5.0, 5.0, 7.0, 8.0, 8.0, 7.0, 8.0, 8.0]);
     }
 }

@@ -161,12 +161,11 @@ impl Weights {
         self.tensors.iter().find(|t| t.name == name)
     }
 
-    /// The tensor `name`, checked to have `shape`.
+    /// The tensor `name`, checked to have `shape` (the format's tests).
+    #[cfg(test)]
     pub fn get(&self, name: &str, shape: &[usize]) -> Result<Vec<f32>> {
         let t = self
-            .tensors
-            .iter()
-            .find(|t| t.name == name)
+            .tensor(name)
             .ok_or_else(|| bad(format!("missing tensor {name}")))?;
         if t.shape != shape {
             return Err(bad(format!(
