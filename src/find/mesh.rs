@@ -104,6 +104,10 @@ pub(crate) struct MeshNets {
     anchors: Vec<[f32; 2]>,
     /// Decoded detections before suppression, kept between calls.
     raw: Vec<Detection>,
+    /// The letterbox's scratch: per output column its input columns and weights, and the
+    /// image's rows averaged across (`letterbox`).
+    taps: Vec<(usize, usize, f32)>,
+    rows: Vec<f32>,
 }
 
 pub use super::graph::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
@@ -142,6 +146,8 @@ impl MeshNets {
             mesh_scratch: GraphScratch::default(),
             anchors: anchors(),
             raw: Vec::new(),
+            taps: Vec::new(),
+            rows: Vec::new(),
         })
     }
 
@@ -153,15 +159,24 @@ impl MeshNets {
         // Letterbox: the image centred in a square of its longer side.
         let (x0, y0) = (0.5 * (w - side), 0.5 * (h - side));
         let n = DETECTOR_INPUT;
-        sample(
-            image,
-            |u, v| (x0 + u * side, y0 + v * side),
-            side / n as f32,
-            true,
-            n,
-            self.det_scratch.input(),
-            |v| v * 2.0 - 1.0,
-        );
+        if side >= n as f32 {
+            letterbox(
+                image,
+                n,
+                (&mut self.taps, &mut self.rows),
+                self.det_scratch.input(),
+            );
+        } else {
+            sample(
+                image,
+                |u, v| (x0 + u * side, y0 + v * side),
+                side / n as f32,
+                true,
+                n,
+                self.det_scratch.input(),
+                |v| v * 2.0 - 1.0,
+            );
+        }
         if self.detector.run(&mut self.det_scratch, |_, _| {}).is_err() {
             return;
         }
@@ -270,10 +285,14 @@ impl MeshNets {
 }
 
 /// Samples `n x n` pixels of `image` into `out` (RGB, `norm` of values in 0..1): output pixel
-/// `(ox, oy)` is the image near `at((ox + 0.5) / n, (oy + 0.5) / n)`, averaging up to 4x4
-/// bilinear samples when one output pixel covers `step > 1` image pixels, so small inputs do
-/// not alias. With `black_outside`, points outside the image are black (the letterbox);
-/// otherwise the border is replicated.
+/// `(ox, oy)` is the image near `at((ox + 0.5) / n, (oy + 0.5) / n)`: one bilinear sample
+/// while an output pixel covers up to `step = 2` image pixels (MediaPipe's own crop is one
+/// bilinear sample per pixel), else the mean of up to 4x4, `ceil(step / 2)` a side, so large
+/// faces do not alias. Measured on every 4th frame of the four shared sets: the mesh's points as
+/// accurate as with `ceil(step)` samples a side (0.0260 / 0.0277 / 0.0328 / 0.0286 against
+/// 0.0261 / 0.0277 / 0.0329 / 0.0286), at a quarter of the samples for faces of 130-260
+/// pixels. With `black_outside`, points outside the image are black; otherwise the border is
+/// replicated.
 fn sample(
     image: &ImageRef,
     at: impl Fn(f32, f32) -> (f32, f32),
@@ -285,7 +304,9 @@ fn sample(
 ) {
     out.reset(n, n, 3);
     let (w, h) = (image.width() as f32, image.height() as f32);
-    let k = (step.ceil() as usize).clamp(1, 4);
+    // Bilinear samples per output pixel along each axis: one up to two image pixels per
+    // output pixel (a bilinear sample spans two), then one more per two pixels, at most 4.
+    let k = ((0.5 * step).ceil() as usize).clamp(1, 4);
     let inv_n = 1.0 / n as f32;
     let inv = 1.0 / (k * k) as f32;
     for oy in 0..n {
@@ -311,6 +332,74 @@ fn sample(
                 o[c] = norm(acc[c] * inv);
             }
         }
+    }
+}
+
+/// The detector's input from an image at least `n` pixels on its longer side: the image
+/// centred in a square of its longer side (black around it), each of the `n x n` output pixels
+/// the exact mean of the square's area it covers (values `2 v - 1`, `v` in 0..1). Separable:
+/// the image's rows are first averaged across each output column's span (`rows`, `h x n x
+/// 3`), then those down each output row's span; a span's first and last pixels count by the
+/// part of them it covers. About a sixth of the work of [`sample`]'s 4x4 bilinear samples per
+/// output pixel on a 640x480 frame, and an exact box filter where those approximate one.
+fn letterbox(
+    image: &ImageRef,
+    n: usize,
+    (taps, rows): (&mut Vec<(usize, usize, f32)>, &mut Vec<f32>),
+    out: &mut Map,
+) {
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let side = w.max(h) as f32;
+    let step = side / n as f32;
+    let norm = 2.0 / (step * step * 255.0);
+    // Per output index, the input indices it covers (inside 0..len) with their overlaps:
+    // `(output, input, overlap in pixels)`, in output order.
+    let spans = |len: usize, taps: &mut Vec<(usize, usize, f32)>| {
+        taps.clear();
+        let off = 0.5 * (side - len as f32);
+        for o in 0..n {
+            let (a, b) = (o as f32 * step - off, (o + 1) as f32 * step - off);
+            let (lo, hi) = (a.max(0.0), b.min(len as f32));
+            if hi <= lo {
+                continue;
+            }
+            let (first, last) = (lo.floor() as usize, (hi.ceil() as usize).min(len));
+            for i in first..last {
+                let cover = (hi.min((i + 1) as f32) - lo.max(i as f32)).max(0.0);
+                if cover > 0.0 {
+                    taps.push((o, i, cover));
+                }
+            }
+        }
+    };
+    // Across: every image row into n columns (sums of pixel values times overlaps).
+    spans(w, taps);
+    rows.clear();
+    rows.resize(h * n * 3, 0.0);
+    let data = image.data();
+    for y in 0..h {
+        let src = &data[y * w * 4..(y + 1) * w * 4];
+        let dst = &mut rows[y * n * 3..(y + 1) * n * 3];
+        for &(o, i, c) in taps.iter() {
+            let p = &src[i * 4..i * 4 + 3];
+            let d = &mut dst[o * 3..o * 3 + 3];
+            d[0] += c * f32::from(p[0]);
+            d[1] += c * f32::from(p[1]);
+            d[2] += c * f32::from(p[2]);
+        }
+    }
+    // Down: the rows' sums into n output rows; outside the image stays black (0, i.e. -1).
+    out.reset(n, n, 3);
+    spans(h, taps);
+    for &(o, i, c) in taps.iter() {
+        let src = &rows[i * n * 3..(i + 1) * n * 3];
+        let dst = &mut out.data[o * n * 3..(o + 1) * n * 3];
+        for (d, s) in dst.iter_mut().zip(src) {
+            *d += c * s;
+        }
+    }
+    for v in out.data.iter_mut() {
+        *v = *v * norm - 1.0;
     }
 }
 
