@@ -44,9 +44,9 @@ pub struct FollowOptions {
     /// Mapped shape parameters are clamped to `+-max_sigmas` standard deviations of the
     /// source model's modes.
     pub max_sigmas: f32,
-    /// While following, the finder's mesh runs on the box of the last face; when its
-    /// face-presence score is below this (0..1), the face is searched for again. The finder's
-    /// own threshold ([`FindOptions::min_face_score`](crate::FindOptions)) by default.
+    /// While following, the finder's mesh runs near the last face; when its face-presence
+    /// score is below this (0..1), the face is searched for again. The finder's own threshold
+    /// ([`FindOptions::min_face_score`](crate::FindOptions)) by default.
     pub min_face_score: f32,
     /// At least this fraction of the landmarks must lie inside the frame, else the face is
     /// lost (it left the picture).
@@ -119,12 +119,11 @@ impl FollowOptions {
 /// Each frame ([`Follower::track`]):
 /// 1. **Landmarks.** While a face is followed, the finder's mesh runs near it: one pass on the
 ///    region of the last frame's mesh ([`FaceFinder::follow_into`]), or two from the box of
-///    its last points after a search ([`FaceFinder::scored_landmarks_into`]); if the mesh
-///    says the region holds no face
-///    ([`FollowOptions::min_face_score`]), or no face is followed yet, the finder searches the
-///    whole frame (or the
-///    faces offered by [`Follower::offer_faces`] are used) and the face nearest the last one is
-///    taken. No face: the frame is lost.
+///    its last points after a search ([`FaceFinder::scored_landmarks_into`]). If the mesh
+///    says the region holds no face ([`FollowOptions::min_face_score`]), or no face is
+///    followed yet, the finder searches the whole frame (or the faces offered by
+///    [`Follower::offer_faces`] are used) and the face nearest the last one is taken. No face:
+///    the frame is lost.
 /// 2. **Expression.** The pose `P` is the least-squares similarity from the neutral shape `n`
 ///    onto the smoothed points, and the frame's shape in model coordinates is
 ///    `x = P^-1(points)`, smoothed by a One-Euro filter (in model coordinates, so a moving
