@@ -493,4 +493,26 @@ fn odd_images_give_an_empty_result_or_finite_faces() {
     let face = finder.find(&view).remove(0);
     let again = finder.landmarks(&view, face.bbox).unwrap();
     assert!(facemimic::find::landmark_error(&again, &face.landmarks) < 0.05);
+    // Following: nothing to follow before a face is given, then the same face's points with a
+    // confident score; a failed call leaves nothing to follow.
+    let mut fresh = FaceFinder::new().unwrap();
+    let mut out = vec![0.0f32; 136];
+    assert!(
+        fresh.follow_into(&view, &mut out).is_err(),
+        "nothing to follow"
+    );
+    fresh
+        .scored_landmarks_into(&view, face.bbox, &mut out)
+        .unwrap();
+    let score = fresh.follow_into(&view, &mut out).unwrap();
+    assert!(score >= 0.5, "followed face score {score}");
+    assert!(facemimic::find::landmark_error(&out, &face.landmarks) < 0.05);
+    assert!(fresh.follow_into(&view, &mut out[..10]).is_err());
+    assert!(fresh
+        .scored_landmarks_into(&view, BAD_BOXES[0], &mut out)
+        .is_err());
+    assert!(
+        fresh.follow_into(&view, &mut out).is_err(),
+        "after a failed call"
+    );
 }

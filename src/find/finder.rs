@@ -202,12 +202,14 @@ impl FaceFinder {
         out: &mut [f32],
     ) -> Result<f32> {
         if out.len() != 136 {
+            self.pass.clear();
             return Err(Error::Landmarks(format!(
                 "{} values, expected 136",
                 out.len()
             )));
         }
         if !bbox.is_valid() {
+            self.pass.clear();
             return Err(Error::Image(format!("invalid face box {bbox:?}")));
         }
         let roi = Roi {
