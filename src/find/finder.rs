@@ -201,12 +201,9 @@ impl FaceFinder {
         bbox: BBox,
         out: &mut [f32],
     ) -> Result<f32> {
-        if out.len() != 136 {
+        if let Err(e) = check_points(out) {
             self.pass.clear();
-            return Err(Error::Landmarks(format!(
-                "{} values, expected 136",
-                out.len()
-            )));
+            return Err(e);
         }
         if !bbox.is_valid() {
             self.pass.clear();
@@ -234,12 +231,7 @@ impl FaceFinder {
     /// 68 points into `out` and the mesh's face score, as `scored_landmarks_into`. Fails with
     /// [`Error::Landmarks`] when there is no such face (no call yet, or the last one failed).
     pub fn follow_into(&mut self, image: &ImageRef, out: &mut [f32]) -> Result<f32> {
-        if out.len() != 136 {
-            return Err(Error::Landmarks(format!(
-                "{} values, expected 136",
-                out.len()
-            )));
-        }
+        check_points(out)?;
         if self.pass.len() != MESH_POINTS * 3 {
             return Err(Error::Landmarks("no face to follow".into()));
         }
@@ -271,6 +263,18 @@ impl FaceFinder {
             self.pass.clear();
             Err(Error::Image("the mesh gave non-finite points".into()))
         }
+    }
+}
+
+/// Fails with [`Error::Landmarks`] unless `out` holds 68 points (136 values).
+fn check_points(out: &[f32]) -> Result<()> {
+    if out.len() == 136 {
+        Ok(())
+    } else {
+        Err(Error::Landmarks(format!(
+            "{} values, expected 136",
+            out.len()
+        )))
     }
 }
 

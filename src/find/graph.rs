@@ -395,15 +395,19 @@ fn prelu(y: &mut Map, slopes: &[f32]) {
             let v: &mut [f32; 4] = v.try_into().unwrap();
             let a: &[f32; 4] = a.try_into().unwrap();
             for (v, &a) in v.iter_mut().zip(a) {
-                let m = if *v < 0.0 { a } else { 1.0 };
-                *v *= m;
+                *v = prelu1(*v, a);
             }
         }
         for (v, &a) in tail.iter_mut().zip(&slopes[full..]) {
-            let m = if *v < 0.0 { a } else { 1.0 };
-            *v *= m;
+            *v = prelu1(*v, a);
         }
     }
+}
+
+/// One PReLU value: `v` times `a` when negative, a select.
+#[inline(always)]
+fn prelu1(v: f32, a: f32) -> f32 {
+    v * if v < 0.0 { a } else { 1.0 }
 }
 
 /// `y += x`, elementwise (the two have the same length).

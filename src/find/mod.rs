@@ -94,7 +94,7 @@ impl Default for FindOptions {
 
 /// Mean distance between two 68-point shapes (interleaved x, y) over `b`'s outer-eye-corner
 /// distance (points 36 and 45): the landmark error used throughout the project's figures, and
-/// the finder's pass-to-pass disagreement. NaN unless both shapes have 68 points.
+/// what the finder's tests and figures measure. NaN unless both shapes have 68 points.
 pub fn landmark_error(a: &[f32], b: &[f32]) -> f32 {
     if a.len() != 136 || b.len() != 136 {
         return f32::NAN;

@@ -50,17 +50,10 @@ mod mediapipe {
         n: usize,
         norm: impl Fn(u8) -> f32,
     ) -> (GraphScratch, serde_json::Value) {
-        let bytes = std::fs::read(format!("{DIR}/{name}.rgb")).unwrap();
-        assert_eq!(bytes.len(), n * n * 3);
         let want = json(name);
         let layers = want["layers"].as_array().unwrap();
         assert_eq!(layers.len(), graph.slots.len(), "{name}: layer count");
-        let mut s = GraphScratch::default();
-        let x = s.input();
-        x.reset(n, n, 3);
-        for (o, &b) in x.data.iter_mut().zip(&bytes) {
-            *o = norm(b);
-        }
+        let mut s = fixture(name, n, norm);
         let mut worst = (0.0f32, 0);
         graph
             .run(&mut s, |i, y| {
@@ -108,18 +101,12 @@ mod mediapipe {
         let (s, want) = check_layers(det, "mp-detector-128", DETECTOR_INPUT, |b| {
             b as f32 / 127.5 - 1.0
         });
-        let cls: Vec<f32> = [2, 3]
-            .iter()
-            .flat_map(|&k| s.output(det, k).data.clone())
-            .collect();
+        let cls = outputs(&s, det, [2, 3]);
         let want_cls = floats(&want["scores"]);
         assert_eq!(cls.len(), 896);
         let d = max_abs_diff(&cls, &want_cls);
         assert!(d < 1e-3, "score logits off by {d}");
-        let reg: Vec<f32> = [0, 1]
-            .iter()
-            .flat_map(|&k| s.output(det, k).data.clone())
-            .collect();
+        let reg = outputs(&s, det, [0, 1]);
         let rows = want["regressions"].as_object().unwrap();
         assert!(!rows.is_empty(), "the reference finds the face");
         for (i, v) in rows {
@@ -152,8 +139,9 @@ mod mediapipe {
         }
     }
 
-    /// Runs `graph` on the fixture `name` (no layer checks).
-    fn run(graph: &Graph, name: &str, n: usize, norm: impl Fn(u8) -> f32) -> GraphScratch {
+    /// Scratch holding the fixture `name` (`n x n` RGB bytes) as the net's input, each byte
+    /// mapped by `norm`.
+    fn fixture(name: &str, n: usize, norm: impl Fn(u8) -> f32) -> GraphScratch {
         let bytes = std::fs::read(format!("{DIR}/{name}.rgb")).unwrap();
         assert_eq!(bytes.len(), n * n * 3);
         let mut s = GraphScratch::default();
@@ -162,8 +150,22 @@ mod mediapipe {
         for (o, &b) in x.data.iter_mut().zip(&bytes) {
             *o = norm(b);
         }
+        s
+    }
+
+    /// Runs `graph` on the fixture `name` (no layer checks).
+    fn run(graph: &Graph, name: &str, n: usize, norm: impl Fn(u8) -> f32) -> GraphScratch {
+        let mut s = fixture(name, n, norm);
         graph.run(&mut s, |_, _| {}).unwrap();
         s
+    }
+
+    /// The graph's outputs `ks`, one after the other (the detector's two score or two
+    /// regression maps).
+    fn outputs<const N: usize>(s: &GraphScratch, graph: &Graph, ks: [usize; N]) -> Vec<f32> {
+        ks.iter()
+            .flat_map(|&k| s.output(graph, k).data.iter().copied())
+            .collect()
     }
 
     fn sigmoid(x: f32) -> f32 {
@@ -183,10 +185,7 @@ mod mediapipe {
         let name = "mp-detector-128";
         let s = run(det, name, DETECTOR_INPUT, |b| b as f32 / 127.5 - 1.0);
         let want = json(name);
-        let cls: Vec<f32> = [2, 3]
-            .iter()
-            .flat_map(|&k| s.output(det, k).data.clone())
-            .collect();
+        let cls = outputs(&s, det, [2, 3]);
         let want_cls = floats(&want["scores"]);
         assert_eq!(cls.len(), want_cls.len());
         let d_score = cls
@@ -194,10 +193,7 @@ mod mediapipe {
             .zip(&want_cls)
             .map(|(&a, &b)| (sigmoid(a) - sigmoid(b)).abs())
             .fold(0.0f32, f32::max);
-        let reg: Vec<f32> = [0, 1]
-            .iter()
-            .flat_map(|&k| s.output(det, k).data.clone())
-            .collect();
+        let reg = outputs(&s, det, [0, 1]);
         let rows = want["regressions"].as_object().unwrap();
         assert!(!rows.is_empty(), "the reference finds the face");
         let (mut d_face, mut d_reg) = (0.0f32, 0.0f32);

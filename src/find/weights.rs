@@ -1,13 +1,12 @@
-//! The finder's weight files (`data/weights/*.fmw`, made by `scripts/convert-weights.mjs`,
-//! `scripts/convert-mediapipe.py` and `scripts/quantise-fmw.py`).
+//! The finder's weight files (`data/weights/*.fmw`, made by `scripts/convert-mediapipe.py` and
+//! `scripts/quantise-fmw.py`).
 //!
 //! Layout (little-endian): the magic `FMW1`, a `u32` tensor count, then per tensor a `u32` name
-//! length and the UTF-8 name (the tfjs manifest's name, e.g. `conv1/depthwise_filter`), a `u32`
-//! rank and that many `u32` dimensions (tfjs order: `[kh, kw, in, out]` for convolutions), a
-//! `u32` encoding and the values:
+//! length and the UTF-8 name (e.g. `op12/w`), a `u32` rank and that many `u32` dimensions (the
+//! layout of `scripts/convert-mediapipe.py`'s header), a `u32` encoding and the values:
 //!
 //! - 0: float32 values;
-//! - 1: uint8 values `q` with `f32` scale and `f32` min before them, value = min + scale * q;
+//! - 1: no longer read (face-api.js's per-tensor uint8, whose nets the crate no longer ships);
 //! - 2: float16 values, as MediaPipe's TFLite files store them (`scripts/convert-mediapipe.py`);
 //! - 3: int8 values per channel, symmetric (`scripts/quantise-fmw.py`): a `u32` axis (below the
 //!   rank: the output-channel axis, e.g. 0 for MediaPipe's convolutions `[cout, kh, kw, cin]`, 3
@@ -55,9 +54,6 @@ impl<'a> Reader<'a> {
     fn u32(&mut self) -> Result<u32> {
         let b = self.take(4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-    }
-    fn f32(&mut self) -> Result<f32> {
-        Ok(f32::from_bits(self.u32()?))
     }
     /// The next `n` values of `size` bytes each.
     fn items(&mut self, n: usize, size: usize) -> Result<&'a [u8]> {
@@ -132,14 +128,6 @@ impl Weights {
                     .chunks_exact(4)
                     .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
                     .collect(),
-                1 => {
-                    let scale = r.f32()?;
-                    let min = r.f32()?;
-                    r.take(len)?
-                        .iter()
-                        .map(|&q| min + scale * q as f32)
-                        .collect()
-                }
                 2 => r
                     .items(len, 2)?
                     .chunks_exact(2)
@@ -273,8 +261,9 @@ mod tests {
         assert_eq!(w.get("w", &[2]).unwrap(), [1.0, -2.0]);
         let w = Weights::parse(&file(&[2], 2, &[0, 60, 0, 192])).unwrap();
         assert_eq!(w.get("w", &[2]).unwrap(), [1.0, -2.0]);
-        let w = Weights::parse(&file(&[2], 1, &[0, 0, 0, 63, 0, 0, 128, 63, 0, 4])).unwrap();
-        assert_eq!(w.get("w", &[2]).unwrap(), [1.0, 3.0]);
+        // Encoding 1 (face-api.js's uint8) is refused now that nothing ships in it.
+        let m = weights_error(&file(&[2], 1, &[0, 0, 0, 63, 0, 0, 128, 63, 0, 4]));
+        assert!(m.contains("encoding 1"), "{m}");
         let m = weights_error(&file(&[4], 2, &[0, 60, 0, 192]));
         assert!(m.contains("truncated"), "{m}");
     }

@@ -63,7 +63,7 @@ impl Default for FollowOptions {
             neutral_step: 0.05,
             mouth_margin: 0.02,
             max_sigmas: 3.0,
-            min_face_score: 0.5,
+            min_face_score: crate::FindOptions::default().min_face_score,
             min_inside: 0.5,
         }
     }
@@ -379,7 +379,8 @@ impl Follower {
     /// One frame of [`Follower::track`] into `self.result` (the counters left to it).
     fn step(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<()> {
         let mut passes = 0u32;
-        let mut disagreement = 0.0f32;
+        // The frame's `FitResult::error`: the mesh's doubt that the region holds a face.
+        let mut doubt = 0.0f32;
         let mut found = false;
         let reacquired;
         let start_box = self.start_box.take();
@@ -396,7 +397,7 @@ impl Follower {
                     .scored_landmarks_into(frame, near, &mut self.points)
             };
             if let Ok(score) = r {
-                disagreement = 1.0 - score;
+                doubt = 1.0 - score;
                 found = score >= self.options.min_face_score && self.inside(frame, &self.points);
             }
         }
@@ -405,7 +406,7 @@ impl Follower {
             reacquired = start_box.is_some();
         } else {
             found = self.search_face(frame);
-            disagreement = 0.0;
+            doubt = 0.0;
             reacquired = found;
         }
         if !found {
@@ -421,7 +422,7 @@ impl Follower {
             self.filter.reset(136);
         }
         self.following = true;
-        self.follow_points(reacquired, disagreement, passes, dt)
+        self.follow_points(reacquired, doubt, passes, dt)
     }
 
     /// Searches a lost or new face (the faces offered, else the finder on the whole frame when
@@ -466,13 +467,7 @@ impl Follower {
     }
 
     /// Steps 2 and 3 on the frame's points in `self.points`, into `self.result`.
-    fn follow_points(
-        &mut self,
-        reacquired: bool,
-        disagreement: f32,
-        passes: u32,
-        dt: f32,
-    ) -> Result<()> {
+    fn follow_points(&mut self, reacquired: bool, doubt: f32, passes: u32, dt: f32) -> Result<()> {
         if !self.seen {
             // The first face: its shape, aligned to s0, is the first neutral (replaced by the
             // closed-mouth frames' mean as they come).
@@ -536,7 +531,7 @@ impl Follower {
         r.params.pose = pose.compose(&Similarity::align(&self.base, &self.neutral));
         r.params.appearance.clear();
         r.params.appearance.resize(self.appearance_modes, 0.0);
-        r.error = disagreement;
+        r.error = doubt;
         r.iterations = passes;
         r.converged = true;
         r.lost = false;
