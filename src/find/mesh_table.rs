@@ -21,6 +21,13 @@ pub(crate) const BLEND: usize = 3;
 
 include!("mesh_table_data.rs");
 
+/// For each of the 68 iBUG points, its depth: away from the camera, in units of the face's RMS
+/// radius, 0 on average over the points (the jaw's ends about 1.2, the nose tip about -0.7).
+/// The mean, over the committed GRID frames, of the blend of its mesh vertices' depths (the
+/// mesh's third coordinate), learned with the table. What tells a turn of the head from an
+/// expression ([`crate::fit::split_head_turn`]).
+pub const IBUG_DEPTH: &[f32; 68] = &IBUG_DEPTH_DATA;
+
 /// The 68 iBUG points (interleaved x, y) of a 468-point mesh (x, y, z interleaved).
 pub(crate) fn to_ibug(mesh: &[f32], out: &mut [f32]) {
     for ((o, verts), weights) in out

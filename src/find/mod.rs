@@ -19,6 +19,7 @@ mod weights;
 #[cfg(not(target_arch = "wasm32"))]
 pub use graph::{profile_mesh_nets, NetProfile};
 pub use mesh::MESH_POINTS;
+pub use mesh_table::IBUG_DEPTH;
 
 pub use calibration::{
     add_face_offsets, convention_free_errors, face_frame, face_offsets, mean_face_offsets,

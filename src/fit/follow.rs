@@ -51,6 +51,11 @@ pub struct FollowOptions {
     /// At least this fraction of the landmarks must lie inside the frame, else the face is
     /// lost (it left the picture).
     pub min_inside: f32,
+    /// `true` (default): the part of a frame's shape that turning or nodding the head out of
+    /// the image plane explains ([`split_head_turn`]) is not read as expression: a person who
+    /// turns their head does not make the clone open or twist its mouth. The followed
+    /// landmarks keep the turn.
+    pub split_head_turns: bool,
 }
 
 impl Default for FollowOptions {
@@ -65,6 +70,7 @@ impl Default for FollowOptions {
             max_sigmas: 3.0,
             min_face_score: crate::FindOptions::default().min_face_score,
             min_inside: 0.5,
+            split_head_turns: true,
         }
     }
 }
@@ -134,7 +140,10 @@ impl FollowOptions {
 ///    ([`FollowOptions::neutral_step`]), of the frames whose mouth is not more open than the
 ///    neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`]), kept aligned to the
 ///    model's `s0` ([`neutral_update`]).
-/// 3. **Mapping.** `p = S^T (x - n)`, the deviation projected onto the source model's
+/// 3. **Head turns.** The part of `x - n` that turning or nodding the head out of the image
+///    plane explains, to first order, is split off as `t` ([`split_head_turn`],
+///    [`FollowOptions::split_head_turns`]): a turn is pose, not expression.
+/// 4. **Mapping.** `p = S^T (x - t - n)`, the deviation projected onto the source model's
 ///    orthonormal modes, clamped to `+-max_sigmas` ([`expression_params`]).
 ///
 /// Ensures: the result has the [`FitResult`] layout of the AAM tracker, so cloning and
@@ -143,8 +152,8 @@ impl FollowOptions {
 /// mean appearance (the colours of the person in front of the camera say nothing about the
 /// source model's appearance modes, which describe another person's face; projecting them
 /// would drive the targets' appearance with lighting and identity, not expression);
-/// `landmarks = P(n + S p)`, the person's neutral plus the mapped deviation, posed (the face
-/// as the source model can express it); `error` = 1 minus the mesh's face-presence score near
+/// `landmarks = P(n + S p + t)`, the person's neutral plus the mapped deviation and the
+/// head's turn, posed (the face as the source model can express it, turned as the person's); `error` = 1 minus the mesh's face-presence score near
 /// the last face (0 for a face taken from a search or an offer); `iterations` = the mesh
 /// passes run near the last face this frame (0 when a search alone gave the face; the
 /// finder's own passes are not counted). A frame with no face has `lost = true` and
@@ -179,6 +188,8 @@ pub struct Follower {
     points: [f32; 136],
     shape: [f32; 136],
     followed: [f32; 136],
+    /// Scratch: the displacement a head turn explains ([`split_head_turn`]).
+    turn: [f32; 136],
     /// Faces offered from elsewhere, used by the next search.
     offered: Option<Vec<Vec<f32>>>,
     /// Whether a search runs the finder on the frame (else it waits for offered faces).
@@ -250,6 +261,7 @@ impl Follower {
             points: [0.0; 136],
             shape: [0.0; 136],
             followed: [0.0; 136],
+            turn: [0.0; 136],
             offered: None,
             search: true,
             start_box: None,
@@ -473,6 +485,13 @@ impl Follower {
             // closed-mouth frames' mean as they come).
             let to_base = Similarity::align(&self.points, &self.base);
             to_base.apply(&self.points, &mut self.neutral);
+            // A person first seen talking or laughing: their neutral starts with the mouth
+            // closed (as the model's base face holds it), else the opening would read as no
+            // expression until they close their mouth.
+            let rest = mouth_opening(&self.base);
+            if mouth_opening(&self.neutral) > rest + self.options.mouth_margin {
+                close_mouth(&mut self.neutral, &self.modes, rest);
+            }
             self.neutral_frames = 0;
             self.seen = true;
         }
@@ -509,6 +528,16 @@ impl Follower {
             Some(back) => pose.compose(&back),
             None => pose,
         };
+        if o.split_head_turns {
+            split_head_turn(
+                &mut self.shape,
+                &self.neutral,
+                crate::find::IBUG_DEPTH,
+                &mut self.turn,
+            );
+        } else {
+            self.turn = [0.0; 136];
+        }
         let r = &mut self.result;
         expression_params(
             &self.shape,
@@ -518,8 +547,10 @@ impl Follower {
             self.options.max_sigmas,
             &mut r.params.shape,
         );
-        // The followed shape: the neutral plus the mapped deviation, posed.
-        self.followed.copy_from_slice(&self.neutral);
+        // The followed shape: the neutral plus the mapped deviation and the head's turn, posed.
+        for ((f, n), t) in self.followed.iter_mut().zip(&self.neutral).zip(&self.turn) {
+            *f = n + t;
+        }
         let d = self.base.len();
         for (pi, mode) in r.params.shape.iter().zip(self.modes.chunks_exact(d)) {
             self.followed
@@ -630,6 +661,137 @@ pub fn neutral_update(
     }
 }
 
+/// Splits off the part of a 68-point `shape`'s deviation from `neutral` that a small turn or
+/// nod of the head out of the image plane explains, to first order, and writes it to `turn`
+/// (`shape` keeps the rest).
+///
+/// Turning a face by a small angle `a` about its vertical axis moves each point sideways by
+/// `a` times its depth (`x' = x cos a + z sin a`), and nodding moves it along the face's
+/// vertical axis the same way: two directions in shape space, `z_i u` and `z_i v`, with `u`
+/// the neutral's eye line (point 36 to 45) and `v` its perpendicular. Whatever of them a
+/// similarity explains (the pose is fitted before) is taken out of them; the deviation's
+/// component along what remains is the turn. `depth` is each point's depth in any unit (only
+/// its profile matters; the finder's is [`IBUG_DEPTH`](crate::find::IBUG_DEPTH)). The lips,
+/// brows and jaw move with expression along other directions, which a turn's leaves to the
+/// modes; an expression that moves every point by its depth would be read as a turn.
+///
+/// Requires 136 values in `shape`, `neutral` and `turn` and 68 in `depth`; leaves `shape`
+/// unchanged and `turn` zero otherwise, or when the neutral is degenerate. Allocates nothing.
+pub fn split_head_turn(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: &mut [f32]) {
+    turn.iter_mut().for_each(|t| *t = 0.0);
+    if shape.len() != 136 || neutral.len() != 136 || turn.len() != 136 || depth.len() != 68 {
+        return;
+    }
+    let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
+        return;
+    };
+    let len = ex.hypot(ey);
+    if !(len.is_finite() && len > 0.0) {
+        return;
+    }
+    let (ux, uy) = (ex / len, ey / len);
+    let (cx, cy) = (
+        neutral.iter().step_by(2).sum::<f32>() / 68.0,
+        neutral.iter().skip(1).step_by(2).sum::<f32>() / 68.0,
+    );
+    // An orthonormal basis of the similarities at the neutral (two translations, scale,
+    // rotation), then the two turn directions made orthogonal to it and to each other.
+    let mut basis = [[0.0f32; 136]; 6];
+    for i in 0..68 {
+        let (dx, dy) = (neutral[2 * i] - cx, neutral[2 * i + 1] - cy);
+        basis[0][2 * i] = 1.0;
+        basis[1][2 * i + 1] = 1.0;
+        basis[2][2 * i] = dx;
+        basis[2][2 * i + 1] = dy;
+        basis[3][2 * i] = -dy;
+        basis[3][2 * i + 1] = dx;
+        basis[4][2 * i] = depth[i] * ux;
+        basis[4][2 * i + 1] = depth[i] * uy;
+        basis[5][2 * i] = -depth[i] * uy;
+        basis[5][2 * i + 1] = depth[i] * ux;
+    }
+    let dot = |a: &[f32; 136], b: &[f32; 136]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f32>();
+    let mut usable = [false; 6];
+    for k in 0..6 {
+        let (done, rest) = basis.split_at_mut(k);
+        let b = &mut rest[0];
+        let before = dot(b, b).sqrt();
+        for (q, _) in done.iter().zip(&usable).filter(|(_, &u)| u) {
+            let c = dot(b, q);
+            b.iter_mut().zip(q).for_each(|(x, y)| *x -= c * y);
+        }
+        let norm = dot(b, b).sqrt();
+        // A direction a similarity (or the other turn) nearly explains is left alone.
+        if norm.is_finite() && norm > 1e-3 * before {
+            b.iter_mut().for_each(|x| *x /= norm);
+            usable[k] = true;
+        }
+    }
+    for (b, _) in basis[4..].iter().zip(&usable[4..]).filter(|(_, &u)| u) {
+        let c: f32 = shape
+            .iter()
+            .zip(neutral)
+            .zip(b)
+            .map(|((x, n), q)| (x - n) * q)
+            .sum();
+        if !c.is_finite() {
+            continue;
+        }
+        for ((s, t), q) in shape.iter_mut().zip(turn.iter_mut()).zip(b) {
+            *s -= c * q;
+            *t += c * q;
+        }
+    }
+}
+
+/// Closes the mouth of a 68-point `shape` (model coordinates) the way the model opens one:
+/// moves it along the direction in the span of the model's orthonormal `modes` (row-major `m x
+/// 136`) that changes [`mouth_opening`] fastest, until its opening is `opening` (within 1% of
+/// the eye distance), so the jaw, chin and outer lips follow the inner lips as they do in the
+/// model's faces. Leaves `shape` unchanged when another length is given, or when the modes
+/// cannot move the inner lips apart. Allocates nothing.
+pub fn close_mouth(shape: &mut [f32], modes: &[f32], opening: f32) {
+    if shape.len() != 136 || modes.is_empty() || modes.len() % 136 != 0 || !opening.is_finite() {
+        return;
+    }
+    let pairs = [(61, 67), (62, 66), (63, 65)];
+    for _ in 0..4 {
+        let now = mouth_opening(shape);
+        let Some([ex, ey]) = crate::landmarks::eye_line(shape) else {
+            return;
+        };
+        let iod = ex.hypot(ey);
+        if !(iod > 0.0) || (now - opening).abs() < 0.01 {
+            return;
+        }
+        // The gradient of the opening (the inner lips' three distances over 3 eye distances).
+        let mut g = [0.0f32; 136];
+        for (u, l) in pairs {
+            let (dx, dy) = (
+                shape[2 * u] - shape[2 * l],
+                shape[2 * u + 1] - shape[2 * l + 1],
+            );
+            let d = dx.hypot(dy).max(1e-6) * 3.0 * iod;
+            g[2 * u] += dx / d;
+            g[2 * u + 1] += dy / d;
+            g[2 * l] -= dx / d;
+            g[2 * l + 1] -= dy / d;
+        }
+        // Its part in the modes' span: m = S^T S g; the opening changes by g . m per unit.
+        let mut m = [0.0f32; 136];
+        for mode in modes.chunks_exact(136) {
+            let c: f32 = mode.iter().zip(&g).map(|(a, b)| a * b).sum();
+            m.iter_mut().zip(mode).for_each(|(o, v)| *o += c * v);
+        }
+        let rate: f32 = m.iter().zip(&g).map(|(a, b)| a * b).sum();
+        if !(rate.is_finite() && rate > 1e-9) {
+            return;
+        }
+        let step = (now - opening) / rate;
+        shape.iter_mut().zip(&m).for_each(|(x, v)| *x -= step * v);
+    }
+}
+
 /// The expression of a shape read on a model's modes: `p = S^T (shape - neutral)`, each
 /// `p_i` clamped to `+-max_sigmas * sigma_i`, into `out` (resized to the number of modes).
 ///
@@ -674,6 +836,116 @@ mod tests {
         );
         expression_params(&shape, &neutral, &modes, &[0.5, 10.0], 3.0, &mut p);
         assert!((p[0] - 1.5).abs() < 1e-6, "{p:?}");
+    }
+
+    /// A face-like ring of 68 points with its mouth closed (inner lips together).
+    fn ring() -> Vec<f32> {
+        let mut base: Vec<f32> = (0..68)
+            .flat_map(|i| {
+                let a = i as f32 * 0.37;
+                [40.0 * a.cos() + 0.3 * i as f32, 50.0 * a.sin()]
+            })
+            .collect();
+        for (u, l) in [(61, 67), (62, 66), (63, 65)] {
+            base[2 * l] = base[2 * u];
+            base[2 * l + 1] = base[2 * u + 1];
+        }
+        base
+    }
+
+    #[test]
+    fn a_head_turn_is_split_off_and_the_rest_kept() {
+        let n = ring();
+        let depth: Vec<f32> = (0..68).map(|i| 20.0 * (i as f32 * 0.7).sin()).collect();
+        let [ex, ey] = crate::landmarks::eye_line(&n).unwrap();
+        let (ux, uy) = (ex / ex.hypot(ey), ey / ex.hypot(ey));
+        // The head turned (0.1 rad) and nodded (0.05 rad), to first order, then posed onto
+        // the neutral as the follower does: the split gives the neutral back.
+        let turned: Vec<f32> = (0..68)
+            .flat_map(|i| {
+                let (a, b) = (0.1 * depth[i], 0.05 * depth[i]);
+                [n[2 * i] + a * ux - b * uy, n[2 * i + 1] + a * uy + b * ux]
+            })
+            .collect();
+        let mut shape = vec![0.0; 136];
+        Similarity::align(&turned, &n).apply(&turned, &mut shape);
+        let before = shape.clone();
+        let mut turn = vec![1.0; 136];
+        split_head_turn(&mut shape, &n, &depth, &mut turn);
+        for i in 0..136 {
+            // To first order: the pose fit leaves a second-order remainder.
+            assert!(
+                (shape[i] - n[i]).abs() < 0.1,
+                "value {i}: {} {}",
+                shape[i],
+                n[i]
+            );
+            assert!((shape[i] + turn[i] - before[i]).abs() < 1e-4, "value {i}");
+        }
+        assert!(turn.iter().any(|t| t.abs() > 0.5));
+        // No turn: nothing split off.
+        let mut same = n.clone();
+        split_head_turn(&mut same, &n, &depth, &mut turn);
+        assert!(turn.iter().all(|t| t.abs() < 1e-4) && same == n);
+        // Wrong lengths or a degenerate neutral: unchanged, no turn.
+        let mut s = before.clone();
+        split_head_turn(&mut s, &n, &depth[..60], &mut turn);
+        assert!(s == before && turn.iter().all(|&t| t == 0.0));
+        split_head_turn(&mut s, &[0.0; 136], &depth, &mut turn);
+        assert!(s == before && turn.iter().all(|&t| t == 0.0));
+    }
+
+    #[test]
+    fn close_mouth_closes_along_the_modes() {
+        let base = ring();
+        // Mode 0 opens the mouth (lower lips and chin down), mode 1 raises the brows.
+        let mut open = [0.0f32; 136];
+        for i in [7, 8, 9, 55, 56, 57, 58, 59, 65, 66, 67] {
+            open[2 * i + 1] = 1.0;
+        }
+        let mut brows = [0.0f32; 136];
+        for i in 17..27 {
+            brows[2 * i + 1] = -1.0;
+        }
+        let unit = |v: [f32; 136]| {
+            let n = v.iter().map(|x| x * x).sum::<f32>().sqrt();
+            v.map(|x| x / n)
+        };
+        let modes: Vec<f32> = unit(open)
+            .iter()
+            .chain(unit(brows).iter())
+            .copied()
+            .collect();
+        let mut shape: Vec<f32> = base
+            .iter()
+            .zip(unit(open).iter().zip(unit(brows).iter()))
+            .map(|(b, (o, r))| b + 60.0 * o + 5.0 * r)
+            .collect();
+        assert!(mouth_opening(&shape) > 0.1);
+        close_mouth(&mut shape, &modes, 0.02);
+        assert!(
+            (mouth_opening(&shape) - 0.02).abs() < 0.01,
+            "{}",
+            mouth_opening(&shape)
+        );
+        // The brows stay raised; the chin came up with the lips.
+        assert!(
+            (shape[2 * 20 + 1] - (base[2 * 20 + 1] + 5.0 * unit(brows)[2 * 20 + 1])).abs() < 1e-3
+        );
+        assert!(shape[2 * 8 + 1] < base[2 * 8 + 1] + 60.0 * unit(open)[2 * 8 + 1] - 1.0);
+        // Modes that cannot move the lips: unchanged.
+        let before = shape.clone();
+        let mut wide = shape.clone();
+        for l in [65, 66, 67] {
+            wide[2 * l + 1] += 10.0;
+        }
+        let w0 = wide.clone();
+        close_mouth(&mut wide, &unit(brows), 0.0);
+        assert_eq!(wide, w0);
+        // Other lengths: unchanged.
+        let mut short = before[..100].to_vec();
+        close_mouth(&mut short, &modes, 0.0);
+        assert_eq!(short, before[..100].to_vec());
     }
 
     #[test]

@@ -35,7 +35,10 @@ use crate::model::Params;
 
 pub use anchor::Sequence;
 pub use driver::Fitter;
-pub use follow::{expression_params, mouth_opening, neutral_update, FollowOptions, Follower};
+pub use follow::{
+    close_mouth, expression_params, mouth_opening, neutral_update, split_head_turn, FollowOptions,
+    Follower,
+};
 pub use options::{FitOptions, LevelSpec, TrackPolicy};
 pub use tracker::{FaceSource, Tracker, DEFAULT_TIME_STEP, MIN_CONTRAST};
 
