@@ -153,12 +153,12 @@ impl FollowOptions {
 /// source model's appearance modes, which describe another person's face; projecting them
 /// would drive the targets' appearance with lighting and identity, not expression);
 /// `landmarks = P(n + S p + t)`, the person's neutral plus the mapped deviation and the
-/// head's turn, posed (the face as the source model can express it, turned as the person's); `error` = 1 minus the mesh's face-presence score near
-/// the last face (0 for a face taken from a search or an offer); `iterations` = the mesh
-/// passes run near the last face this frame (0 when a search alone gave the face; the
-/// finder's own passes are not counted). A frame with no face has `lost = true` and
-/// carries the last good result; the next frames search until a face is found
-/// (`reacquired = true` on that frame).
+/// head's turn, posed (the face as the source model can express it, turned as the person's);
+/// `error` = 1 minus the mesh's face-presence score near the last face (0 for a face taken
+/// from a search or an offer); `iterations` = the mesh passes run near the last face this
+/// frame (0 when a search alone gave the face; the finder's own passes are not counted). A
+/// frame with no face has `lost = true` and carries the last good result; the next frames
+/// search until a face is found (`reacquired = true` on that frame).
 ///
 /// After the first search, a frame followed near the last face allocates nothing; a search
 /// allocates the finder's list of faces.
@@ -777,7 +777,8 @@ pub fn close_mouth(shape: &mut [f32], modes: &[f32], opening: f32) {
             g[2 * l] -= dx / d;
             g[2 * l + 1] -= dy / d;
         }
-        // Its part in the modes' span: m = S^T S g; the opening changes by g . m per unit.
+        // Its part in the modes' span, m = S S^T g (S's columns the modes): the opening
+        // changes by g . m per unit along m.
         let mut m = [0.0f32; 136];
         for mode in modes.chunks_exact(136) {
             let c: f32 = mode.iter().zip(&g).map(|(a, b)| a * b).sum();
