@@ -470,21 +470,25 @@ fn letterbox(
             }
         }
     };
-    // Across: every image row into n columns (sums of pixel values times overlaps).
+    // Across: every image row into n columns (sums of pixel values times overlaps), each
+    // output's sum made in registers (RGBA lanes, alpha dropped) in the order of its taps, from
+    // 0: the sums `d += c p` into a zeroed row made, bit for bit. Four image rows at a time
+    // (one pass over the taps for the four).
     spans(w, taps);
     rows.clear();
     rows.resize(h * n * 3, 0.0);
     let data = image.data();
-    for y in 0..h {
-        let src = &data[y * w * 4..(y + 1) * w * 4];
-        let dst = &mut rows[y * n * 3..(y + 1) * n * 3];
-        for &(o, i, c) in taps.iter() {
-            let p = &src[i * 4..i * 4 + 3];
-            let d = &mut dst[o * 3..o * 3 + 3];
-            d[0] += c * f32::from(p[0]);
-            d[1] += c * f32::from(p[1]);
-            d[2] += c * f32::from(p[2]);
-        }
+    let mut src = data.chunks_exact(4 * w * 4);
+    let mut dst = rows.chunks_exact_mut(4 * n * 3);
+    for (src, dst) in (&mut src).zip(&mut dst) {
+        across::<4>(src, w, taps, dst, n);
+    }
+    for (src, dst) in src
+        .remainder()
+        .chunks_exact(w * 4)
+        .zip(dst.into_remainder().chunks_exact_mut(n * 3))
+    {
+        across::<1>(src, w, taps, dst, n);
     }
     // Down: the rows' sums into n output rows; outside the image stays black (0, i.e. -1).
     out.reset(n, n, 3);
@@ -498,6 +502,37 @@ fn letterbox(
     }
     for v in out.data.iter_mut() {
         *v = *v * norm - 1.0;
+    }
+}
+
+/// [`letterbox`]'s sums across `R` image rows (`src`, RGBA rows of `w` pixels) into `R` rows
+/// of `n` RGB sums (`dst`): per output, `sum c p` over its taps `(output, input, c)` (in
+/// output order) in their order, from 0.
+#[inline(always)]
+fn across<const R: usize>(
+    src: &[u8],
+    w: usize,
+    taps: &[(usize, usize, f32)],
+    dst: &mut [f32],
+    n: usize,
+) {
+    let src: [&[u8]; R] = std::array::from_fn(|r| &src[r * w * 4..][..w * 4]);
+    let mut rest = taps;
+    while let Some(&(o, _, _)) = rest.first() {
+        let len = rest.iter().take_while(|t| t.0 == o).count();
+        let mut acc = [[0.0f32; 4]; R];
+        for &(_, i, c) in &rest[..len] {
+            for (acc, src) in acc.iter_mut().zip(&src) {
+                let p: &[u8; 4] = src[i * 4..i * 4 + 4].try_into().unwrap();
+                for (a, &p) in acc.iter_mut().zip(p) {
+                    *a += c * f32::from(p);
+                }
+            }
+        }
+        for (r, acc) in acc.iter().enumerate() {
+            dst[r * n * 3 + o * 3..][..3].copy_from_slice(&acc[..3]);
+        }
+        rest = &rest[len..];
     }
 }
 
@@ -601,6 +636,95 @@ mod tests {
                         }
                     }
                 }
+            }
+        }
+    }
+
+    /// The letterbox as first written (`d += c p` into zeroed rows, tap by tap): what
+    /// [`letterbox`] must give bit for bit.
+    fn letterbox_plain(
+        image: &ImageRef,
+        n: usize,
+        (taps, rows): (&mut Vec<(usize, usize, f32)>, &mut Vec<f32>),
+        out: &mut Map,
+    ) {
+        let (w, h) = (image.width() as usize, image.height() as usize);
+        let side = w.max(h) as f32;
+        let step = side / n as f32;
+        let norm = 2.0 / (step * step * 255.0);
+        // Per output index, the input indices it covers (inside 0..len) with their overlaps:
+        // `(output, input, overlap in pixels)`, in output order.
+        let spans = |len: usize, taps: &mut Vec<(usize, usize, f32)>| {
+            taps.clear();
+            let off = 0.5 * (side - len as f32);
+            for o in 0..n {
+                let (a, b) = (o as f32 * step - off, (o + 1) as f32 * step - off);
+                let (lo, hi) = (a.max(0.0), b.min(len as f32));
+                if hi <= lo {
+                    continue;
+                }
+                let (first, last) = (lo.floor() as usize, (hi.ceil() as usize).min(len));
+                for i in first..last {
+                    let cover = (hi.min((i + 1) as f32) - lo.max(i as f32)).max(0.0);
+                    if cover > 0.0 {
+                        taps.push((o, i, cover));
+                    }
+                }
+            }
+        };
+        // Across: every image row into n columns (sums of pixel values times overlaps).
+        spans(w, taps);
+        rows.clear();
+        rows.resize(h * n * 3, 0.0);
+        let data = image.data();
+        for y in 0..h {
+            let src = &data[y * w * 4..(y + 1) * w * 4];
+            let dst = &mut rows[y * n * 3..(y + 1) * n * 3];
+            for &(o, i, c) in taps.iter() {
+                let p = &src[i * 4..i * 4 + 3];
+                let d = &mut dst[o * 3..o * 3 + 3];
+                d[0] += c * f32::from(p[0]);
+                d[1] += c * f32::from(p[1]);
+                d[2] += c * f32::from(p[2]);
+            }
+        }
+        // Down: the rows' sums into n output rows; outside the image stays black (0, i.e. -1).
+        out.reset(n, n, 3);
+        spans(h, taps);
+        for &(o, i, c) in taps.iter() {
+            let src = &rows[i * n * 3..(i + 1) * n * 3];
+            let dst = &mut out.data[o * n * 3..(o + 1) * n * 3];
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d += c * s;
+            }
+        }
+        for v in out.data.iter_mut() {
+            *v = *v * norm - 1.0;
+        }
+    }
+
+    #[test]
+    fn letterbox_is_the_plain_sums_bit_for_bit() {
+        let (mut taps, mut rows) = (Vec::new(), Vec::new());
+        for (w, h) in [
+            (640u32, 480u32),
+            (480, 640),
+            (129, 200),
+            (128, 128),
+            (301, 300),
+        ] {
+            let data = noise(w, h);
+            let image = ImageRef::new(w, h, &data).unwrap();
+            let mut want = Map::default();
+            letterbox_plain(&image, 128, (&mut taps, &mut rows), &mut want);
+            let mut got = Map {
+                data: vec![f32::NAN; 10],
+                ..Map::default()
+            };
+            letterbox(&image, 128, (&mut taps, &mut rows), &mut got);
+            assert_eq!((got.h, got.w, got.c), (128, 128, 3));
+            for (i, (a, b)) in got.data.iter().zip(&want.data).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "{w}x{h} value {i}");
             }
         }
     }
