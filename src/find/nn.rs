@@ -57,9 +57,9 @@ pub(crate) fn pointwise(x: &Map, filters: &[f32], bias: &[f32], y: &mut Map) {
 ///
 /// This is where the nets spend most of their time, so it is blocked like a small matrix
 /// product: [`BLOCK_COUT`] output channels by [`BLOCK_ROWS`] rows at a time, whose
-/// accumulators stay in registers, then blocks of 4 channels and single rows for the rest. Each
-/// output still sums `bias + a0 f0 + a1 f1 + ...` in input order, so the result is
-/// bit-identical to the plain loop.
+/// accumulators stay in registers, then blocks of 4 channels and one of the last 1-3
+/// channels, and single rows for the rest. Each output still sums `bias + a0 f0 + a1 f1 + ...`
+/// in input order, so the result is bit-identical to the plain loop.
 pub(crate) fn matmul(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], out: &mut [f32]) {
     let n = bias.len();
     debug_assert!(fs >= n && (k == 0 || f.len() >= (k - 1) * fs + n));
@@ -74,18 +74,13 @@ pub(crate) fn matmul(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], ou
         channel_block::<4>(a, k, rows, &f[c0..], fs, &bias[c0..], &mut out[c0..], n);
         c0 += 4;
     }
-    if c0 < n {
-        // The last `n % 4` channels, plainly.
-        for (inp, o) in a.chunks_exact(k).zip(out.chunks_exact_mut(n)) {
-            let o = &mut o[c0..];
-            o.copy_from_slice(&bias[c0..]);
-            for (ci, &v) in inp.iter().enumerate() {
-                let fr = &f[ci * fs + c0..][..n - c0];
-                for (oo, &ff) in o.iter_mut().zip(fr) {
-                    *oo += v * ff;
-                }
-            }
-        }
+    // The last `n % 4` channels: a block of their own (sums in registers, not in `out`).
+    let (f, bias, out) = (&f[c0..], &bias[c0..], &mut out[c0..]);
+    match n - c0 {
+        1 => channel_block::<1>(a, k, rows, f, fs, bias, out, n),
+        2 => channel_block::<2>(a, k, rows, f, fs, bias, out, n),
+        3 => channel_block::<3>(a, k, rows, f, fs, bias, out, n),
+        _ => {}
     }
 }
 
