@@ -180,7 +180,7 @@ impl MeshNets {
                 |v| v * 2.0 - 1.0,
             );
         }
-        if self.detector.run(&mut self.det_scratch, |_, _| {}).is_err() {
+        if self.detector.run_fast(&mut self.det_scratch).is_err() {
             return;
         }
         let s = &self.det_scratch;
@@ -247,7 +247,7 @@ impl MeshNets {
         }
         let n = MESH_INPUT;
         crop(image, roi, n, &mut self.crop, self.mesh_scratch.input());
-        self.mesh.run(&mut self.mesh_scratch, |_, _| {})?;
+        self.mesh.run_fast(&mut self.mesh_scratch)?;
         let s = &self.mesh_scratch;
         let (lm, flag) = (s.output(&self.mesh, 0), s.output(&self.mesh, 1));
         if lm.data.len() != MESH_POINTS * 3 || flag.data.len() != 1 {
