@@ -1027,9 +1027,9 @@ mod tests {
     }
 }
 
-/// The nets' speed in wasm under Node (V8, Chromium's engine), the native profile's figures,
-/// printed, not checked: `cargo test --release --target wasm32-unknown-unknown --lib
-/// graph::wasm_speed -- --nocapture`.
+/// The nets' and the finder's speed in wasm under Node (V8, Chromium's engine), the native
+/// profile's figures and the finder's, printed, not checked: `cargo test --release --target
+/// wasm32-unknown-unknown --lib graph::wasm_speed -- --nocapture`.
 #[cfg(all(test, target_arch = "wasm32"))]
 mod wasm_speed {
     use wasm_bindgen::prelude::wasm_bindgen;
@@ -1055,5 +1055,49 @@ mod wasm_speed {
                 console_log!("  {kind}: {:.3} ms", t * 1e3);
             }
         }
+    }
+
+    /// The fastest and the median of `reps` runs of `f` (after one more), in milliseconds.
+    fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
+        f();
+        let mut t: Vec<f64> = (0..reps)
+            .map(|_| {
+                let t0 = now();
+                f();
+                now() - t0
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        (t[0], t[reps / 2])
+    }
+
+    /// The finder on a 640x480 frame with no face (a search: letterbox and detector), then the
+    /// landmarks of a box in it (two mesh crops and passes): together about a find of one face.
+    #[wasm_bindgen_test]
+    fn finder_in_wasm() {
+        let (w, h) = (640u32, 480u32);
+        let data: Vec<u8> = (0..w * h * 4)
+            .map(|i| {
+                let (x, y) = ((i / 4) % w, (i / 4) / w);
+                ((x * 3 + y * 5 + (i % 4) * 40) % 251) as u8
+            })
+            .collect();
+        let image = crate::image::ImageRef::new(w, h, &data).unwrap();
+        let mut finder = crate::FaceFinder::new().unwrap();
+        let (fast, median) = time(50, || {
+            finder.find(&image);
+        });
+        console_log!("wasm search 640x480: {fast:.2} ms (fastest), {median:.2} ms (median)");
+        let bbox = crate::geometry::BBox {
+            x: 220.0,
+            y: 140.0,
+            width: 200.0,
+            height: 190.0,
+        };
+        let mut out = vec![0.0; 136];
+        let (fast, median) = time(50, || {
+            finder.landmarks_into(&image, bbox, &mut out).unwrap();
+        });
+        console_log!("wasm landmarks 640x480: {fast:.2} ms (fastest), {median:.2} ms (median)");
     }
 }
