@@ -389,7 +389,9 @@ impl Graph {
 
     /// Runs the net on `s.input()` (filled by the caller, `side x side x channels`); the outputs
     /// are then [`GraphScratch::output`]. `each` is called after every layer with the layer's
-    /// index and its output (for the reference test; pass `|_, _| {}`).
+    /// index and its output (for the reference test and the profile; pass `|_, _| {}`). Layer
+    /// by layer, nothing fused: the finder runs [`Graph::run_fast`].
+    #[cfg(any(test, not(target_arch = "wasm32")))]
     pub fn run(&self, s: &mut GraphScratch, mut each: impl FnMut(usize, &Map)) -> Result<()> {
         self.prepare(s)?;
         for (i, l) in self.layers.iter().enumerate() {
@@ -800,13 +802,13 @@ fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
 pub struct NetProfile {
     /// The net's input side: 128 for BlazeFace, 192 for the face mesh.
     pub side: usize,
-    /// Seconds a run: the fastest run ([`Graph::run_fast`], the finder's: activations fused).
+    /// Seconds a run: the fastest run (the run the finder makes, activations fused).
     pub run: f64,
     /// Seconds a run: the median run.
     pub median: f64,
     /// Per layer kind (`"Conv k3 s1"`, ...: kind, kernel and stride), the seconds a run its
-    /// layers take (each layer's fastest time over `reps` other runs, layer by layer with
-    /// [`Graph::run`], nothing fused; summed), by name.
+    /// layers take (each layer's fastest time over `reps` other runs made layer by layer,
+    /// nothing fused; summed), by name.
     pub layers: Vec<(String, f64)>,
 }
 

@@ -71,7 +71,7 @@ pub(crate) enum Act<'a> {
 impl<'a> Act<'a> {
     /// The activation of channels `c0..` (PReLU's slopes from `c0`).
     #[inline(always)]
-    fn from_channel(self, c0: usize) -> Act<'a> {
+    fn at_channel(self, c0: usize) -> Act<'a> {
         match self {
             Act::Prelu(a) => Act::Prelu(&a[c0..]),
             other => other,
@@ -102,9 +102,9 @@ pub(crate) struct Post<'a> {
 impl<'a> Post<'a> {
     /// The post-processing of channels `c0..`.
     #[inline(always)]
-    fn from_channel(self, c0: usize) -> Post<'a> {
+    fn at_channel(self, c0: usize) -> Post<'a> {
         Post {
-            act: self.act.from_channel(c0),
+            act: self.act.at_channel(c0),
             ..self
         }
     }
@@ -139,7 +139,7 @@ pub(crate) fn matmul(
     debug_assert_eq!(out.len(), rows * n);
     let mut c0 = 0;
     while c0 + BLOCK_COUT <= n {
-        let post = post.from_channel(c0);
+        let post = post.at_channel(c0);
         channel_block::<BLOCK_COUT>(
             a,
             k,
@@ -154,7 +154,7 @@ pub(crate) fn matmul(
         c0 += BLOCK_COUT;
     }
     while c0 + 4 <= n {
-        let post = post.from_channel(c0);
+        let post = post.at_channel(c0);
         channel_block::<4>(
             a,
             k,
@@ -170,7 +170,7 @@ pub(crate) fn matmul(
     }
     // The last `n % 4` channels: a block of their own (sums in registers, not in `out`).
     let (f, bias, out) = (&f[c0..], &bias[c0..], &mut out[c0..]);
-    let post = post.from_channel(c0);
+    let post = post.at_channel(c0);
     match n - c0 {
         1 => channel_block::<1>(a, k, rows, f, fs, bias, post, out, n),
         2 => channel_block::<2>(a, k, rows, f, fs, bias, post, out, n),
@@ -216,6 +216,7 @@ fn channel_block<const N: usize>(
 }
 
 /// `P` rows of `a` (`P x k` values) times `N` columns of `f`: `P x N` accumulators.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn kernel<const N: usize, const P: usize>(
     a: &[f32],
@@ -251,7 +252,12 @@ fn store<const N: usize>(acc: &[f32; N], post: Post, o: &mut [f32; N]) {
     let mut v = *acc;
     if post.residual {
         for (v, &o) in v.iter_mut().zip(o.iter()) {
-            *v = o + *v;
+            // `o + v`, the operands in the order of the addition layer (`y += x`, `y` the other
+            // map): the same value even for a NaN's payload.
+            #[allow(clippy::assign_op_pattern)]
+            {
+                *v = o + *v;
+            }
         }
     }
     match post.act {
