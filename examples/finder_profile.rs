@@ -1,6 +1,7 @@
-//! The face finder's nets (MediaPipe's) timed layer by layer on a fixed input: the fastest and the
-//! median run over REPS runs (default 20), and each layer kind's time (the sum of its layers'
-//! fastest times). A profile, not a check:
+//! The face finder's nets (MediaPipe's) timed on a fixed input: the fastest and the median run
+//! over REPS runs (default 20; the finder's fused runs), and each layer kind's time (the sum of
+//! its layers' fastest times over REPS runs layer by layer, nothing fused: their sum is more
+//! than a fused run). A profile, not a check:
 //! `cargo run --release --example finder_profile -- [REPS]`.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
@@ -18,6 +19,9 @@ fn main() {
         for (kind, t) in net.layers {
             eprintln!("  {kind}: {:.3} ms", t * 1e3);
         }
-        eprintln!("  (sum of the layers' fastest: {:.2} ms)", total * 1e3);
+        eprintln!(
+            "  (sum of the layers' fastest, unfused: {:.2} ms)",
+            total * 1e3
+        );
     }
 }

@@ -8,7 +8,7 @@
 //! next layer once the last layer reading it has run), kept in [`GraphScratch`], so a run after
 //! the first allocates nothing.
 
-use super::nn::{self, Map};
+use super::nn::{self, Act, Map, Post};
 use super::weights::{bad, Weights};
 use crate::error::{Error, Result};
 
@@ -72,9 +72,93 @@ pub(crate) struct Graph {
     outputs: Vec<usize>,
     /// The expected input: side and channels.
     input: (usize, usize),
+    /// The layers as [`Graph::run_fast`] runs them, fused where it can.
+    plan: Vec<Step>,
     /// For the layer-by-layer reference test: each layer's buffer (the logical slot it wrote).
     #[cfg(all(test, not(target_arch = "wasm32")))]
     pub slots: Vec<usize>,
+}
+
+/// A step of [`Graph::run_fast`]: a layer, or a layer and the one or two after it in one pass
+/// (see [`plan`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    /// Layer `i` alone.
+    One(usize),
+    /// Layer `i` (a convolution or an addition), then the activation `i + 1` (in place on its
+    /// output) applied as its values are stored.
+    Act(usize),
+    /// The 1x1 convolution `i`, the addition `i + 1` of its output to another map (in place
+    /// on that map) and the activation `i + 2` (in place): the sums added and activated as they
+    /// are stored, straight into the other map; the convolution's own output is never written.
+    AddAct(usize),
+}
+
+/// The fused steps of layers `rows` (logical slots: before [`assign_buffers`]) whose
+/// `outputs` slots are the net's outputs: an activation right after the layer making its
+/// input, when it could run in place (that input read by no later layer), joins that layer
+/// (a convolution or an addition); a 1x1 convolution whose output only the addition right
+/// after it reads, itself followed by such an activation, joins both (the addition's other
+/// input then takes the sums). Every fused value is the value the layers compute one by one,
+/// bit for bit (test `fused_run_matches_the_layer_by_layer_run`).
+fn plan(rows: &[Layer], outputs: &[usize]) -> Vec<Step> {
+    let slots = rows.len() + 1;
+    let mut last_use = vec![0usize; slots];
+    for (i, l) in rows.iter().enumerate() {
+        for &s in &l.inputs {
+            last_use[s] = i;
+        }
+    }
+    for &o in outputs {
+        last_use[o] = usize::MAX;
+    }
+    // Layer `j` is an activation that may run in place on the output of layer `j - 1`.
+    let act_after = |j: usize| {
+        rows.get(j).is_some_and(|a| {
+            matches!(a.kind, Kind::Relu | Kind::Prelu)
+                && a.inputs[0] == rows[j - 1].out
+                && a.inputs[0] != 0
+                && last_use[a.inputs[0]] == j
+        })
+    };
+    let mut steps = Vec::new();
+    let mut i = 0;
+    while i < rows.len() {
+        let l = &rows[i];
+        let pointwise = l.kind == Kind::Conv && l.kernel == 1 && l.stride == 1;
+        let add_act = pointwise
+            && rows.get(i + 1).is_some_and(|a| {
+                let [skip, sum] = a.inputs;
+                a.kind == Kind::Add
+                    && sum == l.out
+                    && skip != l.out
+                    && skip != l.inputs[0]
+                    && skip != 0
+                    && last_use[skip] == i + 1
+                    && last_use[l.out] == i + 1
+            })
+            && act_after(i + 2);
+        if add_act {
+            steps.push(Step::AddAct(i));
+            i += 3;
+        } else if matches!(l.kind, Kind::Conv | Kind::Add) && act_after(i + 1) {
+            steps.push(Step::Act(i));
+            i += 2;
+        } else {
+            steps.push(Step::One(i));
+            i += 1;
+        }
+    }
+    steps
+}
+
+/// The activation layer `l` applies, as a fused step applies it.
+fn act_of(l: &Layer) -> Act<'_> {
+    match l.kind {
+        Kind::Relu => Act::Relu,
+        Kind::Prelu => Act::Prelu(&l.w),
+        _ => Act::None,
+    }
 }
 
 /// The activation buffers of a [`Graph`] run.
@@ -290,12 +374,14 @@ impl Graph {
         }
         #[cfg(all(test, not(target_arch = "wasm32")))]
         let logical: Vec<usize> = rows.iter().map(|l| l.out).collect();
+        let plan = plan(&rows, &outputs);
         let (buffers, buffer_of) = assign_buffers(&mut rows, channels.len(), &outputs);
         Ok(Graph {
             layers: rows,
             buffers,
             outputs: outputs.iter().map(|&s| buffer_of[s]).collect(),
             input,
+            plan,
             #[cfg(all(test, not(target_arch = "wasm32")))]
             slots: logical,
         })
@@ -303,8 +389,102 @@ impl Graph {
 
     /// Runs the net on `s.input()` (filled by the caller, `side x side x channels`); the outputs
     /// are then [`GraphScratch::output`]. `each` is called after every layer with the layer's
-    /// index and its output (for the reference test; pass `|_, _| {}`).
+    /// index and its output (for the reference test and the profile; pass `|_, _| {}`). Layer
+    /// by layer, nothing fused: the finder runs [`Graph::run_fast`].
+    #[cfg(any(test, not(target_arch = "wasm32")))]
     pub fn run(&self, s: &mut GraphScratch, mut each: impl FnMut(usize, &Map)) -> Result<()> {
+        self.prepare(s)?;
+        for (i, l) in self.layers.iter().enumerate() {
+            self.layer(l, Act::None, s)?;
+            each(i, &s.maps[l.out]);
+        }
+        Ok(())
+    }
+
+    /// [`Graph::run`] without a look at each layer, the activations (and some additions) fused
+    /// into the layers before them ([`plan`]): the same outputs bit for bit, in fewer passes
+    /// over the maps. What the finder runs.
+    pub fn run_fast(&self, s: &mut GraphScratch) -> Result<()> {
+        self.prepare(s)?;
+        for &step in &self.plan {
+            match step {
+                Step::One(i) => self.layer(&self.layers[i], Act::None, s)?,
+                Step::Act(i) => self.layer(&self.layers[i], act_of(&self.layers[i + 1]), s)?,
+                Step::AddAct(i) => {
+                    let (c, a) = (&self.layers[i], &self.layers[i + 1]);
+                    let x = &s.maps[c.inputs[0]];
+                    let skip = &s.maps[a.out];
+                    if (skip.h, skip.w, skip.c) != (x.h, x.w, c.cout) {
+                        // Maps of other sizes: the layers one by one, as `run` does.
+                        for l in &self.layers[i..i + 3] {
+                            self.layer(l, Act::None, s)?;
+                        }
+                        continue;
+                    }
+                    let mut y = std::mem::take(&mut s.maps[a.out]);
+                    let post = Post {
+                        act: act_of(&self.layers[i + 2]),
+                        residual: true,
+                    };
+                    nn::pointwise(&s.maps[c.inputs[0]], &c.w, &c.bias, post, &mut y);
+                    s.maps[a.out] = y;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Runs layer `l` on the maps of `s`, then `act` on its values (fused: as they are
+    /// stored; only for convolutions and additions).
+    fn layer(&self, l: &Layer, act: Act, s: &mut GraphScratch) -> Result<()> {
+        let mut y = std::mem::take(&mut s.maps[l.out]);
+        if l.in_place {
+            match l.kind {
+                Kind::Relu => nn::relu(&mut y.data),
+                Kind::Prelu => prelu(&mut y, &l.w),
+                _ => add_then(&mut y, &s.maps[l.inputs[1]].data, act),
+            }
+            s.maps[l.out] = y;
+            return Ok(());
+        }
+        let x = &s.maps[l.inputs[0]];
+        match l.kind {
+            Kind::Conv if l.kernel == 1 && l.stride == 1 => {
+                let post = Post {
+                    act,
+                    residual: false,
+                };
+                nn::pointwise(x, &l.w, &l.bias, post, &mut y)
+            }
+            Kind::Conv => conv(x, l, act, &mut s.patches, &mut y)?,
+            Kind::Depthwise => depthwise(x, l, &mut y)?,
+            Kind::Relu => {
+                copy(x, &mut y);
+                nn::relu(&mut y.data);
+            }
+            Kind::Prelu => {
+                copy(x, &mut y);
+                prelu(&mut y, &l.w);
+            }
+            Kind::Add => {
+                copy(x, &mut y);
+                add_then(&mut y, &s.maps[l.inputs[1]].data, act);
+            }
+            Kind::PadChannels => {
+                y.reshape(x.h, x.w, x.c + l.extra);
+                for (o, i) in y.data.chunks_exact_mut(y.c).zip(x.data.chunks_exact(x.c)) {
+                    o[..x.c].copy_from_slice(i);
+                    o[x.c..].fill(0.0);
+                }
+            }
+            Kind::MaxPool => maxpool(x, l, &mut y)?,
+        }
+        s.maps[l.out] = y;
+        Ok(())
+    }
+
+    /// Sizes the buffers of `s` for a run and checks its input.
+    fn prepare(&self, s: &mut GraphScratch) -> Result<()> {
         if s.maps.len() < self.buffers {
             s.maps.resize_with(self.buffers, Map::default);
         }
@@ -314,51 +494,6 @@ impl Graph {
                 "net input {}x{}x{}, expected {}x{}x{}",
                 x.h, x.w, x.c, self.input.0, self.input.0, self.input.1
             )));
-        }
-        for (i, l) in self.layers.iter().enumerate() {
-            let mut y = std::mem::take(&mut s.maps[l.out]);
-            if l.in_place {
-                match l.kind {
-                    Kind::Relu => nn::relu(&mut y.data),
-                    Kind::Prelu => prelu(&mut y, &l.w),
-                    _ => {
-                        add(&mut y.data, &s.maps[l.inputs[1]].data);
-                    }
-                }
-                each(i, &y);
-                s.maps[l.out] = y;
-                continue;
-            }
-            let x = &s.maps[l.inputs[0]];
-            match l.kind {
-                Kind::Conv if l.kernel == 1 && l.stride == 1 => {
-                    nn::pointwise(x, &l.w, &l.bias, &mut y)
-                }
-                Kind::Conv => conv(x, l, &mut s.patches, &mut y)?,
-                Kind::Depthwise => depthwise(x, l, &mut y)?,
-                Kind::Relu => {
-                    copy(x, &mut y);
-                    nn::relu(&mut y.data);
-                }
-                Kind::Prelu => {
-                    copy(x, &mut y);
-                    prelu(&mut y, &l.w);
-                }
-                Kind::Add => {
-                    copy(x, &mut y);
-                    add(&mut y.data, &s.maps[l.inputs[1]].data);
-                }
-                Kind::PadChannels => {
-                    y.reshape(x.h, x.w, x.c + l.extra);
-                    for (o, i) in y.data.chunks_exact_mut(y.c).zip(x.data.chunks_exact(x.c)) {
-                        o[..x.c].copy_from_slice(i);
-                        o[x.c..].fill(0.0);
-                    }
-                }
-                Kind::MaxPool => maxpool(x, l, &mut y)?,
-            }
-            each(i, &y);
-            s.maps[l.out] = y;
         }
         Ok(())
     }
@@ -379,35 +514,23 @@ impl GraphScratch {
     }
 }
 
-/// PReLU in place: negative values times their channel's slope, as a select so that it
-/// vectorises (not `f32::max`/`min`, which wasm32 compiles to a call of libm's `fmaxf` per
-/// value: its NaN rule is not wasm's). In wasm32 four channels at a time as fixed-size arrays
-/// (3.3 times faster there than the plain loop, 2.5 times slower natively: measured).
+/// PReLU in place, pixel by pixel ([`nn::prelu_slice`]).
 fn prelu(y: &mut Map, slopes: &[f32]) {
-    let full = if cfg!(target_arch = "wasm32") {
-        y.c - y.c % 4
-    } else {
-        0
-    };
     for px in y.data.chunks_exact_mut(y.c) {
-        let (head, tail) = px.split_at_mut(full);
-        for (v, a) in head.chunks_exact_mut(4).zip(slopes.chunks_exact(4)) {
-            let v: &mut [f32; 4] = v.try_into().unwrap();
-            let a: &[f32; 4] = a.try_into().unwrap();
-            for (v, &a) in v.iter_mut().zip(a) {
-                *v = prelu1(*v, a);
-            }
-        }
-        for (v, &a) in tail.iter_mut().zip(&slopes[full..]) {
-            *v = prelu1(*v, a);
-        }
+        nn::prelu_slice(px, slopes);
     }
 }
 
-/// One PReLU value: `v` times `a` when negative, a select.
-#[inline(always)]
-fn prelu1(v: f32, a: f32) -> f32 {
-    v * if v < 0.0 { a } else { 1.0 }
+/// `y += x`, then `act` on `y`: pixel by pixel when there is an activation (the sums still in
+/// the cache), the same values as the two passes.
+fn add_then(y: &mut Map, x: &[f32], act: Act) {
+    if let Act::None = act {
+        return add(&mut y.data, x);
+    }
+    for (y, x) in y.data.chunks_exact_mut(y.c).zip(x.chunks_exact(y.c)) {
+        add(y, x);
+        act.apply(y);
+    }
 }
 
 /// `y += x`, elementwise (the two have the same length).
@@ -444,7 +567,7 @@ fn too_small(l: &Layer) -> Error {
 /// zeros for the padding) and multiplied by the filters with [`nn::matmul`], the blocked
 /// product the 1x1 convolutions use. The sums are made in the same order as a direct loop
 /// (`ky`, `kx`, input channel), the padding adding zeros.
-fn conv(x: &Map, l: &Layer, patches: &mut Vec<f32>, y: &mut Map) -> Result<()> {
+fn conv(x: &Map, l: &Layer, act: Act, patches: &mut Vec<f32>, y: &mut Map) -> Result<()> {
     let (k, s, cin, cout) = (l.kernel, l.stride, x.c, l.cout);
     let (oh, py) = geometry(x.h, k, s, l.same).ok_or_else(|| too_small(l))?;
     let (ow, px) = geometry(x.w, k, s, l.same).ok_or_else(|| too_small(l))?;
@@ -477,7 +600,11 @@ fn conv(x: &Map, l: &Layer, patches: &mut Vec<f32>, y: &mut Map) -> Result<()> {
                 }
             }
         }
-        nn::matmul(patches, row, &l.w, cout, &l.bias, out);
+        let post = Post {
+            act,
+            residual: false,
+        };
+        nn::matmul(patches, row, &l.w, cout, &l.bias, post, out);
     }
     Ok(())
 }
@@ -675,12 +802,13 @@ fn maxpool(x: &Map, l: &Layer, y: &mut Map) -> Result<()> {
 pub struct NetProfile {
     /// The net's input side: 128 for BlazeFace, 192 for the face mesh.
     pub side: usize,
-    /// Seconds a run: the fastest run.
+    /// Seconds a run: the fastest run (the run the finder makes, activations fused).
     pub run: f64,
     /// Seconds a run: the median run.
     pub median: f64,
     /// Per layer kind (`"Conv k3 s1"`, ...: kind, kernel and stride), the seconds a run its
-    /// layers take (each layer's fastest time over the runs, summed), by name.
+    /// layers take (each layer's fastest time over `reps` other runs made layer by layer,
+    /// nothing fused; summed), by name.
     pub layers: Vec<(String, f64)>,
 }
 
@@ -707,15 +835,18 @@ fn profile_nets(reps: usize, clock: impl Fn() -> f64) -> Result<Vec<NetProfile>>
         }
         g.run(&mut s, |_, _| {})?;
         let mut best = vec![f64::INFINITY; g.layers.len()];
-        let mut runs = Vec::with_capacity(reps);
         for _ in 0..reps {
-            let t0 = clock();
-            let mut last = t0;
+            let mut last = clock();
             g.run(&mut s, |i, _| {
                 let now = clock();
                 best[i] = best[i].min(now - last);
                 last = now;
             })?;
+        }
+        let mut runs = Vec::with_capacity(reps);
+        for _ in 0..reps {
+            let t0 = clock();
+            g.run_fast(&mut s)?;
             runs.push(clock() - t0);
         }
         let mut times = std::collections::BTreeMap::<String, f64>::new();
@@ -851,6 +982,33 @@ mod tests {
     }
 
     #[test]
+    fn fused_run_matches_the_layer_by_layer_run() {
+        for (bytes, n, fused) in [(BLAZEFACE_WEIGHTS, 128, 22), (MESH_WEIGHTS, 192, 28)] {
+            let g = Graph::load(bytes, (n, 3)).unwrap();
+            let joined = g.layers.len() - g.plan.len();
+            assert_eq!(joined, fused, "layers joined in the {n} net's plan");
+            let (mut a, mut b) = (GraphScratch::default(), GraphScratch::default());
+            let x = a.input();
+            x.reset(n, n, 3);
+            for (i, v) in x.data.iter_mut().enumerate() {
+                *v = ((i * 7919) % 255) as f32 / 127.5 - 1.0;
+            }
+            *b.input() = a.input().clone();
+            g.run(&mut a, |_, _| {}).unwrap();
+            // Twice: the second run starts from the first's stale buffers.
+            g.run_fast(&mut b).unwrap();
+            g.run_fast(&mut b).unwrap();
+            for k in 0..g.outputs.len() {
+                let (x, y) = (a.output(&g, k), b.output(&g, k));
+                assert_eq!((x.h, x.w, x.c), (y.h, y.w, y.c), "net {n} output {k}");
+                for (i, (p, q)) in x.data.iter().zip(&y.data).enumerate() {
+                    assert_eq!(p.to_bits(), q.to_bits(), "net {n} output {k} value {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn conv_matches_a_direct_sum() {
         let mut patches = Vec::new();
         for (k, stride, same, cin, cout) in [
@@ -863,7 +1021,7 @@ mod tests {
                 let x = map(h, w, cin);
                 let l = layer(Kind::Conv, k, stride, same, cin, cout);
                 let mut y = stale();
-                conv(&x, &l, &mut patches, &mut y).unwrap();
+                conv(&x, &l, Act::None, &mut patches, &mut y).unwrap();
                 let what = format!("{h}x{w} k{k} s{stride} same {same}");
                 assert_close(&y, &direct(&x, &l, false), &what);
             }
@@ -871,9 +1029,9 @@ mod tests {
     }
 }
 
-/// The nets' speed in wasm under Node (V8, Chromium's engine), the native profile's figures,
-/// printed, not checked: `cargo test --release --target wasm32-unknown-unknown --lib
-/// graph::wasm_speed -- --nocapture`.
+/// The nets' and the finder's speed in wasm under Node (V8, Chromium's engine), the native
+/// profile's figures and the finder's, printed, not checked: `cargo test --release --target
+/// wasm32-unknown-unknown --lib graph::wasm_speed -- --nocapture`.
 #[cfg(all(test, target_arch = "wasm32"))]
 mod wasm_speed {
     use wasm_bindgen::prelude::wasm_bindgen;
@@ -899,5 +1057,49 @@ mod wasm_speed {
                 console_log!("  {kind}: {:.3} ms", t * 1e3);
             }
         }
+    }
+
+    /// The fastest and the median of `reps` runs of `f` (after one more), in milliseconds.
+    fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
+        f();
+        let mut t: Vec<f64> = (0..reps)
+            .map(|_| {
+                let t0 = now();
+                f();
+                now() - t0
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        (t[0], t[reps / 2])
+    }
+
+    /// The finder on a 640x480 frame with no face (a search: letterbox and detector), then the
+    /// landmarks of a box in it (two mesh crops and passes): together about a find of one face.
+    #[wasm_bindgen_test]
+    fn finder_in_wasm() {
+        let (w, h) = (640u32, 480u32);
+        let data: Vec<u8> = (0..w * h * 4)
+            .map(|i| {
+                let (x, y) = ((i / 4) % w, (i / 4) / w);
+                ((x * 3 + y * 5 + (i % 4) * 40) % 251) as u8
+            })
+            .collect();
+        let image = crate::image::ImageRef::new(w, h, &data).unwrap();
+        let mut finder = crate::FaceFinder::new().unwrap();
+        let (fast, median) = time(50, || {
+            finder.find(&image);
+        });
+        console_log!("wasm search 640x480: {fast:.2} ms (fastest), {median:.2} ms (median)");
+        let bbox = crate::geometry::BBox {
+            x: 220.0,
+            y: 140.0,
+            width: 200.0,
+            height: 190.0,
+        };
+        let mut out = vec![0.0; 136];
+        let (fast, median) = time(50, || {
+            finder.landmarks_into(&image, bbox, &mut out).unwrap();
+        });
+        console_log!("wasm landmarks 640x480: {fast:.2} ms (fastest), {median:.2} ms (median)");
     }
 }

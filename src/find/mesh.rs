@@ -108,6 +108,8 @@ pub(crate) struct MeshNets {
     /// image's rows averaged across (`letterbox`).
     taps: Vec<(usize, usize, f32)>,
     rows: Vec<f32>,
+    /// The mesh crop's scratch ([`crop`]).
+    crop: CropScratch,
 }
 
 pub use super::graph::{BLAZEFACE_WEIGHTS, MESH_WEIGHTS};
@@ -148,6 +150,7 @@ impl MeshNets {
             raw: Vec::new(),
             taps: Vec::new(),
             rows: Vec::new(),
+            crop: CropScratch::default(),
         })
     }
 
@@ -177,7 +180,7 @@ impl MeshNets {
                 |v| v * 2.0 - 1.0,
             );
         }
-        if self.detector.run(&mut self.det_scratch, |_, _| {}).is_err() {
+        if self.detector.run_fast(&mut self.det_scratch).is_err() {
             return;
         }
         let s = &self.det_scratch;
@@ -243,22 +246,8 @@ impl MeshNets {
             return Err(Error::Image(format!("invalid face region {roi:?}")));
         }
         let n = MESH_INPUT;
-        // The crop's axes in the image, once (not a sine and cosine per sample).
-        let (sin, cos) = roi.angle.sin_cos();
-        let (cx, cy, side) = (roi.cx, roi.cy, roi.side);
-        sample(
-            image,
-            move |u, v| {
-                let (dx, dy) = ((u - 0.5) * side, (v - 0.5) * side);
-                (cx + cos * dx - sin * dy, cy + sin * dx + cos * dy)
-            },
-            roi.side / n as f32,
-            false,
-            n,
-            self.mesh_scratch.input(),
-            |v| v,
-        );
-        self.mesh.run(&mut self.mesh_scratch, |_, _| {})?;
+        crop(image, roi, n, &mut self.crop, self.mesh_scratch.input());
+        self.mesh.run_fast(&mut self.mesh_scratch)?;
         let s = &self.mesh_scratch;
         let (lm, flag) = (s.output(&self.mesh, 0), s.output(&self.mesh, 1));
         if lm.data.len() != MESH_POINTS * 3 || flag.data.len() != 1 {
@@ -335,6 +324,115 @@ fn sample(
     }
 }
 
+/// The per-column and per-row terms of a mesh crop's sample positions, and its sums
+/// ([`crop`]).
+#[derive(Debug, Default)]
+struct CropScratch {
+    /// Per sample column `j` (`n k` of them, then copies of the last up to a multiple of
+    /// [`CROP_BLOCK`]): `cx + cos dx` and `cy + sin dx`.
+    cols: Vec<[f32; 2]>,
+    /// Per sample row `i`: `sin dy` and `cos dy`.
+    rows: Vec<[f32; 2]>,
+    /// One output row's sums (RGBA lanes).
+    acc: Vec<[f32; 4]>,
+}
+
+/// Sample positions computed together by [`crop`] (a block of lanes the compiler vectorises).
+const CROP_BLOCK: usize = 8;
+
+/// The mesh's input: [`sample`] of the rotated square `roi` (the border replicated, values in
+/// 0..1) with the same arithmetic, so the same values bit for bit, made faster: the sample
+/// positions' terms that depend on the column or the row alone computed once per column and
+/// row (`x = (cx + cos dx) - sin dy`, `y = (cy + sin dx) + cos dy`, the very sums [`sample`]
+/// makes); the positions, their clamping and their bilinear fractions ([`ImageRef::sample_rgb`]'s
+/// rule) computed [`CROP_BLOCK`] at a time; each sample reading its four pixels as RGBA vectors
+/// of four lanes (the alpha lane computed and dropped) instead of twelve bytes one by one.
+fn crop(image: &ImageRef, roi: &Roi, n: usize, s: &mut CropScratch, out: &mut Map) {
+    out.reshape(n, n, 3);
+    let step = roi.side / n as f32;
+    let k = ((0.5 * step).ceil() as usize).clamp(1, 4);
+    let inv_n = 1.0 / n as f32;
+    let inv = 1.0 / (k * k) as f32;
+    let (sin, cos) = roi.angle.sin_cos();
+    let (cx, cy, side) = (roi.cx, roi.cy, roi.side);
+    // `u` (and `v`) of sample column (row) `o k + t`, as `sample` computes it, then `d = (u -
+    // 0.5) side`.
+    let d = |j: usize| {
+        let (o, t) = (j / k, j % k);
+        let u = (o as f32 + (t as f32 + 0.5) / k as f32) * inv_n;
+        (u - 0.5) * side
+    };
+    let samples = n * k;
+    s.cols.clear();
+    s.cols
+        .extend((0..samples).map(|j| [cx + cos * d(j), cy + sin * d(j)]));
+    let pad = samples.next_multiple_of(CROP_BLOCK);
+    s.cols
+        .resize(pad, s.cols.last().copied().unwrap_or_default());
+    s.rows.clear();
+    s.rows
+        .extend((0..samples).map(|i| [sin * d(i), cos * d(i)]));
+    s.acc.clear();
+    s.acc.resize(n, [0.0; 4]);
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let (x1, y1) = ((w - 1) as f32, (h - 1) as f32);
+    let data = image.data();
+    let px = |i: usize| -> [f32; 4] {
+        let p: &[u8; 4] = data[i..i + 4].try_into().unwrap();
+        p.map(f32::from)
+    };
+    for (oy, line) in out.data.chunks_exact_mut(n * 3).enumerate() {
+        s.acc.fill([0.0; 4]);
+        for &[sdy, cdy] in &s.rows[oy * k..][..k] {
+            // The output column and the sample within it of the next sample column.
+            let (mut ox, mut sx) = (0, 0);
+            for (jb, block) in s.cols.chunks_exact(CROP_BLOCK).enumerate() {
+                // `filter::bilinear(x - 0.5, y - 0.5, 0, 0, x1, y1)` for the block: the
+                // clamped position's integer part (exact in `i32` for any image side) and
+                // fraction.
+                let mut at = [[0i32; 2]; CROP_BLOCK];
+                let mut frac = [[0f32; 2]; CROP_BLOCK];
+                for ((&[xa, ya], at), frac) in block.iter().zip(&mut at).zip(&mut frac) {
+                    let (x, y) = (xa - sdy - 0.5, ya + cdy - 0.5);
+                    let x = if x.is_finite() { x.clamp(0.0, x1) } else { 0.0 };
+                    let y = if y.is_finite() { y.clamp(0.0, y1) } else { 0.0 };
+                    let (xi, yi) = (x as i32, y as i32);
+                    *at = [xi, yi];
+                    *frac = [x - xi as f32, y - yi as f32];
+                }
+                let real = samples.saturating_sub(jb * CROP_BLOCK).min(CROP_BLOCK);
+                for (&[xi, yi], &[fx, fy]) in at.iter().zip(&frac).take(real) {
+                    let (xi, yi) = (xi as usize, yi as usize);
+                    // The next column and row, unless on the last (`(xi as f32) < x1`).
+                    let i00 = (yi * w + xi) * 4;
+                    let (i10, i01) = (
+                        i00 + 4 * usize::from(xi + 1 < w),
+                        i00 + 4 * w * usize::from(yi + 1 < h),
+                    );
+                    let i11 = i01 + i10 - i00;
+                    let (p00, p10, p01, p11) = (px(i00), px(i10), px(i01), px(i11));
+                    let a = &mut s.acc[ox];
+                    for c in 0..4 {
+                        let top = p00[c] * (1.0 - fx) + p10[c] * fx;
+                        let bot = p01[c] * (1.0 - fx) + p11[c] * fx;
+                        a[c] += (top * (1.0 - fy) + bot * fy) * (1.0 / 255.0);
+                    }
+                    sx += 1;
+                    if sx == k {
+                        sx = 0;
+                        ox += 1;
+                    }
+                }
+            }
+        }
+        for (o, a) in line.chunks_exact_mut(3).zip(&s.acc) {
+            for c in 0..3 {
+                o[c] = a[c] * inv;
+            }
+        }
+    }
+}
+
 /// The detector's input from an image at least `n` pixels on its longer side: the image
 /// centred in a square of its longer side (black around it), each of the `n x n` output pixels
 /// the exact mean of the square's area it covers (values `2 v - 1`, `v` in 0..1). Separable:
@@ -372,21 +470,25 @@ fn letterbox(
             }
         }
     };
-    // Across: every image row into n columns (sums of pixel values times overlaps).
+    // Across: every image row into n columns (sums of pixel values times overlaps), each
+    // output's sum made in registers (RGBA lanes, alpha dropped) in the order of its taps, from
+    // 0: the sums `d += c p` into a zeroed row made, bit for bit. Four image rows at a time
+    // (one pass over the taps for the four).
     spans(w, taps);
     rows.clear();
     rows.resize(h * n * 3, 0.0);
     let data = image.data();
-    for y in 0..h {
-        let src = &data[y * w * 4..(y + 1) * w * 4];
-        let dst = &mut rows[y * n * 3..(y + 1) * n * 3];
-        for &(o, i, c) in taps.iter() {
-            let p = &src[i * 4..i * 4 + 3];
-            let d = &mut dst[o * 3..o * 3 + 3];
-            d[0] += c * f32::from(p[0]);
-            d[1] += c * f32::from(p[1]);
-            d[2] += c * f32::from(p[2]);
-        }
+    let mut src = data.chunks_exact(4 * w * 4);
+    let mut dst = rows.chunks_exact_mut(4 * n * 3);
+    for (src, dst) in (&mut src).zip(&mut dst) {
+        across::<4>(src, w, taps, dst, n);
+    }
+    for (src, dst) in src
+        .remainder()
+        .chunks_exact(w * 4)
+        .zip(dst.into_remainder().chunks_exact_mut(n * 3))
+    {
+        across::<1>(src, w, taps, dst, n);
     }
     // Down: the rows' sums into n output rows; outside the image stays black (0, i.e. -1).
     out.reset(n, n, 3);
@@ -400,6 +502,37 @@ fn letterbox(
     }
     for v in out.data.iter_mut() {
         *v = *v * norm - 1.0;
+    }
+}
+
+/// [`letterbox`]'s sums across `R` image rows (`src`, RGBA rows of `w` pixels) into `R` rows
+/// of `n` RGB sums (`dst`): per output, `sum c p` over its taps `(output, input, c)` (in
+/// output order) in their order, from 0.
+#[inline(always)]
+fn across<const R: usize>(
+    src: &[u8],
+    w: usize,
+    taps: &[(usize, usize, f32)],
+    dst: &mut [f32],
+    n: usize,
+) {
+    let src: [&[u8]; R] = std::array::from_fn(|r| &src[r * w * 4..][..w * 4]);
+    let mut rest = taps;
+    while let Some(&(o, _, _)) = rest.first() {
+        let len = rest.iter().take_while(|t| t.0 == o).count();
+        let mut acc = [[0.0f32; 4]; R];
+        for &(_, i, c) in &rest[..len] {
+            for (acc, src) in acc.iter_mut().zip(&src) {
+                let p: &[u8; 4] = src[i * 4..i * 4 + 4].try_into().unwrap();
+                for (a, &p) in acc.iter_mut().zip(p) {
+                    *a += c * f32::from(p);
+                }
+            }
+        }
+        for (r, acc) in acc.iter().enumerate() {
+            dst[r * n * 3 + o * 3..][..3].copy_from_slice(&acc[..3]);
+        }
+        rest = &rest[len..];
     }
 }
 
@@ -444,5 +577,155 @@ fn weighted_nms(raw: &mut [Detection], iou: f32, out: &mut Vec<Detection>) {
             score: top.score,
             keypoints: kp.map(|p| [p[0] * inv, p[1] * inv]),
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An RGBA image of `w x h` pseudo-random bytes.
+    fn noise(w: u32, h: u32) -> Vec<u8> {
+        (0..w * h * 4)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+            .collect()
+    }
+
+    #[test]
+    fn crop_is_sample_bit_for_bit() {
+        for (w, h) in [(640u32, 480u32), (97, 61), (1, 1)] {
+            let data = noise(w, h);
+            let image = ImageRef::new(w, h, &data).unwrap();
+            let mut scratch = CropScratch::default();
+            for (cx, cy) in [
+                (0.5 * w as f32, 0.4 * h as f32),
+                (-30.0, 20.5),
+                (600.0, 470.0),
+            ] {
+                // Steps of about 0.3 to 8 pixels an output pixel: 1 to 4 samples a side.
+                for side in [57.3, 190.0, 380.0, 770.0, 1536.0] {
+                    for angle in [0.0, 0.31, -2.2, std::f32::consts::PI] {
+                        let roi = Roi {
+                            cx,
+                            cy,
+                            side,
+                            angle,
+                        };
+                        let (sin, cos) = angle.sin_cos();
+                        let mut want = Map::default();
+                        sample(
+                            &image,
+                            |u, v| {
+                                let (dx, dy) = ((u - 0.5) * side, (v - 0.5) * side);
+                                (cx + cos * dx - sin * dy, cy + sin * dx + cos * dy)
+                            },
+                            side / 48.0,
+                            false,
+                            48,
+                            &mut want,
+                            |v| v,
+                        );
+                        let mut got = Map {
+                            data: vec![f32::NAN; 10],
+                            ..Map::default()
+                        };
+                        crop(&image, &roi, 48, &mut scratch, &mut got);
+                        assert_eq!((got.h, got.w, got.c), (48, 48, 3));
+                        for (i, (a, b)) in got.data.iter().zip(&want.data).enumerate() {
+                            assert_eq!(a.to_bits(), b.to_bits(), "{w}x{h} {roi:?} value {i}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The letterbox as first written (`d += c p` into zeroed rows, tap by tap): what
+    /// [`letterbox`] must give bit for bit.
+    fn letterbox_plain(
+        image: &ImageRef,
+        n: usize,
+        (taps, rows): (&mut Vec<(usize, usize, f32)>, &mut Vec<f32>),
+        out: &mut Map,
+    ) {
+        let (w, h) = (image.width() as usize, image.height() as usize);
+        let side = w.max(h) as f32;
+        let step = side / n as f32;
+        let norm = 2.0 / (step * step * 255.0);
+        // Per output index, the input indices it covers (inside 0..len) with their overlaps:
+        // `(output, input, overlap in pixels)`, in output order.
+        let spans = |len: usize, taps: &mut Vec<(usize, usize, f32)>| {
+            taps.clear();
+            let off = 0.5 * (side - len as f32);
+            for o in 0..n {
+                let (a, b) = (o as f32 * step - off, (o + 1) as f32 * step - off);
+                let (lo, hi) = (a.max(0.0), b.min(len as f32));
+                if hi <= lo {
+                    continue;
+                }
+                let (first, last) = (lo.floor() as usize, (hi.ceil() as usize).min(len));
+                for i in first..last {
+                    let cover = (hi.min((i + 1) as f32) - lo.max(i as f32)).max(0.0);
+                    if cover > 0.0 {
+                        taps.push((o, i, cover));
+                    }
+                }
+            }
+        };
+        // Across: every image row into n columns (sums of pixel values times overlaps).
+        spans(w, taps);
+        rows.clear();
+        rows.resize(h * n * 3, 0.0);
+        let data = image.data();
+        for y in 0..h {
+            let src = &data[y * w * 4..(y + 1) * w * 4];
+            let dst = &mut rows[y * n * 3..(y + 1) * n * 3];
+            for &(o, i, c) in taps.iter() {
+                let p = &src[i * 4..i * 4 + 3];
+                let d = &mut dst[o * 3..o * 3 + 3];
+                d[0] += c * f32::from(p[0]);
+                d[1] += c * f32::from(p[1]);
+                d[2] += c * f32::from(p[2]);
+            }
+        }
+        // Down: the rows' sums into n output rows; outside the image stays black (0, i.e. -1).
+        out.reset(n, n, 3);
+        spans(h, taps);
+        for &(o, i, c) in taps.iter() {
+            let src = &rows[i * n * 3..(i + 1) * n * 3];
+            let dst = &mut out.data[o * n * 3..(o + 1) * n * 3];
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d += c * s;
+            }
+        }
+        for v in out.data.iter_mut() {
+            *v = *v * norm - 1.0;
+        }
+    }
+
+    #[test]
+    fn letterbox_is_the_plain_sums_bit_for_bit() {
+        let (mut taps, mut rows) = (Vec::new(), Vec::new());
+        for (w, h) in [
+            (640u32, 480u32),
+            (480, 640),
+            (129, 200),
+            (128, 128),
+            (301, 300),
+        ] {
+            let data = noise(w, h);
+            let image = ImageRef::new(w, h, &data).unwrap();
+            let mut want = Map::default();
+            letterbox_plain(&image, 128, (&mut taps, &mut rows), &mut want);
+            let mut got = Map {
+                data: vec![f32::NAN; 10],
+                ..Map::default()
+            };
+            letterbox(&image, 128, (&mut taps, &mut rows), &mut got);
+            assert_eq!((got.h, got.w, got.c), (128, 128, 3));
+            for (i, (a, b)) in got.data.iter().zip(&want.data).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "{w}x{h} value {i}");
+            }
+        }
     }
 }
