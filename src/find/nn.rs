@@ -133,14 +133,78 @@ pub(crate) fn matmul(
     post: Post,
     out: &mut [f32],
 ) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // The same loops compiled for 256-bit registers where the CPU has them ([`arch`]):
+        // plain multiplies and adds in the same order (no fused multiply-add), so the results
+        // are the same bits as with SSE2 and in wasm32.
+        arch().dispatch(MatMul {
+            a,
+            k,
+            f,
+            fs,
+            bias,
+            post,
+            out,
+        });
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    matmul_in::<BLOCK_COUT>(a, k, f, fs, bias, post, out);
+}
+
+/// The CPU's instruction sets, checked once: `pulp`'s dispatch runs a kernel compiled for the
+/// widest registers the CPU has (AVX2 on x86-64 CPUs from 2013 on), safely.
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn arch() -> &'static pulp::Arch {
+    static ARCH: std::sync::OnceLock<pulp::Arch> = std::sync::OnceLock::new();
+    ARCH.get_or_init(pulp::Arch::new)
+}
+
+/// [`matmul`]'s arguments, for `pulp`'s dispatch.
+#[cfg(target_arch = "x86_64")]
+struct MatMul<'a> {
+    a: &'a [f32],
+    k: usize,
+    f: &'a [f32],
+    fs: usize,
+    bias: &'a [f32],
+    post: Post<'a>,
+    out: &'a mut [f32],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl pulp::WithSimd for MatMul<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        matmul_in::<BLOCK_COUT>(
+            self.a, self.k, self.f, self.fs, self.bias, self.post, self.out,
+        );
+    }
+}
+
+/// [`matmul`] with blocks of `B` output channels, inlined into its caller (so into `pulp`'s
+/// dispatch, compiled for the CPU's registers).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn matmul_in<const B: usize>(
+    a: &[f32],
+    k: usize,
+    f: &[f32],
+    fs: usize,
+    bias: &[f32],
+    post: Post,
+    out: &mut [f32],
+) {
     let n = bias.len();
     debug_assert!(fs >= n && (k == 0 || f.len() >= (k - 1) * fs + n));
     let rows = a.len().checked_div(k).unwrap_or(0);
     debug_assert_eq!(out.len(), rows * n);
     let mut c0 = 0;
-    while c0 + BLOCK_COUT <= n {
+    while c0 + B <= n {
         let post = post.at_channel(c0);
-        channel_block::<BLOCK_COUT>(
+        channel_block::<B>(
             a,
             k,
             rows,
@@ -151,7 +215,7 @@ pub(crate) fn matmul(
             &mut out[c0..],
             n,
         );
-        c0 += BLOCK_COUT;
+        c0 += B;
     }
     while c0 + 4 <= n {
         let post = post.at_channel(c0);
