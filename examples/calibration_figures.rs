@@ -1,7 +1,8 @@
 //! The finder's calibration measured where it was not made: on the shared GRID frames
 //! (../shared/data/grid, 825 frames) split by speaker, offsets from speakers 1-5 measured on
-//! 6-10 and the other way round; and the committed table (`find::NET_OFFSETS`) on the other
-//! shared clips. Prints the figures of docs/finding.md and fails unless the offsets help
+//! 6-10 and the other way round; the committed table (`find::NET_OFFSETS`) on the other
+//! shared clips; and, as issue 20's anchor was calibrated, each set with the offsets of the
+//! other three. Prints the figures of docs/finding.md and fails unless the offsets help
 //! everywhere: `cargo run --release --example calibration_figures`.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
@@ -82,12 +83,30 @@ mod native {
             );
             assert!(after < before);
         }
+        let mut sets = vec![("grid", grid.clone())];
         for set in ["franck-dev", "franck-dev2", "webcam-dev"] {
             let pairs = raw_pairs(&root.join(set));
             let all: Vec<&Pair> = pairs.iter().collect();
             let (before, after) = (error(&all, None), error(&all, Some(NET_OFFSETS)));
             println!("{set}: {} frames: {before:.4} -> {after:.4}", all.len());
             assert!(after < before);
+            sets.push((set, pairs));
+        }
+        // Issue 20's anchor was calibrated this way: each set measured with the offsets of
+        // the other three (every frame of them pooled). Not what ships (its offsets come from
+        // the committed GRID frames only); franck-dev and franck-dev2 are the same man.
+        for (i, (set, pairs)) in sets.iter().enumerate() {
+            let others = sets
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .flat_map(|(_, (_, p))| p.iter());
+            let o = mean_face_offsets(others.map(|(_, r, t)| (r.as_slice(), t.as_slice())));
+            let all: Vec<&Pair> = pairs.iter().collect();
+            println!(
+                "{set}, offsets from the other three sets (the anchor's way): {:.4}",
+                error(&all, Some(&o))
+            );
         }
     }
 }
