@@ -149,7 +149,7 @@ pub(crate) fn matmul(
         });
     }
     #[cfg(not(target_arch = "x86_64"))]
-    matmul_in::<BLOCK_COUT>(a, k, f, fs, bias, post, out);
+    matmul_in(a, k, f, fs, bias, post, out);
 }
 
 /// The CPU's instruction sets, checked once: `pulp`'s dispatch runs a kernel compiled for the
@@ -178,33 +178,25 @@ impl pulp::WithSimd for MatMul<'_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) {
-        matmul_in::<BLOCK_COUT>(
+        matmul_in(
             self.a, self.k, self.f, self.fs, self.bias, self.post, self.out,
         );
     }
 }
 
-/// [`matmul`] with blocks of `B` output channels, inlined into its caller (so into `pulp`'s
-/// dispatch, compiled for the CPU's registers).
+/// [`matmul`]'s loops, inlined into its caller (so into `pulp`'s dispatch, compiled for the
+/// CPU's registers). Blocks of 16 channels under AVX2 were slower than 8 (measured).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn matmul_in<const B: usize>(
-    a: &[f32],
-    k: usize,
-    f: &[f32],
-    fs: usize,
-    bias: &[f32],
-    post: Post,
-    out: &mut [f32],
-) {
+fn matmul_in(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], post: Post, out: &mut [f32]) {
     let n = bias.len();
     debug_assert!(fs >= n && (k == 0 || f.len() >= (k - 1) * fs + n));
     let rows = a.len().checked_div(k).unwrap_or(0);
     debug_assert_eq!(out.len(), rows * n);
     let mut c0 = 0;
-    while c0 + B <= n {
+    while c0 + BLOCK_COUT <= n {
         let post = post.at_channel(c0);
-        channel_block::<B>(
+        channel_block::<BLOCK_COUT>(
             a,
             k,
             rows,
@@ -215,7 +207,7 @@ fn matmul_in<const B: usize>(
             &mut out[c0..],
             n,
         );
-        c0 += B;
+        c0 += BLOCK_COUT;
     }
     while c0 + 4 <= n {
         let post = post.at_channel(c0);
