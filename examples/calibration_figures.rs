@@ -21,10 +21,14 @@ mod native {
     /// dlib points.
     type Pair = (PathBuf, Vec<f32>, Vec<f32>);
 
-    /// The frames of `dir` the finder finds a face in.
-    fn raw_pairs(dir: &Path) -> Vec<Pair> {
+    /// The frames of `dir` the finder finds a face in (uncalibrated; with `mirror`, averaged
+    /// over the image and its mirror).
+    fn raw_pairs(dir: &Path, mirror: bool) -> Vec<Pair> {
         let mut finder = FaceFinder::new().unwrap();
         finder.set_calibrated(false);
+        let mut options = finder.options();
+        options.mirror = mirror;
+        finder.set_options(options);
         annotated_images(dir)
             .unwrap()
             .into_iter()
@@ -63,9 +67,42 @@ mod native {
         d[3..5].parse().unwrap()
     }
 
+    /// `offsets` (per point, x then y, in the face frame) averaged with their mirror image:
+    /// what calibrating each pass in its own image comes to when `FindOptions::mirror`
+    /// averages a pass on the image and one on its mirror.
+    fn symmetric(offsets: &[f32]) -> Vec<f32> {
+        (0..68)
+            .flat_map(|i| {
+                let j = facemimic::MIRROR_68[i];
+                [
+                    0.5 * (offsets[2 * i] - offsets[2 * j]),
+                    0.5 * (offsets[2 * i + 1] + offsets[2 * j + 1]),
+                ]
+            })
+            .collect()
+    }
+
     pub(crate) fn main() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-        let grid = raw_pairs(&root.join("grid"));
+        let grid = raw_pairs(&root.join("grid"), false);
+        // With `FindOptions::mirror`: the same frames' uncalibrated points averaged over the
+        // image and its mirror, calibrated by the offsets of a half made symmetric.
+        let grid_mirror = raw_pairs(&root.join("grid"), true);
+        for (train, test) in [((1, 5), (6, 10)), ((6, 10), (1, 5))] {
+            let tr: Vec<&Pair> = grid
+                .iter()
+                .filter(|(p, ..)| (train.0..=train.1).contains(&speaker(p)))
+                .collect();
+            let te: Vec<&Pair> = grid_mirror
+                .iter()
+                .filter(|(p, ..)| (test.0..=test.1).contains(&speaker(p)))
+                .collect();
+            let o = mean_face_offsets(tr.iter().map(|(_, r, t)| (r.as_slice(), t.as_slice())));
+            println!(
+                "grid, mirror: offsets from speakers {train:?}, measured on {test:?}: {:.4}",
+                error(&te, Some(&symmetric(&o)))
+            );
+        }
         let of = |speakers: (u32, u32)| -> Vec<&Pair> {
             grid.iter()
                 .filter(|(p, ..)| (speakers.0..=speakers.1).contains(&speaker(p)))
@@ -85,7 +122,7 @@ mod native {
         }
         let mut sets = vec![("grid", grid.clone())];
         for set in ["franck-dev", "franck-dev2", "webcam-dev"] {
-            let pairs = raw_pairs(&root.join(set));
+            let pairs = raw_pairs(&root.join(set), false);
             let all: Vec<&Pair> = pairs.iter().collect();
             let (before, after) = (error(&all, None), error(&all, Some(NET_OFFSETS)));
             println!("{set}: {} frames: {before:.4} -> {after:.4}", all.len());

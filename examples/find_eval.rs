@@ -1,7 +1,8 @@
 //! The face finder's detection rate and landmark error on the shared data, against the dlib
 //! landmarks: `cargo run --release --example find_eval -- [STEP] [SET...]` (default step 1, the
 //! sets grid franck-dev franck-dev2 webcam-dev under ../shared/data). Each frame is found on
-//! its own (`FIND_THRESHOLD`: the detector's threshold). A frame counts as found when the most
+//! its own (`FIND_THRESHOLD`: the detector's threshold; `FIND_MIRROR` set: `FindOptions::mirror`,
+//! the mean over the image and its mirror). A frame counts as found when the most
 //! confident face's landmarks lie within 0.25 of
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
 //! the found frames.
@@ -66,6 +67,7 @@ mod native {
         if let Ok(t) = std::env::var("FIND_THRESHOLD") {
             opts.score_threshold = t.parse().unwrap();
         }
+        opts.mirror = std::env::var_os("FIND_MIRROR").is_some();
         finder.set_options(opts);
         let mut dump = std::env::var_os("FIND_EVAL_DUMP")
             .map(|p| std::io::BufWriter::new(std::fs::File::create(p).unwrap()));
@@ -133,7 +135,7 @@ mod native {
             errors.sort_by(f32::total_cmp);
             let p95_error = p95(&errors);
             println!(
-                "{set}: {found}/{n} found ({:.2}%), mean error {:.4}, p95 {p95_error:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
+                "{set}: {found}/{n} found ({:.2}%), mean error {:.5}, p95 {p95_error:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
                 100.0 * found as f64 / n as f64,
                 err_sum / found.max(1) as f32,
                 worst,

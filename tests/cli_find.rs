@@ -85,6 +85,25 @@ fn landmark_writes_pts_beside_or_into_a_folder_and_never_overwrites() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("f0.pts").is_file());
+    // --fast: one look instead of the mean over the image and its mirror; the same face,
+    // different points.
+    let fast = d.join("fast");
+    let o = run(&[
+        Path::new("landmark"),
+        Path::new("--fast"),
+        Path::new("--out-dir"),
+        &fast,
+        &imgs[0],
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let one_look =
+        facemimic::landmarks::parse_pts(&std::fs::read_to_string(fast.join("f0.pts")).unwrap())
+            .unwrap();
+    let apart = facemimic::find::landmark_error(&one_look, &found);
+    assert!(
+        apart > 0.0 && apart < 0.05,
+        "--fast points {apart} from the default's"
+    );
     let file = d.join("a-file");
     std::fs::write(&file, b"x").unwrap();
     let o = run(&[

@@ -31,8 +31,85 @@ fn frames(dir: &Path) -> Vec<PathBuf> {
 fn finds_every_face_of_the_shared_clips_with_accurate_landmarks() {
     let Some(root) = shared() else { return };
     let mut finder = FaceFinder::new().unwrap();
-    // Every 25th frame measured 0.0253 / 0.0274 / 0.0317 / 0.0269 (26 Nov; docs/finding.md).
+    // Every 25th frame measured 0.0253 / 0.0271 / 0.0311 / 0.0269 (26 Nov; docs/finding.md).
     assert_finds_shared_faces(&root, "", 0.04, |img| first_face(&mut finder, img));
+}
+
+/// `FindOptions::mirror` on every 25th frame of the shared sets: every face found, and on
+/// every set closer to dlib's points than one look (docs/finding.md, "Precise": on every frame
+/// 0.0250 / 0.0252 / 0.0300 / 0.0250 against 0.0256 / 0.0268 / 0.0313 / 0.0271).
+#[test]
+fn mirror_averaging_finds_every_face_closer_to_dlib() {
+    let Some(root) = shared() else { return };
+    let mut plain = FaceFinder::new().unwrap();
+    let mut finder = FaceFinder::new().unwrap();
+    let mut options = finder.options();
+    options.mirror = true;
+    finder.set_options(options);
+    let fast = every_25th_frame(&root, |img| first_face(&mut plain, img));
+    let precise = every_25th_frame(&root, |img| first_face(&mut finder, img));
+    for ((set, n, found, err), (_, _, _, fast_err)) in precise.into_iter().zip(fast) {
+        println!(
+            "mirror {set}: {found}/{n} frames found, mean error {err:.4} (one look {fast_err:.4})"
+        );
+        assert!(found as f32 >= 0.995 * n as f32, "{set}: {found}/{n} found");
+        assert!(
+            err < fast_err,
+            "{set}: {err} with the mirror, {fast_err} without"
+        );
+    }
+}
+
+/// With `FindOptions::mirror` a face and its mirror image give mirrored points: the mean is
+/// over the same two looks (the image and its mirror), so what is left is where each look
+/// starts (the detector's box on each image).
+#[test]
+fn mirror_averaging_is_symmetric() {
+    let img = io::read_image(&common::repo("data/grid/spk03_lbax4n/000000.jpg")).unwrap();
+    let (w, h) = (img.width as usize, img.height as usize);
+    let mut flipped = vec![0u8; w * h * 4];
+    for y in 0..h {
+        for x in 0..w {
+            let (s, d) = ((y * w + x) * 4, (y * w + w - 1 - x) * 4);
+            flipped[d..d + 4].copy_from_slice(&img.data[s..s + 4]);
+        }
+    }
+    let mut finder = FaceFinder::new().unwrap();
+    let mut options = finder.options();
+    options.mirror = true;
+    finder.set_options(options);
+    let a = finder.find(&img.view().unwrap()).remove(0).landmarks;
+    let b = finder
+        .find(&ImageRef::new(img.width, img.height, &flipped).unwrap())
+        .remove(0)
+        .landmarks;
+    let back: Vec<f32> = (0..68)
+        .flat_map(|i| {
+            let j = facemimic::MIRROR_68[i];
+            [w as f32 - 1.0 - b[2 * j], b[2 * j + 1]]
+        })
+        .collect();
+    let e = facemimic::find::landmark_error(&back, &a);
+    assert!(
+        e < 0.005,
+        "the mirror image's points, mirrored back, are {e} away"
+    );
+    // One look is not symmetric in the same way (the net's left-right biases).
+    let mut plain = FaceFinder::new().unwrap();
+    let a1 = plain.find(&img.view().unwrap()).remove(0).landmarks;
+    let b1 = plain
+        .find(&ImageRef::new(img.width, img.height, &flipped).unwrap())
+        .remove(0)
+        .landmarks;
+    let back1: Vec<f32> = (0..68)
+        .flat_map(|i| {
+            let j = facemimic::MIRROR_68[i];
+            [w as f32 - 1.0 - b1[2 * j], b1[2 * j + 1]]
+        })
+        .collect();
+    let e1 = facemimic::find::landmark_error(&back1, &a1);
+    println!("mirror image, mirrored back: {e:.4} with the mirror average, {e1:.4} with one look");
+    assert!(e < e1, "{e} with the mirror average, {e1} without");
 }
 
 /// Asserts that `first_face` finds the face of at least 99.5% of the frames of each shared set

@@ -27,8 +27,9 @@ const MAX_FLAT: f32 = 0.5;
 /// Represents: the two nets, their anchors and every scratch buffer; reuse one finder (after
 /// the first call, `find` and `landmarks` allocate only their results).
 ///
-/// Ensures: every face reported has 68 finite points in dlib's iBUG convention (the mesh's
-/// vertices of `mesh_table.rs`, moved by the convention offsets of `calibration.rs`), a box
+/// Ensures: every face reported has 68 finite points in dlib's iBUG convention (blends of the
+/// mesh's vertices, `mesh_table.rs`, the jaw moved out to the outline of a turned face,
+/// `mesh_table::silhouette`, then moved by the convention offsets of `calibration.rs`), a box
 /// ([`BBox::around_landmarks`]) and a score in 0..=1; see `docs/finding.md` for the measured
 /// rates, errors and speed.
 pub struct FaceFinder {
@@ -39,6 +40,9 @@ pub struct FaceFinder {
     /// The dense mesh of the last `scored_landmarks_into` or `follow_into` (where
     /// `follow_into` looks next); empty when there is none.
     pass: Vec<f32>,
+    /// Scratch of [`FindOptions::mirror`]: the mirror image (RGBA) and a mesh.
+    mirror: Vec<u8>,
+    mirror_pass: Vec<f32>,
 }
 
 impl std::fmt::Debug for FaceFinder {
@@ -64,6 +68,8 @@ impl FaceFinder {
             calibrate: true,
             detections: Vec::new(),
             pass: Vec::new(),
+            mirror: Vec::new(),
+            mirror_pass: Vec::new(),
         })
     }
 
@@ -150,9 +156,11 @@ impl FaceFinder {
     /// region of the first pass's points. A region is a face when the mesh's own face score is
     /// [`FindOptions::min_face_score`] or more and its vertices do not lie on flat-filled
     /// pixels (a drawing: see `docs/finding.md`, "False faces"). The score is the geometric
-    /// mean of the detector's and the mesh's.
+    /// mean of the detector's and the mesh's. With [`FindOptions::mirror`] each face's points
+    /// are the mean of these and of two more passes on the mirror image.
     pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
         let mut faces: Vec<Face> = Vec::new();
+        let mut mirrored = false;
         for (det, score, pts) in self.meshes(image) {
             let mut landmarks = vec![0.0; 136];
             mesh_table::to_ibug(&pts, &mut landmarks);
@@ -163,8 +171,16 @@ impl FaceFinder {
             {
                 continue;
             }
+            mesh_table::silhouette(&pts, &mut landmarks);
             if self.calibrate {
                 calibration::apply(&mut landmarks);
+            }
+            if self.options.mirror {
+                if !mirrored {
+                    mirror_image(image, &mut self.mirror);
+                    mirrored = true;
+                }
+                self.add_mirror(image, &det, &mut landmarks);
             }
             if landmarks.iter().all(|v| v.is_finite()) {
                 faces.push(Face {
@@ -177,6 +193,47 @@ impl FaceFinder {
         faces.sort_by(|a, b| b.score.total_cmp(&a.score));
         faces.truncate(self.options.max_faces);
         faces
+    }
+
+    /// [`FindOptions::mirror`]: the face of `det` meshed on the mirror image (`self.mirror`,
+    /// made from `image`), its 68 points mirrored back and averaged into `landmarks` (each
+    /// pass's points calibrated in its own image, so the convention offsets are averaged with
+    /// their mirror too). Leaves `landmarks` as they are when the mirror pass finds no face.
+    fn add_mirror(&mut self, image: &ImageRef, det: &Detection, landmarks: &mut [f32]) {
+        let w = image.width() as f32;
+        let mirror = std::mem::take(&mut self.mirror);
+        let Ok(view) = ImageRef::new(image.width(), image.height(), &mirror) else {
+            self.mirror = mirror;
+            return;
+        };
+        // The detection's region, mirrored: the centre across the image, the turn reversed.
+        let roi = Roi::from_detection(det);
+        let roi = Roi {
+            cx: w - roi.cx,
+            angle: -roi.angle,
+            ..roi
+        };
+        let mut pts = std::mem::take(&mut self.mirror_pass);
+        pts.resize(MESH_POINTS * 3, 0.0);
+        let score = self.passes(&view, roi, &mut pts);
+        if score.is_some_and(|s| s >= self.options.min_face_score) {
+            let mut m = [0.0f32; 136];
+            mesh_table::to_ibug(&pts, &mut m);
+            mesh_table::silhouette(&pts, &mut m);
+            if self.calibrate {
+                calibration::apply(&mut m);
+            }
+            // Points in pixel-centre coordinates: x mirrors to `w - 1 - x`.
+            for (i, &j) in crate::landmarks::MIRROR_68.iter().enumerate() {
+                let (x, y) = (w - 1.0 - m[2 * j], m[2 * j + 1]);
+                if x.is_finite() && y.is_finite() {
+                    landmarks[2 * i] = 0.5 * (landmarks[2 * i] + x);
+                    landmarks[2 * i + 1] = 0.5 * (landmarks[2 * i + 1] + y);
+                }
+            }
+        }
+        self.mirror_pass = pts;
+        self.mirror = mirror;
     }
 
     /// The 68 points of the face in `bbox` (a box like [`Face::bbox`]), in dlib's convention.
@@ -254,6 +311,7 @@ impl FaceFinder {
             }
         };
         mesh_table::to_ibug(&self.pass, out);
+        mesh_table::silhouette(&self.pass, out);
         if self.calibrate {
             calibration::apply(out);
         }
@@ -262,6 +320,18 @@ impl FaceFinder {
         } else {
             self.pass.clear();
             Err(Error::Image("the mesh gave non-finite points".into()))
+        }
+    }
+}
+
+/// `image` mirrored left to right into `out` (RGBA, resized to fit).
+fn mirror_image(image: &ImageRef, out: &mut Vec<u8>) {
+    let w = image.width() as usize;
+    let src = image.data();
+    out.resize(src.len(), 0);
+    for (o, row) in out.chunks_exact_mut(w * 4).zip(src.chunks_exact(w * 4)) {
+        for (op, ip) in o.chunks_exact_mut(4).zip(row.chunks_exact(4).rev()) {
+            op.copy_from_slice(ip);
         }
     }
 }

@@ -79,6 +79,12 @@ pub struct FindOptions {
     /// A region is a face only if the mesh's own face-presence score is at least this
     /// (MediaPipe's tracking threshold, 0.5).
     pub min_face_score: f32,
+    /// `true`: each face's points are the mean of the mesh on the image and on its mirror
+    /// image (two more mesh passes a face): the net's left-right biases cancel, closer to
+    /// dlib's points on every shared set, at the cost of about 3 ms a face natively
+    /// (`docs/finding.md`, "Precise"). Off by default (the speed of a frame); the `landmark`
+    /// command turns it on.
+    pub mirror: bool,
 }
 
 impl Default for FindOptions {
@@ -89,6 +95,7 @@ impl Default for FindOptions {
             max_faces: 16,
             max_candidates: 10,
             min_face_score: 0.5,
+            mirror: false,
         }
     }
 }

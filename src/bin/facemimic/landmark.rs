@@ -12,6 +12,10 @@ pub struct Args {
     /// Overwrite existing .pts files.
     #[arg(long)]
     force: bool,
+    /// One look per image instead of the mean over the image and its mirror (about 40% faster,
+    /// a little further from dlib's points: docs/finding.md, "Precise").
+    #[arg(long)]
+    fast: bool,
     /// Images (PNG or JPEG).
     #[arg(value_name = "IMAGE", required = true)]
     images: Vec<PathBuf>,
@@ -47,6 +51,9 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     let mut finder = FaceFinder::new()?;
+    let mut options = finder.options();
+    options.mirror = !a.fast;
+    finder.set_options(options);
     let (mut written, mut faceless) = (0, 0);
     for img in &a.images {
         let image = io::read_image(img)?;
