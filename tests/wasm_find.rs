@@ -74,6 +74,38 @@ fn finds_the_face_of_a_grid_frame_near_its_landmarks() {
     assert!(err < 0.1, "mean landmark error {err} of the eye distance");
 }
 
+/// `precise`: the mean over the frame and its mirror; the same face, its points moved a
+/// little, and off again after.
+#[wasm_bindgen_test]
+fn precise_finds_average_the_frame_and_its_mirror() {
+    let (rgba, w, h) = frame();
+    let truth = parse_pts(PTS).expect("pts");
+    let mut finder = JsFaceFinder::new().expect("finder");
+    assert!(!finder.precise());
+    let points = |finder: &mut JsFaceFinder| -> Vec<f32> {
+        let faces: Array = finder.find(&rgba, w, h).expect("find");
+        assert_eq!(faces.length(), 1, "one face expected");
+        get(&faces.get(0), "landmarks")
+            .dyn_into::<Float32Array>()
+            .expect("landmarks is a Float32Array")
+            .to_vec()
+    };
+    let one_look = points(&mut finder);
+    finder.set_precise(true);
+    assert!(finder.precise());
+    let precise = points(&mut finder);
+    assert!(precise.iter().all(|v| v.is_finite()));
+    let apart = facemimic::find::landmark_error(&precise, &one_look);
+    assert!(
+        apart > 0.0 && apart < 0.05,
+        "precise points {apart} from one look's"
+    );
+    let err = facemimic::find::landmark_error(&precise, &truth);
+    assert!(err < 0.1, "mean landmark error {err} of the eye distance");
+    finder.set_precise(false);
+    assert_eq!(points(&mut finder), one_look);
+}
+
 #[wasm_bindgen_test]
 fn a_flat_image_has_no_face() {
     let (w, h) = (320u32, 240u32);
