@@ -73,6 +73,21 @@ impl<'a> ImageRef<'a> {
         }
         out
     }
+
+    /// The image mirrored left to right, into `out` (RGBA, resized to fit; keeps its
+    /// allocation from call to call).
+    pub(crate) fn mirror_into(&self, out: &mut Vec<u8>) {
+        let w = self.width as usize;
+        out.resize(self.data.len(), 0);
+        for (o, row) in out
+            .chunks_exact_mut(w * 4)
+            .zip(self.data.chunks_exact(w * 4))
+        {
+            for (op, ip) in o.chunks_exact_mut(4).zip(row.chunks_exact(4).rev()) {
+                op.copy_from_slice(ip);
+            }
+        }
+    }
 }
 
 /// An owned RGBA8 image.

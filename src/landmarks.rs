@@ -37,6 +37,17 @@ pub fn eye_line(points: &[f32]) -> Option<[f32; 2]> {
     ])
 }
 
+/// The 68 points (interleaved `x, y`, pixel-centre coordinates) of a face seen in the mirror
+/// image of a picture `width` pixels wide, as that face's own points: `x` mirrored to
+/// `width - 1 - x` and each point renumbered by [`MIRROR_68`] (the mirror's left eye is the
+/// face's right). Requires 136 values in `points` and `out`.
+pub fn mirror_points(points: &[f32], width: f32, out: &mut [f32]) {
+    for (i, &j) in MIRROR_68.iter().enumerate() {
+        out[2 * i] = width - 1.0 - points[2 * j];
+        out[2 * i + 1] = points[2 * j + 1];
+    }
+}
+
 /// Most landmarks a file may hold (guards against absurd inputs).
 pub const MAX_LANDMARKS: usize = 4096;
 
@@ -182,6 +193,20 @@ pub fn parse_asf(text: &str, width: u32, height: u32) -> Result<Vec<f32>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mirror_points_twice_is_the_identity_and_swaps_the_eyes() {
+        let p: Vec<f32> = (0..136)
+            .map(|i| (i as f32 * 0.7).sin() * 40.0 + 50.0)
+            .collect();
+        let (mut m, mut back) = ([0.0; 136], [0.0; 136]);
+        mirror_points(&p, 100.0, &mut m);
+        mirror_points(&m, 100.0, &mut back);
+        assert!(p.iter().zip(&back).all(|(a, b)| (a - b).abs() < 1e-4));
+        // The mirror's point 45 is the face's 36, across the picture.
+        assert_eq!(m[2 * 45], 99.0 - p[2 * 36]);
+        assert_eq!(m[2 * 45 + 1], p[2 * 36 + 1]);
+    }
 
     #[test]
     fn mirror_is_an_involution_that_swaps_sides() {

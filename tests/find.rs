@@ -74,40 +74,26 @@ fn mirror_averaging_is_symmetric() {
             flipped[d..d + 4].copy_from_slice(&img.data[s..s + 4]);
         }
     }
+    let flipped = ImageRef::new(img.width, img.height, &flipped).unwrap();
+    // How far the mirror image's points, mirrored back, are from the image's.
+    let asymmetry = |finder: &mut FaceFinder| {
+        let a = finder.find(&img.view().unwrap()).remove(0).landmarks;
+        let b = finder.find(&flipped).remove(0).landmarks;
+        let mut back = vec![0.0; 136];
+        facemimic::landmarks::mirror_points(&b, w as f32, &mut back);
+        facemimic::find::landmark_error(&back, &a)
+    };
     let mut finder = FaceFinder::new().unwrap();
     let mut options = finder.options();
     options.mirror = true;
     finder.set_options(options);
-    let a = finder.find(&img.view().unwrap()).remove(0).landmarks;
-    let b = finder
-        .find(&ImageRef::new(img.width, img.height, &flipped).unwrap())
-        .remove(0)
-        .landmarks;
-    let back: Vec<f32> = (0..68)
-        .flat_map(|i| {
-            let j = facemimic::MIRROR_68[i];
-            [w as f32 - 1.0 - b[2 * j], b[2 * j + 1]]
-        })
-        .collect();
-    let e = facemimic::find::landmark_error(&back, &a);
+    let e = asymmetry(&mut finder);
     assert!(
         e < 0.005,
         "the mirror image's points, mirrored back, are {e} away"
     );
     // One look is not symmetric in the same way (the net's left-right biases).
-    let mut plain = FaceFinder::new().unwrap();
-    let a1 = plain.find(&img.view().unwrap()).remove(0).landmarks;
-    let b1 = plain
-        .find(&ImageRef::new(img.width, img.height, &flipped).unwrap())
-        .remove(0)
-        .landmarks;
-    let back1: Vec<f32> = (0..68)
-        .flat_map(|i| {
-            let j = facemimic::MIRROR_68[i];
-            [w as f32 - 1.0 - b1[2 * j], b1[2 * j + 1]]
-        })
-        .collect();
-    let e1 = facemimic::find::landmark_error(&back1, &a1);
+    let e1 = asymmetry(&mut FaceFinder::new().unwrap());
     println!("mirror image, mirrored back: {e:.4} with the mirror average, {e1:.4} with one look");
     assert!(e < e1, "{e} with the mirror average, {e1} without");
 }

@@ -177,7 +177,7 @@ impl FaceFinder {
             }
             if self.options.mirror {
                 if !mirrored {
-                    mirror_image(image, &mut self.mirror);
+                    image.mirror_into(&mut self.mirror);
                     mirrored = true;
                 }
                 self.add_mirror(image, &det, &mut landmarks);
@@ -223,12 +223,12 @@ impl FaceFinder {
             if self.calibrate {
                 calibration::apply(&mut m);
             }
-            // Points in pixel-centre coordinates: x mirrors to `w - 1 - x`.
-            for (i, &j) in crate::landmarks::MIRROR_68.iter().enumerate() {
-                let (x, y) = (w - 1.0 - m[2 * j], m[2 * j + 1]);
-                if x.is_finite() && y.is_finite() {
-                    landmarks[2 * i] = 0.5 * (landmarks[2 * i] + x);
-                    landmarks[2 * i + 1] = 0.5 * (landmarks[2 * i + 1] + y);
+            let mut back = [0.0f32; 136];
+            crate::landmarks::mirror_points(&m, w, &mut back);
+            for (l, p) in landmarks.chunks_exact_mut(2).zip(back.chunks_exact(2)) {
+                if p.iter().all(|v| v.is_finite()) {
+                    l[0] = 0.5 * (l[0] + p[0]);
+                    l[1] = 0.5 * (l[1] + p[1]);
                 }
             }
         }
@@ -320,18 +320,6 @@ impl FaceFinder {
         } else {
             self.pass.clear();
             Err(Error::Image("the mesh gave non-finite points".into()))
-        }
-    }
-}
-
-/// `image` mirrored left to right into `out` (RGBA, resized to fit).
-fn mirror_image(image: &ImageRef, out: &mut Vec<u8>) {
-    let w = image.width() as usize;
-    let src = image.data();
-    out.resize(src.len(), 0);
-    for (o, row) in out.chunks_exact_mut(w * 4).zip(src.chunks_exact(w * 4)) {
-        for (op, ip) in o.chunks_exact_mut(4).zip(row.chunks_exact(4).rev()) {
-            op.copy_from_slice(ip);
         }
     }
 }

@@ -94,24 +94,14 @@ enum Step {
     AddAct(usize),
 }
 
-/// The fused steps of layers `rows` (logical slots: before [`assign_buffers`]) whose
-/// `outputs` slots are the net's outputs: an activation right after the layer making its
+/// The fused steps of layers `rows` (logical slots: before [`assign_buffers`]; `last_use` of
+/// [`last_uses`]): an activation right after the layer making its
 /// input, when it could run in place (that input read by no later layer), joins that layer
 /// (a convolution or an addition); a 1x1 convolution whose output only the addition right
 /// after it reads, itself followed by such an activation, joins both (the addition's other
 /// input then takes the sums). Every fused value is the value the layers compute one by one,
 /// bit for bit (test `fused_run_matches_the_layer_by_layer_run`).
-fn plan(rows: &[Layer], outputs: &[usize]) -> Vec<Step> {
-    let slots = rows.len() + 1;
-    let mut last_use = vec![0usize; slots];
-    for (i, l) in rows.iter().enumerate() {
-        for &s in &l.inputs {
-            last_use[s] = i;
-        }
-    }
-    for &o in outputs {
-        last_use[o] = usize::MAX;
-    }
+fn plan(rows: &[Layer], last_use: &[usize]) -> Vec<Step> {
     // Layer `j` is an activation that may run in place on the output of layer `j - 1`.
     let act_after = |j: usize| {
         rows.get(j).is_some_and(|a| {
@@ -275,14 +265,10 @@ fn parse_layer(w: &Weights, i: usize, row: &[f32], channels: &[usize]) -> Result
     Ok(layer)
 }
 
-/// Gives every logical slot of `rows` (`slots` of them) a buffer, reusing a buffer once the
-/// last layer reading its slot has run and running ReLU, PReLU and Add in place on an input
-/// read by nobody else; slot 0 (the input) keeps buffer 0 and `outputs` are never freed.
-/// Rewrites each layer's `out` and `inputs` as buffers; returns the number of buffers and each
-/// slot's last buffer.
-fn assign_buffers(rows: &mut [Layer], slots: usize, outputs: &[usize]) -> (usize, Vec<usize>) {
-    // Buffers: a slot's buffer is free again after the last layer reading it.
-    let mut last_use = vec![0usize; slots];
+/// For each logical slot of `rows` (the input, then each layer's output), the last layer that
+/// reads it; `usize::MAX` for the net's `outputs`, which stay to the end.
+fn last_uses(rows: &[Layer], outputs: &[usize]) -> Vec<usize> {
+    let mut last_use = vec![0usize; rows.len() + 1];
     for (i, l) in rows.iter().enumerate() {
         for &s in &l.inputs {
             last_use[s] = i;
@@ -291,6 +277,17 @@ fn assign_buffers(rows: &mut [Layer], slots: usize, outputs: &[usize]) -> (usize
     for &o in outputs {
         last_use[o] = usize::MAX;
     }
+    last_use
+}
+
+/// Gives every logical slot of `rows` (`last_use` of [`last_uses`]) a buffer, reusing a buffer once the
+/// last layer reading its slot has run and running ReLU, PReLU and Add in place on an input
+/// read by nobody else; slot 0 (the input) keeps buffer 0 and `outputs` are never freed.
+/// Rewrites each layer's `out` and `inputs` as buffers; returns the number of buffers and each
+/// slot's last buffer.
+fn assign_buffers(rows: &mut [Layer], last_use: &[usize]) -> (usize, Vec<usize>) {
+    // Buffers: a slot's buffer is free again after the last layer reading it.
+    let slots = last_use.len();
     let mut buffer_of = vec![usize::MAX; slots];
     buffer_of[0] = 0;
     let mut free: Vec<usize> = Vec::new();
@@ -374,8 +371,9 @@ impl Graph {
         }
         #[cfg(all(test, not(target_arch = "wasm32")))]
         let logical: Vec<usize> = rows.iter().map(|l| l.out).collect();
-        let plan = plan(&rows, &outputs);
-        let (buffers, buffer_of) = assign_buffers(&mut rows, channels.len(), &outputs);
+        let last_use = last_uses(&rows, &outputs);
+        let plan = plan(&rows, &last_use);
+        let (buffers, buffer_of) = assign_buffers(&mut rows, &last_use);
         Ok(Graph {
             layers: rows,
             buffers,

@@ -450,26 +450,8 @@ fn letterbox(
     let side = w.max(h) as f32;
     let step = side / n as f32;
     let norm = 2.0 / (step * step * 255.0);
-    // Per output index, the input indices it covers (inside 0..len) with their overlaps:
-    // `(output, input, overlap in pixels)`, in output order.
-    let spans = |len: usize, taps: &mut Vec<(usize, usize, f32)>| {
-        taps.clear();
-        let off = 0.5 * (side - len as f32);
-        for o in 0..n {
-            let (a, b) = (o as f32 * step - off, (o + 1) as f32 * step - off);
-            let (lo, hi) = (a.max(0.0), b.min(len as f32));
-            if hi <= lo {
-                continue;
-            }
-            let (first, last) = (lo.floor() as usize, (hi.ceil() as usize).min(len));
-            for i in first..last {
-                let cover = (hi.min((i + 1) as f32) - lo.max(i as f32)).max(0.0);
-                if cover > 0.0 {
-                    taps.push((o, i, cover));
-                }
-            }
-        }
-    };
+    let spans =
+        |len: usize, taps: &mut Vec<(usize, usize, f32)>| letterbox_spans(side, step, n, len, taps);
     // Across: every image row into n columns (sums of pixel values times overlaps), each
     // output's sum made in registers (RGBA lanes, alpha dropped) in the order of its taps, from
     // 0: the sums `d += c p` into a zeroed row made, bit for bit. Four image rows at a time
@@ -490,10 +472,44 @@ fn letterbox(
     {
         across::<1>(src, w, taps, dst, n);
     }
-    // Down: the rows' sums into n output rows; outside the image stays black (0, i.e. -1).
-    out.reset(n, n, 3);
     spans(h, taps);
-    for &(o, i, c) in taps.iter() {
+    letterbox_down(rows, taps, n, norm, out);
+}
+
+/// Per output index of [`letterbox`] (`n` of them, each `step` pixels of the centred square of
+/// side `side`), the input indices it covers (inside `0..len`) with their overlaps: `(output,
+/// input, overlap in pixels)`, in output order, into `taps`.
+fn letterbox_spans(
+    side: f32,
+    step: f32,
+    n: usize,
+    len: usize,
+    taps: &mut Vec<(usize, usize, f32)>,
+) {
+    taps.clear();
+    let off = 0.5 * (side - len as f32);
+    for o in 0..n {
+        let (a, b) = (o as f32 * step - off, (o + 1) as f32 * step - off);
+        let (lo, hi) = (a.max(0.0), b.min(len as f32));
+        if hi <= lo {
+            continue;
+        }
+        let (first, last) = (lo.floor() as usize, (hi.ceil() as usize).min(len));
+        for i in first..last {
+            let cover = (hi.min((i + 1) as f32) - lo.max(i as f32)).max(0.0);
+            if cover > 0.0 {
+                taps.push((o, i, cover));
+            }
+        }
+    }
+}
+
+/// [`letterbox`]'s second half: the rows' sums (`rows`, `n` RGB sums a row) into the `n`
+/// output rows by the row spans `taps`, scaled by `norm` to `2 v - 1`; outside the image stays
+/// black (0, i.e. -1).
+fn letterbox_down(rows: &[f32], taps: &[(usize, usize, f32)], n: usize, norm: f32, out: &mut Map) {
+    out.reset(n, n, 3);
+    for &(o, i, c) in taps {
         let src = &rows[i * n * 3..(i + 1) * n * 3];
         let dst = &mut out.data[o * n * 3..(o + 1) * n * 3];
         for (d, s) in dst.iter_mut().zip(src) {
@@ -652,25 +668,8 @@ mod tests {
         let side = w.max(h) as f32;
         let step = side / n as f32;
         let norm = 2.0 / (step * step * 255.0);
-        // Per output index, the input indices it covers (inside 0..len) with their overlaps:
-        // `(output, input, overlap in pixels)`, in output order.
         let spans = |len: usize, taps: &mut Vec<(usize, usize, f32)>| {
-            taps.clear();
-            let off = 0.5 * (side - len as f32);
-            for o in 0..n {
-                let (a, b) = (o as f32 * step - off, (o + 1) as f32 * step - off);
-                let (lo, hi) = (a.max(0.0), b.min(len as f32));
-                if hi <= lo {
-                    continue;
-                }
-                let (first, last) = (lo.floor() as usize, (hi.ceil() as usize).min(len));
-                for i in first..last {
-                    let cover = (hi.min((i + 1) as f32) - lo.max(i as f32)).max(0.0);
-                    if cover > 0.0 {
-                        taps.push((o, i, cover));
-                    }
-                }
-            }
+            letterbox_spans(side, step, n, len, taps)
         };
         // Across: every image row into n columns (sums of pixel values times overlaps).
         spans(w, taps);
@@ -688,19 +687,8 @@ mod tests {
                 d[2] += c * f32::from(p[2]);
             }
         }
-        // Down: the rows' sums into n output rows; outside the image stays black (0, i.e. -1).
-        out.reset(n, n, 3);
         spans(h, taps);
-        for &(o, i, c) in taps.iter() {
-            let src = &rows[i * n * 3..(i + 1) * n * 3];
-            let dst = &mut out.data[o * n * 3..(o + 1) * n * 3];
-            for (d, s) in dst.iter_mut().zip(src) {
-                *d += c * s;
-            }
-        }
-        for v in out.data.iter_mut() {
-            *v = *v * norm - 1.0;
-        }
+        letterbox_down(rows, taps, n, norm, out);
     }
 
     #[test]

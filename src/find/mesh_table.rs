@@ -65,14 +65,10 @@ pub(crate) fn silhouette(mesh: &[f32], points: &mut [f32]) {
     if mesh.len() < 455 * 3 || points.len() != 136 {
         return;
     }
-    let Some([ex, ey]) = crate::landmarks::eye_line(points) else {
+    // The eye line's direction `u`.
+    let Some((_, _, ux, uy)) = super::face_frame(points) else {
         return;
     };
-    let len = ex.hypot(ey);
-    if !(len.is_finite() && len > 0.0) {
-        return;
-    }
-    let (ux, uy) = (ex / len, ey / len);
     let (a, b) = (&mesh[234 * 3..][..3], &mesh[454 * 3..][..3]);
     let across = (b[0] - a[0]) * ux + (b[1] - a[1]) * uy;
     let cos = across / across.hypot(b[2] - a[2]);

@@ -193,46 +193,40 @@ fn matmul_in(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], post: Post
     debug_assert!(fs >= n && (k == 0 || f.len() >= (k - 1) * fs + n));
     let rows = a.len().checked_div(k).unwrap_or(0);
     debug_assert_eq!(out.len(), rows * n);
-    let mut c0 = 0;
-    while c0 + BLOCK_COUT <= n {
-        let post = post.at_channel(c0);
-        channel_block::<BLOCK_COUT>(
-            a,
-            k,
-            rows,
-            &f[c0..],
-            fs,
-            &bias[c0..],
-            post,
-            &mut out[c0..],
-            n,
-        );
-        c0 += BLOCK_COUT;
-    }
-    while c0 + 4 <= n {
-        let post = post.at_channel(c0);
-        channel_block::<4>(
-            a,
-            k,
-            rows,
-            &f[c0..],
-            fs,
-            &bias[c0..],
-            post,
-            &mut out[c0..],
-            n,
-        );
-        c0 += 4;
-    }
+    let c0 = channel_blocks::<BLOCK_COUT>(0, a, k, rows, f, fs, bias, post, out);
+    let c0 = channel_blocks::<4>(c0, a, k, rows, f, fs, bias, post, out);
     // The last `n % 4` channels: a block of their own (sums in registers, not in `out`).
-    let (f, bias, out) = (&f[c0..], &bias[c0..], &mut out[c0..]);
-    let post = post.at_channel(c0);
     match n - c0 {
-        1 => channel_block::<1>(a, k, rows, f, fs, bias, post, out, n),
-        2 => channel_block::<2>(a, k, rows, f, fs, bias, post, out, n),
-        3 => channel_block::<3>(a, k, rows, f, fs, bias, post, out, n),
-        _ => {}
+        1 => channel_blocks::<1>(c0, a, k, rows, f, fs, bias, post, out),
+        2 => channel_blocks::<2>(c0, a, k, rows, f, fs, bias, post, out),
+        3 => channel_blocks::<3>(c0, a, k, rows, f, fs, bias, post, out),
+        _ => c0,
+    };
+}
+
+/// Output channels `c0..` of [`matmul_in`] (`n = bias.len()` in all) in blocks of `N` while a
+/// whole block fits ([`channel_block`]); the first channel left.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn channel_blocks<const N: usize>(
+    c0: usize,
+    a: &[f32],
+    k: usize,
+    rows: usize,
+    f: &[f32],
+    fs: usize,
+    bias: &[f32],
+    post: Post,
+    out: &mut [f32],
+) -> usize {
+    let n = bias.len();
+    let mut c = c0;
+    while c + N <= n {
+        let post = post.at_channel(c);
+        channel_block::<N>(a, k, rows, &f[c..], fs, &bias[c..], post, &mut out[c..], n);
+        c += N;
     }
+    c
 }
 
 /// Output channels `0..N` of `f`, `bias` and `out` (slices starting at the block's first

@@ -682,18 +682,10 @@ pub fn split_head_turn(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: 
     if shape.len() != 136 || neutral.len() != 136 || turn.len() != 136 || depth.len() != 68 {
         return;
     }
-    let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
+    // The neutral's centroid and eye-line direction `u`.
+    let Some(([cx, cy], _, ux, uy)) = crate::find::face_frame(neutral) else {
         return;
     };
-    let len = ex.hypot(ey);
-    if !(len.is_finite() && len > 0.0) {
-        return;
-    }
-    let (ux, uy) = (ex / len, ey / len);
-    let (cx, cy) = (
-        neutral.iter().step_by(2).sum::<f32>() / 68.0,
-        neutral.iter().skip(1).step_by(2).sum::<f32>() / 68.0,
-    );
     // An orthonormal basis of the similarities at the neutral (two translations, scale,
     // rotation), then the two turn directions made orthogonal to it and to each other.
     let mut basis = [[0.0f32; 136]; 6];
@@ -951,17 +943,7 @@ mod tests {
 
     #[test]
     fn neutral_is_a_mean_then_a_running_median() {
-        // A face-like ring of 68 points with its mouth closed (inner lips together).
-        let mut base: Vec<f32> = (0..68)
-            .flat_map(|i| {
-                let a = i as f32 * 0.37;
-                [40.0 * a.cos() + 0.3 * i as f32, 50.0 * a.sin()]
-            })
-            .collect();
-        for (u, l) in [(61, 67), (62, 66), (63, 65)] {
-            base[2 * l] = base[2 * u];
-            base[2 * l + 1] = base[2 * u + 1];
-        }
+        let base = ring();
         let mut n = base.clone();
         let mut count = 0;
         // Warm-up: the mean of two shapes.

@@ -86,16 +86,8 @@ impl EnrolFinder {
     /// The landmarks of a face the finder found in `image`, averaged over the passes (boxes
     /// around its points, on the image and on its mirror); `None` if they are not finite.
     pub fn average(&mut self, image: &ImageRef, face: &Face) -> Result<Option<EnrolFace>> {
-        let (w, h) = (image.width() as usize, image.height() as usize);
-        self.mirror.resize(w * h * 4, 0);
-        let src = image.data();
-        for y in 0..h {
-            let row = &src[y * w * 4..(y + 1) * w * 4];
-            let out = &mut self.mirror[y * w * 4..(y + 1) * w * 4];
-            for x in 0..w {
-                out[4 * (w - 1 - x)..4 * (w - x)].copy_from_slice(&row[4 * x..4 * x + 4]);
-            }
-        }
+        let w = image.width() as usize;
+        image.mirror_into(&mut self.mirror);
         let mirror = ImageRef::new(image.width(), image.height(), &self.mirror)?;
         let b = BBox::around_landmarks(&face.landmarks);
         let n = 2 * self.boxes;
@@ -118,11 +110,11 @@ impl EnrolFinder {
                 ..bb
             };
             self.finder.landmarks_into(&mirror, mb, &mut flipped)?;
-            let out = &mut self.passes[(2 * k + 1) * 136..(2 * k + 2) * 136];
-            for (i, &j) in crate::landmarks::MIRROR_68.iter().enumerate() {
-                out[2 * i] = w as f32 - 1.0 - flipped[2 * j];
-                out[2 * i + 1] = flipped[2 * j + 1];
-            }
+            crate::landmarks::mirror_points(
+                &flipped,
+                w as f32,
+                &mut self.passes[(2 * k + 1) * 136..(2 * k + 2) * 136],
+            );
         }
         let mut avg = vec![0.0f32; 136];
         for p in self.passes.chunks_exact(136) {
