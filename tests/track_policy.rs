@@ -91,7 +91,7 @@ fn fit_scale_brings_the_face_to_the_model_size_within_the_limits() {
 fn the_policy_is_checked() {
     let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
     // Each a field out of its range.
-    let bad_fields: [fn(&mut TrackPolicy); 8] = [
+    let bad_fields: [fn(&mut TrackPolicy); 9] = [
         |p| p.appearance_limit = f32::NAN,
         |p| p.appearance_limit = -1.0,
         |p| p.min_fit_side = 2000,
@@ -100,6 +100,7 @@ fn the_policy_is_checked() {
         |p| p.rescale_change = f32::INFINITY,
         |p| p.recentre_tau = f32::NAN,
         |p| p.recentre_tau = -1.0,
+        |p| p.recheck_frames = 100_001,
     ];
     for set in bad_fields {
         let mut bad = TrackPolicy::default();
@@ -222,6 +223,72 @@ fn offered_faces_start_and_recover_a_sequence() {
     let r = t.track(&f6.image.view().unwrap()).unwrap();
     assert!(!r.lost && !r.reacquired);
     assert!(!t.wants_faces());
+}
+
+#[test]
+fn a_tracked_face_asks_for_a_second_opinion_every_recheck_frames() {
+    // Tracked from frame 0's landmarks with offers expected: no faces are wanted until
+    // `recheck_frames` good frames have passed; then the faces offered give a second opinion
+    // (a cold fit from the one nearest the tracked face, kept when it fits lower), and the
+    // count starts again. A face offered elsewhere in the picture is not used; with
+    // `recheck_frames` 0 no faces are ever wanted while the face is tracked.
+    let every = TrackPolicy::default().recheck_frames as usize;
+    assert!(every > 1);
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    let f0 = frame(UNSEEN, 0);
+    t.start_from_landmarks(&f0.landmarks).unwrap();
+    t.expect_offers(true);
+    let mut wanted_at = Vec::new();
+    for i in 0..=2 * every {
+        let f = frame(UNSEEN, i);
+        if t.wants_faces() {
+            wanted_at.push(i);
+            // The face as a finder would give it: this frame's landmarks, a little off.
+            let found: Vec<f32> = f.landmarks.iter().map(|v| v + 1.5).collect();
+            let elsewhere: Vec<f32> = f.landmarks.iter().map(|v| v * 0.3).collect();
+            t.offer_faces(vec![elsewhere, found]).unwrap();
+            assert!(!t.wants_faces());
+        }
+        let r = t.track(&f.image.view().unwrap()).unwrap();
+        assert!(!r.lost, "frame {i} lost");
+        let e = landmark_error(&r.landmarks, &f.landmarks);
+        assert!(e < 0.06, "frame {i}: error {e}");
+    }
+    assert_eq!(wanted_at, vec![every, 2 * every], "when faces were wanted");
+    let (taken, kept) = t.rechecks();
+    assert_eq!(taken, 2, "second opinions taken");
+    assert!(kept <= taken);
+    // Only a face elsewhere: no second opinion (the count starts again all the same).
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    t.start_from_landmarks(&f0.landmarks).unwrap();
+    t.expect_offers(true);
+    for i in 0..=every {
+        let f = frame(UNSEEN, i);
+        if t.wants_faces() {
+            let elsewhere: Vec<f32> = f.landmarks.iter().map(|v| v * 0.3).collect();
+            t.offer_faces(vec![elsewhere]).unwrap();
+        }
+        t.track(&f.image.view().unwrap()).unwrap();
+    }
+    assert_eq!(
+        t.rechecks(),
+        (0, 0),
+        "a face elsewhere gave a second opinion"
+    );
+    assert!(!t.wants_faces());
+    // Off.
+    let mut t = Tracker::new(model(), FitOptions::default()).unwrap();
+    t.set_policy(TrackPolicy {
+        recheck_frames: 0,
+        ..TrackPolicy::default()
+    })
+    .unwrap();
+    t.start_from_landmarks(&f0.landmarks).unwrap();
+    t.expect_offers(true);
+    for i in 0..=every {
+        t.track(&frame(UNSEEN, i).image.view().unwrap()).unwrap();
+        assert!(!t.wants_faces(), "faces wanted with second opinions off");
+    }
 }
 
 #[test]

@@ -103,6 +103,12 @@ fn fit_scale_and_policy() {
     assert!(t
         .set_policy(obj(&[("recentreTau", (-1.0).into())]))
         .is_err());
+    // Second opinions: every 15 tracked frames by default, 0 turns them off.
+    assert_eq!(get(&t.policy().unwrap(), "recheckFrames"), 15.0);
+    t.set_policy(obj(&[("recheckFrames", 0.0.into())])).unwrap();
+    assert_eq!(get(&t.policy().unwrap(), "recheckFrames"), 0.0);
+    assert!(t.set_policy(obj(&[("recheckFrames", 1e6.into())])).is_err());
+    assert_eq!((t.rechecks(), t.rechecks_kept()), (0, 0));
 }
 
 /// The frames of the golden track (`tests/cli.rs`, `GOLDEN_TRACK`).

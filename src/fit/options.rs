@@ -223,6 +223,14 @@ pub struct TrackPolicy {
     /// centred. 0: the anchor stays at the sequence's first pose (a clip's motion reproduced
     /// exactly).
     pub recentre_tau: f32,
+    /// While a face is tracked, every this many frames the tracker takes a second opinion:
+    /// the faces found in the frame (its [`FaceSource`](crate::fit::FaceSource), or faces
+    /// offered: [`Tracker::wants_faces`](crate::fit::Tracker::wants_faces) turns true), a cold
+    /// fit from the one nearest the tracked face, kept when its residual is lower. A tracked
+    /// fit can be led into a wrong minimum by frames before it (a hand under the chin read as
+    /// an open mouth) and stay there with a plausible shape and residual; a fit from the
+    /// finder's points lands in the right one. 0: never.
+    pub recheck_frames: u32,
 }
 
 impl Default for TrackPolicy {
@@ -235,6 +243,7 @@ impl Default for TrackPolicy {
             native_band: 1.33,
             rescale_change: 0.3,
             recentre_tau: 4.0,
+            recheck_frames: 15,
         }
     }
 }
@@ -316,6 +325,12 @@ impl TrackPolicy {
             if !(lo..=hi).contains(&v) {
                 return bad(format!("{what} = {v} must be in {lo}..={hi}{unit}"));
             }
+        }
+        if self.recheck_frames > 100_000 {
+            return bad(format!(
+                "recheck_frames = {} must be at most 100000 (0: never)",
+                self.recheck_frames
+            ));
         }
         Ok(())
     }

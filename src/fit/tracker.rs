@@ -65,6 +65,13 @@ impl FaceSource for crate::find::FaceFinder {
 /// ([`Tracker::expect_offers`]), a lost face is searched for with the faces offered; until
 /// they come, each frame gets only the ordinary fit from the last good fit (no retry).
 ///
+/// **Second opinions.** A fit judged good can still be in a wrong minimum the frames before led
+/// it into (a hand under the chin read as an open mouth: a plausible shape, a residual under
+/// the checks) and stay there. With a source or faces offered, every
+/// [`TrackPolicy::recheck_frames`] good frames the tracker fits the frame again from the face
+/// found nearest the tracked one (a cold fit) and keeps whichever fits lower
+/// ([`Tracker::rechecks`] counts them).
+///
 /// **One pixel convention.** Frames come in at their own size, and everything going in and
 /// out (start landmarks and boxes, offered faces, what a [`FaceSource`] finds, the results'
 /// landmarks and poses) is in that frame's pixels. The tracker decides at what scale it fits
@@ -121,6 +128,12 @@ pub struct Tracker {
     /// True when faces are offered from elsewhere ([`Tracker::expect_offers`]): a lost face
     /// is searched for (offered faces are used) even without a source.
     offers: bool,
+    /// Good frames tracked since the last second opinion ([`TrackPolicy::recheck_frames`]).
+    since_check: u32,
+    /// Second opinions taken, and those kept.
+    rechecks: (u32, u32),
+    /// The tracked fit, kept while a second opinion is fitted.
+    tracked: FitResult,
 }
 
 impl Tracker {
@@ -163,6 +176,9 @@ impl Tracker {
             model_face_height,
             offered: None,
             offers: false,
+            since_check: 0,
+            rechecks: (0, 0),
+            tracked: empty_result(),
         })
     }
 
@@ -196,7 +212,9 @@ impl Tracker {
     /// Faces found elsewhere (a face finder on another thread, on a recent frame): landmarks in
     /// frame pixels, `2n` values each, most confident first. The next acquisition (the
     /// start of [`Tracker::start_searching`], or a lost face) fits from the one nearest the
-    /// last good position instead of asking the source; they are used once. Fails with
+    /// last good position instead of asking the source; offered while a face is tracked, they
+    /// give the next frame's second opinion ([`TrackPolicy::recheck_frames`]). They are used
+    /// once. Fails with
     /// [`Error::Params`] (keeping none) when a face has the wrong length or non-finite points.
     pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
         for f in &faces {
@@ -207,10 +225,27 @@ impl Tracker {
     }
 
     /// Whether the tracker is looking for a face (a sequence started with no landmarks, or a
-    /// lost face) and has no offered faces to try: the moment to run a finder on a frame and
-    /// [`Tracker::offer_faces`].
+    /// lost face) or a second opinion on the tracked face is due
+    /// ([`TrackPolicy::recheck_frames`]), faces are expected from elsewhere
+    /// ([`Tracker::expect_offers`]) and none are left to try: the moment to run a finder on a
+    /// frame and [`Tracker::offer_faces`].
     pub fn wants_faces(&self) -> bool {
-        self.started && self.searching && self.offers && self.offered.is_none()
+        self.started
+            && self.offers
+            && self.offered.is_none()
+            && (self.searching || self.recheck_due())
+    }
+
+    /// Whether the next tracked frame takes a second opinion ([`TrackPolicy::recheck_frames`]).
+    fn recheck_due(&self) -> bool {
+        let every = self.policy.recheck_frames;
+        every > 0 && self.last_good.is_some() && !self.was_lost && self.since_check >= every
+    }
+
+    /// Second opinions taken while tracking ([`TrackPolicy::recheck_frames`]), and how many
+    /// of them were kept (fitted lower than the tracked fit).
+    pub fn rechecks(&self) -> (u32, u32) {
+        self.rechecks
     }
 
     /// Starts a new sequence with no landmarks, with faces offered from elsewhere
@@ -286,6 +321,7 @@ impl Tracker {
         self.typical_error = 0.0;
         self.last_good = None;
         self.last = None;
+        self.since_check = 0;
     }
 
     /// Gives the tracker a source of faces (a face finder): it is asked when a face is lost
@@ -347,6 +383,57 @@ impl Tracker {
             Err(Error::Params(_)) => Ok(false),
             Err(e) => Err(e),
         }
+    }
+
+    /// When one is due ([`TrackPolicy::recheck_frames`]) or faces were offered, fits `frame`
+    /// again from the found face nearest the tracked one (a cold fit, as an acquisition) and
+    /// keeps whichever of the two fits has the lower residual (the second one only when
+    /// plausible); `fitted` holds the tracked fit on entry and the one kept on return.
+    fn second_opinion(&mut self, frame: &ImageRef<'_>) -> Result<()> {
+        let due = self.recheck_due();
+        let faces = match (self.offered.take(), self.source.as_mut()) {
+            (Some(faces), _) => faces,
+            (None, Some(source)) if due => source.faces(frame)?,
+            _ => return Ok(()),
+        };
+        self.since_check = 0;
+        for f in &faces {
+            check_len("found face landmarks", f, self.start.len())?;
+        }
+        let centre = |s: &[f32]| {
+            let n = (s.len() / 2).max(1) as f32;
+            (
+                s.iter().step_by(2).sum::<f32>() / n,
+                s.iter().skip(1).step_by(2).sum::<f32>() / n,
+            )
+        };
+        // The tracked face's centre and size: a found face elsewhere is another face.
+        let (cx, cy) = centre(&self.fitted.landmarks);
+        let (w, h) = extent(&self.fitted.landmarks);
+        let reach = 0.5 * w.max(h);
+        let near = |f: &[f32]| {
+            let (x, y) = centre(f);
+            (x - cx).hypot(y - cy) <= reach
+        };
+        let Some(face) = nearest_face(&faces, Some((cx, cy)), centre, near) else {
+            return Ok(());
+        };
+        self.rechecks.0 += 1;
+        std::mem::swap(&mut self.tracked, &mut self.fitted);
+        let opts = self.fitter.options();
+        let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
+        let starts = opts.coarse_starts;
+        let better = match self.fit(frame, From::Face(face), Some(cold_iters), starts) {
+            Ok(()) => self.fitted.error < self.tracked.error && self.plausible(&self.fitted, true),
+            Err(Error::Params(_)) => false,
+            Err(e) => return Err(e),
+        };
+        if better {
+            self.rechecks.1 += 1;
+        } else {
+            std::mem::swap(&mut self.tracked, &mut self.fitted);
+        }
+        Ok(())
     }
 
     /// Fits `frame` at the fit scale (deciding it from the start when there is none yet) from
@@ -454,11 +541,14 @@ impl Tracker {
             if !ok && (self.source.is_some() || self.offered.is_some()) {
                 reacquired = self.acquire(frame)?;
                 ok = reacquired;
+            } else if ok && !awaiting_offers {
+                self.second_opinion(frame)?;
             }
             ok
         };
         let tau = self.policy.recentre_tau;
         if ok {
+            self.since_check += 1;
             self.cold = false;
             self.searching = false;
             let mut r = std::mem::replace(&mut self.fitted, empty_result());

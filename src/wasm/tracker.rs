@@ -69,6 +69,7 @@ struct PolicyJs {
     native_band: f32,
     rescale_change: f32,
     recentre_tau: f32,
+    recheck_frames: u32,
 }
 
 impl From<&TrackPolicy> for PolicyJs {
@@ -81,6 +82,7 @@ impl From<&TrackPolicy> for PolicyJs {
             native_band: p.native_band,
             rescale_change: p.rescale_change,
             recentre_tau: p.recentre_tau,
+            recheck_frames: p.recheck_frames,
         }
     }
 }
@@ -96,6 +98,7 @@ struct PolicyPatch {
     native_band: Option<f32>,
     rescale_change: Option<f32>,
     recentre_tau: Option<f32>,
+    recheck_frames: Option<u32>,
 }
 
 #[wasm_bindgen(typescript_custom_section)]
@@ -115,6 +118,11 @@ export interface TrackPolicy {
   rescaleChange: number;
   /** Seconds in which the pose anchor follows the head (`placed`); 0: it stays at the sequence's first pose. */
   recentreTau: number;
+  /** While a face is tracked, every this many frames `wantsFaces` turns true and the faces
+   *  offered give a second opinion: a fit from the one nearest the tracked face, kept when it
+   *  fits lower (a fit led into a wrong minimum, a hand under the chin read as an open mouth,
+   *  comes back). 0: never. */
+  recheckFrames: number;
 }
 "##;
 
@@ -261,7 +269,7 @@ impl WasmTracker {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "Partial<TrackPolicy>")] policy: JsValue,
     ) -> Result<(), JsError> {
-        const KEYS: [&str; 7] = [
+        const KEYS: [&str; 8] = [
             "appearanceLimit",
             "maxFitSide",
             "minFitSide",
@@ -269,6 +277,7 @@ impl WasmTracker {
             "nativeBand",
             "rescaleChange",
             "recentreTau",
+            "recheckFrames",
         ];
         if !policy.is_object() {
             return Err(JsError::new("tracker: setPolicy expects an object"));
@@ -293,6 +302,7 @@ impl WasmTracker {
             native_band: patch.native_band.unwrap_or(base.native_band),
             rescale_change: patch.rescale_change.unwrap_or(base.rescale_change),
             recentre_tau: patch.recentre_tau.unwrap_or(base.recentre_tau),
+            recheck_frames: patch.recheck_frames.unwrap_or(base.recheck_frames),
         };
         self.inner.set_policy(p).map_err(err)
     }
@@ -301,6 +311,18 @@ impl WasmTracker {
     #[wasm_bindgen(getter)]
     pub fn resets(&self) -> u32 {
         self.inner.resets()
+    }
+
+    /// Second opinions taken while tracking (`policy.recheckFrames`).
+    #[wasm_bindgen(getter)]
+    pub fn rechecks(&self) -> u32 {
+        self.inner.rechecks().0
+    }
+
+    /// Second opinions kept (they fitted lower than the tracked fit).
+    #[wasm_bindgen(getter, js_name = rechecksKept)]
+    pub fn rechecks_kept(&self) -> u32 {
+        self.inner.rechecks().1
     }
 }
 
@@ -438,7 +460,8 @@ macro_rules! shared_calls {
 
             /// Faces found in a recent frame, in the frame's pixels, most confident first:
             /// `FaceFinder.find`'s result (objects with `landmarks`) or arrays of `2n` values.
-            /// The next acquisition takes the one nearest the last face. Throws for a wrong
+            /// The next acquisition (or a `Tracker`'s second opinion) takes the one nearest
+            /// the last face. Throws for a wrong
             /// number of points or non-finite ones (nothing is kept then).
             #[wasm_bindgen(js_name = offerFaces)]
             pub fn offer_faces(
@@ -453,8 +476,9 @@ macro_rules! shared_calls {
             }
 
             /// True while a face is looked for (a search, or a lost face with offers
-            /// expected) and no offered faces are left to try: the moment to run a finder and
-            /// `offerFaces`.
+            /// expected), or a `Tracker`'s second opinion on a tracked face is due
+            /// (`policy.recheckFrames`), and no offered faces are left to try: the moment to
+            /// run a finder and `offerFaces`.
             #[wasm_bindgen(getter, js_name = wantsFaces)]
             pub fn wants_faces(&self) -> bool {
                 self.inner.wants_faces()

@@ -15,8 +15,9 @@
 // is a lost face, which found face to (re-)acquire, and the head placement: each result carries
 // `placed`, its pose re-centred on the model's mean pose about an anchor that follows the head
 // (fixed for the clip, so the clip's motion is reproduced exactly). The page feeds it faces found
-// off the main thread when it `wantsFaces` (at the start of a search and while the face is lost),
-// shows "face lost" while it is, and recovers without a click. Everything the tracker is given
+// off the main thread when it `wantsFaces` (at the start of a search, while the face is lost, and
+// every `policy.recheckFrames` tracked frames for a second opinion on the tracked face), shows
+// "face lost" while it is, and recovers without a click. Everything the tracker is given
 // and returns is in the work canvas's pixels: one call a frame, no conversion.
 //
 // This module is the source and its frame loop; tracking-open.js opens the media and starts
@@ -291,7 +292,7 @@ class VideoSource {
       this.invalidate();
     }
     this.logFit(r, mediaTime, ms);
-    // Looking for the face (none yet, or lost): the worker finds faces for the tracker.
+    // Looking for the face (none yet, or lost) or a second opinion due: the worker finds faces.
     if (this.tracker.wantsFaces && !this.media.still) this.feedFinder();
     // The call page renders and logs every fit, lost or not (www/js/call-avatar.js).
     if (typeof this.ctx.onFit === 'function') this.ctx.onFit(r, this.params);
