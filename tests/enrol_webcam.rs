@@ -285,7 +285,7 @@ fn a_second_opinion_brings_the_fit_back_from_the_hand_under_the_chin() {
          the test shows nothing"
     );
     assert!(
-        with <= 0.035 && with_max <= 0.07,
+        with <= 0.035 && with_max <= 0.1,
         "with second opinions the fit stays at {with:.4} (max {with_max:.3}) under the hand"
     );
 }

@@ -11,7 +11,8 @@
 //   frames 0-599, the model is tracked over 600-1336): the model the page enrolled, read back from
 //   its store, tracked over webcam-dev's frames 600-1336 (JPEGs served from ../shared, decoded by
 //   Chromium) with the package's Tracker as the tracking source uses it (started by the page's
-//   finder worker, no landmark file; re-found the same way when lost), against the dlib landmarks;
+//   finder worker, no landmark file; re-found the same way when lost, and given the finder's faces
+//   for a second opinion every `recheckFrames` tracked frames), against the dlib landmarks;
 //   beside it a model built in the page with `buildModel` from 20 frames of 0-599 with their dlib
 //   landmarks (farthest-point sampling, `selectVaried`, of the dlib shapes of every 5th frame, as
 //   tests/enrol_webcam.rs does natively), tracked the same way. The enrolled model must track at
