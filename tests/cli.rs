@@ -585,7 +585,8 @@ fn build_precision_and_inspect_version() {
 
 /// `fit --init auto`: the face finder starts the track (GRID spk07, model built from the
 /// `spk07_pwij3p` clip, tracked on the unseen `spk07_id2_vcd_swwp2s` clip); the CSV has a
-/// `lost` column and the summary counts re-acquisitions.
+/// `lost` column and the summary counts re-acquisitions and the second opinions (one every 15
+/// tracked frames: one in 20 frames).
 #[test]
 fn fit_starts_from_the_face_finder() {
     let dir = scratch("fit-auto");
@@ -597,7 +598,7 @@ fn fit_starts_from_the_face_finder() {
         &"--out",
         &model,
     ]);
-    let frames: Vec<PathBuf> = (0..10)
+    let frames: Vec<PathBuf> = (0..20)
         .map(|i| grid(&format!("spk07_id2_vcd_swwp2s/{i:06}.jpg")))
         .collect();
     let csv = dir.join("track.csv");
@@ -609,6 +610,7 @@ fn fit_starts_from_the_face_finder() {
     }
     let out = ok(&args);
     assert!(out.contains("0 lost, 1 re-acquisitions"), "{out}");
+    assert!(out.contains(", 1 second opinions ("), "{out}");
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     assert!(lines.next().unwrap().starts_with("frame,lost,converged,"));

@@ -124,12 +124,14 @@ pub fn run(a: Args) -> Result<()> {
     crate::print_line(&format!(
         "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
          {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
-         fit scale {:.3} -> {}",
+         {} second opinions ({} kept), fit scale {:.3} -> {}",
         frames as f64 / secs.max(1e-9),
         1e3 * secs / frames.max(1) as f64,
         tracker.resets(),
         tracker.sequence().lost_count(),
         tracker.sequence().reacquisitions(),
+        tracker.rechecks().0,
+        tracker.rechecks().1,
         tracker.scale(),
         a.out.display()
     ))
