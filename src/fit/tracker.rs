@@ -418,7 +418,7 @@ impl Tracker {
         let Some(face) = nearest_face(&faces, Some((cx, cy)), centre, near) else {
             return Ok(());
         };
-        self.rechecks.0 += 1;
+        self.rechecks.0 = self.rechecks.0.saturating_add(1);
         std::mem::swap(&mut self.tracked, &mut self.fitted);
         let opts = self.fitter.options();
         let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
@@ -429,7 +429,7 @@ impl Tracker {
             Err(e) => return Err(e),
         };
         if better {
-            self.rechecks.1 += 1;
+            self.rechecks.1 = self.rechecks.1.saturating_add(1);
         } else {
             std::mem::swap(&mut self.tracked, &mut self.fitted);
         }
@@ -548,7 +548,7 @@ impl Tracker {
         };
         let tau = self.policy.recentre_tau;
         if ok {
-            self.since_check += 1;
+            self.since_check = self.since_check.saturating_add(1);
             self.cold = false;
             self.searching = false;
             let mut r = std::mem::replace(&mut self.fitted, empty_result());
