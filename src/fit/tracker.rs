@@ -361,22 +361,13 @@ impl Tracker {
         for f in &faces {
             check_len("found face landmarks", f, self.start.len())?;
         }
-        let centre = |s: &[f32]| {
-            let n = (s.len() / 2).max(1) as f32;
-            (
-                s.iter().step_by(2).sum::<f32>() / n,
-                s.iter().skip(1).step_by(2).sum::<f32>() / n,
-            )
-        };
-        let near = self.last_good.as_ref().map(|g| centre(&g.landmarks));
-        let Some(face) = nearest_face(&faces, near, centre, |_| true) else {
+        let near = self.last_good.as_ref().map(|g| centroid(&g.landmarks));
+        let Some(face) = nearest_face(&faces, near, centroid, |_| true) else {
             return Ok(false);
         };
         // The scale for the face acquired (kept when near the one in use).
         self.k = self.fit_scale(extent(face).1, frame.width(), frame.height(), self.k);
-        let opts = self.fitter.options();
-        let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
-        let starts = opts.coarse_starts;
+        let (cold_iters, starts) = (self.cold_iters(), self.fitter.options().coarse_starts);
         match self.fit(frame, From::Face(face), Some(cold_iters), starts) {
             Ok(()) => Ok(self.plausible(&self.fitted, false)),
             // A degenerate found face is no face.
@@ -400,33 +391,27 @@ impl Tracker {
         for f in &faces {
             check_len("found face landmarks", f, self.start.len())?;
         }
-        let centre = |s: &[f32]| {
-            let n = (s.len() / 2).max(1) as f32;
-            (
-                s.iter().step_by(2).sum::<f32>() / n,
-                s.iter().skip(1).step_by(2).sum::<f32>() / n,
-            )
-        };
         // The tracked face's centre and size: a found face elsewhere is another face.
-        let (cx, cy) = centre(&self.fitted.landmarks);
+        let (cx, cy) = centroid(&self.fitted.landmarks);
         let (w, h) = extent(&self.fitted.landmarks);
         let reach = 0.5 * w.max(h);
         let near = |f: &[f32]| {
-            let (x, y) = centre(f);
+            let (x, y) = centroid(f);
             (x - cx).hypot(y - cy) <= reach
         };
-        let Some(face) = nearest_face(&faces, Some((cx, cy)), centre, near) else {
+        let Some(face) = nearest_face(&faces, Some((cx, cy)), centroid, near) else {
             return Ok(());
         };
         self.rechecks.0 = self.rechecks.0.saturating_add(1);
         std::mem::swap(&mut self.tracked, &mut self.fitted);
-        let opts = self.fitter.options();
-        let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
-        let starts = opts.coarse_starts;
+        let (cold_iters, starts) = (self.cold_iters(), self.fitter.options().coarse_starts);
         let better = match self.fit(frame, From::Face(face), Some(cold_iters), starts) {
             Ok(()) => self.fitted.error < self.tracked.error && self.plausible(&self.fitted, true),
             Err(Error::Params(_)) => false,
-            Err(e) => return Err(e),
+            Err(e) => {
+                std::mem::swap(&mut self.tracked, &mut self.fitted);
+                return Err(e);
+            }
         };
         if better {
             self.rechecks.1 = self.rechecks.1.saturating_add(1);
@@ -434,6 +419,13 @@ impl Tracker {
             std::mem::swap(&mut self.tracked, &mut self.fitted);
         }
         Ok(())
+    }
+
+    /// Iterations (project-out, appearance-aware) of a cold fit: a start from a box or a found
+    /// face, or a retry; 3x the options' (at least 10 and 3).
+    fn cold_iters(&self) -> (u32, u32) {
+        let opts = self.fitter.options();
+        (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3)
     }
 
     /// Fits `frame` at the fit scale (deciding it from the start when there is none yet) from
@@ -518,8 +510,8 @@ impl Tracker {
             reacquired = self.acquire(frame)?;
             reacquired
         } else {
+            let cold_iters = self.cold_iters();
             let opts = self.fitter.options();
-            let cold_iters = (opts.max_iters.max(10) * 3, opts.refine_iters.max(3) * 3);
             let (coarse, tracking) = (opts.coarse_starts, opts.tracking_starts);
             let first = if self.cold { Some(cold_iters) } else { None };
             let starts = if first.is_some() { coarse } else { tracking };
@@ -728,6 +720,15 @@ pub(super) fn nearest_face(
         .map(Vec::as_slice)
         .filter(|f| f.iter().all(|v| v.is_finite()) && ok(f))
         .min_by(|a, b| d(a).total_cmp(&d(b)))
+}
+
+/// The mean of interleaved points: where a face is, to pick the found face nearest it.
+fn centroid(s: &[f32]) -> (f32, f32) {
+    let n = (s.len() / 2).max(1) as f32;
+    (
+        s.iter().step_by(2).sum::<f32>() / n,
+        s.iter().skip(1).step_by(2).sum::<f32>() / n,
+    )
 }
 
 /// Width and height of the bounding box of interleaved points.
