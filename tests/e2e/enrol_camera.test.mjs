@@ -327,6 +327,15 @@ test('enrolment from the webcam: stored, survives a reload, tracks the unseen fr
   assert.ok(lost <= log.length / 4, `${lost} of ${log.length} frames lost`);
   assert.ok((await page.textContent('.face-card.source')).includes('Webcam man'));
   await assertTargetsMove(page, 1000);
+  // Second opinions (the tracker's policy.recheckFrames): the page's finder worker gives the
+  // tracker faces every 15 tracked frames, not only when the face is lost.
+  await page.waitForFunction(() => window.facemimicTracking.tracker.rechecks >= 2, null, { timeout: 30_000 });
+  const second = await page.evaluate(() => {
+    const s = window.facemimicTracking;
+    return { taken: s.tracker.rechecks, kept: s.tracker.rechecksKept, fits: s.log.length, finds: s.findLog.length, every: s.tracker.policy.recheckFrames };
+  });
+  console.log(`# second opinions while tracking with the enrolled model: ${second.taken} taken (${second.kept} kept) in ${second.fits} fits, ${second.finds} finder runs; one due every ${second.every} tracked frames`);
+  assert.equal(second.every, 15);
   await screenshot(page, 'enrol-webcam-drives-targets', { fullPage: false });
 
   // Enrolling again while the webcam source tracks: both find faces with the page's one finder
