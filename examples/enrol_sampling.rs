@@ -1,6 +1,7 @@
-//! The page's live enrolment, simulated over many timings, on webcam-dev (research data in
-//! ../shared, never committed). **Split:** models are built from frames 0-599 only; each is
-//! tracked over the unseen frames 600-1336.
+//! The page's live enrolment, simulated over many timings, on webcam-dev or franck-dev2
+//! (research data in ../shared, never committed). **Split:** webcam-dev's models are built from
+//! frames 0-599 only and tracked over the unseen frames 600-1336; franck-dev2's (never in any
+//! training list) from its first half, 3800-4299, and tracked over the second, 4300-4799.
 //!
 //! The page samples the webcam as fast as its finder worker allows, so which frames it keeps
 //! depends on the machine's timing: a search every 4.5-6.5 frames here (150-217 ms at 30 fps,
@@ -14,6 +15,7 @@
 //! a frame (the finder's time not counted: in the page it runs in its worker).
 //!
 //!   cargo run --release --example enrol_sampling -- [samplings (20)] [--recheck N] [--seed S]
+//!       [--clip webcam-dev|franck-dev2]
 //!
 //! `--recheck N` sets [`TrackPolicy::recheck_frames`] (0: no second opinions).
 #![cfg_attr(target_arch = "wasm32", no_main)]
@@ -139,7 +141,18 @@ mod native {
         let recheck =
             value("--recheck").map_or(TrackPolicy::default().recheck_frames, |v| v as u32);
         let mut rng = Rng(value("--seed").unwrap_or(0x9E37_79B9_7F4A_7C15).max(1));
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/webcam-dev");
+        let clip = args
+            .iter()
+            .position(|a| a == "--clip")
+            .map_or("webcam-dev", |i| args[i + 1].as_str());
+        let (build, measure) = match clip {
+            "webcam-dev" => (0..600, 600..1337),
+            "franck-dev2" => (3800..4300, 4300..4800),
+            other => panic!("--clip {other}: webcam-dev or franck-dev2"),
+        };
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../shared/data")
+            .join(clip);
         if !dir.is_dir() {
             eprintln!(
                 "{} is absent (research data, never committed)",
@@ -148,8 +161,8 @@ mod native {
             std::process::exit(2);
         }
         let frame = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
-        let frames: Vec<TrainingImage> = (0..600).map(frame).collect();
-        let test: Vec<TrainingImage> = (600..1337).map(frame).collect();
+        let frames: Vec<TrainingImage> = build.clone().map(frame).collect();
+        let test: Vec<TrainingImage> = measure.clone().map(frame).collect();
         let mut enrol = EnrolFinder::new(1).unwrap();
         let points: Vec<Option<Vec<f32>>> = frames
             .iter()
@@ -159,13 +172,16 @@ mod native {
             })
             .collect();
         let mut finder = FaceFinder::new().unwrap();
-        println!("webcam-dev: built from 0-599, tracked over 600-1336; recheck_frames {recheck}");
+        println!(
+            "{clip}: built from {build:?}, tracked over {measure:?}; recheck_frames {recheck}"
+        );
         let mut means = Vec::new();
         for s in 0..samplings {
             let kept = sample(&points, &mut rng);
             let mut pick = select_varied(&shapes(&points, &kept), 20).unwrap();
             pick.sort_unstable();
             let picked: Vec<usize> = pick.iter().map(|&k| kept[k]).collect();
+            let named: Vec<usize> = picked.iter().map(|&i| build.start + i).collect();
             let images: Vec<TrainingImage> = picked
                 .iter()
                 .map(|&i| {
@@ -182,7 +198,7 @@ mod native {
             let model = with_default_backdrop(model, &images, None).unwrap();
             let r = track(&model, &test, &mut finder, recheck);
             println!(
-                "sampling {s:2}: {} kept, built from {picked:?}: mean {:.4} max {:.3}, {} lost, \
+                "sampling {s:2}: {} kept, built from {named:?}: mean {:.4} max {:.3}, {} lost, \
                  second opinions {} taken {} kept, {:.2} ms a frame (slowest {:.1})",
                 kept.len(),
                 r.mean,
