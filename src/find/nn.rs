@@ -133,23 +133,24 @@ pub(crate) fn matmul(
     post: Post,
     out: &mut [f32],
 ) {
+    let p = Product {
+        a,
+        k,
+        rows: a.len().checked_div(k).unwrap_or(0),
+        f,
+        fs,
+        bias,
+        post,
+    };
     #[cfg(target_arch = "x86_64")]
     {
         // The same loops compiled for 256-bit registers where the CPU has them ([`arch`]):
         // plain multiplies and adds in the same order (no fused multiply-add), so the results
         // are the same bits as with SSE2 and in wasm32.
-        arch().dispatch(MatMul {
-            a,
-            k,
-            f,
-            fs,
-            bias,
-            post,
-            out,
-        });
+        arch().dispatch(MatMul { p, out });
     }
     #[cfg(not(target_arch = "x86_64"))]
-    matmul_in(a, k, f, fs, bias, post, out);
+    matmul_in(p, out);
 }
 
 /// The CPU's instruction sets, checked once: `pulp`'s dispatch runs a kernel compiled for the
@@ -160,15 +161,36 @@ pub(crate) fn arch() -> &'static pulp::Arch {
     ARCH.get_or_init(pulp::Arch::new)
 }
 
-/// [`matmul`]'s arguments, for `pulp`'s dispatch.
-#[cfg(target_arch = "x86_64")]
-struct MatMul<'a> {
+/// [`matmul`]'s operands: `rows` rows of `k` values in `a`, `f` with rows of `fs` values,
+/// one output channel per value of `bias`, each sum through `post`.
+#[derive(Clone, Copy)]
+struct Product<'a> {
     a: &'a [f32],
     k: usize,
+    rows: usize,
     f: &'a [f32],
     fs: usize,
     bias: &'a [f32],
     post: Post<'a>,
+}
+
+impl<'a> Product<'a> {
+    /// The product's output channels `c..`: `f`, `bias` and `post` from channel `c` on.
+    #[inline(always)]
+    fn at_channel(self, c: usize) -> Product<'a> {
+        Product {
+            f: &self.f[c..],
+            bias: &self.bias[c..],
+            post: self.post.at_channel(c),
+            ..self
+        }
+    }
+}
+
+/// [`matmul`]'s operands and output, for `pulp`'s dispatch.
+#[cfg(target_arch = "x86_64")]
+struct MatMul<'a> {
+    p: Product<'a>,
     out: &'a mut [f32],
 }
 
@@ -178,90 +200,73 @@ impl pulp::WithSimd for MatMul<'_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) {
-        matmul_in(
-            self.a, self.k, self.f, self.fs, self.bias, self.post, self.out,
-        );
+        matmul_in(self.p, self.out);
     }
 }
 
 /// [`matmul`]'s loops, inlined into its caller (so into `pulp`'s dispatch, compiled for the
 /// CPU's registers). Blocks of 16 channels under AVX2 were slower than 8 (measured).
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn matmul_in(a: &[f32], k: usize, f: &[f32], fs: usize, bias: &[f32], post: Post, out: &mut [f32]) {
-    let n = bias.len();
-    debug_assert!(fs >= n && (k == 0 || f.len() >= (k - 1) * fs + n));
-    let rows = a.len().checked_div(k).unwrap_or(0);
-    debug_assert_eq!(out.len(), rows * n);
-    let c0 = channel_blocks::<BLOCK_COUT>(0, a, k, rows, f, fs, bias, post, out);
-    let c0 = channel_blocks::<4>(c0, a, k, rows, f, fs, bias, post, out);
+fn matmul_in(p: Product, out: &mut [f32]) {
+    let n = p.bias.len();
+    debug_assert!(p.fs >= n && (p.k == 0 || p.f.len() >= (p.k - 1) * p.fs + n));
+    debug_assert_eq!(out.len(), p.rows * n);
+    let c0 = channel_blocks::<BLOCK_COUT>(0, p, out);
+    let c0 = channel_blocks::<4>(c0, p, out);
     // The last `n % 4` channels: a block of their own (sums in registers, not in `out`).
     match n - c0 {
-        1 => channel_blocks::<1>(c0, a, k, rows, f, fs, bias, post, out),
-        2 => channel_blocks::<2>(c0, a, k, rows, f, fs, bias, post, out),
-        3 => channel_blocks::<3>(c0, a, k, rows, f, fs, bias, post, out),
+        1 => channel_blocks::<1>(c0, p, out),
+        2 => channel_blocks::<2>(c0, p, out),
+        3 => channel_blocks::<3>(c0, p, out),
         _ => c0,
     };
 }
 
 /// Output channels `c0..` of [`matmul_in`] (`n = bias.len()` in all) in blocks of `N` while a
 /// whole block fits ([`channel_block`]); the first channel left.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn channel_blocks<const N: usize>(
-    c0: usize,
-    a: &[f32],
-    k: usize,
-    rows: usize,
-    f: &[f32],
-    fs: usize,
-    bias: &[f32],
-    post: Post,
-    out: &mut [f32],
-) -> usize {
-    let n = bias.len();
+fn channel_blocks<const N: usize>(c0: usize, p: Product, out: &mut [f32]) -> usize {
+    let n = p.bias.len();
     let mut c = c0;
     while c + N <= n {
-        let post = post.at_channel(c);
-        channel_block::<N>(a, k, rows, &f[c..], fs, &bias[c..], post, &mut out[c..], n);
+        channel_block::<N>(p.at_channel(c), &mut out[c..], n);
         c += N;
     }
     c
 }
 
-/// Output channels `0..N` of `f`, `bias` and `out` (slices starting at the block's first
-/// channel) for all `rows` rows of `a`: [`BLOCK_ROWS`] rows at a time, then one at a time.
-#[allow(clippy::too_many_arguments)]
+/// Output channels `0..N` of `p` (taken from the block's first channel on, `out` too) for all
+/// its rows, `out` having rows of `n` values: [`BLOCK_ROWS`] rows at a time, then one at a
+/// time.
 #[inline(always)]
-fn channel_block<const N: usize>(
-    a: &[f32],
-    k: usize,
-    rows: usize,
-    f: &[f32],
-    fs: usize,
-    bias: &[f32],
-    post: Post,
-    out: &mut [f32],
-    n: usize,
-) {
+fn channel_block<const N: usize>(p: Product, out: &mut [f32], n: usize) {
+    let Product {
+        a,
+        k,
+        rows,
+        f,
+        fs,
+        bias,
+        post,
+    } = p;
     let b: &[f32; N] = bias[..N].try_into().unwrap();
-    let mut p = 0;
-    while p + BLOCK_ROWS <= rows {
+    let mut r = 0;
+    while r + BLOCK_ROWS <= rows {
         kernel::<N, BLOCK_ROWS>(
-            &a[p * k..][..BLOCK_ROWS * k],
+            &a[r * k..][..BLOCK_ROWS * k],
             k,
             f,
             fs,
             b,
             post,
-            &mut out[p * n..],
+            &mut out[r * n..],
             n,
         );
-        p += BLOCK_ROWS;
+        r += BLOCK_ROWS;
     }
-    while p < rows {
-        kernel::<N, 1>(&a[p * k..][..k], k, f, fs, b, post, &mut out[p * n..], n);
-        p += 1;
+    while r < rows {
+        kernel::<N, 1>(&a[r * k..][..k], k, f, fs, b, post, &mut out[r * n..], n);
+        r += 1;
     }
 }
 
