@@ -440,26 +440,39 @@ fn crop(image: &ImageRef, roi: &Roi, n: usize, s: &mut CropScratch, out: &mut Ma
 /// 3`), then those down each output row's span; a span's first and last pixels count by the
 /// part of them it covers. About a sixth of the work of [`sample`]'s 4x4 bilinear samples per
 /// output pixel on a 640x480 frame, and an exact box filter where those approximate one.
-fn letterbox(
+fn letterbox(image: &ImageRef, n: usize, scratch: (&mut Taps, &mut Vec<f32>), out: &mut Map) {
+    letterbox_by(image, n, scratch, out, across_rows);
+}
+
+/// Spans of [`letterbox_spans`]: `(output, input, overlap in pixels)`.
+type Taps = Vec<(usize, usize, f32)>;
+
+/// [`letterbox`] with its pass across the image's rows given: `across(data, w, taps, rows,
+/// n)` sums every image row of `data` (RGBA rows of `w` pixels) into `n` RGB sums a row by the
+/// column spans `taps`, into the zeroed `rows` (`h x n x 3`).
+fn letterbox_by(
     image: &ImageRef,
     n: usize,
-    (taps, rows): (&mut Vec<(usize, usize, f32)>, &mut Vec<f32>),
+    (taps, rows): (&mut Taps, &mut Vec<f32>),
     out: &mut Map,
+    across: impl Fn(&[u8], usize, &[(usize, usize, f32)], &mut [f32], usize),
 ) {
     let (w, h) = (image.width() as usize, image.height() as usize);
     let side = w.max(h) as f32;
     let step = side / n as f32;
-    let norm = 2.0 / (step * step * 255.0);
-    let spans =
-        |len: usize, taps: &mut Vec<(usize, usize, f32)>| letterbox_spans(side, step, n, len, taps);
-    // Across: every image row into n columns (sums of pixel values times overlaps), each
-    // output's sum made in registers (RGBA lanes, alpha dropped) in the order of its taps, from
-    // 0: the sums `d += c p` into a zeroed row made, bit for bit. Four image rows at a time
-    // (one pass over the taps for the four).
-    spans(w, taps);
+    letterbox_spans(side, step, n, w, taps);
     rows.clear();
     rows.resize(h * n * 3, 0.0);
-    let data = image.data();
+    across(image.data(), w, taps, rows, n);
+    letterbox_spans(side, step, n, h, taps);
+    letterbox_down(rows, taps, n, 2.0 / (step * step * 255.0), out);
+}
+
+/// [`letterbox`]'s pass across: every image row into n columns (sums of pixel values times
+/// overlaps), each output's sum made in registers (RGBA lanes, alpha dropped) in the order of
+/// its taps, from 0: the sums `d += c p` into a zeroed row made, bit for bit. Four image rows
+/// at a time (one pass over the taps for the four).
+fn across_rows(data: &[u8], w: usize, taps: &[(usize, usize, f32)], rows: &mut [f32], n: usize) {
     let mut src = data.chunks_exact(4 * w * 4);
     let mut dst = rows.chunks_exact_mut(4 * n * 3);
     for (src, dst) in (&mut src).zip(&mut dst) {
@@ -472,8 +485,6 @@ fn letterbox(
     {
         across::<1>(src, w, taps, dst, n);
     }
-    spans(h, taps);
-    letterbox_down(rows, taps, n, norm, out);
 }
 
 /// Per output index of [`letterbox`] (`n` of them, each `step` pixels of the centred square of
@@ -656,30 +667,17 @@ mod tests {
         }
     }
 
-    /// The letterbox as first written (`d += c p` into zeroed rows, tap by tap): what
-    /// [`letterbox`] must give bit for bit.
-    fn letterbox_plain(
-        image: &ImageRef,
+    /// The pass across as first written (`d += c p` into zeroed rows, tap by tap): with it,
+    /// [`letterbox_by`] gives what [`letterbox`] must give bit for bit.
+    fn across_plain(
+        data: &[u8],
+        w: usize,
+        taps: &[(usize, usize, f32)],
+        rows: &mut [f32],
         n: usize,
-        (taps, rows): (&mut Vec<(usize, usize, f32)>, &mut Vec<f32>),
-        out: &mut Map,
     ) {
-        let (w, h) = (image.width() as usize, image.height() as usize);
-        let side = w.max(h) as f32;
-        let step = side / n as f32;
-        let norm = 2.0 / (step * step * 255.0);
-        let spans = |len: usize, taps: &mut Vec<(usize, usize, f32)>| {
-            letterbox_spans(side, step, n, len, taps)
-        };
-        // Across: every image row into n columns (sums of pixel values times overlaps).
-        spans(w, taps);
-        rows.clear();
-        rows.resize(h * n * 3, 0.0);
-        let data = image.data();
-        for y in 0..h {
-            let src = &data[y * w * 4..(y + 1) * w * 4];
-            let dst = &mut rows[y * n * 3..(y + 1) * n * 3];
-            for &(o, i, c) in taps.iter() {
+        for (src, dst) in data.chunks_exact(w * 4).zip(rows.chunks_exact_mut(n * 3)) {
+            for &(o, i, c) in taps {
                 let p = &src[i * 4..i * 4 + 3];
                 let d = &mut dst[o * 3..o * 3 + 3];
                 d[0] += c * f32::from(p[0]);
@@ -687,8 +685,6 @@ mod tests {
                 d[2] += c * f32::from(p[2]);
             }
         }
-        spans(h, taps);
-        letterbox_down(rows, taps, n, norm, out);
     }
 
     #[test]
@@ -704,7 +700,7 @@ mod tests {
             let data = noise(w, h);
             let image = ImageRef::new(w, h, &data).unwrap();
             let mut want = Map::default();
-            letterbox_plain(&image, 128, (&mut taps, &mut rows), &mut want);
+            letterbox_by(&image, 128, (&mut taps, &mut rows), &mut want, across_plain);
             let mut got = Map {
                 data: vec![f32::NAN; 10],
                 ..Map::default()
