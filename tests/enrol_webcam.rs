@@ -237,12 +237,7 @@ fn a_second_opinion_brings_the_fit_back_from_the_hand_under_the_chin() {
             f
         })
         .collect();
-    let model = Builder::new(BuildOptions {
-        name: "webcam man".into(),
-        ..BuildOptions::default()
-    })
-    .build(&images, None)
-    .unwrap();
+    let model = build("webcam man", &images);
     let test: Vec<TrainingImage> = (1100..1337).map(|i| frame(&dir, i)).collect();
     let run = |recheck_frames: u32| {
         let mut finder = facemimic::FaceFinder::new().unwrap();
