@@ -199,6 +199,7 @@ test('the bundled clip plays and is tracked live, driving the source and the tar
   // The readouts show the tracking state and speed.
   const readouts = await page.$$eval('.trk-stats dd', (dds) => Object.fromEntries(dds.map((d) => [d.dataset.k, d.textContent])));
   assert.match(readouts.error, /^0\.\d{3}$/, `fit error readout: ${readouts.error}`);
+  assert.deepEqual(await page.$$eval('.trk-stats dt', (ds) => ds.map((d) => d.textContent)), ['fit error', 'iterations', 'fits / s', 'ms / fit', 'lost · reinit']);
   assert.ok(Number(readouts.fps) > 5, `fits per second readout: ${readouts.fps}`);
   assert.ok(Number(readouts.ms) > 0, `ms per fit readout: ${readouts.ms}`);
   assert.match(readouts.lost, /^0 · \d+$/, `lost readout: ${readouts.lost}`);
@@ -439,6 +440,11 @@ test('the webcam auto-starts on a face in the guide and tracks it live', async (
   assert.match(await page.$eval('.trk-path', (e) => e.textContent), /Following landmarks/);
   assert.equal(await page.$eval('.trk-path button', (e) => e.textContent), 'Create a face');
   assert.equal(await tracking(page, () => window.facemimicTracking.tracker.path), 'landmarks');
+  // Its readout is the face mesh's (no AAM is fitted): the score, the passes, frames a second.
+  const stats = await page.$$eval('.trk-stats div', (ds) => Object.fromEntries(ds.map((d) => [d.querySelector('dd').dataset.k, [d.querySelector('dt').textContent, d.querySelector('dd').textContent]])));
+  assert.deepEqual([stats.error[0], stats.iterations[0], stats.fps[0], stats.ms[0]], ['face score', 'mesh passes', 'frames / s', 'ms / frame']);
+  assert.match(stats.error[1], /^(0\.[5-9]\d\d|1\.000)$/, `face score readout: ${stats.error[1]}`);
+  assert.match(stats.iterations[1], /^[12]$/, `mesh passes readout: ${stats.iterations[1]}`);
   await screenshot(page, 'tracking-webcam-face', { fullPage: false });
   assert.deepEqual(errors, []);
 });

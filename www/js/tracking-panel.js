@@ -51,10 +51,20 @@ export const panelMethods = {
       const dd = el('dd', { 'data-k': key, text: '–' });
       return [el('div', { title }, el('dt', { text: label }), dd), dd];
     };
-    const [sErr, dErr] = stat('error', 'fit error', 'RMS grey-level residual of the last fit (0..1)');
-    const [sIt, dIt] = stat('iterations', 'iterations', 'Iterations of the last fit (converged or not)');
-    const [sFps, dFps] = stat('fps', 'fits / s', 'Frames fitted in the last second');
-    const [sMs, dMs] = stat('ms', 'ms / fit', 'Time per fit (smoothed), reading the frame excluded');
+    // Following landmarks (www/js/follow-path.js) fits no AAM: its readout is the face mesh's.
+    const follow = this.path === 'landmarks';
+    const [sErr, dErr] = follow
+      ? stat('error', 'face score', "The face mesh's confidence that the followed region is a face (0..1; – on a frame the finder's search gave)")
+      : stat('error', 'fit error', 'RMS grey-level residual of the last fit (0..1)');
+    const [sIt, dIt] = follow
+      ? stat('iterations', 'mesh passes', 'Face-mesh passes run near the last face this frame (1 while following, 2 from a box; the search not counted)')
+      : stat('iterations', 'iterations', 'Iterations of the last fit (converged or not)');
+    const [sFps, dFps] = follow
+      ? stat('fps', 'frames / s', 'Frames followed in the last second')
+      : stat('fps', 'fits / s', 'Frames fitted in the last second');
+    const [sMs, dMs] = follow
+      ? stat('ms', 'ms / frame', 'Time per frame followed (smoothed), reading the frame excluded')
+      : stat('ms', 'ms / fit', 'Time per fit (smoothed), reading the frame excluded');
     const [sLost, dLost] = stat('lost', 'lost · reinit', 'Frames reported lost · re-initialisations, this sequence');
     this.readout = { error: dErr, iterations: dIt, fps: dFps, ms: dMs, lost: dLost };
 
@@ -284,13 +294,21 @@ export const panelMethods = {
     const set = (k, v) => {
       if (this.readout[k].textContent !== v) this.readout[k].textContent = v;
     };
-    set('error', r ? r.error.toFixed(3) : '–');
-    set('iterations', r ? `${r.iterations}${r.converged ? '' : ' (max)'}` : '–');
+    if (this.path === 'landmarks') {
+      // The Follower's `error` is 1 minus the mesh's face score (0 when a search gave the face).
+      set('error', r && r.iterations > 0 ? (1 - r.error).toFixed(3) : '–');
+      set('iterations', r ? String(r.iterations) : '–');
+    } else {
+      set('error', r ? r.error.toFixed(3) : '–');
+      set('iterations', r ? `${r.iterations}${r.converged ? '' : ' (max)'}` : '–');
+    }
     set('fps', String(this.fitTimes.length));
     set('ms', this.fits ? this.msPerFit.toFixed(1) : '–');
     set('lost', `${this.tracker.lostCount - (this.seqStartLost ?? 0)} · ${this.tracker.resets - (this.seqStartResets ?? 0)}`);
     this.readout.ms.parentElement.title = this.fits
-      ? `Time per fit (smoothed): ${this.msPerFit.toFixed(2)} ms, i.e. up to ${Math.round(1000 / Math.max(0.01, this.msPerFit))} fits/s`
+      ? this.path === 'landmarks'
+        ? `Time per frame followed (smoothed): ${this.msPerFit.toFixed(2)} ms, i.e. up to ${Math.round(1000 / Math.max(0.01, this.msPerFit))} frames/s`
+        : `Time per fit (smoothed): ${this.msPerFit.toFixed(2)} ms, i.e. up to ${Math.round(1000 / Math.max(0.01, this.msPerFit))} fits/s`
       : '';
     this.showState();
   },
