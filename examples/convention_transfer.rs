@@ -54,6 +54,7 @@ mod native {
     }
 
     fn load(finder: &mut EnrolFinder, set: &str, paths: &[PathBuf], cache: &Path) -> Vec<Sample> {
+        let mut look = facemimic::FaceFinder::new().unwrap();
         let cached: Option<Vec<Vec<f32>>> = std::fs::read_to_string(cache).ok().map(|s| {
             s.lines()
                 .map(|l| l.split(' ').map(|x| x.parse().unwrap()).collect())
@@ -65,6 +66,12 @@ mod native {
             let t = io::read_training_image(p).unwrap();
             let found = match &cached {
                 Some(c) => c[k].clone(),
+                None if std::env::var_os("CT_LOOK").is_some() => look
+                    .find(&t.image.view().unwrap())
+                    .into_iter()
+                    .next()
+                    .map(|f| f.landmarks)
+                    .unwrap_or_default(),
                 None => finder
                     .find(&t.image.view().unwrap(), 0.0)
                     .unwrap()
@@ -169,7 +176,12 @@ mod native {
         fn predict(&self, s: &Sample, pts: &[f32], f: &mut Vec<f32>) -> Vec<f32> {
             features(s, pts, self.scale, f);
             let mut out = vec![0f32; 136];
-            for i in 0..68 {
+            let first = if std::env::var_os("CT_NOJAW").is_some() {
+                17
+            } else {
+                0
+            };
+            for i in first..68 {
                 let x = &f[i * DIM..(i + 1) * DIM];
                 let w = &self.w[i];
                 for k in 0..2 {
@@ -328,6 +340,21 @@ mod native {
             avg += landmark_error(&p, &s.truth);
         }
         let n = idx.len() as f32;
+        let cf = |pts: &[Vec<f32>]| {
+            let pairs: Vec<(&[f32], &[f32])> = pts
+                .iter()
+                .zip(idx)
+                .map(|(p, &k)| (p.as_slice(), samples[k].truth.as_slice()))
+                .collect();
+            let e = facemimic::find::convention_free_errors(&pairs);
+            e.iter().sum::<f32>() / e.len() as f32
+        };
+        let founds: Vec<Vec<f32>> = idx.iter().map(|&k| samples[k].found.clone()).collect();
+        println!(
+            "{name:28} convention-free before {:.4} after {:.4}",
+            cf(&founds),
+            cf(&outs)
+        );
         println!(
             "{name:28} n={:4} before {} | after {} | mean-corr {:.4}",
             idx.len(),
@@ -456,7 +483,11 @@ mod native {
             .unwrap_or(vec![0.03, 0.02]);
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
         let shared = root.join("../shared/data");
-        let cache = root.join("target/convention-cache");
+        let cache = root.join(if std::env::var_os("CT_LOOK").is_some() {
+            "target/convention-cache-look"
+        } else {
+            "target/convention-cache"
+        });
         std::fs::create_dir_all(&cache).unwrap();
         let mut finder = EnrolFinder::new(1).unwrap();
         let mut samples = Vec::new();

@@ -5,7 +5,8 @@
 //! the mean over the image and its mirror). A frame counts as found when the most
 //! confident face's landmarks lie within 0.25 of
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
-//! the found frames.
+//! the found frames. Also printed: the convention-free error (each point's mean offset from
+//! dlib's over the set removed, in the face frame: `find::convention_free_errors`).
 //!
 //! To compare two builds frame by frame (e.g. MediaPipe's nets with float16 and with int8
 //! weights): `FIND_EVAL_DUMP=FILE` writes each frame's most confident face's 68 points to FILE;
@@ -68,6 +69,8 @@ mod native {
             opts.score_threshold = t.parse().unwrap();
         }
         opts.mirror = std::env::var_os("FIND_MIRROR").is_some();
+        // `FIND_NO_LOCAL` set: the finder without its local correction (to measure it).
+        finder.set_local_correction(std::env::var_os("FIND_NO_LOCAL").is_none());
         finder.set_options(opts);
         let mut dump = std::env::var_os("FIND_EVAL_DUMP")
             .map(|p| std::io::BufWriter::new(std::fs::File::create(p).unwrap()));
@@ -81,6 +84,8 @@ mod native {
                 (0, 0, 0.0, 0.0f32, 0.0, 0);
             let mut missed = Vec::new();
             let mut errors = Vec::new();
+            // The found frames' points and dlib's, for the convention-free figure.
+            let mut pairs: Vec<(Vec<f32>, Vec<f32>)> = Vec::new();
             for p in all.iter().step_by(step) {
                 let img = read_image(p).unwrap();
                 let truth =
@@ -125,6 +130,7 @@ mod native {
                             );
                         }
                         found += 1;
+                        pairs.push((faces[0].landmarks.clone(), truth.clone()));
                         errors.push(e);
                         err_sum += e;
                         worst = worst.max(e);
@@ -141,6 +147,17 @@ mod native {
                 worst,
                 1000.0 * secs / n as f64,
                 &missed[..missed.len().min(8)]
+            );
+            // Each point's mean offset from dlib's over the set removed (one person a set but
+            // GRID's ten: a per-person convention counted there).
+            let refs: Vec<(&[f32], &[f32])> = pairs
+                .iter()
+                .map(|(a, b)| (a.as_slice(), b.as_slice()))
+                .collect();
+            let cf = facemimic::find::convention_free_errors(&refs);
+            println!(
+                "{set}: convention-free mean error {:.5}",
+                cf.iter().sum::<f32>() / cf.len().max(1) as f32
             );
             if against.is_some() {
                 versus.sort_by(f32::total_cmp);

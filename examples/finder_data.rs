@@ -5,6 +5,11 @@
 //! (`find::mean_face_offsets`), over every committed frame the finder finds a face in
 //! (`find::calibration`'s test `table_is_reproducible` checks that the committed table is what
 //! these frames give). Run it after `examples/mesh_table.rs` and after any change of weights.
+//!
+//! `cargo run --release --example finder_data -- local` then learns the local correction
+//! (`src/find/local.rs`) from the same frames, the finder's calibrated points against dlib's,
+//! with `find::LearnOptions::default()`, and writes `data/weights/local_correction.fmlc`
+//! (`find::local`'s test `weights_are_reproducible` checks the committed file against it).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(any(target_arch = "wasm32", test)))]
@@ -22,8 +27,9 @@ mod native {
     pub(crate) fn main() {
         match std::env::args().nth(1).as_deref() {
             Some("calibration") => calibration(),
+            Some("local") => local(),
             _ => {
-                eprintln!("usage: finder_data calibration");
+                eprintln!("usage: finder_data calibration | local");
                 std::process::exit(2);
             }
         }
@@ -34,6 +40,49 @@ mod native {
         finder.set_calibrated(false);
         let pairs = grid_pairs(|view| finder.find(view));
         write_calibration(pairs);
+    }
+
+    fn local() {
+        let mut finder = FaceFinder::new().expect("the shipped weights");
+        finder.set_local_correction(false);
+        let frames = grid_frames(&mut finder);
+        let samples: Vec<find::LearnSample> = frames
+            .iter()
+            .map(|(img, found, truth)| find::LearnSample {
+                image: img.view().expect("a view"),
+                found,
+                truth,
+            })
+            .collect();
+        let l = find::LocalCorrection::learn(&samples, &find::LearnOptions::default())
+            .expect("a correction");
+        let out = Path::new(ROOT).join("data/weights/local_correction.fmlc");
+        let bytes = l.to_vec();
+        std::fs::write(&out, &bytes).expect("write the weights");
+        eprintln!(
+            "{} frames -> {} ({} bytes)",
+            samples.len(),
+            out.display(),
+            bytes.len()
+        );
+    }
+
+    /// Every committed GRID frame the finder finds a face in: the image, the first face's
+    /// points and dlib's.
+    pub(crate) fn grid_frames(
+        finder: &mut FaceFinder,
+    ) -> Vec<(facemimic::Image, Vec<f32>, Vec<f32>)> {
+        let mut out = Vec::new();
+        for p in annotated_images(&Path::new(ROOT).join("data/grid")).expect("data/grid") {
+            let img = read_image(&p).expect("a GRID frame");
+            let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height)
+                .expect("its landmarks");
+            let face = finder.find(&img.view().expect("a view")).into_iter().next();
+            if let Some(face) = face {
+                out.push((img, face.landmarks, truth));
+            }
+        }
+        out
     }
 
     /// The first face's points and the dlib points of every committed GRID frame.

@@ -2,6 +2,7 @@
 //! (`mesh.rs`).
 
 use super::calibration;
+use super::local::{LocalCorrection, LocalScratch};
 use super::mesh::{self, Detection, MeshNets, Roi, MESH_POINTS};
 use super::mesh_table;
 use super::{Face, FindOptions};
@@ -36,6 +37,10 @@ pub struct FaceFinder {
     nets: MeshNets,
     options: FindOptions,
     calibrate: bool,
+    /// The local correction (`local.rs`), applied after the calibration when `refine` is on.
+    local: LocalCorrection,
+    refine: bool,
+    local_scratch: LocalScratch,
     detections: Vec<Detection>,
     /// The dense mesh of the last `scored_landmarks_into` or `follow_into` (where
     /// `follow_into` looks next); empty when there is none.
@@ -66,6 +71,9 @@ impl FaceFinder {
             nets: MeshNets::load(detector, mesh)?,
             options: FindOptions::default(),
             calibrate: true,
+            local: LocalCorrection::shipped()?,
+            refine: true,
+            local_scratch: LocalScratch::default(),
             detections: Vec::new(),
             pass: Vec::new(),
             mirror: Vec::new(),
@@ -77,6 +85,13 @@ impl FaceFinder {
     /// that calibration (`examples/finder_data.rs calibration`).
     pub fn set_calibrated(&mut self, on: bool) {
         self.calibrate = on;
+    }
+
+    /// Whether the calibrated points are then moved by the local correction (`local.rs`; the
+    /// default); off to learn it (`examples/finder_data.rs local`) and to measure it. No effect
+    /// on points that are not calibrated.
+    pub fn set_local_correction(&mut self, on: bool) {
+        self.refine = on;
     }
 
     /// The options [`find`](Self::find) uses.
@@ -182,6 +197,7 @@ impl FaceFinder {
                 }
                 self.add_mirror(image, &det, &mut landmarks);
             }
+            self.correct(image, &mut landmarks);
             if landmarks.iter().all(|v| v.is_finite()) {
                 faces.push(Face {
                     bbox,
@@ -193,6 +209,13 @@ impl FaceFinder {
         faces.sort_by(|a, b| b.score.total_cmp(&a.score));
         faces.truncate(self.options.max_faces);
         faces
+    }
+
+    /// The local correction of calibrated points (when on), in the image they were placed on.
+    fn correct(&mut self, image: &ImageRef, points: &mut [f32]) {
+        if self.calibrate && self.refine {
+            self.local.apply(image, points, &mut self.local_scratch);
+        }
     }
 
     /// [`FindOptions::mirror`]: the face of `det` meshed on the mirror image (`self.mirror`,
@@ -279,7 +302,7 @@ impl FaceFinder {
             self.nets.mesh(image, &roi, &mut pts)
         });
         self.pass = pts;
-        self.finish(r, out)
+        self.finish(image, r, out)
     }
 
     /// Follows the face of the last [`scored_landmarks_into`](Self::scored_landmarks_into) or
@@ -296,13 +319,13 @@ impl FaceFinder {
         let mut pts = std::mem::take(&mut self.pass);
         let r = self.nets.mesh(image, &roi, &mut pts);
         self.pass = pts;
-        self.finish(r, out)
+        self.finish(image, r, out)
     }
 
     /// The end of a mesh call: on success the 68 points of `self.pass` into `out` (calibrated)
     /// and the score; on failure `self.pass` is cleared, so `follow_into` fails until a new face
     /// is given.
-    fn finish(&mut self, r: Result<f32>, out: &mut [f32]) -> Result<f32> {
+    fn finish(&mut self, image: &ImageRef, r: Result<f32>, out: &mut [f32]) -> Result<f32> {
         let score = match r {
             Ok(s) => s,
             Err(e) => {
@@ -315,6 +338,7 @@ impl FaceFinder {
         if self.calibrate {
             calibration::apply(out);
         }
+        self.correct(image, out);
         if out.iter().all(|v| v.is_finite()) {
             Ok(score)
         } else {

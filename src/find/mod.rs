@@ -11,6 +11,8 @@
 mod calibration;
 mod finder;
 mod graph;
+mod local;
+mod local_learn;
 mod mesh;
 mod mesh_table;
 mod nn;
@@ -26,6 +28,8 @@ pub use calibration::{
     NET_OFFSETS,
 };
 pub use finder::FaceFinder;
+pub use local::{local_descriptor, LocalCorrection, LocalScratch};
+pub use local_learn::{LearnOptions, LearnSample};
 
 pub use crate::geometry::BBox;
 

@@ -1,0 +1,195 @@
+//! Learning the local correction (`local.rs`) from landmarked images: the cascade of ridge
+//! regressions of supervised descent, each stage trained on the points the stages before it
+//! leave, from the finder's points and perturbed copies of them.
+
+use super::calibration::{add_face_offsets, face_frame, face_offsets};
+use super::local::{local_descriptor, LocalCorrection, LocalScratch, DIM};
+use crate::error::{Error, Result};
+use crate::image::ImageRef;
+use nalgebra::{DMatrix, DVector};
+
+/// One landmarked image to learn from.
+#[derive(Clone, Copy, Debug)]
+pub struct LearnSample<'a> {
+    /// The image.
+    pub image: ImageRef<'a>,
+    /// The finder's 68 points on it (calibrated, before the local correction).
+    pub found: &'a [f32],
+    /// dlib's 68 points on it.
+    pub truth: &'a [f32],
+}
+
+/// How [`LocalCorrection::learn`] learns.
+#[derive(Clone, Debug)]
+pub struct LearnOptions {
+    /// Per stage, the patch's sample step as a fraction of the face's RMS radius (the number of
+    /// stages is this list's length).
+    pub scales: Vec<f32>,
+    /// Perturbed copies of each sample's points trained on beside the points themselves.
+    pub perturb: usize,
+    /// Ridge weight per training start (added to the diagonal times the number of starts).
+    pub ridge: f64,
+    /// The points corrected, increasing.
+    pub points: Vec<u8>,
+    /// Seed of the perturbations.
+    pub seed: u64,
+}
+
+impl Default for LearnOptions {
+    /// Two stages (sample steps 0.06 and 0.04 of the radius), four perturbed copies, ridge
+    /// 0.01, every point but the jaw's (0-16): chosen on GRID's speakers 1-5 against 6-10 and
+    /// the reverse (`examples/local_figures.rs`; docs/finding.md, "The local correction").
+    fn default() -> Self {
+        LearnOptions {
+            scales: vec![0.06, 0.04],
+            perturb: 4,
+            ridge: 0.01,
+            points: (17..68).collect(),
+            seed: 0x9e37_79b9_7f4a_7c15,
+        }
+    }
+}
+
+/// A xorshift generator of uniform and normal numbers (reproducible learning).
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    fn normal(&mut self) -> f32 {
+        let (a, b) = (self.uniform().max(1e-7), self.uniform());
+        (-2.0 * a.ln()).sqrt() * (std::f32::consts::TAU * b).cos()
+    }
+}
+
+/// `points` moved as a whole (shift and scale by `0.03`, a turn of `0.03` radians, normally
+/// distributed) and each point by normal noise of `0.02` of the face's RMS radius.
+fn perturbed(points: &[f32], rng: &mut Rng) -> Option<Vec<f32>> {
+    let (c, r, _, _) = face_frame(points)?;
+    let (tx, ty) = (rng.normal() * 0.03 * r, rng.normal() * 0.03 * r);
+    let sc = 1.0 + rng.normal() * 0.03;
+    let th = rng.normal() * 0.03;
+    let (co, si) = (th.cos(), th.sin());
+    let mut p = points.to_vec();
+    for q in p.chunks_exact_mut(2) {
+        let (x, y) = (q[0] - c[0], q[1] - c[1]);
+        q[0] = c[0] + sc * (co * x - si * y) + tx + rng.normal() * 0.02 * r;
+        q[1] = c[1] + sc * (si * x + co * y) + ty + rng.normal() * 0.02 * r;
+    }
+    Some(p)
+}
+
+impl LocalCorrection {
+    /// Learns a correction from `samples` (docs/finding.md, "The local correction"): the
+    /// training starts are each sample's found points and [`LearnOptions::perturb`] perturbed
+    /// copies; each stage solves, per point, the ridge regression from the point's descriptor
+    /// (and a constant) to dlib's point's offset in the face frame, then moves every start by
+    /// its prediction (with the weights as the file stores them, float16) for the next stage.
+    pub fn learn(samples: &[LearnSample<'_>], options: &LearnOptions) -> Result<LocalCorrection> {
+        let bad = |m: String| Error::Weights(format!("local correction: {m}"));
+        if options.scales.is_empty() || options.points.is_empty() {
+            return Err(bad("no stages or no points to learn".into()));
+        }
+        let mut rng = Rng(options.seed);
+        let mut starts: Vec<(usize, Vec<f32>)> = Vec::new();
+        for (k, s) in samples.iter().enumerate() {
+            if s.found.len() != 136 || s.truth.len() != 136 || face_frame(s.found).is_none() {
+                continue;
+            }
+            starts.push((k, s.found.to_vec()));
+            for _ in 0..options.perturb {
+                if let Some(p) = perturbed(s.found, &mut rng) {
+                    starts.push((k, p));
+                }
+            }
+        }
+        if starts.is_empty() {
+            return Err(bad("no usable samples".into()));
+        }
+        let mut stages = Vec::new();
+        let mut scratch = LocalScratch::default();
+        for &scale in &options.scales {
+            let weights = solve_stage(samples, &starts, scale, options)?;
+            stages.push((scale, options.points.clone(), weights));
+            // The weights as stored (float16), so the next stage learns from what ships.
+            let stored = LocalCorrection::from_bytes(&LocalCorrection::to_bytes(&stages)?)?;
+            let s = stored.stages() - 1;
+            for (k, p) in starts.iter_mut() {
+                if stored.stage_offsets(s, &samples[*k].image, p, &mut scratch) {
+                    add_face_offsets(p, scratch.offsets());
+                }
+            }
+        }
+        LocalCorrection::from_bytes(&LocalCorrection::to_bytes(&stages)?)
+    }
+}
+
+/// One stage's weights: per point of `options.points`, `(DIM + 1) x 2` values (x and y
+/// interleaved per feature, the constant last).
+fn solve_stage(
+    samples: &[LearnSample<'_>],
+    starts: &[(usize, Vec<f32>)],
+    scale: f32,
+    options: &LearnOptions,
+) -> Result<Vec<f32>> {
+    let d = DIM + 1;
+    let np = options.points.len();
+    let mut xtx = vec![DMatrix::<f64>::zeros(d, d); np];
+    let mut xty = vec![DMatrix::<f64>::zeros(d, 2); np];
+    let mut patch = Vec::new();
+    let mut f = vec![0f32; DIM];
+    let mut x = DVector::<f64>::zeros(d);
+    let mut n = 0usize;
+    for (k, pts) in starts {
+        let s = &samples[*k];
+        let (Some((_, r, c, sn)), Some(t)) = (face_frame(pts), face_offsets(pts, s.truth)) else {
+            continue;
+        };
+        n += 1;
+        for (q, &i) in options.points.iter().enumerate() {
+            let i = i as usize;
+            local_descriptor(
+                &s.image,
+                pts[2 * i],
+                pts[2 * i + 1],
+                r * scale,
+                c,
+                sn,
+                &mut patch,
+                &mut f,
+            );
+            for (xj, fj) in x.iter_mut().zip(&f) {
+                *xj = *fj as f64;
+            }
+            x[DIM] = 1.0;
+            xtx[q].ger(1.0, &x, &x, 1.0);
+            for c in 0..2 {
+                let y = t[2 * i + c] as f64;
+                for j in 0..d {
+                    xty[q][(j, c)] += x[j] * y;
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(np * d * 2);
+    for (a, b) in xtx.into_iter().zip(&xty) {
+        let mut a = a;
+        for j in 0..DIM {
+            a[(j, j)] += options.ridge * n as f64;
+        }
+        let sol = a
+            .cholesky()
+            .ok_or_else(|| Error::Weights("local correction: a singular regression".into()))?
+            .solve(b);
+        for j in 0..d {
+            out.push(sol[(j, 0)] as f32);
+            out.push(sol[(j, 1)] as f32);
+        }
+    }
+    Ok(out)
+}
