@@ -7,8 +7,9 @@
 //! these frames give). Run it after `examples/mesh_table.rs` and after any change of weights.
 //!
 //! `cargo run --release --example finder_data -- local` then learns the local correction
-//! (`src/find/local.rs`) from the same frames, the finder's calibrated points against dlib's,
-//! with `find::LearnOptions::default()`, and writes `data/weights/local_correction.fmlc`
+//! (`src/find/local.rs`) from the same frames and their mirror images, the finder's calibrated
+//! points against dlib's (`find::LocalCorrection::learn_from_images` with
+//! `find::LearnOptions::default()`), and writes `data/weights/local_correction.fmlc`
 //! (`find::local`'s test `weights_are_reproducible` checks the committed file against it).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
@@ -44,45 +45,32 @@ mod native {
 
     fn local() {
         let mut finder = FaceFinder::new().expect("the shipped weights");
-        finder.set_local_correction(false);
-        let frames = grid_frames(&mut finder);
-        let samples: Vec<find::LearnSample> = frames
-            .iter()
-            .map(|(img, found, truth)| find::LearnSample {
-                image: img.view().expect("a view"),
-                found,
-                truth,
-            })
-            .collect();
-        let l = find::LocalCorrection::learn(&samples, &find::LearnOptions::default())
-            .expect("a correction");
-        let out = Path::new(ROOT).join("data/weights/local_correction.fmlc");
-        let bytes = l.to_vec();
-        std::fs::write(&out, &bytes).expect("write the weights");
-        eprintln!(
-            "{} frames -> {} ({} bytes)",
-            samples.len(),
-            out.display(),
-            bytes.len()
-        );
-    }
-
-    /// Every committed GRID frame the finder finds a face in: the image, the first face's
-    /// points and dlib's.
-    pub(crate) fn grid_frames(
-        finder: &mut FaceFinder,
-    ) -> Vec<(facemimic::Image, Vec<f32>, Vec<f32>)> {
-        let mut out = Vec::new();
+        let mut frames = Vec::new();
         for p in annotated_images(&Path::new(ROOT).join("data/grid")).expect("data/grid") {
             let img = read_image(&p).expect("a GRID frame");
             let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height)
                 .expect("its landmarks");
-            let face = finder.find(&img.view().expect("a view")).into_iter().next();
-            if let Some(face) = face {
-                out.push((img, face.landmarks, truth));
-            }
+            frames.push((img, truth));
         }
-        out
+        let views: Vec<(facemimic::ImageRef, &[f32])> = frames
+            .iter()
+            .map(|(img, truth)| (img.view().expect("a view"), truth.as_slice()))
+            .collect();
+        let (l, n) = find::LocalCorrection::learn_from_images(
+            &mut finder,
+            &views,
+            &find::LearnOptions::default(),
+        )
+        .expect("a correction");
+        let out = Path::new(ROOT).join("data/weights/local_correction.fmlc");
+        let bytes = l.to_vec();
+        std::fs::write(&out, &bytes).expect("write the weights");
+        eprintln!(
+            "{} frames, {n} samples (with their mirror images) -> {} ({} bytes)",
+            frames.len(),
+            out.display(),
+            bytes.len()
+        );
     }
 
     /// The first face's points and the dlib points of every committed GRID frame.

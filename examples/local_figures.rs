@@ -4,8 +4,10 @@
 //! `examples/calibration_figures.rs` does), the local correction on their committed frames
 //! (`data/grid`, as `examples/finder_data.rs local` learns the shipped one), both measured on
 //! every frame of speakers 6-10; and the other way round. One look and the precise mode
-//! (`FindOptions::mirror`: points averaged over the image and its mirror, the offsets made
-//! symmetric). The clips' figures come from `examples/find_eval.rs` (with and without
+//! (`FindOptions::mirror`: each look calibrated and corrected in its own image, the mirror
+//! image's points mirrored back and averaged; here the mirror image's look starts from its
+//! own detection). `LOCAL_NO_MIRROR` set: the correction learns from the images alone, not
+//! from their mirror images too. The clips' figures come from `examples/find_eval.rs` (with and without
 //! `FIND_NO_LOCAL`).
 //!
 //!   cargo run --release --example local_figures -- [SCALES]
@@ -24,27 +26,25 @@ mod native {
         LocalCorrection, LocalScratch,
     };
     use facemimic::io::{annotated_images, read_image, read_landmarks};
+    use facemimic::landmarks::mirror_points;
     use facemimic::{FaceFinder, Image};
     use std::path::{Path, PathBuf};
 
-    /// A frame: its path, image, the finder's uncalibrated points (one look, then averaged
-    /// with the mirror image's) and dlib's points.
+    /// A frame: its path, the image and its mirror image, the finder's uncalibrated points
+    /// (one look) on each, and dlib's points on each.
     struct Frame {
         path: PathBuf,
         image: Image,
+        mirror: Image,
         raw: Vec<f32>,
-        raw_mirror: Vec<f32>,
+        raw_m: Vec<f32>,
         truth: Vec<f32>,
+        truth_m: Vec<f32>,
     }
 
     fn frames(dir: &Path) -> Vec<Frame> {
         let mut look = FaceFinder::new().unwrap();
         look.set_calibrated(false);
-        let mut precise = FaceFinder::new().unwrap();
-        precise.set_calibrated(false);
-        let mut o = precise.options();
-        o.mirror = true;
-        precise.set_options(o);
         annotated_images(dir)
             .unwrap()
             .into_iter()
@@ -52,15 +52,40 @@ mod native {
                 let image = read_image(&p).unwrap();
                 let truth =
                     read_landmarks(&p.with_extension("pts"), image.width, image.height).unwrap();
-                let view = image.view().unwrap();
-                let raw = look.find(&view).into_iter().next()?.landmarks;
-                let raw_mirror = precise.find(&view).into_iter().next()?.landmarks;
+                let (w, h) = (image.width as usize, image.height as usize);
+                let mut data = vec![0u8; w * h * 4];
+                for (d, s) in data
+                    .chunks_exact_mut(w * 4)
+                    .zip(image.data.chunks_exact(w * 4))
+                {
+                    for (x, px) in s.chunks_exact(4).enumerate() {
+                        d[(w - 1 - x) * 4..(w - x) * 4].copy_from_slice(px);
+                    }
+                }
+                let mirror = Image {
+                    data,
+                    ..image.clone()
+                };
+                let raw = look
+                    .find(&image.view().unwrap())
+                    .into_iter()
+                    .next()?
+                    .landmarks;
+                let raw_m = look
+                    .find(&mirror.view().unwrap())
+                    .into_iter()
+                    .next()?
+                    .landmarks;
+                let mut truth_m = vec![0.0; 136];
+                mirror_points(&truth, image.width as f32, &mut truth_m);
                 Some(Frame {
                     path: p,
                     image,
+                    mirror,
                     raw,
-                    raw_mirror,
+                    raw_m,
                     truth,
+                    truth_m,
                 })
             })
             .collect()
@@ -79,20 +104,6 @@ mod native {
         root.join(folder).join(p.file_name().unwrap()).exists()
     }
 
-    /// `offsets` averaged with their mirror image (as calibration_figures does for the
-    /// precise mode).
-    fn symmetric(offsets: &[f32]) -> Vec<f32> {
-        (0..68)
-            .flat_map(|i| {
-                let j = facemimic::MIRROR_68[i];
-                [
-                    0.5 * (offsets[2 * i] - offsets[2 * j]),
-                    0.5 * (offsets[2 * i + 1] + offsets[2 * j + 1]),
-                ]
-            })
-            .collect()
-    }
-
     fn calibrated(points: &[f32], offsets: &[f32]) -> Vec<f32> {
         let mut p = points.to_vec();
         add_face_offsets(&mut p, offsets);
@@ -106,6 +117,7 @@ mod native {
             .unwrap_or(LearnOptions::default().scales);
         let options = LearnOptions {
             scales,
+            mirror: std::env::var_os("LOCAL_NO_MIRROR").is_none(),
             ..LearnOptions::default()
         };
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
@@ -122,36 +134,51 @@ mod native {
                 .filter(|f| (test.0..=test.1).contains(&speaker(&f.path)))
                 .collect();
             let o = mean_face_offsets(tr.iter().map(|f| (f.raw.as_slice(), f.truth.as_slice())));
-            let learn: Vec<(&Frame, Vec<f32>)> = tr
+            // The correction learns from the committed frames and (`LearnOptions::mirror`)
+            // their mirror images, as `LocalCorrection::learn_from_images` does.
+            let mirrored = options.mirror;
+            let learn: Vec<(&Image, Vec<f32>, &[f32])> = tr
                 .iter()
                 .filter(|f| committed(&f.path))
-                .map(|f| (*f, calibrated(&f.raw, &o)))
+                .flat_map(|f| {
+                    let mut v = vec![(&f.image, calibrated(&f.raw, &o), f.truth.as_slice())];
+                    if mirrored {
+                        v.push((&f.mirror, calibrated(&f.raw_m, &o), f.truth_m.as_slice()));
+                    }
+                    v
+                })
                 .collect();
             let samples: Vec<LearnSample> = learn
                 .iter()
-                .map(|(f, found)| LearnSample {
-                    image: f.image.view().unwrap(),
+                .map(|(image, found, truth)| LearnSample {
+                    image: image.view().unwrap(),
                     found,
-                    truth: &f.truth,
+                    truth,
                 })
                 .collect();
             let local = LocalCorrection::learn(&samples, &options).unwrap();
-            let sym = symmetric(&o);
             let (mut look, mut look_l, mut prec, mut prec_l) = (0.0, 0.0, 0.0, 0.0);
+            // The precise mode: each look calibrated (and corrected) in its own image, the
+            // mirror's mirrored back, the two averaged.
+            let average = |a: &[f32], m: &[f32], width: f32| -> Vec<f32> {
+                let mut back = vec![0.0; 136];
+                mirror_points(m, width, &mut back);
+                a.iter().zip(&back).map(|(x, y)| 0.5 * (x + y)).collect()
+            };
             for f in &te {
-                let view = f.image.view().unwrap();
+                let f_width = f.image.width as f32;
                 let mut p = calibrated(&f.raw, &o);
+                let mut q = calibrated(&f.raw_m, &o);
                 look += landmark_error(&p, &f.truth);
-                local.apply(&view, &mut p, &mut scratch);
+                prec += landmark_error(&average(&p, &q, f_width), &f.truth);
+                local.apply(&f.image.view().unwrap(), &mut p, &mut scratch);
+                local.apply(&f.mirror.view().unwrap(), &mut q, &mut scratch);
                 look_l += landmark_error(&p, &f.truth);
-                let mut p = calibrated(&f.raw_mirror, &sym);
-                prec += landmark_error(&p, &f.truth);
-                local.apply(&view, &mut p, &mut scratch);
-                prec_l += landmark_error(&p, &f.truth);
+                prec_l += landmark_error(&average(&p, &q, f_width), &f.truth);
             }
             let n = te.len() as f32;
             println!(
-                "grid: learned on speakers {train:?} ({} frames, the correction on {} committed), measured on {test:?} ({} frames): one look {:.4} -> {:.4}, precise {:.4} -> {:.4}",
+                "grid: learned on speakers {train:?} ({} frames, the correction on {} committed samples), measured on {test:?} ({} frames): one look {:.4} -> {:.4}, precise {:.4} -> {:.4}",
                 tr.len(),
                 samples.len(),
                 te.len(),

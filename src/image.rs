@@ -76,7 +76,7 @@ impl<'a> ImageRef<'a> {
 
     /// The image mirrored left to right, into `out` (RGBA, resized to fit; keeps its
     /// allocation from call to call).
-    pub(crate) fn mirror_into(&self, out: &mut Vec<u8>) {
+    pub fn mirror_into(&self, out: &mut Vec<u8>) {
         let w = self.width as usize;
         out.resize(self.data.len(), 0);
         for (o, row) in out

@@ -209,8 +209,8 @@ fn enrolled_model_follows_franck_dev2_like_a_dlib_model() {
 
 /// The tracker's second opinion ([`TrackPolicy::recheck_frames`]) on webcam-dev's hand under
 /// the chin (frames 1190-1336). **Split:** the model is built from 20 frames of 0-599 (the
-/// enrolment finder's landmarks; the frames one of the page's live samplings chose, the one
-/// the e2e enrolment test once failed on); it is tracked over the unseen frames 1100-1336,
+/// enrolment finder's landmarks as they were before its local correction; the frames one of
+/// the page's live samplings chose, the one the e2e enrolment test once failed on); it is tracked over the unseen frames 1100-1336,
 /// started from the finder's face on frame 1100, with a [`FaceFinder`](facemimic::FaceFinder)
 /// offering faces whenever the tracker wants them (as the page's finder worker does). Without
 /// second opinions this model reads the fingers under the lip as an open mouth and stays
@@ -228,6 +228,10 @@ fn a_second_opinion_brings_the_fit_back_from_the_hand_under_the_chin() {
         592,
     ];
     let mut enrol = EnrolFinder::new(1).unwrap();
+    // The points as the finder placed them when CI enrolled this model, before its local
+    // correction: with the corrected points these frames give a model that does not drift
+    // (0.0230 without second opinions), and the test is about the tracker's second opinions.
+    enrol.finder().set_local_correction(false);
     let images: Vec<TrainingImage> = PICKED
         .iter()
         .map(|&i| {

@@ -30,7 +30,8 @@ const MAX_FLAT: f32 = 0.5;
 ///
 /// Ensures: every face reported has 68 finite points in dlib's iBUG convention (blends of the
 /// mesh's vertices, `mesh_table.rs`, the jaw moved out to the outline of a turned face,
-/// `mesh_table::silhouette`, then moved by the convention offsets of `calibration.rs`), a box
+/// `mesh_table::silhouette`, then moved by the convention offsets of `calibration.rs` and by
+/// the local correction of `local.rs`, every point but the jaw's), a box
 /// ([`BBox::around_landmarks`]) and a score in 0..=1; see `docs/finding.md` for the measured
 /// rates, errors and speed.
 pub struct FaceFinder {
@@ -92,6 +93,11 @@ impl FaceFinder {
     /// on points that are not calibrated.
     pub fn set_local_correction(&mut self, on: bool) {
         self.refine = on;
+    }
+
+    /// Whether the local correction is on ([`set_local_correction`](Self::set_local_correction)).
+    pub fn local_correction(&self) -> bool {
+        self.refine
     }
 
     /// The options [`find`](Self::find) uses.
@@ -172,7 +178,8 @@ impl FaceFinder {
     /// [`FindOptions::min_face_score`] or more and its vertices do not lie on flat-filled
     /// pixels (a drawing: see `docs/finding.md`, "False faces"). The score is the geometric
     /// mean of the detector's and the mesh's. With [`FindOptions::mirror`] each face's points
-    /// are the mean of these and of two more passes on the mirror image.
+    /// are the mean of these and of two more passes on the mirror image (each calibrated and
+    /// corrected in its own image).
     pub fn find(&mut self, image: &ImageRef) -> Vec<Face> {
         let mut faces: Vec<Face> = Vec::new();
         let mut mirrored = false;
@@ -190,6 +197,7 @@ impl FaceFinder {
             if self.calibrate {
                 calibration::apply(&mut landmarks);
             }
+            self.correct(image, &mut landmarks);
             if self.options.mirror {
                 if !mirrored {
                     image.mirror_into(&mut self.mirror);
@@ -197,7 +205,6 @@ impl FaceFinder {
                 }
                 self.add_mirror(image, &det, &mut landmarks);
             }
-            self.correct(image, &mut landmarks);
             if landmarks.iter().all(|v| v.is_finite()) {
                 faces.push(Face {
                     bbox,
@@ -220,8 +227,8 @@ impl FaceFinder {
 
     /// [`FindOptions::mirror`]: the face of `det` meshed on the mirror image (`self.mirror`,
     /// made from `image`), its 68 points mirrored back and averaged into `landmarks` (each
-    /// pass's points calibrated in its own image, so the convention offsets are averaged with
-    /// their mirror too). Leaves `landmarks` as they are when the mirror pass finds no face.
+    /// pass's points calibrated and corrected in its own image, so the convention offsets and
+    /// the local correction are averaged with their mirror too). Leaves `landmarks` as they are when the mirror pass finds no face.
     fn add_mirror(&mut self, image: &ImageRef, det: &Detection, landmarks: &mut [f32]) {
         let w = image.width() as f32;
         let mirror = std::mem::take(&mut self.mirror);
@@ -246,6 +253,7 @@ impl FaceFinder {
             if self.calibrate {
                 calibration::apply(&mut m);
             }
+            self.correct(&view, &mut m);
             let mut back = [0.0f32; 136];
             crate::landmarks::mirror_points(&m, w, &mut back);
             for (l, p) in landmarks.chunks_exact_mut(2).zip(back.chunks_exact(2)) {

@@ -508,32 +508,38 @@ mod tests {
 #[cfg(all(test, not(target_arch = "wasm32")))]
 mod reproducible {
     use super::*;
-    use crate::find::{FaceFinder, LearnOptions, LearnSample};
+    use crate::find::{FaceFinder, LearnOptions};
     use crate::io::{annotated_images, read_image, read_landmarks};
 
     #[test]
     fn weights_are_reproducible() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid");
-        let mut finder = FaceFinder::new().unwrap();
-        finder.set_local_correction(false);
-        let mut frames = Vec::new();
-        for p in annotated_images(&dir).unwrap() {
-            let img = read_image(&p).unwrap();
-            let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
-            if let Some(face) = finder.find(&img.view().unwrap()).into_iter().next() {
-                frames.push((img, face.landmarks, truth));
-            }
-        }
-        assert!(frames.len() >= 320, "{} committed frames found", frames.len());
-        let samples: Vec<LearnSample> = frames
-            .iter()
-            .map(|(img, found, truth)| LearnSample {
-                image: img.view().unwrap(),
-                found,
-                truth,
+        let frames: Vec<_> = annotated_images(&dir)
+            .unwrap()
+            .into_iter()
+            .map(|p| {
+                let img = read_image(&p).unwrap();
+                let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height);
+                (img, truth.unwrap())
             })
             .collect();
-        let learned = LocalCorrection::learn(&samples, &LearnOptions::default()).unwrap();
+        let views: Vec<(ImageRef, &[f32])> = frames
+            .iter()
+            .map(|(img, t)| (img.view().unwrap(), t.as_slice()))
+            .collect();
+        let mut finder = FaceFinder::new().unwrap();
+        let (learned, n) =
+            LocalCorrection::learn_from_images(&mut finder, &views, &LearnOptions::default())
+                .unwrap();
+        assert!(
+            n >= 640,
+            "{n} samples from {} committed frames",
+            frames.len()
+        );
+        assert!(
+            finder.local_correction(),
+            "the finder's setting is put back"
+        );
         let shipped = LocalCorrection::shipped().unwrap();
         assert_eq!(learned.stages.len(), shipped.stages.len());
         for (a, b) in learned.stages.iter().zip(&shipped.stages) {
@@ -545,7 +551,10 @@ mod reproducible {
                 .zip(&b.weights)
                 .fold(0f32, |m, (x, y)| m.max((x - y).abs()));
             // float16 keeps about three digits: a rounding flipped here and there, no more.
-            assert!(worst <= 2e-3 * top, "weights differ by {worst} (largest {top})");
+            assert!(
+                worst <= 2e-3 * top,
+                "weights differ by {worst} (largest {top})"
+            );
         }
     }
 }

@@ -6,6 +6,8 @@ use super::calibration::{add_face_offsets, face_frame, face_offsets};
 use super::local::{local_descriptor, LocalCorrection, LocalScratch, DIM};
 use crate::error::{Error, Result};
 use crate::image::ImageRef;
+use crate::landmarks::mirror_points;
+use crate::FaceFinder;
 use nalgebra::{DMatrix, DVector};
 
 /// One landmarked image to learn from.
@@ -33,11 +35,15 @@ pub struct LearnOptions {
     pub points: Vec<u8>,
     /// Seed of the perturbations.
     pub seed: u64,
+    /// [`LocalCorrection::learn_from_images`] also learns from each image's mirror image (the
+    /// finder run on it, dlib's points mirrored), so a face and its mirror image get mirrored
+    /// corrections.
+    pub mirror: bool,
 }
 
 impl Default for LearnOptions {
     /// Two stages (sample steps 0.06 and 0.04 of the radius), four perturbed copies, ridge
-    /// 0.01, every point but the jaw's (0-16): chosen on GRID's speakers 1-5 against 6-10 and
+    /// 0.01, every point but the jaw's (0-16), the mirror images too: chosen on GRID's speakers 1-5 against 6-10 and
     /// the reverse (`examples/local_figures.rs`; docs/finding.md, "The local correction").
     fn default() -> Self {
         LearnOptions {
@@ -46,6 +52,7 @@ impl Default for LearnOptions {
             ridge: 0.01,
             points: (17..68).collect(),
             seed: 0x9e37_79b9_7f4a_7c15,
+            mirror: true,
         }
     }
 }
@@ -126,6 +133,72 @@ impl LocalCorrection {
             }
         }
         LocalCorrection::from_bytes(&LocalCorrection::to_bytes(&stages)?)
+    }
+}
+
+impl LocalCorrection {
+    /// Learns a correction from landmarked images as the shipped one is learned
+    /// (`examples/finder_data.rs local`): `finder` (its local correction off meanwhile)
+    /// finds each image's most confident face, and, with [`LearnOptions::mirror`], the mirror
+    /// image's too (dlib's points mirrored); images with no face or with points of another
+    /// length than 136 are skipped; then [`learn`](Self::learn). Returns the correction and
+    /// the number of samples it learned from.
+    pub fn learn_from_images(
+        finder: &mut FaceFinder,
+        images: &[(ImageRef<'_>, &[f32])],
+        options: &LearnOptions,
+    ) -> Result<(LocalCorrection, usize)> {
+        let was = finder.local_correction();
+        finder.set_local_correction(false);
+        // The mirror images (with the index of the image each mirrors), and per look the image
+        // it was found in (`Err(m)`: mirror image `m`), the points found and dlib's.
+        let mut mirrors: Vec<(usize, Vec<u8>)> = Vec::new();
+        let mut looks: Vec<(std::result::Result<usize, usize>, Vec<f32>, Vec<f32>)> = Vec::new();
+        let mut fail = None;
+        for (k, (image, truth)) in images.iter().enumerate() {
+            if truth.len() != 136 {
+                continue;
+            }
+            if let Some(face) = finder.find(image).into_iter().next() {
+                looks.push((Ok(k), face.landmarks, truth.to_vec()));
+            }
+            if options.mirror {
+                let mut data = Vec::new();
+                image.mirror_into(&mut data);
+                match ImageRef::new(image.width(), image.height(), &data) {
+                    Ok(view) => {
+                        if let Some(face) = finder.find(&view).into_iter().next() {
+                            let mut t = vec![0.0; 136];
+                            mirror_points(truth, image.width() as f32, &mut t);
+                            looks.push((Err(mirrors.len()), face.landmarks, t));
+                        }
+                    }
+                    Err(e) => fail = Some(e),
+                }
+                mirrors.push((k, data));
+            }
+        }
+        finder.set_local_correction(was);
+        if let Some(e) = fail {
+            return Err(e);
+        }
+        let mut samples = Vec::with_capacity(looks.len());
+        for (source, found, truth) in &looks {
+            let image = match *source {
+                Ok(k) => images[k].0,
+                Err(m) => {
+                    let (k, data) = &mirrors[m];
+                    ImageRef::new(images[*k].0.width(), images[*k].0.height(), data)?
+                }
+            };
+            samples.push(LearnSample {
+                image,
+                found,
+                truth,
+            });
+        }
+        let n = samples.len();
+        Ok((LocalCorrection::learn(&samples, options)?, n))
     }
 }
 
