@@ -151,16 +151,20 @@ impl LocalCorrection {
         let was = finder.local_correction();
         finder.set_local_correction(false);
         // The mirror images (with the index of the image each mirrors), and per look the image
-        // it was found in (`Err(m)`: mirror image `m`), the points found and dlib's.
+        // it was found in, the points found and dlib's.
         let mut mirrors: Vec<(usize, Vec<u8>)> = Vec::new();
-        let mut looks: Vec<(std::result::Result<usize, usize>, Vec<f32>, Vec<f32>)> = Vec::new();
+        let mut looks: Vec<Look> = Vec::new();
         let mut fail = None;
         for (k, (image, truth)) in images.iter().enumerate() {
             if truth.len() != 136 {
                 continue;
             }
             if let Some(face) = finder.find(image).into_iter().next() {
-                looks.push((Ok(k), face.landmarks, truth.to_vec()));
+                looks.push(Look {
+                    source: Source::Image(k),
+                    found: face.landmarks,
+                    truth: truth.to_vec(),
+                });
             }
             if options.mirror {
                 let mut data = Vec::new();
@@ -170,7 +174,11 @@ impl LocalCorrection {
                         if let Some(face) = finder.find(&view).into_iter().next() {
                             let mut t = vec![0.0; 136];
                             mirror_points(truth, image.width() as f32, &mut t);
-                            looks.push((Err(mirrors.len()), face.landmarks, t));
+                            looks.push(Look {
+                                source: Source::Mirror(mirrors.len()),
+                                found: face.landmarks,
+                                truth: t,
+                            });
                         }
                     }
                     Err(e) => fail = Some(e),
@@ -183,10 +191,15 @@ impl LocalCorrection {
             return Err(e);
         }
         let mut samples = Vec::with_capacity(looks.len());
-        for (source, found, truth) in &looks {
+        for Look {
+            source,
+            found,
+            truth,
+        } in &looks
+        {
             let image = match *source {
-                Ok(k) => images[k].0,
-                Err(m) => {
+                Source::Image(k) => images[k].0,
+                Source::Mirror(m) => {
                     let (k, data) = &mirrors[m];
                     ImageRef::new(images[*k].0.width(), images[*k].0.height(), data)?
                 }
@@ -200,6 +213,20 @@ impl LocalCorrection {
         let n = samples.len();
         Ok((LocalCorrection::learn(&samples, options)?, n))
     }
+}
+
+/// Where [`LocalCorrection::learn_from_images`] found a face: in image `k`, or in mirror
+/// image `m`.
+enum Source {
+    Image(usize),
+    Mirror(usize),
+}
+
+/// A face found for learning: where, the finder's points and dlib's.
+struct Look {
+    source: Source,
+    found: Vec<f32>,
+    truth: Vec<f32>,
 }
 
 /// One stage's weights: per point of `options.points`, `(DIM + 1) x 2` values (x and y
