@@ -11,12 +11,15 @@
 //!   mesh pass on the region of the last mesh; what the `Follower` runs per frame).
 //! - `find/no_face/640x480`: `FaceFinder::find` on the frame blacked out (the detector alone:
 //!   what a search costs while the face is away).
+//! - `find/find_without_local/640x480`: `find` with the local correction off, and
+//!   `find/local_correction/640x480`: the correction alone on that face's points (both stages).
 //!
 //! Run: `cargo bench --bench find`.
 
 use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use facemimic::find::{LocalCorrection, LocalScratch};
 use facemimic::{io, FaceFinder, Image};
 
 /// The GRID frame upscaled 1.5x and padded to 640x480.
@@ -81,6 +84,20 @@ fn bench_find(c: &mut Criterion) {
     let black = black.view().expect("view");
     assert!(finder.find(&black).is_empty());
     group.bench_function("no_face/640x480", |b| b.iter(|| finder.find(&black)));
+    // The local correction alone, on the face's points before it.
+    finder.set_local_correction(false);
+    group.bench_function("find_without_local/640x480", |b| {
+        b.iter(|| finder.find(&view))
+    });
+    let before = finder.find(&view).remove(0).landmarks;
+    let local = LocalCorrection::shipped().expect("the shipped correction");
+    let mut scratch = LocalScratch::default();
+    group.bench_function("local_correction/640x480", |b| {
+        b.iter(|| {
+            out.copy_from_slice(&before);
+            local.apply(&view, &mut out, &mut scratch);
+        })
+    });
     group.finish();
 }
 
