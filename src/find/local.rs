@@ -286,12 +286,13 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
     ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]))
 }
 
-/// The descriptor of the patch about `(x, y)`: [`SIDE`] x [`SIDE`] grey samples (luma of the
-/// bilinear RGB sample, [`LUMA`]) `step` pixels apart along the face's axes (`(c, s)`: the eye line's
-/// cosine and sine), their central-difference gradients binned by orientation into 8 bins
-/// (linearly between the two nearest) in 4 x 4 cells of 2 x 2 samples, weighted by the
-/// gradient's magnitude; then normalised to unit length, clipped at 0.2 and normalised again
-/// (as SIFT does). `patch` is scratch; `out` gets [`DIM`] values.
+/// The descriptor of the patch about `(x, y)`: 10 x 10 grey samples (Rec. 601 luma, in
+/// 256ths, of the bilinear RGB sample) `step` pixels apart along the face's axes (`(c, s)`:
+/// the eye line's cosine and sine), their central-difference gradients binned by orientation
+/// into 8 bins (linearly between the two nearest) in 4 x 4 cells of 2 x 2 samples, weighted by
+/// the gradient's magnitude; then normalised to unit length, clipped at 0.2 and normalised
+/// again (as SIFT does). `patch` is scratch; `out` gets 128 values (its first 128 are
+/// written).
 #[allow(clippy::too_many_arguments)]
 pub fn local_descriptor(
     image: &ImageRef,
