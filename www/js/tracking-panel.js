@@ -39,6 +39,24 @@ function button(label, onclick, extra = {}) {
   return el('button', { type: 'button', class: 'btn', onclick, ...extra }, label);
 }
 
+/** The readout of a fitted AAM: key -> [label, tooltip]. */
+const FIT_STATS = {
+  error: ['fit error', 'RMS grey-level residual of the last fit (0..1)'],
+  iterations: ['iterations', 'Iterations of the last fit (converged or not)'],
+  fps: ['fits / s', 'Frames fitted in the last second'],
+  ms: ['ms / fit', 'Time per fit (smoothed), reading the frame excluded'],
+  lost: ['lost · reinit', 'Frames reported lost · re-initialisations, this sequence'],
+};
+
+/** The readout of a face followed by its landmarks (the same keys). */
+const FOLLOW_STATS = {
+  ...FIT_STATS,
+  error: ['face score', "The face mesh's confidence that the followed region is a face (0..1; – on a frame the finder's search gave)"],
+  iterations: ['mesh passes', 'Face-mesh passes run near the last face this frame (1 while following, 2 from a box; the search not counted)'],
+  fps: ['frames / s', 'Frames followed in the last second'],
+  ms: ['ms / frame', 'Time per frame followed (smoothed), reading the frame excluded'],
+};
+
 /** The panel's methods (`this` is the `VideoSource`). */
 export const panelMethods = {
   buildPanel() {
@@ -47,26 +65,16 @@ export const panelMethods = {
     this.canvas = el('canvas', { class: 'trk-canvas', role: 'img', 'aria-label': `${this.label}: video with the fitted face mesh` });
     this.stateEl = el('span', { class: 'trk-state', 'data-state': 'idle', text: 'starting' });
     this.msgEl = el('p', { class: 'trk-msg', role: 'status', 'aria-live': 'polite' });
-    const stat = (key, label, title) => {
+    // The readout, per path: key -> [label, tooltip]. Following landmarks
+    // (www/js/follow-path.js) fits no AAM: its readout is the face mesh's.
+    const labels = this.path === 'landmarks' ? FOLLOW_STATS : FIT_STATS;
+    const dl = el('dl', { class: 'trk-stats' });
+    this.readout = {};
+    for (const [key, [label, title]] of Object.entries(labels)) {
       const dd = el('dd', { 'data-k': key, text: '–' });
-      return [el('div', { title }, el('dt', { text: label }), dd), dd];
-    };
-    // Following landmarks (www/js/follow-path.js) fits no AAM: its readout is the face mesh's.
-    const follow = this.path === 'landmarks';
-    const [sErr, dErr] = follow
-      ? stat('error', 'face score', "The face mesh's confidence that the followed region is a face (0..1; – on a frame the finder's search gave)")
-      : stat('error', 'fit error', 'RMS grey-level residual of the last fit (0..1)');
-    const [sIt, dIt] = follow
-      ? stat('iterations', 'mesh passes', 'Face-mesh passes run near the last face this frame (1 while following, 2 from a box; the search not counted)')
-      : stat('iterations', 'iterations', 'Iterations of the last fit (converged or not)');
-    const [sFps, dFps] = follow
-      ? stat('fps', 'frames / s', 'Frames followed in the last second')
-      : stat('fps', 'fits / s', 'Frames fitted in the last second');
-    const [sMs, dMs] = follow
-      ? stat('ms', 'ms / frame', 'Time per frame followed (smoothed), reading the frame excluded')
-      : stat('ms', 'ms / fit', 'Time per fit (smoothed), reading the frame excluded');
-    const [sLost, dLost] = stat('lost', 'lost · reinit', 'Frames reported lost · re-initialisations, this sequence');
-    this.readout = { error: dErr, iterations: dIt, fps: dFps, ms: dMs, lost: dLost };
+      dl.append(el('div', { title }, el('dt', { text: label }), dd));
+      this.readout[key] = dd;
+    }
 
     this.playBtn = button('Pause', () => this.togglePlay(), { class: 'btn primary', 'aria-keyshortcuts': 'Space', title: 'Pause / play (space)' });
     this.restartBtn = button('Re-start', () => this.restart(), { title: 'Place the face again and start a new sequence' });
@@ -121,7 +129,7 @@ export const panelMethods = {
         el(
           'div',
           { class: 'trk-side' },
-          el('dl', { class: 'trk-stats' }, sErr, sIt, sFps, sMs, sLost),
+          dl,
           el('div', { class: 'trk-buttons' }, this.startBtn, this.playBtn, this.restartBtn, this.otherBtn),
           el('div', { class: 'trk-options' }, meshLabel, ...extra),
           pathNotice(this.path ?? 'aam', this.ctx.createFace),
