@@ -38,9 +38,9 @@ pub struct FaceFinder {
     nets: MeshNets,
     options: FindOptions,
     calibrate: bool,
-    /// The local correction (`local.rs`), applied after the calibration when `refine` is on.
+    /// The local correction (`local.rs`), applied after the calibration when `local_on`.
     local: LocalCorrection,
-    refine: bool,
+    local_on: bool,
     local_scratch: LocalScratch,
     detections: Vec<Detection>,
     /// The dense mesh of the last `scored_landmarks_into` or `follow_into` (where
@@ -73,7 +73,7 @@ impl FaceFinder {
             options: FindOptions::default(),
             calibrate: true,
             local: LocalCorrection::shipped()?,
-            refine: true,
+            local_on: true,
             local_scratch: LocalScratch::default(),
             detections: Vec::new(),
             pass: Vec::new(),
@@ -92,12 +92,12 @@ impl FaceFinder {
     /// default); off to learn it (`examples/finder_data.rs local`) and to measure it. No effect
     /// on points that are not calibrated.
     pub fn set_local_correction(&mut self, on: bool) {
-        self.refine = on;
+        self.local_on = on;
     }
 
     /// Whether the local correction is on ([`set_local_correction`](Self::set_local_correction)).
     pub fn local_correction(&self) -> bool {
-        self.refine
+        self.local_on
     }
 
     /// The options [`find`](Self::find) uses.
@@ -220,7 +220,7 @@ impl FaceFinder {
 
     /// The local correction of calibrated points (when on), in the image they were placed on.
     fn correct(&mut self, image: &ImageRef, points: &mut [f32]) {
-        if self.calibrate && self.refine {
+        if self.calibrate && self.local_on {
             self.local.apply(image, points, &mut self.local_scratch);
         }
     }
@@ -228,7 +228,8 @@ impl FaceFinder {
     /// [`FindOptions::mirror`]: the face of `det` meshed on the mirror image (`self.mirror`,
     /// made from `image`), its 68 points mirrored back and averaged into `landmarks` (each
     /// pass's points calibrated and corrected in its own image, so the convention offsets and
-    /// the local correction are averaged with their mirror too). Leaves `landmarks` as they are when the mirror pass finds no face.
+    /// the local correction are averaged with their mirror too). Leaves `landmarks` as they
+    /// are when the mirror pass finds no face.
     fn add_mirror(&mut self, image: &ImageRef, det: &Detection, landmarks: &mut [f32]) {
         let w = image.width() as f32;
         let mirror = std::mem::take(&mut self.mirror);
@@ -330,8 +331,8 @@ impl FaceFinder {
         self.finish(image, r, out)
     }
 
-    /// The end of a mesh call: on success the 68 points of `self.pass` into `out` (calibrated)
-    /// and the score; on failure `self.pass` is cleared, so `follow_into` fails until a new face
+    /// The end of a mesh call: on success the 68 points of `self.pass` into `out` (calibrated
+    /// and corrected in `image`) and the score; on failure `self.pass` is cleared, so `follow_into` fails until a new face
     /// is given.
     fn finish(&mut self, image: &ImageRef, r: Result<f32>, out: &mut [f32]) -> Result<f32> {
         let score = match r {

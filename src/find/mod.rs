@@ -4,8 +4,9 @@
 //! (Google LLC; `data/weights/LICENSE-mediapipe`), converted from their TFLite files by
 //! `scripts/convert-mediapipe.py` and run by the crate's own layers (`graph.rs`, `nn.rs`): the
 //! detector proposes faces, the mesh places 468 points on each (twice, the second pass on the
-//! region of the first pass's points), and 68 of its vertices, moved onto dlib's convention,
-//! are the iBUG points (`mesh_table.rs`, `calibration.rs`). See `docs/finding.md` for the
+//! region of the first pass's points), and 68 of its vertices, moved onto dlib's convention
+//! by a constant per point and then by what the image shows about each point, are the iBUG
+//! points (`mesh_table.rs`, `calibration.rs`, `local.rs`). See `docs/finding.md` for the
 //! measured rates, errors and speed, and why the pipeline is what it is.
 
 mod calibration;
