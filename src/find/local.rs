@@ -51,12 +51,69 @@ pub(crate) const SHIPPED: &[u8] = include_bytes!("../../data/weights/local_corre
 
 /// One stage: which points it moves, the sample step and per point `(DIM + 1) x 2` weights.
 #[derive(Clone, Debug)]
-struct Stage {
+pub(super) struct Stage {
     scale: f32,
     points: Vec<u8>,
     /// Per point `(DIM + 1) * 2` values: the `DIM` features' weights for x, then for y, then
     /// the two constants (the file interleaves x and y; see [`rows`] and [`interleaved`]).
     rows: Vec<f32>,
+}
+
+/// A stage's step in (0, 1] and its 1 to 68 points, increasing and under 68; the error says
+/// which is not.
+pub(super) fn check_stage(scale: f32, points: &[u8]) -> std::result::Result<(), String> {
+    if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
+        return Err(format!("sample step {scale} outside (0, 1]"));
+    }
+    if !(1..=68).contains(&points.len()) {
+        return Err(format!("{} points (1..=68 allowed)", points.len()));
+    }
+    if points.iter().any(|&p| p >= 68) || points.windows(2).any(|w| w[0] >= w[1]) {
+        return Err("point indices must be increasing and under 68".into());
+    }
+    Ok(())
+}
+
+impl Stage {
+    /// A stage from its step, its points and their weights in the file's order (x and y
+    /// interleaved per feature, the constants last), kept as the file stores them: rounded to
+    /// float16. Checked as a file's stage is ([`check_stage`], `(DIM + 1) * 2` weights a
+    /// point, finite as float16); the error says what is wrong.
+    pub(super) fn stored(
+        scale: f32,
+        points: Vec<u8>,
+        interleaved: &[f32],
+    ) -> std::result::Result<Stage, String> {
+        check_stage(scale, &points)?;
+        if interleaved.len() != points.len() * (DIM + 1) * 2 {
+            return Err(format!(
+                "{} weights for {} points",
+                interleaved.len(),
+                points.len()
+            ));
+        }
+        let weights: Vec<f32> = interleaved
+            .iter()
+            .map(|&w| half::f16::from_f32(w).to_f32())
+            .collect();
+        if weights.iter().any(|w| !w.is_finite()) {
+            return Err("non-finite weights".into());
+        }
+        Ok(Stage {
+            scale,
+            points,
+            rows: rows(&weights),
+        })
+    }
+
+    /// Moves `points` by this stage's prediction (see [`LocalCorrection::apply`]); `false`,
+    /// leaving them as they are, for a degenerate shape.
+    pub(super) fn step(&self, image: &ImageRef, points: &mut [f32], sc: &mut LocalScratch) -> bool {
+        if !stage_offsets(self, image, points, sc) {
+            return false;
+        }
+        add_face_offsets(points, &sc.offsets)
+    }
 }
 
 /// The learned correction: its stages, applied in order.
@@ -76,13 +133,6 @@ pub struct LocalScratch {
     patch: Vec<f32>,
     descriptor: Vec<f32>,
     offsets: Vec<f32>,
-}
-
-impl LocalScratch {
-    /// The offsets of the last [`LocalCorrection::stage_offsets`] (136 values, face frame).
-    pub fn offsets(&self) -> &[f32] {
-        &self.offsets
-    }
 }
 
 impl LocalCorrection {
@@ -114,35 +164,19 @@ impl LocalCorrection {
         for s in 0..stages {
             let trunc = || bad(&format!("stage {s} truncated"));
             let scale = f32::from_bits(r.u32().ok_or_else(trunc)?);
-            if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
-                return Err(bad(&format!(
-                    "stage {s}: sample step {scale} outside (0, 1]"
-                )));
-            }
             let n = r.u32().ok_or_else(trunc)? as usize;
-            if !(1..=68).contains(&n) {
+            if n > 68 {
                 return Err(bad(&format!("stage {s}: {n} points (1..=68 allowed)")));
             }
             let points = r.take(n).ok_or_else(trunc)?.to_vec();
-            if points.iter().any(|&p| p >= 68) || points.windows(2).any(|w| w[0] >= w[1]) {
-                return Err(bad(&format!(
-                    "stage {s}: point indices must be increasing and under 68"
-                )));
-            }
-            let count = n * (DIM + 1) * 2;
-            let raw = r.take(count * 2).ok_or_else(trunc)?;
+            let raw = r.take(n * (DIM + 1) * 2 * 2).ok_or_else(trunc)?;
             let weights: Vec<f32> = raw
                 .chunks_exact(2)
                 .map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32())
                 .collect();
-            if weights.iter().any(|w| !w.is_finite()) {
-                return Err(bad(&format!("stage {s}: non-finite weights")));
-            }
-            out.push(Stage {
-                scale,
-                points,
-                rows: rows(&weights),
-            });
+            let stage = Stage::stored(scale, points, &weights)
+                .map_err(|m| bad(&format!("stage {s}: {m}")))?;
+            out.push(stage);
         }
         if r.at != bytes.len() {
             return Err(bad(&format!(
@@ -202,26 +236,15 @@ impl LocalCorrection {
     /// whose move would not be finite.
     pub fn apply(&self, image: &ImageRef, points: &mut [f32], scratch: &mut LocalScratch) {
         for stage in &self.stages {
-            if !stage_offsets(stage, image, points, scratch) {
+            if !stage.step(image, points, scratch) {
                 return;
             }
-            add_face_offsets(points, &scratch.offsets);
         }
     }
 
-    /// The offsets stage `s` predicts for `points` (136 values in the face frame, zero for the
-    /// points it does not move), into `out`; `false` for a degenerate shape. For training and
-    /// tests.
-    pub fn stage_offsets(
-        &self,
-        s: usize,
-        image: &ImageRef,
-        points: &[f32],
-        scratch: &mut LocalScratch,
-    ) -> bool {
-        self.stages
-            .get(s)
-            .is_some_and(|st| stage_offsets(st, image, points, scratch))
+    /// A correction of `stages` (at least one: [`LocalCorrection::learn`] makes them).
+    pub(super) fn from_stages(stages: Vec<Stage>) -> LocalCorrection {
+        LocalCorrection { stages }
     }
 }
 
@@ -515,6 +538,39 @@ mod tests {
         cases.push((v, "non-finite"));
         for (bytes, want) in cases {
             let e = LocalCorrection::from_bytes(&bytes).unwrap_err().to_string();
+            assert!(e.contains(want), "{e:?} should say {want:?}");
+        }
+    }
+
+    #[test]
+    fn bad_learning_options_are_refused() {
+        use crate::find::LearnOptions;
+        let d = LearnOptions::default();
+        for (options, want) in [
+            (
+                LearnOptions {
+                    points: vec![17, 68],
+                    ..d.clone()
+                },
+                "increasing",
+            ),
+            (
+                LearnOptions {
+                    scales: vec![0.0],
+                    ..d.clone()
+                },
+                "sample step",
+            ),
+            (
+                LearnOptions {
+                    scales: Vec::new(),
+                    ..d.clone()
+                },
+                "0 stages",
+            ),
+            (LearnOptions { ..d.clone() }, "no usable samples"),
+        ] {
+            let e = LocalCorrection::learn(&[], &options).unwrap_err().to_string();
             assert!(e.contains(want), "{e:?} should say {want:?}");
         }
     }

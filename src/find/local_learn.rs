@@ -2,8 +2,10 @@
 //! regressions of supervised descent, each stage trained on the points the stages before it
 //! leave, from the finder's points and perturbed copies of them.
 
-use super::calibration::{add_face_offsets, face_frame, face_offsets};
-use super::local::{local_descriptor, LocalCorrection, LocalScratch, DIM};
+use super::calibration::{face_frame, face_offsets};
+use super::local::{
+    check_stage, local_descriptor, LocalCorrection, LocalScratch, Stage, DIM, MAX_STAGES,
+};
 use crate::error::{Error, Result};
 use crate::image::ImageRef;
 use crate::landmarks::mirror_points;
@@ -99,8 +101,14 @@ impl LocalCorrection {
     /// its prediction (with the weights as the file stores them, float16) for the next stage.
     pub fn learn(samples: &[LearnSample<'_>], options: &LearnOptions) -> Result<LocalCorrection> {
         let bad = |m: String| Error::Weights(format!("local correction: {m}"));
-        if options.scales.is_empty() || options.points.is_empty() {
-            return Err(bad("no stages or no points to learn".into()));
+        for &scale in &options.scales {
+            check_stage(scale, &options.points).map_err(bad)?;
+        }
+        if !(1..=MAX_STAGES).contains(&options.scales.len()) {
+            return Err(bad(format!(
+                "{} stages (1..={MAX_STAGES} allowed)",
+                options.scales.len()
+            )));
         }
         let mut rng = Rng(options.seed);
         let mut starts: Vec<(usize, Vec<f32>)> = Vec::new();
@@ -122,17 +130,14 @@ impl LocalCorrection {
         let mut scratch = LocalScratch::default();
         for &scale in &options.scales {
             let weights = solve_stage(samples, &starts, scale, options)?;
-            stages.push((scale, options.points.clone(), weights));
             // The weights as stored (float16), so the next stage learns from what ships.
-            let stored = LocalCorrection::from_bytes(&LocalCorrection::to_bytes(&stages)?)?;
-            let s = stored.stages() - 1;
+            let stage = Stage::stored(scale, options.points.clone(), &weights).map_err(bad)?;
             for (k, p) in starts.iter_mut() {
-                if stored.stage_offsets(s, &samples[*k].image, p, &mut scratch) {
-                    add_face_offsets(p, scratch.offsets());
-                }
+                stage.step(&samples[*k].image, p, &mut scratch);
             }
+            stages.push(stage);
         }
-        LocalCorrection::from_bytes(&LocalCorrection::to_bytes(&stages)?)
+        Ok(LocalCorrection::from_stages(stages))
     }
 }
 
