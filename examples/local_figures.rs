@@ -52,16 +52,8 @@ mod native {
                 let image = read_image(&p).unwrap();
                 let truth =
                     read_landmarks(&p.with_extension("pts"), image.width, image.height).unwrap();
-                let (w, h) = (image.width as usize, image.height as usize);
-                let mut data = vec![0u8; w * h * 4];
-                for (d, s) in data
-                    .chunks_exact_mut(w * 4)
-                    .zip(image.data.chunks_exact(w * 4))
-                {
-                    for (x, px) in s.chunks_exact(4).enumerate() {
-                        d[(w - 1 - x) * 4..(w - x) * 4].copy_from_slice(px);
-                    }
-                }
+                let mut data = Vec::new();
+                image.view().unwrap().mirror_into(&mut data);
                 let mirror = Image {
                     data,
                     ..image.clone()

@@ -570,7 +570,9 @@ mod tests {
             ),
             (LearnOptions { ..d.clone() }, "no usable samples"),
         ] {
-            let e = LocalCorrection::learn(&[], &options).unwrap_err().to_string();
+            let e = LocalCorrection::learn(&[], &options)
+                .unwrap_err()
+                .to_string();
             assert!(e.contains(want), "{e:?} should say {want:?}");
         }
     }
