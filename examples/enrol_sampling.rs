@@ -23,35 +23,28 @@
 #[cfg(not(any(target_arch = "wasm32", test)))]
 use native::main;
 
+#[cfg(not(any(target_arch = "wasm32", test)))]
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 /// Native only: the example reads files.
 #[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use std::path::Path;
     use std::time::Instant;
 
+    use super::common::{self, frame, Rng};
     use facemimic::find::landmark_error;
     use facemimic::fit::{FitOptions, TrackPolicy, Tracker};
     use facemimic::{
-        io, select_varied, with_default_backdrop, BuildOptions, Builder, EnrolFinder, FaceFinder,
+        select_varied, with_default_backdrop, BuildOptions, Builder, EnrolFinder, FaceFinder,
         Model, TrainingImage,
     };
-
-    /// xorshift64: the samplings' timings, reproducible from `--seed`.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
 
     /// The frames one live sampling keeps, in order: a search every 4.5-6.5 frames; past 60
     /// candidates, the 45 most varied are kept.
     fn sample(points: &[Option<Vec<f32>>], rng: &mut Rng) -> Vec<usize> {
-        let mut t = rng.next() * 5.0;
+        let mut t = rng.uniform(0.0, 5.0);
         let mut kept: Vec<usize> = Vec::new();
         while (t as usize) < points.len() {
             let i = t as usize;
@@ -63,7 +56,7 @@ mod native {
                     kept = keep.iter().map(|&k| kept[k]).collect();
                 }
             }
-            t += 4.5 + 2.0 * rng.next();
+            t += rng.uniform(4.5, 6.5);
         }
         kept
     }
@@ -102,14 +95,7 @@ mod native {
         let (mut errors, mut ms, mut worst_ms) = (Vec::new(), 0.0, 0f64);
         for f in test {
             let view = f.image.view().unwrap();
-            if t.wants_faces() {
-                let faces = finder
-                    .find(&view)
-                    .into_iter()
-                    .map(|f| f.landmarks)
-                    .collect();
-                t.offer_faces(faces).unwrap();
-            }
+            common::offer_when_wanted(&mut t, finder, &view);
             let t0 = Instant::now();
             let r = t.track_timed(&view, 1.0 / 30.0).unwrap();
             let dt = t0.elapsed().as_secs_f64() * 1e3;
@@ -140,7 +126,8 @@ mod native {
             .map_or(20, |a| a.parse().expect("the number of samplings"));
         let recheck =
             value("--recheck").map_or(TrackPolicy::default().recheck_frames, |v| v as u32);
-        let mut rng = Rng(value("--seed").unwrap_or(0x9E37_79B9_7F4A_7C15).max(1));
+        // The samplings' timings, reproducible from `--seed`.
+        let mut rng = Rng::new(value("--seed").unwrap_or(0x9E37_79B9_7F4A_7C15));
         let clip = args
             .iter()
             .position(|a| a == "--clip")
@@ -160,9 +147,8 @@ mod native {
             );
             std::process::exit(2);
         }
-        let frame = |i: usize| io::read_training_image(&dir.join(format!("{i:06}.jpg"))).unwrap();
-        let frames: Vec<TrainingImage> = build.clone().map(frame).collect();
-        let test: Vec<TrainingImage> = measure.clone().map(frame).collect();
+        let frames: Vec<TrainingImage> = build.clone().map(|i| frame(&dir, i)).collect();
+        let test: Vec<TrainingImage> = measure.clone().map(|i| frame(&dir, i)).collect();
         let mut enrol = EnrolFinder::new(1).unwrap();
         let points: Vec<Option<Vec<f32>>> = frames
             .iter()

@@ -256,14 +256,7 @@ fn a_second_opinion_brings_the_fit_back_from_the_hand_under_the_chin() {
         let mut errors = Vec::new();
         for f in &test {
             let view = f.image.view().unwrap();
-            if t.wants_faces() {
-                let faces = finder
-                    .find(&view)
-                    .into_iter()
-                    .map(|f| f.landmarks)
-                    .collect();
-                t.offer_faces(faces).unwrap();
-            }
+            common::offer_when_wanted(&mut t, &mut finder, &view);
             let r = t.track(&view).unwrap();
             errors.push(landmark_error(&r.landmarks, &f.landmarks));
         }

@@ -22,8 +22,8 @@ use std::path::{Path, PathBuf};
 use facemimic::Similarity;
 #[cfg(not(target_arch = "wasm32"))]
 use facemimic::{
-    io, select_varied, with_default_backdrop, BuildOptions, Builder, FaceFinder, Image, Model,
-    TrainingImage,
+    fit::Tracker, io, select_varied, with_default_backdrop, BuildOptions, Builder, FaceFinder,
+    Image, ImageRef, Model, TrainingImage,
 };
 
 /// Perturbs landmarks about their centroid: translation up to 5% of the face width (extent of
@@ -123,6 +123,20 @@ pub fn first_face(finder: &mut FaceFinder, image: &Image) -> Option<Vec<f32>> {
         .into_iter()
         .next()
         .map(|f| f.landmarks)
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// As the page's finder worker does: when `tracker` wants faces ([`Tracker::wants_faces`]),
+/// the faces `finder` finds in `image` are offered to it.
+pub fn offer_when_wanted(tracker: &mut Tracker, finder: &mut FaceFinder, image: &ImageRef) {
+    if tracker.wants_faces() {
+        let faces = finder
+            .find(image)
+            .into_iter()
+            .map(|f| f.landmarks)
+            .collect();
+        tracker.offer_faces(faces).unwrap();
+    }
 }
 
 #[cfg(not(target_arch = "wasm32"))]
