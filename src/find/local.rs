@@ -188,41 +188,44 @@ impl LocalCorrection {
     }
 
     /// Writes a weight file from stages given as `(step, points, weights)` (weights per point
-    /// `(DIM + 1) * 2`, as the file orders them; stored as float16). Checked as
+    /// `(DIM + 1) * 2`, as the file orders them; stored as float16), checked as
     /// [`from_bytes`](Self::from_bytes) checks a file.
     pub fn to_bytes(stages: &[(f32, Vec<u8>, Vec<f32>)]) -> Result<Vec<u8>> {
-        let mut out = Vec::new();
-        out.extend_from_slice(b"FMLC");
-        out.extend_from_slice(&1u32.to_le_bytes());
-        out.extend_from_slice(&(stages.len() as u32).to_le_bytes());
-        out.extend_from_slice(&(DIM as u32).to_le_bytes());
-        for (scale, points, weights) in stages {
-            if weights.len() != points.len() * (DIM + 1) * 2 {
-                return Err(Error::Weights(format!(
-                    "local correction: {} weights for {} points",
-                    weights.len(),
-                    points.len()
-                )));
-            }
-            out.extend_from_slice(&scale.to_bits().to_le_bytes());
-            out.extend_from_slice(&(points.len() as u32).to_le_bytes());
-            out.extend_from_slice(points);
-            for w in weights {
-                out.extend_from_slice(&half::f16::from_f32(*w).to_le_bytes());
-            }
+        let bad = |m: String| Error::Weights(format!("local correction: {m}"));
+        if !(1..=MAX_STAGES).contains(&stages.len()) {
+            return Err(bad(format!(
+                "{} stages (1..={MAX_STAGES} allowed)",
+                stages.len()
+            )));
         }
-        Self::from_bytes(&out)?;
-        Ok(out)
+        let stages = stages
+            .iter()
+            .enumerate()
+            .map(|(s, (scale, points, weights))| {
+                Stage::stored(*scale, points.clone(), weights)
+                    .map_err(|m| bad(format!("stage {s}: {m}")))
+            })
+            .collect::<Result<Vec<Stage>>>()?;
+        Ok(LocalCorrection { stages }.to_vec())
     }
 
     /// The correction as a weight file (what [`from_bytes`](Self::from_bytes) reads).
     pub fn to_vec(&self) -> Vec<u8> {
-        let stages: Vec<(f32, Vec<u8>, Vec<f32>)> = self
-            .stages
-            .iter()
-            .map(|s| (s.scale, s.points.clone(), interleaved(&s.rows)))
-            .collect();
-        Self::to_bytes(&stages).expect("stages that were checked on the way in")
+        let mut out = Vec::new();
+        out.extend_from_slice(b"FMLC");
+        out.extend_from_slice(&1u32.to_le_bytes());
+        out.extend_from_slice(&(self.stages.len() as u32).to_le_bytes());
+        out.extend_from_slice(&(DIM as u32).to_le_bytes());
+        for stage in &self.stages {
+            out.extend_from_slice(&stage.scale.to_bits().to_le_bytes());
+            out.extend_from_slice(&(stage.points.len() as u32).to_le_bytes());
+            out.extend_from_slice(&stage.points);
+            // The rows hold float16 values already: the conversion is exact.
+            for w in interleaved(&stage.rows) {
+                out.extend_from_slice(&half::f16::from_f32(w).to_le_bytes());
+            }
+        }
+        out
     }
 
     /// Number of stages.
