@@ -501,7 +501,7 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
     if let Ok(mut c) = Cloner::new(m.clone()) {
         if c.add_target(m.clone()).is_ok() {
             let opts = CloneOptions {
-                method: Method::ALL[rng.below(3)],
+                method: Method::ALL[rng.below(Method::ALL.len())],
                 gain: if rng.chance(2) { float(rng) } else { 1.0 },
                 shape_gains: (0..rng.below(3)).map(|_| float(rng)).collect(),
                 appearance_gains: Vec::new(),
@@ -511,6 +511,12 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
                     _ => Some(3.0),
                 },
                 follow_pose: rng.chance(2),
+                regions: facemimic::clone::RegionGains {
+                    mouth: if rng.chance(2) { float(rng) } else { 1.0 },
+                    eyes: if rng.chance(2) { float(rng) } else { 1.0 },
+                    brows: 1.0,
+                },
+                style: if rng.chance(2) { float(rng) } else { 1.0 },
             };
             for p in [&base, &params] {
                 if c.clone_frame(p, &opts).is_ok()

@@ -213,3 +213,61 @@ pub fn read_model_file_info(
     crate::model::format::read_model_info(&bytes)
         .map_err(|e| Error::Format(e).with_context(&path.display().to_string()))
 }
+
+/// The landmarks the shipped expression prior is learned from, under `data` (the crate's
+/// `data/` folder): the London set's `london/neutral/NNN.pts` with `london/smiling/NNN.pts`
+/// (people whose number is in `exclude` left out), and every GRID speaker's `.pts` under
+/// `grid/spkNN_*/`, grouped by speaker. Sorted by name, so the order is the same everywhere.
+/// The iBUG files' 1-based coordinates are read as 0-based.
+pub fn expression_sets(
+    data: &Path,
+    exclude: &[u32],
+) -> Result<(Vec<(Vec<f32>, Vec<f32>)>, Vec<Vec<Vec<f32>>>)> {
+    let read = |p: &Path| -> Result<Vec<f32>> {
+        let text =
+            std::fs::read_to_string(p).map_err(|e| Error::Io(format!("{}: {e}", p.display())))?;
+        crate::landmarks::parse_pts(&text)
+    };
+    let sorted = |dir: &Path| -> Result<Vec<PathBuf>> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map_err(|e| Error::Io(format!("{}: {e}", dir.display())))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .collect();
+        v.sort();
+        Ok(v)
+    };
+    let mut london = Vec::new();
+    for p in sorted(&data.join("london/neutral"))? {
+        let (Some(stem), Some("pts")) = (
+            p.file_stem().and_then(|s| s.to_str()),
+            p.extension().and_then(|s| s.to_str()),
+        ) else {
+            continue;
+        };
+        if stem.parse::<u32>().is_ok_and(|n| exclude.contains(&n)) {
+            continue;
+        }
+        let smile = data.join("london/smiling").join(format!("{stem}.pts"));
+        london.push((read(&p)?, read(&smile)?));
+    }
+    let mut speakers: Vec<(String, Vec<Vec<f32>>)> = Vec::new();
+    for clip in sorted(&data.join("grid"))? {
+        let Some(name) = clip.file_name().and_then(|s| s.to_str()) else {
+            continue;
+        };
+        let Some(speaker) = name.split('_').next().filter(|s| s.starts_with("spk")) else {
+            continue;
+        };
+        let mut frames = Vec::new();
+        for p in sorted(&clip)? {
+            if p.extension().and_then(|s| s.to_str()) == Some("pts") {
+                frames.push(read(&p)?);
+            }
+        }
+        match speakers.iter_mut().find(|(s, _)| s == speaker) {
+            Some((_, f)) => f.extend(frames),
+            None => speakers.push((speaker.to_string(), frames)),
+        }
+    }
+    Ok((london, speakers.into_iter().map(|(_, f)| f).collect()))
+}

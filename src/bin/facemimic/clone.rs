@@ -20,10 +20,38 @@ pub struct Args {
     /// A source image with its landmark file (.pts/.asf beside it), projected into the source.
     #[arg(long, value_name = "IMAGE")]
     image: Option<PathBuf>,
-    /// substitute (Fig. 4 A), map (Eq. 3) or map-residual (Eq. 4).
-    #[arg(long, default_value = "map", value_name = "METHOD",
-          value_parser = clap::builder::PossibleValuesParser::new(["substitute", "map", "map-residual"]))]
+    /// The cloning method.
+    #[arg(long, default_value = Method::default().name(), value_name = "METHOD",
+          value_parser = method_parser())]
     method: String,
+    /// expressive: gain on the mouth's motion and shading (with --gain).
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        value_name = "G",
+        allow_negative_numbers = true
+    )]
+    mouth_gain: f32,
+    /// expressive: gain on the eyes' motion and shading (with --gain).
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        value_name = "G",
+        allow_negative_numbers = true
+    )]
+    eyes_gain: f32,
+    /// expressive: gain on the brows' motion (with --gain).
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        value_name = "G",
+        allow_negative_numbers = true
+    )]
+    brows_gain: f32,
+    /// expressive: 0 = the target's own range (its modes, limited), 1 = the source's full
+    /// motion.
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    style: f32,
     /// Gain on the source parameters: 0 = the target's reference face, 1 = faithful,
     /// >1 = exaggerated.
     #[arg(
@@ -67,6 +95,13 @@ pub struct Args {
     draw: super::render::DrawArgs,
 }
 
+/// The methods' names and descriptions, from the core's one list.
+pub fn method_parser() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        Method::ALL.map(|m| clap::builder::PossibleValue::new(m.name()).help(m.description())),
+    )
+}
+
 fn write(path: &Path, text: &str) -> Result<()> {
     std::fs::write(path, text).map_err(|e| Error::Io(format!("{}: {e}", path.display())))
 }
@@ -87,7 +122,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     // A size the model declares is only a default, bounded; a larger canvas must be asked for.
     let composite = super::render::composite_wanted(a.draw.composite, &target);
-    if target.is_photo() && method != Method::Substitute {
+    if facemimic::clone::effective_method(method, &target) != method {
         eprintln!(
             "facemimic: notice: '{}' is a photo target (no modes of its own); cloned by substitution instead of {method}",
             target.name()
@@ -100,6 +135,12 @@ pub fn run(a: Args) -> Result<()> {
         gain: a.gain,
         clamp: if a.no_clamp { None } else { Some(a.clamp) },
         follow_pose: a.follow_pose,
+        regions: facemimic::clone::RegionGains {
+            mouth: a.mouth_gain,
+            eyes: a.eyes_gain,
+            brows: a.brows_gain,
+        },
+        style: a.style,
         ..CloneOptions::default()
     };
     let mut cloner = Cloner::new(source)?;

@@ -32,6 +32,20 @@
 use std::fmt;
 use std::str::FromStr;
 
+mod expressive;
+mod prior;
+mod transfer;
+
+pub use expressive::{
+    expressive_appearance, expressive_shape, limit_mahalanobis, luma, region_of,
+    residual_after_limit, ExpressiveOptions, ExpressiveTarget, RegionGains, SourceFrame,
+    SourceSide, RATIO_OFFSET, RATIO_RANGE,
+};
+pub use prior::{
+    expression_displacement, learn_prior, ExpressionPrior, MAX_PRIOR_MODES, STABLE_POINTS,
+};
+pub use transfer::{transfer_displacement, transfer_operator};
+
 use crate::error::{Error, Result};
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
@@ -49,11 +63,23 @@ pub enum Method {
     /// Eq. 4, Fig. 4 C: `Map` plus the shape residual the target basis cannot express, added
     /// back (see [`add_residual`]).
     MapResidual,
+    /// Strong expressions in the target's own proportions and colours: the source's
+    /// displacement by deformation transfer, bounded by a generic expression prior, the
+    /// target's own modes where they can follow and a residual after the limit; the appearance
+    /// change as a luminance ratio image, the inner mouth and the eyelids recoloured for the
+    /// target (see [`expressive_shape`], [`expressive_appearance`]).
+    Expressive,
 }
 
 impl Method {
-    /// All methods, in the order of the paper's Fig. 4.
-    pub const ALL: [Method; 3] = [Method::Substitute, Method::Map, Method::MapResidual];
+    /// All methods: the paper's three in the order of its Fig. 4, then the expressive one.
+    /// The one list the CLI, the wasm package's types, the page and the docs are made from.
+    pub const ALL: [Method; 4] = [
+        Method::Substitute,
+        Method::Map,
+        Method::MapResidual,
+        Method::Expressive,
+    ];
 
     /// The method's name as used by the API, the CLI and the page.
     pub fn name(&self) -> &'static str {
@@ -61,6 +87,33 @@ impl Method {
             Method::Substitute => "substitute",
             Method::Map => "map",
             Method::MapResidual => "map-residual",
+            Method::Expressive => "expressive",
+        }
+    }
+
+    /// A short label for the page's controls.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Method::Substitute => "Substitute",
+            Method::Map => "Map",
+            Method::MapResidual => "Map + residual",
+            Method::Expressive => "Expressive",
+        }
+    }
+
+    /// One sentence on what the method does, for the CLI's help and the page.
+    pub fn description(&self) -> &'static str {
+        match self {
+            Method::Substitute => {
+                "the source's modes on the target's face (Fig. 4 A): the source's motion verbatim, its identity too"
+            }
+            Method::Map => "the source's parameters mapped into the target's modes (Eq. 3): under-articulates",
+            Method::MapResidual => {
+                "map plus the shape the target's modes cannot express (Eq. 4); the appearance as map"
+            }
+            Method::Expressive => {
+                "the source's full expression in the target's proportions and colours: teeth, blinks and creases arrive (the default)"
+            }
         }
     }
 }
@@ -78,8 +131,10 @@ impl FromStr for Method {
             .into_iter()
             .find(|m| m.name() == s)
             .ok_or_else(|| {
+                let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
                 Error::Params(format!(
-                    "unknown cloning method '{s}' (expected substitute, map or map-residual)"
+                    "unknown cloning method '{s}' (expected one of {})",
+                    names.join(", ")
                 ))
             })
     }
@@ -106,6 +161,12 @@ pub struct CloneOptions {
     /// source's mean pose, applied around the target's mean pose); `false` (default): the
     /// target stays at its own mean pose.
     pub follow_pose: bool,
+    /// [`Method::Expressive`]: per-region gains (mouth, eyes, brows), multiplied with `gain`.
+    pub regions: RegionGains,
+    /// [`Method::Expressive`]: 0 = the target's own range only (its modes, limited), 1 (the
+    /// default) = the source's full motion (plus the residual after the limit, and the ratio
+    /// image); in between, a blend. Must be in `0..=1`.
+    pub style: f32,
 }
 
 impl Default for CloneOptions {
@@ -117,6 +178,8 @@ impl Default for CloneOptions {
             appearance_gains: Vec::new(),
             clamp: Some(3.0),
             follow_pose: false,
+            regions: RegionGains::default(),
+            style: 1.0,
         }
     }
 }
@@ -144,6 +207,19 @@ impl CloneOptions {
             for (i, &v) in g.iter().enumerate() {
                 crate::model::bounds::check_gain(&format!("{what}[{i}]"), v)?;
             }
+        }
+        for (what, g) in [
+            ("mouth gain", self.regions.mouth),
+            ("eyes gain", self.regions.eyes),
+            ("brows gain", self.regions.brows),
+        ] {
+            crate::model::bounds::check_gain(what, g)?;
+        }
+        if !(0.0..=1.0).contains(&self.style) {
+            return Err(Error::Params(format!(
+                "style {} must be in 0..=1 (0 the target's own range, 1 the source's full motion)",
+                self.style
+            )));
         }
         if let Some(k) = self.clamp {
             if !(0.0..=crate::model::bounds::MAX_GAIN).contains(&k) {
@@ -290,9 +366,10 @@ pub fn target_pose(
 
 /// The method a target is cloned with: `method`, except for a photo target ([`Model::is_photo`]:
 /// no modes of its own), which `map` and `map-residual` cannot express anything on; it is
-/// cloned by substitution (Fig. 4 A: the source's modes on the photo's face).
+/// cloned by substitution (Fig. 4 A: the source's modes on the photo's face). The expressive
+/// method needs no target modes and is kept.
 pub fn effective_method(method: Method, target: &Model) -> Method {
-    if target.is_photo() {
+    if target.is_photo() && method != Method::Expressive {
         Method::Substitute
     } else {
         method
@@ -451,14 +528,21 @@ impl TargetFrame {
 struct Target {
     model: Model,
     pair: Pair,
+    expressive: ExpressiveTarget,
     out: TargetFrame,
 }
 
 impl Target {
-    fn new(source: &Model, model: Model) -> Result<Target> {
+    fn new(source: &Model, side: &SourceSide, model: Model) -> Result<Target> {
         let pair = Pair::new(source, &model)?;
+        let expressive = ExpressiveTarget::new(side, source, &model)?;
         let out = TargetFrame::reference(&model);
-        Ok(Target { model, pair, out })
+        Ok(Target {
+            model,
+            pair,
+            expressive,
+            out,
+        })
     }
 }
 
@@ -472,6 +556,9 @@ struct Step<'a> {
     lambda: &'a [f32],
     p_sub: &'a [f32],
     lambda_sub: &'a [f32],
+    side: &'a SourceSide,
+    frame: &'a SourceFrame,
+    prior: &'a ExpressionPrior,
     options: &'a CloneOptions,
 }
 
@@ -491,6 +578,9 @@ impl<'a> Step<'a> {
             lambda: &prepared.appearance,
             p_sub: &prepared.sub_shape,
             lambda_sub: &prepared.sub_appearance,
+            side: &prepared.side,
+            frame: &prepared.frame,
+            prior: &prepared.prior,
             options,
         }
     }
@@ -499,12 +589,11 @@ impl<'a> Step<'a> {
     /// Fails with [`Error::Overflow`] naming an output that is not finite.
     fn clone_onto(
         &self,
-        model: &Model,
-        pair: &Pair,
+        (m, pair, ex): (&Model, &Pair, &mut ExpressiveTarget),
         out: &mut TargetFrame,
         acc: &mut [f64],
     ) -> Result<()> {
-        let (m, options) = (model, self.options);
+        let options = self.options;
         let method = effective_method(options.method, m);
         let (p, lambda) = if method == Method::Substitute {
             (self.p_sub, self.lambda_sub)
@@ -549,6 +638,45 @@ impl<'a> Step<'a> {
                     &mut out.appearance,
                 );
             }
+            Method::Expressive => {
+                if let Some(k) = options.clamp {
+                    constrain(
+                        &mut out.params.appearance,
+                        &pair.target_appearance_sigmas,
+                        k,
+                    );
+                }
+                let eo = ExpressiveOptions {
+                    clamp: options.clamp,
+                    style: options.style,
+                    prior: self.prior,
+                };
+                expressive_shape(
+                    ex,
+                    self.side,
+                    self.frame,
+                    m,
+                    &eo,
+                    &mut out.params.shape,
+                    acc,
+                );
+                if options.style < 1.0 {
+                    crate::model::appearance::synthesise(
+                        &m.appearance().base,
+                        &m.appearance().modes,
+                        &out.params.appearance,
+                        &mut out.appearance,
+                    );
+                }
+                expressive_appearance(
+                    ex,
+                    self.side,
+                    self.frame,
+                    m,
+                    options.style,
+                    &mut out.appearance,
+                );
+            }
         }
         let pose = out.params.pose;
         for (o, a) in out.shape.chunks_exact_mut(2).zip(acc.chunks_exact(2)) {
@@ -557,7 +685,7 @@ impl<'a> Step<'a> {
             o[1] = y;
         }
         // The entry bounds keep these finite; checked so that no NaN can ever leave.
-        let name = &model.name();
+        let name = &m.name();
         crate::model::bounds::check_output(&format!("target '{name}' shape"), &out.shape)?;
         crate::model::bounds::check_output(
             &format!("target '{name}' appearance"),
@@ -612,6 +740,12 @@ struct Prepared {
     sub_shape: Vec<f32>,
     /// The gained and constrained appearance parameters, likewise.
     sub_appearance: Vec<f32>,
+    /// The expressive method's view of the source and the frame (made once).
+    side: SourceSide,
+    /// The expressive method's source frame: displacement, appearance, ratio image.
+    frame: SourceFrame,
+    /// The prior that bounds the expressive method's displacements.
+    prior: ExpressionPrior,
 }
 
 impl Cloner {
@@ -621,6 +755,8 @@ impl Cloner {
             .mean_pose()
             .inverse()
             .ok_or_else(|| Error::Incompatible("the source's mean pose is degenerate".into()))?;
+        let side = SourceSide::new(&source);
+        let frame = side.frame_buffer(&source);
         Ok(Cloner {
             source_shape_sigmas: source.shape().sigmas(),
             source_appearance_sigmas: source.appearance().sigmas(),
@@ -631,6 +767,9 @@ impl Cloner {
                 appearance: vec![0.0; source.appearance().n_modes()],
                 sub_shape: vec![0.0; source.shape().n_modes()],
                 sub_appearance: vec![0.0; source.appearance().n_modes()],
+                side,
+                frame,
+                prior: ExpressionPrior::builtin().clone(),
             },
             acc: vec![0.0; source.shape().base.len()],
             source,
@@ -642,14 +781,31 @@ impl Cloner {
         &self.source
     }
 
+    /// The expression prior that bounds [`Method::Expressive`]'s displacements (by default
+    /// [`ExpressionPrior::builtin`]).
+    pub fn prior(&self) -> &ExpressionPrior {
+        &self.scratch.prior
+    }
+
+    /// Replaces the expression prior (for example one learned without some people, to
+    /// measure on them); kept across [`Cloner::set_source`].
+    pub fn set_prior(&mut self, prior: ExpressionPrior) {
+        self.scratch.prior = prior;
+    }
+
     /// Replaces the source model, recomputing every pair. On error (the new source is
     /// inconsistent or incompatible with a target, named in the message) the cloner keeps its
     /// old state untouched. Targets' outputs are reset to their reference faces.
     pub fn set_source(&mut self, source: Model) -> Result<()> {
         let mut fresh = Cloner::new(source)?;
+        fresh.scratch.prior = self.scratch.prior.clone();
         let mut targets = Vec::with_capacity(self.targets.len());
         for t in &self.targets {
-            targets.push(Target::new(&fresh.source, t.model.clone())?);
+            targets.push(Target::new(
+                &fresh.source,
+                &fresh.scratch.side,
+                t.model.clone(),
+            )?);
         }
         fresh.targets = targets;
         *self = fresh;
@@ -660,7 +816,7 @@ impl Cloner {
     /// [`Error::Incompatible`] naming what differs (landmark count/scheme, frame
     /// fingerprint, size, pixel count) when it is not in the source's reference frame.
     pub fn add_target(&mut self, target: Model) -> Result<usize> {
-        let t = Target::new(&self.source, target)?;
+        let t = Target::new(&self.source, &self.scratch.side, target)?;
         self.targets.push(t);
         Ok(self.targets.len() - 1)
     }
@@ -675,7 +831,7 @@ impl Cloner {
     /// changes).
     pub fn replace_target(&mut self, index: usize, target: Model) -> Result<()> {
         self.check_index(index)?;
-        self.targets[index] = Target::new(&self.source, target)?;
+        self.targets[index] = Target::new(&self.source, &self.scratch.side, target)?;
         Ok(())
     }
 
@@ -725,7 +881,11 @@ impl Cloner {
         self.prepare(source, options, 0..self.targets.len())?;
         let step = Step::of(&self.source, &self.scratch, source, options);
         for t in &mut self.targets {
-            step.clone_onto(&t.model, &t.pair, &mut t.out, &mut self.acc)?;
+            step.clone_onto(
+                (&t.model, &t.pair, &mut t.expressive),
+                &mut t.out,
+                &mut self.acc,
+            )?;
         }
         Ok(())
     }
@@ -757,8 +917,8 @@ impl Cloner {
         }
         self.prepare(source, options, index..index + 1)?;
         let step = Step::of(&self.source, &self.scratch, source, options);
-        let t = &self.targets[index];
-        step.clone_onto(&t.model, &t.pair, out, &mut self.acc)
+        let t = &mut self.targets[index];
+        step.clone_onto((&t.model, &t.pair, &mut t.expressive), out, &mut self.acc)
     }
 
     /// A copy of target `index`'s output of the last frame (a buffer for
@@ -812,6 +972,15 @@ impl Cloner {
         if let Some(k) = options.clamp {
             constrain(&mut s.sub_shape, &self.source_shape_sigmas, k);
             constrain(&mut s.sub_appearance, &self.source_appearance_sigmas, k);
+        }
+        if options.method == Method::Expressive {
+            s.frame.prepare(
+                &s.side,
+                &self.source,
+                &s.shape,
+                &s.appearance,
+                &options.regions,
+            );
         }
         Ok(())
     }

@@ -1,0 +1,677 @@
+//! The expressive method: strong expressions arrive on every target, in the target's own
+//! proportions and colours.
+//!
+//! Per frame, once for all targets ([`SourceFrame::prepare`]): the source's gained shape
+//! displacement `d = S p`, scaled per region (mouth, eyes, brows), and the source's expression
+//! ratio image `rho = Y(A0 + A lambda) / Y(A0)` on luminance (Liu, Shan & Zhang, "Expressive
+//! expression mapping with ratio images", SIGGRAPH 2001), powered per region.
+//!
+//! Per target ([`ExpressiveTarget`]):
+//! - **shape** ([`expressive_shape`]): `u = L d`, the displacement fitted to the target's
+//!   proportions by deformation transfer ([`super::transfer`]); bounded as a whole by its
+//!   Mahalanobis distance under the generic [`ExpressionPrior`]; the part the target's own modes
+//!   can show (`p* = S*^T u`, limited to `k` in the target's Mahalanobis norm) plus, by `style`,
+//!   the residual `u - S* p*` computed AFTER that limit; then lips and eyelids never cross and
+//!   no triangle folds.
+//! - **appearance** ([`expressive_appearance`]): the target's own face times the ratio image
+//!   (so skin tone, beard, make-up and lighting stay the target's); the inner mouth shaded by
+//!   the source's mouth and coloured for the target (teeth white-balanced to the target's
+//!   picture, the dark parts in its lip tones); closed eyelids in the target's lid skin.
+
+use crate::error::Result;
+use crate::model::Model;
+
+use super::prior::ExpressionPrior;
+use super::transfer::{transfer_displacement, transfer_operator};
+
+/// Luminance of an RGB triple (Rec. 601 weights), the channel the ratio image lives on.
+#[inline]
+pub fn luma(rgb: &[f32]) -> f32 {
+    0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2]
+}
+
+/// The ratio image's offset (appearance units, 0..1): keeps dark pixels' ratios from
+/// exploding on noise (about ten grey levels).
+pub const RATIO_OFFSET: f32 = 0.04;
+/// The ratio image's range: no pixel is darkened or brightened by more than this factor.
+pub const RATIO_RANGE: [f32; 2] = [0.4, 2.5];
+
+/// Per-region gains of the expressive method: each multiplies the source's shape displacement
+/// of its landmarks and powers its ratio image (1 = as the source does, 0 = none, 2 = twice).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionGains {
+    /// The mouth, the lips and the jaw below them.
+    pub mouth: f32,
+    /// The eyes and eyelids.
+    pub eyes: f32,
+    /// The brows.
+    pub brows: f32,
+}
+
+impl Default for RegionGains {
+    fn default() -> Self {
+        RegionGains {
+            mouth: 1.0,
+            eyes: 1.0,
+            brows: 1.0,
+        }
+    }
+}
+
+impl RegionGains {
+    /// The gain of region `r` (0 the rest of the face, which keeps 1).
+    fn of(&self, r: u8) -> f32 {
+        match r {
+            1 => self.mouth,
+            2 => self.eyes,
+            3 => self.brows,
+            _ => 1.0,
+        }
+    }
+
+    /// True when every gain is 1.
+    pub fn is_unit(&self) -> bool {
+        *self == RegionGains::default()
+    }
+}
+
+/// The region of 68-point landmark `i`: 1 mouth (lips, and the jaw from 3 to 13, which opens
+/// with it), 2 eyes, 3 brows, 0 the rest.
+pub fn region_of(i: usize) -> u8 {
+    match i {
+        3..=13 | 48..=67 => 1,
+        36..=47 => 2,
+        17..=26 => 3,
+        _ => 0,
+    }
+}
+
+const INNER_LIPS: [(usize, usize); 3] = [(61, 67), (62, 66), (63, 65)];
+const EYELIDS: [[(usize, usize); 2]; 2] = [[(37, 41), (38, 40)], [(43, 47), (44, 46)]];
+
+/// What the method needs of the shared reference frame and the source model, made once per
+/// cloner: region memberships, the source's neutral luminance, the masks of the inner mouth
+/// and the eyes.
+#[derive(Clone, Debug)]
+pub struct SourceSide {
+    /// 68-point scheme (regions, lips and eyelids exist); otherwise only the transfer and the
+    /// ratio image apply.
+    scheme68: bool,
+    /// Per frame pixel, its weights in regions 1..=3 (barycentric blend of its vertices').
+    pixel_regions: Vec<[f32; 3]>,
+    /// Source base luminance per frame pixel.
+    y0: Vec<f32>,
+    /// Mean source skin luminance (pixels outside the eyes and the mouth).
+    skin: f32,
+    /// Frame pixels inside the inner lips.
+    mouth: Vec<u32>,
+    /// Frame pixels inside each eye.
+    eyes: [Vec<u32>; 2],
+    /// The face's downward direction in model coordinates (from the eyes to the mouth).
+    down: [f32; 2],
+    /// The inter-ocular distance of the source base (model units).
+    iod: f32,
+    /// The frame grid's width, and per grid cell the frame pixel there (`u32::MAX`: none).
+    grid_width: usize,
+    grid: Vec<u32>,
+    /// The source base's inner-lip gap and eyelid gaps.
+    gaps0: [f32; 3],
+}
+
+/// The source's side of one frame for the expressive method, shared by every target.
+#[derive(Clone, Debug)]
+pub struct SourceFrame {
+    /// The region-gained shape displacement `d` (`2n`).
+    pub d: Vec<f32>,
+    /// The source appearance `A0 + A lambda` (`3N`).
+    app: Vec<f32>,
+    /// The region-gained ratio image (`N`).
+    pub ratio: Vec<f32>,
+    /// Scratch for smoothing the ratio image (`N`).
+    blurred: Vec<f32>,
+    /// How open the source's mouth is beyond its neutral (0..1).
+    open: f32,
+    /// How closed each source eye is beyond its neutral (0..1).
+    closed: [f32; 2],
+}
+
+fn point(s: &[f32], i: usize) -> [f32; 2] {
+    [s[2 * i], s[2 * i + 1]]
+}
+
+fn eye_centres(s: &[f32]) -> [[f32; 2]; 2] {
+    let mut c = [[0f32; 2]; 2];
+    for (e, range) in [(0, 36..42), (1, 42..48)] {
+        for i in range {
+            c[e][0] += s[2 * i] / 6.0;
+            c[e][1] += s[2 * i + 1] / 6.0;
+        }
+    }
+    c
+}
+
+/// Gaps along `down` of `base + d`: the inner lips (mean of three pairs) and each eye's lids
+/// (two pairs each). Allocates nothing.
+fn gaps_displaced(base: &[f32], d: &[f32], down: [f32; 2]) -> [f32; 3] {
+    let gap = |(a, b): (usize, usize)| {
+        let dx = (base[2 * b] + d[2 * b]) - (base[2 * a] + d[2 * a]);
+        let dy = (base[2 * b + 1] + d[2 * b + 1]) - (base[2 * a + 1] + d[2 * a + 1]);
+        dx * down[0] + dy * down[1]
+    };
+    [
+        INNER_LIPS.iter().map(|&p| gap(p)).sum::<f32>() / 3.0,
+        EYELIDS[0].iter().map(|&p| gap(p)).sum::<f32>() / 2.0,
+        EYELIDS[1].iter().map(|&p| gap(p)).sum::<f32>() / 2.0,
+    ]
+}
+
+/// True when `p` is inside the polygon of points `range` of shape `s` (even-odd rule).
+fn inside_polygon(p: [f32; 2], s: &[f32], range: std::ops::Range<usize>) -> bool {
+    let mut inside = false;
+    let mut j = range.end - 1;
+    for i in range {
+        let (a, b) = (point(s, i), point(s, j));
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+/// Smooths the ratio image with a 5 x 5 box over the frame's pixels (each pass averaging the
+/// neighbours that are frame pixels), as Liu et al. filter theirs: the expression's shading
+/// carries, the noise of the source's appearance does not. A ratio of exactly 1 everywhere
+/// stays exactly 1. Allocates nothing (`tmp` is `N` long).
+fn smooth_ratio(side: &SourceSide, ratio: &mut [f32], tmp: &mut [f32]) {
+    if ratio.iter().all(|&v| v == 1.0) {
+        return;
+    }
+    box_pass(side, ratio, tmp, 1);
+    box_pass(side, tmp, ratio, side.grid_width as isize);
+}
+
+/// One pass of [`smooth_ratio`]: `dst` at every frame pixel = the mean of `src` over the frame
+/// pixels within two grid steps of `step` (1: along rows, the grid width: along columns).
+fn box_pass(side: &SourceSide, src: &[f32], dst: &mut [f32], step: isize) {
+    const R: isize = 2;
+    let len = side.grid.len() as isize;
+    let w = side.grid_width as isize;
+    for (k, &idx) in side.grid.iter().enumerate() {
+        if idx == u32::MAX {
+            continue;
+        }
+        let (k, x) = (k as isize, k as isize % w.max(1));
+        let (mut sum, mut n) = (0f32, 0f32);
+        for d in -R..=R {
+            let j = k + d * step;
+            // Along rows, stay on the row.
+            if j < 0 || j >= len || (step == 1 && !(0..w).contains(&(x + d))) {
+                continue;
+            }
+            let p = side.grid[j as usize];
+            if p != u32::MAX {
+                sum += src[p as usize];
+                n += 1.0;
+            }
+        }
+        dst[idx as usize] = sum / n;
+    }
+}
+
+impl SourceSide {
+    /// Prepares the method for `source` (its frame is every target's frame).
+    pub fn new(source: &Model) -> SourceSide {
+        let frame = source.frame();
+        let n = frame.landmarks();
+        let scheme68 = n == 68;
+        let base = &source.shape().base;
+        let region = |i: u32| if scheme68 { region_of(i as usize) } else { 0 };
+        let tris = frame.triangles();
+        let mut pixel_regions = Vec::with_capacity(frame.n_pixels());
+        let (mut mouth, mut eyes) = (Vec::new(), [Vec::new(), Vec::new()]);
+        let a0 = &source.appearance().base;
+        let y0: Vec<f32> = a0.chunks_exact(3).map(luma).collect();
+        let (mut skin, mut skin_n) = (0f64, 0usize);
+        for (k, px) in frame.pixels().iter().enumerate() {
+            let t = tris[px.triangle as usize];
+            let mut w = [0f32; 3];
+            for (v, b) in t.iter().zip(px.bary) {
+                let r = region(*v);
+                if r > 0 {
+                    w[r as usize - 1] += b;
+                }
+            }
+            pixel_regions.push(w);
+            let at = [
+                px.x as f32 - frame.origin()[0],
+                px.y as f32 - frame.origin()[1],
+            ];
+            let inside = |r: std::ops::Range<usize>| scheme68 && inside_polygon(at, base, r);
+            if inside(60..68) {
+                mouth.push(k as u32);
+            } else if inside(36..42) {
+                eyes[0].push(k as u32);
+            } else if inside(42..48) {
+                eyes[1].push(k as u32);
+            } else if !t.iter().any(|v| (36..=67).contains(v)) || !scheme68 {
+                skin += y0[k] as f64;
+                skin_n += 1;
+            }
+        }
+        let (down, iod, gaps0) = if scheme68 {
+            let c = eye_centres(base);
+            let (ex, ey) = (c[1][0] - c[0][0], c[1][1] - c[0][1]);
+            let iod = (ex * ex + ey * ey).sqrt().max(1e-3);
+            let down = [-ey / iod, ex / iod];
+            (
+                down,
+                iod,
+                gaps_displaced(base, &vec![0.0; base.len()], down),
+            )
+        } else {
+            ([0.0, 1.0], 1.0, [0.0; 3])
+        };
+        let grid_width = frame.width() as usize;
+        let mut grid = vec![u32::MAX; grid_width * frame.height() as usize];
+        for (k, px) in frame.pixels().iter().enumerate() {
+            grid[px.y as usize * grid_width + px.x as usize] = k as u32;
+        }
+        SourceSide {
+            grid_width,
+            grid,
+            scheme68,
+            pixel_regions,
+            y0,
+            skin: if skin_n > 0 {
+                (skin / skin_n as f64) as f32
+            } else {
+                0.5
+            },
+            mouth,
+            eyes,
+            down,
+            iod,
+            gaps0,
+        }
+    }
+
+    /// An empty frame buffer for this source.
+    pub fn frame_buffer(&self, source: &Model) -> SourceFrame {
+        SourceFrame {
+            d: vec![0.0; source.shape().base.len()],
+            app: vec![0.0; source.appearance().base.len()],
+            ratio: vec![1.0; self.y0.len()],
+            blurred: vec![1.0; self.y0.len()],
+            open: 0.0,
+            closed: [0.0; 2],
+        }
+    }
+}
+
+impl SourceFrame {
+    /// The source's side of one frame: `d = G (S p)` (`G` the region gains per landmark), the
+    /// appearance `A0 + A lambda`, and the ratio image `rho = ((Y(A) + c) / (Y(A0) + c))^g`
+    /// (Liu, Shan & Zhang 2001, on luminance; `g` the pixel's blend of region gains), limited
+    /// to [`RATIO_RANGE`]. A neutral face (`lambda = 0`) gives `rho = 1` exactly. Allocates
+    /// nothing.
+    pub fn prepare(
+        &mut self,
+        side: &SourceSide,
+        source: &Model,
+        p: &[f32],
+        lambda: &[f32],
+        gains: &RegionGains,
+    ) {
+        let shape = source.shape();
+        self.d.iter_mut().for_each(|v| *v = 0.0);
+        for (&pi, mode) in p.iter().zip(shape.modes.chunks_exact(self.d.len().max(1))) {
+            if pi != 0.0 {
+                self.d.iter_mut().zip(mode).for_each(|(o, &m)| *o += pi * m);
+            }
+        }
+        if side.scheme68 && !gains.is_unit() {
+            for (i, xy) in self.d.chunks_exact_mut(2).enumerate() {
+                let g = gains.of(region_of(i));
+                xy[0] *= g;
+                xy[1] *= g;
+            }
+        }
+        let app = source.appearance();
+        crate::model::appearance::synthesise(&app.base, &app.modes, lambda, &mut self.app);
+        let unit = gains.is_unit();
+        for ((r, rgb), (&y0, w)) in self
+            .ratio
+            .iter_mut()
+            .zip(self.app.chunks_exact(3))
+            .zip(side.y0.iter().zip(&side.pixel_regions))
+        {
+            let mut v = (luma(rgb) + RATIO_OFFSET) / (y0 + RATIO_OFFSET);
+            if !unit && v != 1.0 {
+                let g = 1.0
+                    + w[0] * (gains.mouth - 1.0)
+                    + w[1] * (gains.eyes - 1.0)
+                    + w[2] * (gains.brows - 1.0);
+                v = v.max(1e-6).powf(g);
+            }
+            *r = v.clamp(RATIO_RANGE[0], RATIO_RANGE[1]);
+        }
+        smooth_ratio(side, &mut self.ratio, &mut self.blurred);
+        // Inside the eyes the target keeps its own eye (the closure below blends in its lid):
+        // a ratio there would paste the source's iris and lashes as a ghost.
+        for e in &side.eyes {
+            for &k in e {
+                self.ratio[k as usize] = 1.0;
+            }
+        }
+        if side.scheme68 {
+            let g = gaps_displaced(&shape.base, &self.d, side.down);
+            self.open = ((g[0] - side.gaps0[0]) / (0.08 * side.iod)).clamp(0.0, 1.0);
+            for e in 0..2 {
+                let g0 = side.gaps0[e + 1].max(1e-3);
+                self.closed[e] = (1.0 - g[e + 1] / g0).clamp(0.0, 1.0);
+            }
+        }
+    }
+}
+
+/// The per-target precomputation of the expressive method, and its per-frame scratch.
+#[derive(Clone, Debug)]
+pub struct ExpressiveTarget {
+    /// The deformation-transfer operator from the source's base onto the target's.
+    l: Vec<f32>,
+    /// The target's picture's white balance (a neutral grey's RGB, luminance 1).
+    white: [f32; 3],
+    /// The target's lip colour, luminance 1.
+    lip: [f32; 3],
+    /// Each eye's lid skin colour (RGB).
+    lid: [[f32; 3]; 2],
+    /// The target's mean skin luminance.
+    skin: f32,
+    /// The signed area of every frame triangle on the target's base.
+    area0: Vec<f32>,
+    /// The target's shape sigmas.
+    sigmas: Vec<f32>,
+    /// Scratch: the transferred displacement, the shape, the own part's parameters.
+    u: Vec<f32>,
+    x: Vec<f32>,
+    own: Vec<f32>,
+}
+
+/// The signed area of triangle `t` on shape `s`.
+fn signed_area(s: &[f32], t: &[u32; 3]) -> f32 {
+    let [a, b, c] = t.map(|i| point(s, i as usize));
+    0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+}
+
+/// Mean RGB over `pixels` of an appearance, or `fallback` when there are none.
+fn mean_rgb(app: &[f32], pixels: impl Iterator<Item = usize>, fallback: [f32; 3]) -> [f32; 3] {
+    let (mut s, mut n) = ([0f64; 3], 0usize);
+    for k in pixels {
+        for c in 0..3 {
+            s[c] += app[3 * k + c] as f64;
+        }
+        n += 1;
+    }
+    if n == 0 {
+        return fallback;
+    }
+    s.map(|v| (v / n as f64) as f32)
+}
+
+/// `rgb` scaled to luminance 1 (grey when it is black).
+fn chroma(rgb: [f32; 3]) -> [f32; 3] {
+    let y = luma(&rgb);
+    if y > 1e-4 {
+        rgb.map(|v| v / y)
+    } else {
+        [1.0; 3]
+    }
+}
+
+impl ExpressiveTarget {
+    /// Precomputes the method for one source-target pair in one frame.
+    pub fn new(side: &SourceSide, source: &Model, target: &Model) -> Result<ExpressiveTarget> {
+        let frame = target.frame();
+        let base = &target.shape().base;
+        let l = transfer_operator(&source.shape().base, base, frame.triangles())?;
+        let a0 = &target.appearance().base;
+        let tris = frame.triangles();
+        let pixels = frame.pixels();
+        let in_tri = |k: usize, f: &dyn Fn(u32) -> bool| {
+            let t = tris[pixels[k].triangle as usize];
+            t.iter().any(|&v| f(v))
+        };
+        let n = pixels.len();
+        let lips = (0..n).filter(|&k| {
+            side.scheme68
+                && in_tri(k, &|v| (48..=59).contains(&v))
+                && !side.mouth.contains(&(k as u32))
+        });
+        let lip = chroma(mean_rgb(a0, lips, [0.6, 0.35, 0.35]));
+        let mut lid = [[0.5f32; 3]; 2];
+        for (e, (lo, hi)) in [(36u32, 41u32), (42, 47)].into_iter().enumerate() {
+            let ring = (0..n).filter(|&k| {
+                side.scheme68
+                    && in_tri(k, &|v| (lo..=hi).contains(&v))
+                    && !side.eyes[e].contains(&(k as u32))
+            });
+            lid[e] = mean_rgb(a0, ring, [0.5; 3]);
+        }
+        // Teeth: a neutral white warmed a fifth of the way towards the target's skin, so they
+        // sit in the picture's light without taking anyone's skin tone.
+        let skin_px = (0..n).filter(|&k| !side.scheme68 || !in_tri(k, &|v| (36..=67).contains(&v)));
+        let skin_rgb = mean_rgb(a0, skin_px, [0.5; 3]);
+        let warm = chroma(skin_rgb);
+        let white = chroma([0, 1, 2].map(|c| 0.8 + 0.2 * warm[c]));
+        // The mouth's dark parts: the lips' colour, a little paler.
+        let lip = chroma([0, 1, 2].map(|c| 0.7 * lip[c] + 0.3 * white[c]));
+        Ok(ExpressiveTarget {
+            l,
+            white,
+            lip,
+            lid,
+            skin: luma(&skin_rgb).max(0.05),
+            area0: tris.iter().map(|t| signed_area(base, t)).collect(),
+            sigmas: target.shape().sigmas(),
+            u: vec![0.0; base.len()],
+            x: vec![0.0; base.len()],
+            own: vec![0.0; target.shape().n_modes()],
+        })
+    }
+}
+
+/// Limits `p` (target parameters) to Mahalanobis norm `k` under the target's sigmas, by
+/// scaling the whole vector (so its direction, the kind of expression, is kept). A zero sigma
+/// forces its parameter to 0. NaN-safe: a non-finite norm zeroes `p`.
+pub fn limit_mahalanobis(p: &mut [f32], sigmas: &[f32], k: f32) {
+    let mut m2 = 0f64;
+    for (v, s) in p.iter_mut().zip(sigmas) {
+        if !(*s > 0.0) {
+            *v = 0.0;
+        } else {
+            m2 += ((*v / s) as f64).powi(2);
+        }
+    }
+    let m = m2.sqrt() as f32;
+    if !m.is_finite() {
+        p.iter_mut().for_each(|v| *v = 0.0);
+    } else if m > k {
+        let f = if k > 0.0 { k / m } else { 0.0 };
+        p.iter_mut().for_each(|v| *v *= f);
+    }
+}
+
+/// The residual the target's modes cannot show once limited: `r = u - S* p*` (`S*` row-major
+/// `q x 2n`, `p*` after [`limit_mahalanobis`]). Zero when the target can follow `u` (in the
+/// span of its modes and within the limit).
+pub fn residual_after_limit(u: &[f32], modes: &[f32], p: &[f32], out: &mut [f32]) {
+    out.copy_from_slice(u);
+    for (&pj, mode) in p.iter().zip(modes.chunks_exact(u.len().max(1))) {
+        out.iter_mut().zip(mode).for_each(|(o, &m)| *o -= pj * m);
+    }
+}
+
+/// Moves the two points of each pair to meet where the first (upper) has passed below the
+/// second (lower) along `down`: lips never cross, eyes never invert.
+fn uncross(x: &mut [f32], pairs: &[(usize, usize)], down: [f32; 2]) {
+    for &(a, b) in pairs {
+        let gap = (x[2 * b] - x[2 * a]) * down[0] + (x[2 * b + 1] - x[2 * a + 1]) * down[1];
+        if gap < 0.0 {
+            for c in 0..2 {
+                x[2 * a + c] += 0.5 * gap * down[c];
+                x[2 * b + c] -= 0.5 * gap * down[c];
+            }
+        }
+    }
+}
+
+/// Options of the expressive shape and appearance, from [`super::CloneOptions`].
+#[derive(Clone, Copy, Debug)]
+pub struct ExpressiveOptions<'a> {
+    /// `Some(k)`: the target's own part within Mahalanobis norm `k`, the whole displacement
+    /// within `k / 3` times the prior's 99th percentile; `None`: neither limit.
+    pub clamp: Option<f32>,
+    /// 0 = the target's own range only, 1 = the source's full motion.
+    pub style: f32,
+    /// The generic prior that bounds the whole displacement.
+    pub prior: &'a ExpressionPrior,
+}
+
+/// The expressive shape (see the module docs) of one frame into `acc` (`2n`, model
+/// coordinates, unposed) and the target's own parameters `p*` into `params`:
+/// `x = s0* + S* p* + style (u - S* p*)` with `u = L d` bounded by the prior, then the lips and
+/// eyelids uncrossed, and the displacement scaled back (bisection) until no triangle folds.
+pub fn expressive_shape(
+    t: &mut ExpressiveTarget,
+    side: &SourceSide,
+    frame: &SourceFrame,
+    target: &Model,
+    o: &ExpressiveOptions<'_>,
+    params: &mut [f32],
+    acc: &mut [f64],
+) {
+    let shape = target.shape();
+    transfer_displacement(&t.l, &frame.d, &mut t.u);
+    if let Some(k) = o.clamp {
+        let m = o.prior.distance(&t.u);
+        let lim = o.prior.limit() * k / 3.0;
+        if m > lim && m.is_finite() {
+            let f = lim / m;
+            t.u.iter_mut().for_each(|v| *v *= f);
+        }
+    }
+    for (o_j, mode) in t
+        .own
+        .iter_mut()
+        .zip(shape.modes.chunks_exact(t.u.len().max(1)))
+    {
+        *o_j = mode.iter().zip(&t.u).map(|(a, b)| a * b).sum();
+    }
+    if let Some(k) = o.clamp {
+        limit_mahalanobis(&mut t.own, &t.sigmas, k);
+    }
+    residual_after_limit(&t.u, &shape.modes, &t.own, &mut t.x);
+    // t.x holds the residual; the displacement is own + style * residual.
+    for (i, r) in t.x.iter_mut().enumerate() {
+        *r = (t.u[i] - *r) + o.style * *r;
+    }
+    std::mem::swap(&mut t.u, &mut t.x);
+    params.copy_from_slice(&t.own);
+    let base = &shape.base;
+    let tris = target.frame().triangles();
+    let place = |scale: f32, x: &mut [f32]| {
+        for ((xv, &b), &d) in x.iter_mut().zip(base).zip(t.u.iter()) {
+            *xv = b + scale * d;
+        }
+        if side.scheme68 {
+            uncross(x, &INNER_LIPS, side.down);
+            uncross(x, &EYELIDS[0], side.down);
+            uncross(x, &EYELIDS[1], side.down);
+        }
+    };
+    let folds = |x: &[f32]| {
+        tris.iter().zip(&t.area0).any(|(tri, &a0)| {
+            let a = signed_area(x, tri);
+            a0.abs() > 1e-3 && a * a0.signum() < -1e-3 * a0.abs()
+        })
+    };
+    let mut x = std::mem::take(&mut t.x);
+    place(1.0, &mut x);
+    if folds(&x) {
+        let (mut lo, mut hi) = (0.0f32, 1.0f32);
+        for _ in 0..10 {
+            let mid = 0.5 * (lo + hi);
+            place(mid, &mut x);
+            if folds(&x) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        place(lo, &mut x);
+    }
+    acc.iter_mut().zip(&x).for_each(|(a, &v)| *a = v as f64);
+    t.x = x;
+}
+
+/// The expressive appearance (see the module docs) into `out` (`3N`): the target's base
+/// appearance times the ratio image; in the inner mouth, as the mouth opens, the source's
+/// mouth shading in the target's colours; in the eyes, as they close, the target's lid skin.
+/// With `style < 1`, blended with what `out` holds on entry (the paper's mapped appearance).
+pub fn expressive_appearance(
+    t: &ExpressiveTarget,
+    side: &SourceSide,
+    frame: &SourceFrame,
+    target: &Model,
+    style: f32,
+    out: &mut [f32],
+) {
+    let a0 = &target.appearance().base;
+    let keep = 1.0 - style;
+    let blend = style < 1.0;
+    for ((o, a), &r) in out
+        .chunks_exact_mut(3)
+        .zip(a0.chunks_exact(3))
+        .zip(&frame.ratio)
+    {
+        for c in 0..3 {
+            let v = (a[c] * r).clamp(0.0, 1.0);
+            o[c] = if blend { keep * o[c] + style * v } else { v };
+        }
+    }
+    if !side.scheme68 {
+        return;
+    }
+    let exposure = (t.skin / side.skin.max(0.05)).clamp(0.5, 2.0).sqrt();
+    if frame.open > 0.0 {
+        let w = frame.open * style;
+        for &k in &side.mouth {
+            let k = k as usize;
+            let s = &frame.app[3 * k..3 * k + 3];
+            let b = luma(s) / side.skin.max(0.05);
+            let teeth = ((b - 0.6) / 0.5).clamp(0.0, 1.0);
+            let teeth = teeth * teeth * (3.0 - 2.0 * teeth);
+            let y = luma(s) * exposure;
+            for c in 0..3 {
+                let chroma = t.lip[c] + teeth * (t.white[c] - t.lip[c]);
+                let v = (y * chroma).clamp(0.0, 1.0);
+                out[3 * k + c] += w * (v - out[3 * k + c]);
+            }
+        }
+    }
+    for e in 0..2 {
+        let w = frame.closed[e] * style;
+        if w > 0.0 {
+            for &k in &side.eyes[e] {
+                let k = k as usize;
+                for c in 0..3 {
+                    let v = (t.lid[e][c] * frame.ratio[k]).clamp(0.0, 1.0);
+                    out[3 * k + c] += w * (v - out[3 * k + c]);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,199 @@
+//! Deformation transfer in the shared reference frame (Sumner & Popović, "Deformation transfer
+//! for triangle meshes", SIGGRAPH 2004), taken to 2D landmark meshes.
+//!
+//! A source displacement `d` (from the source's base shape `s0`) deforms every triangle of the
+//! frame's mesh by an affine map `Q_t = W_t V_t^-1` (`V_t` the triangle's edge matrix on `s0`,
+//! `W_t` on `s0 + d`). The transferred displacement `u` of the target's base shape `t0` is the
+//! one whose triangles deform by the same maps, in least squares weighted by the target
+//! triangles' areas: the source's smile, fitted to the target's proportions. Everything here is
+//! linear in `d`, so a pair precomputes one `2n x 2n` matrix ([`transfer_operator`]) and a frame
+//! costs one matrix-vector product ([`transfer_displacement`]).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{Error, Result};
+
+/// The deformation-transfer operator `L` of a source base shape onto a target base shape over
+/// one mesh (Sumner & Popović 2004, Eq. 5 in 2D): `u = L d`, row-major `2n x 2n` on
+/// interleaved `x, y` coordinates.
+///
+/// Per triangle `t = (a, b, c)`, `K_t = V_t^-1 E_t` (`V_t`, `E_t` the edge matrices
+/// `[v_b - v_a, v_c - v_a]` of the source and target base), so the target's edge
+/// displacements are `dV_t K_t`. `u` minimises `sum_t area_t |E_t(u) - dV_t K_t|^2 + eps |u|^2`
+/// (the `eps` term fixes the translation, which edges do not see); the source's mean
+/// displacement is then added back, so a translation transfers as itself. With equal bases,
+/// `L d = d` (to within `eps`). Triangles degenerate in either base are skipped.
+///
+/// Requires `source.len() == target.len() == 2n`, every triangle index `< n`. Fails with
+/// [`Error::Incompatible`] when the mesh leaves some vertex in no usable triangle.
+pub fn transfer_operator(
+    source: &[f32],
+    target: &[f32],
+    triangles: &[[u32; 3]],
+) -> Result<Vec<f32>> {
+    let n = source.len() / 2;
+    if target.len() != source.len() || n == 0 {
+        return Err(Error::Incompatible(format!(
+            "deformation transfer: {} source and {} target coordinates",
+            source.len(),
+            target.len()
+        )));
+    }
+    let pt = |s: &[f32], i: usize| [s[2 * i] as f64, s[2 * i + 1] as f64];
+    let mut h = DMatrix::<f64>::zeros(n, n);
+    // Per usable triangle: its vertices, weight and K = V^-1 E.
+    let mut used = Vec::with_capacity(triangles.len());
+    let mut covered = vec![false; n];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| i as usize);
+        if a >= n || b >= n || c >= n {
+            return Err(Error::Incompatible(
+                "deformation transfer: triangle index out of range".into(),
+            ));
+        }
+        let edges = |s: &[f32]| {
+            let (pa, pb, pc) = (pt(s, a), pt(s, b), pt(s, c));
+            [
+                [pb[0] - pa[0], pc[0] - pa[0]],
+                [pb[1] - pa[1], pc[1] - pa[1]],
+            ]
+        };
+        let (v, e) = (edges(source), edges(target));
+        let det_v = v[0][0] * v[1][1] - v[0][1] * v[1][0];
+        let det_e = e[0][0] * e[1][1] - e[0][1] * e[1][0];
+        if det_v.abs() < 1e-6 || det_e.abs() < 1e-6 {
+            continue;
+        }
+        let vi = [
+            [v[1][1] / det_v, -v[0][1] / det_v],
+            [-v[1][0] / det_v, v[0][0] / det_v],
+        ];
+        let mut k = [[0f64; 2]; 2];
+        for (r, kr) in k.iter_mut().enumerate() {
+            for (col, kv) in kr.iter_mut().enumerate() {
+                *kv = vi[r][0] * e[0][col] + vi[r][1] * e[1][col];
+            }
+        }
+        let w = det_e.abs() / 2.0;
+        for j in [b, c] {
+            h[(a, a)] += w;
+            h[(j, j)] += w;
+            h[(a, j)] -= w;
+            h[(j, a)] -= w;
+        }
+        for i in [a, b, c] {
+            covered[i] = true;
+        }
+        used.push(([a, b, c], w, k));
+    }
+    if let Some(i) = covered.iter().position(|c| !c) {
+        return Err(Error::Incompatible(format!(
+            "deformation transfer: landmark {i} is in no usable triangle"
+        )));
+    }
+    let eps = 1e-9 * h.trace() / n as f64;
+    for i in 0..n {
+        h[(i, i)] += eps;
+    }
+    let chol = h
+        .cholesky()
+        .ok_or_else(|| Error::Incompatible("deformation transfer: singular mesh system".into()))?;
+    // Column k of L: the response to a unit displacement of coordinate k.
+    let mut l = vec![0f32; 4 * n * n];
+    let mut rhs = [DVector::<f64>::zeros(n), DVector::<f64>::zeros(n)];
+    for k in 0..2 * n {
+        let (vk, ck) = (k / 2, k % 2);
+        rhs.iter_mut().for_each(|r| r.fill(0.0));
+        for &([a, b, c], w, kt) in &used {
+            // dV = [d_b - d_a, d_c - d_a] restricted to coordinate ck of vertex vk.
+            let de = [
+                (vk == b) as i32 as f64 - (vk == a) as i32 as f64,
+                (vk == c) as i32 as f64 - (vk == a) as i32 as f64,
+            ];
+            if de == [0.0, 0.0] {
+                continue;
+            }
+            // Target edge displacement j (coordinate ck): sum_r dV[ck][r] K[r][j].
+            for (j, tj) in [b, c].into_iter().enumerate() {
+                let f = de[0] * kt[0][j] + de[1] * kt[1][j];
+                rhs[ck][tj] += w * f;
+                rhs[ck][a] -= w * f;
+            }
+        }
+        for (cc, r) in rhs.iter().enumerate() {
+            if r.iter().all(|v| *v == 0.0) {
+                continue;
+            }
+            let u = chol.solve(r);
+            for i in 0..n {
+                l[(2 * i + cc) * 2 * n + k] = u[i] as f32;
+            }
+        }
+        // The source's mean displacement, added back to every target vertex.
+        for i in 0..n {
+            l[(2 * i + ck) * 2 * n + k] += 1.0 / n as f32;
+        }
+    }
+    Ok(l)
+}
+
+/// `u = L d` (Sumner & Popović 2004): the source displacement `d` (`2n`) transferred onto the
+/// target's proportions into `u` (`2n`), with `L` from [`transfer_operator`]. Allocates
+/// nothing.
+pub fn transfer_displacement(l: &[f32], d: &[f32], u: &mut [f32]) {
+    let m = d.len();
+    for (o, row) in u.iter_mut().zip(l.chunks_exact(m.max(1))) {
+        *o = row.iter().zip(d).map(|(a, b)| a * b).sum();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid() -> (Vec<f32>, Vec<[u32; 3]>) {
+        let mut pts = Vec::new();
+        for y in 0..3 {
+            for x in 0..3 {
+                pts.extend([x as f32 * 10.0, y as f32 * 10.0]);
+            }
+        }
+        let tris = crate::model::frame::triangulate(&pts).unwrap();
+        (pts, tris)
+    }
+
+    #[test]
+    fn equal_bases_transfer_the_displacement_itself() {
+        let (pts, tris) = grid();
+        let l = transfer_operator(&pts, &pts, &tris).unwrap();
+        let d: Vec<f32> = (0..pts.len())
+            .map(|i| ((i * 7) % 5) as f32 * 0.3 - 0.6)
+            .collect();
+        let mut u = vec![0.0; d.len()];
+        transfer_displacement(&l, &d, &mut u);
+        for (a, b) in u.iter().zip(&d) {
+            assert!((a - b).abs() < 1e-3, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn a_target_twice_as_wide_moves_twice_as_far_sideways() {
+        let (pts, tris) = grid();
+        let wide: Vec<f32> = pts.chunks(2).flat_map(|p| [p[0] * 2.0, p[1]]).collect();
+        let l = transfer_operator(&pts, &wide, &tris).unwrap();
+        // Stretch the source horizontally by 10%: every x moves by 0.1 x.
+        let d: Vec<f32> = pts.chunks(2).flat_map(|p| [p[0] * 0.1, 0.0]).collect();
+        let mut u = vec![0.0; d.len()];
+        transfer_displacement(&l, &d, &mut u);
+        // The target stretches by the same 10% of ITS width (up to the mean shift).
+        let mean_u: f32 = u.chunks(2).map(|p| p[0]).sum::<f32>() / 9.0;
+        let mean_t: f32 = wide.chunks(2).map(|p| p[0] * 0.1).sum::<f32>() / 9.0;
+        let mean_d: f32 = d.chunks(2).map(|p| p[0]).sum::<f32>() / 9.0;
+        for (p, q) in u.chunks(2).zip(wide.chunks(2)) {
+            let want = q[0] * 0.1 - mean_t + mean_d;
+            assert!((p[0] - want).abs() < 1e-3, "{} vs {want}", p[0]);
+            assert!(p[1].abs() < 1e-3);
+        }
+        let _ = mean_u;
+    }
+}
