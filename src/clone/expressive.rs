@@ -105,6 +105,8 @@ pub struct SourceSide {
     skin: f32,
     /// Frame pixels inside the inner lips.
     mouth: Vec<u32>,
+    /// Frame pixels of the skin away from the eyes and the mouth.
+    skin_pixels: Vec<u32>,
     /// Frame pixels inside each eye.
     eyes: [Vec<u32>; 2],
     /// The face's downward direction in model coordinates (from the eyes to the mouth).
@@ -235,6 +237,7 @@ impl SourceSide {
         let a0 = &source.appearance().base;
         let y0: Vec<f32> = a0.chunks_exact(3).map(luma).collect();
         let (mut skin, mut skin_n) = (0f64, 0usize);
+        let mut skin_pixels = Vec::new();
         for (k, px) in frame.pixels().iter().enumerate() {
             let t = tris[px.triangle as usize];
             let mut w = [0f32; 3];
@@ -249,7 +252,9 @@ impl SourceSide {
                 px.x as f32 - frame.origin()[0],
                 px.y as f32 - frame.origin()[1],
             ];
-            let inside = |r: std::ops::Range<usize>| scheme68 && inside_polygon(at, base, r);
+            // The appearance lives on the frame's mesh, so its polygons are the frame's.
+            let inside =
+                |r: std::ops::Range<usize>| scheme68 && inside_polygon(at, frame.vertices(), r);
             if inside(60..68) {
                 mouth.push(k as u32);
             } else if inside(36..42) {
@@ -259,6 +264,7 @@ impl SourceSide {
             } else if !t.iter().any(|v| (36..=67).contains(v)) || !scheme68 {
                 skin += y0[k] as f64;
                 skin_n += 1;
+                skin_pixels.push(k as u32);
             }
         }
         let (down, iod, gaps0) = if scheme68 {
@@ -291,6 +297,7 @@ impl SourceSide {
                 0.5
             },
             mouth,
+            skin_pixels,
             eyes,
             down,
             iod,
@@ -313,7 +320,8 @@ impl SourceSide {
 
 impl SourceFrame {
     /// The source's side of one frame: `d = G (S p)` (`G` the region gains per landmark), the
-    /// appearance `A0 + A lambda`, and the ratio image `rho = ((Y(A) + c) / (Y(A0) + c))^g`
+    /// appearance `A0 + A lambda`, and the ratio image `rho = ((e Y(A) + c) / (Y(A0) + c))^g`
+    /// (`e` the skin's mean luminance at neutral over now: the frame's exposure left out)
     /// (Liu, Shan & Zhang 2001, on luminance; `g` the pixel's blend of region gains), limited
     /// to [`RATIO_RANGE`]. A neutral face (`lambda = 0`) gives `rho = 1` exactly. Allocates
     /// nothing.
@@ -341,14 +349,30 @@ impl SourceFrame {
         }
         let app = source.appearance();
         crate::model::appearance::synthesise(&app.base, &app.modes, lambda, &mut self.app);
+        // The exposure of the source's frame against its neutral (a light switched on, a camera
+        // adapting) is not expression: the ratio is taken against it.
+        let (mut ys, mut y0s) = (0f64, 0f64);
+        for &k in &side.skin_pixels {
+            let k = k as usize;
+            ys += luma(&self.app[3 * k..3 * k + 3]) as f64;
+            y0s += side.y0[k] as f64;
+        }
+        let exposure = if ys > 0.0 && y0s > 0.0 {
+            (y0s / ys) as f32
+        } else {
+            1.0
+        };
         let unit = gains.is_unit();
+        // Dark skin's luminance is small, so its ratios would swing with every highlight: the
+        // offset grows with the source's skin.
+        let offset = RATIO_OFFSET + 0.6 * side.skin;
         for ((r, rgb), (&y0, w)) in self
             .ratio
             .iter_mut()
             .zip(self.app.chunks_exact(3))
             .zip(side.y0.iter().zip(&side.pixel_regions))
         {
-            let mut v = (luma(rgb) + RATIO_OFFSET) / (y0 + RATIO_OFFSET);
+            let mut v = (exposure * luma(rgb) + offset) / (y0 + offset);
             if !unit && v != 1.0 {
                 let g = 1.0
                     + w[0] * (gains.mouth - 1.0)
@@ -358,6 +382,8 @@ impl SourceFrame {
             }
             *r = v.clamp(RATIO_RANGE[0], RATIO_RANGE[1]);
         }
+        // Twice: a 9 x 9 tent, about a tenth of the eye distance.
+        smooth_ratio(side, &mut self.ratio, &mut self.blurred);
         smooth_ratio(side, &mut self.ratio, &mut self.blurred);
         // Inside the eyes the target keeps its own eye (the closure below blends in its lid):
         // a ratio there would paste the source's iris and lashes as a ghost.
@@ -368,7 +394,8 @@ impl SourceFrame {
         }
         if side.scheme68 {
             let g = gaps_displaced(&shape.base, &self.d, side.down);
-            self.open = ((g[0] - side.gaps0[0]) / (0.08 * side.iod)).clamp(0.0, 1.0);
+            self.open =
+                ((g[0] - side.gaps0[0] - 0.03 * side.iod) / (0.09 * side.iod)).clamp(0.0, 1.0);
             for e in 0..2 {
                 let g0 = side.gaps0[e + 1].max(1e-3);
                 self.closed[e] = (1.0 - g[e + 1] / g0).clamp(0.0, 1.0);
@@ -388,8 +415,6 @@ pub struct ExpressiveTarget {
     lip: [f32; 3],
     /// Each eye's lid skin colour (RGB).
     lid: [[f32; 3]; 2],
-    /// The target's mean skin luminance.
-    skin: f32,
     /// The signed area of every frame triangle on the target's base.
     area0: Vec<f32>,
     /// The target's shape sigmas.
@@ -473,8 +498,24 @@ impl ExpressiveTarget {
             white,
             lip,
             lid,
-            skin: luma(&skin_rgb).max(0.05),
-            area0: tris.iter().map(|t| signed_area(base, t)).collect(),
+            // A sliver's orientation means nothing (a closed mouth's inner lips cross by a
+            // hair in many landmarkings): 0 exempts it from the fold check.
+            area0: tris
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| point(base, i as usize));
+                    let m = [
+                        [(b[0] - a[0]) as f64, (c[0] - a[0]) as f64],
+                        [(b[1] - a[1]) as f64, (c[1] - a[1]) as f64],
+                    ];
+                    let area = signed_area(base, t);
+                    if super::transfer::sliver(&m, 2.0 * area as f64) {
+                        0.0
+                    } else {
+                        area
+                    }
+                })
+                .collect(),
             sigmas: target.shape().sigmas(),
             u: vec![0.0; base.len()],
             x: vec![0.0; base.len()],
@@ -532,7 +573,8 @@ fn uncross(x: &mut [f32], pairs: &[(usize, usize)], down: [f32; 2]) {
 #[derive(Clone, Copy, Debug)]
 pub struct ExpressiveOptions<'a> {
     /// `Some(k)`: the target's own part within Mahalanobis norm `k`, the whole displacement
-    /// within `k / 3` times the prior's 99th percentile; `None`: neither limit.
+    /// within `k` times the prior's strongest expression (a laugh in video, with the head's own
+    /// motion, reaches about 2.3 of it at the 99th percentile); `None`: neither limit.
     pub clamp: Option<f32>,
     /// 0 = the target's own range only, 1 = the source's full motion.
     pub style: f32,
@@ -557,7 +599,7 @@ pub fn expressive_shape(
     transfer_displacement(&t.l, &frame.d, &mut t.u);
     if let Some(k) = o.clamp {
         let m = o.prior.distance(&t.u);
-        let lim = o.prior.limit() * k / 3.0;
+        let lim = o.prior.limit() * k;
         if m > lim && m.is_finite() {
             let f = lim / m;
             t.u.iter_mut().for_each(|v| *v *= f);
@@ -594,8 +636,12 @@ pub fn expressive_shape(
     };
     let folds = |x: &[f32]| {
         tris.iter().zip(&t.area0).any(|(tri, &a0)| {
+            // The mouth's interior folds harmlessly as lips meet; crossing is `uncross`'s.
+            if side.scheme68 && tri.iter().filter(|&&v| (60..=67).contains(&v)).count() >= 2 {
+                return false;
+            }
             let a = signed_area(x, tri);
-            a0.abs() > 1e-3 && a * a0.signum() < -1e-3 * a0.abs()
+            a0 != 0.0 && a * a0.signum() < 0.0
         })
     };
     let mut x = std::mem::take(&mut t.x);
@@ -645,7 +691,6 @@ pub fn expressive_appearance(
     if !side.scheme68 {
         return;
     }
-    let exposure = (t.skin / side.skin.max(0.05)).clamp(0.5, 2.0).sqrt();
     if frame.open > 0.0 {
         let w = frame.open * style;
         for &k in &side.mouth {
@@ -654,7 +699,7 @@ pub fn expressive_appearance(
             let b = luma(s) / side.skin.max(0.05);
             let teeth = ((b - 0.6) / 0.5).clamp(0.0, 1.0);
             let teeth = teeth * teeth * (3.0 - 2.0 * teeth);
-            let y = luma(s) * exposure;
+            let y = luma(s);
             for c in 0..3 {
                 let chroma = t.lip[c] + teeth * (t.white[c] - t.lip[c]);
                 let v = (y * chroma).clamp(0.0, 1.0);

@@ -32,7 +32,7 @@ pub const STABLE_POINTS: [usize; 13] = [27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 
 /// model coordinates).
 ///
 /// Represents: `k` orthonormal modes with their variances, an isotropic variance for the rest of
-/// the space, and `limit`, the 99th percentile of the training displacements' distances.
+/// the space, and `limit`, the largest of the training displacements' distances.
 /// Ensures (when learned or read): finite values, variances positive and descending.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExpressionPrior {
@@ -163,7 +163,7 @@ impl ExpressionPrior {
         };
         let mut d: Vec<f32> = samples.iter().map(|s| prior.distance(s)).collect();
         d.sort_by(f32::total_cmp);
-        prior.limit = d[((d.len() - 1) as f32 * 0.99).round() as usize].max(1e-3);
+        prior.limit = d[d.len() - 1].max(1e-3);
         Ok(prior)
     }
 
@@ -177,8 +177,9 @@ impl ExpressionPrior {
     }
 
     /// The Mahalanobis distance of a displacement `d` (`2n`) under the prior:
-    /// `sqrt(sum_j (e_j^2 / gamma_j) + |d - E e|^2 / sigma_r^2)` with `e = E^T d`. Allocates
-    /// nothing; a displacement of another length has distance 0.
+    /// `sqrt(sum_j (e_j^2 / gamma_j) + |d - E e|^2 / (m sigma_r^2))` with `e = E^T d` and `m`
+    /// the dimensions the modes leave (the rest counted as one coordinate). Allocates nothing;
+    /// a displacement of another length has distance 0.
     pub fn distance(&self, d: &[f32]) -> f32 {
         if d.len() != self.dim {
             return 0.0;
@@ -190,11 +191,15 @@ impl ExpressionPrior {
             inside += e * e / g as f64;
             explained += e * e;
         }
-        let rest = (norm2 - explained).max(0.0) / self.residual_variance as f64;
+        // The rest of the space as one coordinate: its energy over what the prior expects of it
+        // in all its dimensions (landmarking noise and identity spread there, not expression).
+        let dims = (self.dim - self.variances.len()).max(1) as f64;
+        let rest = (norm2 - explained).max(0.0) / (self.residual_variance as f64 * dims);
         (inside + rest).sqrt() as f32
     }
 
-    /// The 99th percentile of the training displacements' [`ExpressionPrior::distance`].
+    /// The largest of the training displacements' [`ExpressionPrior::distance`]: the strongest
+    /// expression the prior has seen.
     pub fn limit(&self) -> f32 {
         self.limit
     }

@@ -375,8 +375,8 @@ impl JsCloner {
         Ok(js_sys::Float32Array::from(&self.shape[..]))
     }
 
-    /// The cloning method: `"substitute"` (Fig. 4 A), `"map"` (Eq. 3, the default) or
-    /// `"map-residual"` (Eq. 4).
+    /// The cloning method, one of `methods()`' names: `"substitute"` (Fig. 4 A), `"map"`
+    /// (Eq. 3), `"map-residual"` (Eq. 4) or `"expressive"`.
     #[wasm_bindgen(js_name = setMethod)]
     pub fn set_method(
         &mut self,
@@ -437,6 +437,38 @@ impl JsCloner {
     #[wasm_bindgen(getter)]
     pub fn clamp(&self) -> Option<f32> {
         self.options.clamp
+    }
+
+    /// The expressive method's gains per region (each multiplied with the global gain):
+    /// `mouth` (lips, jaw and the mouth's shading), `eyes` (lids and blinks), `brows`. 1 = as
+    /// the source does. Must be finite.
+    #[wasm_bindgen(js_name = setRegionGains)]
+    pub fn set_region_gains(&mut self, mouth: f32, eyes: f32, brows: f32) -> Result<(), JsError> {
+        let mut o = self.options.clone();
+        o.regions = crate::clone::RegionGains { mouth, eyes, brows };
+        self.set_options(o)
+    }
+
+    /// The region gains, `[mouth, eyes, brows]`.
+    #[wasm_bindgen(getter, js_name = regionGains)]
+    pub fn region_gains(&self) -> Vec<f32> {
+        let r = self.options.regions;
+        vec![r.mouth, r.eyes, r.brows]
+    }
+
+    /// The expressive method's style: 0 = the target's own range (its modes, limited), 1 (the
+    /// default) = the source's full motion; in between, a blend.
+    #[wasm_bindgen(js_name = setStyle)]
+    pub fn set_style(&mut self, style: f32) -> Result<(), JsError> {
+        let mut o = self.options.clone();
+        o.style = style;
+        self.set_options(o)
+    }
+
+    /// The style (see `setStyle`).
+    #[wasm_bindgen(getter)]
+    pub fn style(&self) -> f32 {
+        self.options.style
     }
 
     /// `true`: targets follow the source's head motion relative to its mean pose; `false`

@@ -63,6 +63,30 @@ pub fn version() -> String {
     env!("CARGO_PKG_VERSION").to_string()
 }
 
+/// The cloning methods, from the core's one list (`Method::ALL`): `{name, label, description}`
+/// each, in the order the page shows them; the first entry with `isDefault` is the default.
+#[wasm_bindgen(unchecked_return_type = "MethodInfo[]")]
+pub fn methods() -> Result<JsValue, JsError> {
+    #[derive(serde::Serialize)]
+    #[serde(rename_all = "camelCase")]
+    struct Info {
+        name: &'static str,
+        label: &'static str,
+        description: &'static str,
+        is_default: bool,
+    }
+    let list: Vec<Info> = crate::clone::Method::ALL
+        .iter()
+        .map(|m| Info {
+            name: m.name(),
+            label: m.label(),
+            description: m.description(),
+            is_default: *m == crate::clone::Method::default(),
+        })
+        .collect();
+    serde_wasm_bindgen::to_value(&list).map_err(|e| JsError::new(&e.to_string()))
+}
+
 /// Installs (once) `console_error_panic_hook`, which reports any panic (a bug: the API
 /// validates its input) with its message and stack on the console before the module traps.
 /// Called by the constructors.
@@ -112,8 +136,11 @@ export interface ModelInfo {
    *  the method (Fig. 4 A). */
   isPhoto: boolean;
 }
-/** Cloning method (the paper's Fig. 4 A, B, C). */
-export type Method = "substitute" | "map" | "map-residual";
+/** Cloning method: the paper's Fig. 4 A, B, C and the expressive method (`methods()` lists
+ *  them with labels and descriptions). */
+export type Method = "substitute" | "map" | "map-residual" | "expressive";
+/** One entry of `methods()`. */
+export interface MethodInfo { name: Method; label: string; description: string; isDefault: boolean }
 /** Rendering options. */
 export interface RenderOptions {
   /** CSS hex colour (#rgb, #rgba, #rrggbb, #rrggbbaa) or "transparent"; default "#202024". */
