@@ -811,16 +811,25 @@ fn method_names() {
         "map-residual".parse::<Method>().unwrap(),
         Method::MapResidual
     );
-    assert_eq!(Method::default(), Method::Map);
+    assert_eq!(Method::default(), Method::Expressive);
+    assert_eq!("expressive".parse::<Method>().unwrap(), Method::Expressive);
     assert!(matches!(
         "mapresidual".parse::<Method>(),
         Err(Error::Params(_))
     ));
+    // The list: names unique, every method described.
+    for (i, a) in Method::ALL.iter().enumerate() {
+        assert!(!a.label().is_empty() && a.description().len() > 20);
+        for b in &Method::ALL[i + 1..] {
+            assert_ne!(a.name(), b.name());
+        }
+    }
     let d = CloneOptions::default();
     assert_eq!(
-        (d.method, d.gain, d.clamp, d.follow_pose),
-        (Method::Map, 1.0, Some(3.0), false)
+        (d.method, d.gain, d.clamp, d.follow_pose, d.style),
+        (Method::Expressive, 1.0, Some(3.0), false, 1.0)
     );
+    assert_eq!(d.regions, facemimic::clone::RegionGains::default());
     assert!(d.shape_gains.is_empty() && d.appearance_gains.is_empty());
 }
 

@@ -21,6 +21,11 @@
 //!   centre, so that the head's motion in the picture is plain;
 //! - `composite_photo.png`: the same frame cloned onto a one-photo target (spk03's first
 //!   training frame, `data/grid/spk03_lbax4n/train20.txt`), composited into the photo.
+//! - `expressive_laugh_grid.png`, `expressive_laugh_photo.png`: a laugh with teeth (the London
+//!   set's person 096, a model of their neutral and smiling photos with the neutral as its
+//!   reference, `data/london/`) cloned by the expressive method onto spk02 (composited into its
+//!   backdrop) and onto a one-photo target of person 068's neutral photo (composited into the
+//!   photo): a dark-skinned man's laugh on a light-skinned woman and man, in their own colours.
 //!
 //! Tolerance: a pixel differs when a channel is off by more than 3 levels (float rounding in
 //! PCA or rasterisation on another CPU may move a value by one or two); at most 0.5% of the
@@ -197,6 +202,57 @@ fn draw_clone(method: Method) -> Vec<u8> {
     facemimic::demultiply(&pixmap)
 }
 
+/// The London set's person 096 as a source: a model of their two photos with the neutral as
+/// its reference, and the smile's parameters in it.
+fn london_096() -> (Model, Params) {
+    let photo = |kind: &str| {
+        let mut t =
+            io::read_training_image(&root().join(format!("data/london/{kind}/096.jpg"))).unwrap();
+        t.name = kind.to_string();
+        t
+    };
+    let (neutral, smile) = (photo("neutral"), photo("smiling"));
+    let model = facemimic::Builder::new(facemimic::BuildOptions {
+        name: "london-096".into(),
+        reference: facemimic::ReferenceChoice::Named("neutral".into()),
+        ..facemimic::BuildOptions::default()
+    })
+    .build(&[neutral, smile.clone()], None)
+    .unwrap();
+    let params = model
+        .project(&smile.image.view().unwrap(), &smile.landmarks)
+        .unwrap();
+    (model, params)
+}
+
+/// 096's laugh cloned onto `target` by the expressive method, composited into its picture
+/// (straight RGBA8, and the size).
+fn draw_expressive(target: &Model) -> (Vec<u8>, (u32, u32)) {
+    let (source, params) = london_096();
+    let mut cloner = Cloner::new(source).unwrap();
+    cloner.add_target(target.clone()).unwrap();
+    let options = CloneOptions {
+        method: Method::Expressive,
+        ..CloneOptions::default()
+    };
+    cloner.clone_frame(&params, &options).unwrap();
+    let mut compositor = Compositor::new(target, DrawOptions::default()).unwrap();
+    let (w, h) = compositor.size();
+    let mut pixmap = Pixmap::new(w, h).unwrap();
+    let [r, g, b, a] = BACKGROUND;
+    pixmap.fill(Color::from_rgba8(r, g, b, a));
+    compositor
+        .draw(
+            target,
+            cloner.target_appearance(0),
+            cloner.target_shape(0),
+            &picture_view(w, h, w, h),
+            &mut pixmap.as_mut(),
+        )
+        .unwrap();
+    (facemimic::demultiply(&pixmap), (w, h))
+}
+
 /// Compares `got` with the golden image `name` (or writes it with `FACEMIMIC_BLESS=1`).
 fn check(name: &str, got: &[u8]) {
     check_sized(name, got, SIZE);
@@ -304,4 +360,24 @@ fn composite_with_follow_pose_matches_golden_image() {
 fn photo_target_composite_matches_golden_image() {
     let (got, size) = draw_composite(&spk03_photo(), false);
     check_sized("composite_photo", &got, size);
+}
+
+#[test]
+fn expressive_laugh_on_a_grid_target_matches_golden_image() {
+    let (got, size) = draw_expressive(spk02_backdrop());
+    check_sized("expressive_laugh_grid", &got, size);
+}
+
+#[test]
+fn expressive_laugh_on_a_photo_target_matches_golden_image() {
+    let t = io::read_training_image(&root().join("data/london/neutral/068.jpg")).unwrap();
+    let photo = photo_model(
+        "london-068-photo",
+        &t.image.view().unwrap(),
+        &t.landmarks,
+        facemimic::canonical_frame(),
+    )
+    .unwrap();
+    let (got, size) = draw_expressive(&photo);
+    check_sized("expressive_laugh_photo", &got, size);
 }

@@ -58,7 +58,6 @@ pub enum Method {
     Substitute,
     /// Eq. 3, Fig. 4 B: source parameters mapped into the target's basis by inner products
     /// (see [`map_params`], [`map_shape`]).
-    #[default]
     Map,
     /// Eq. 4, Fig. 4 C: `Map` plus the shape residual the target basis cannot express, added
     /// back (see [`add_residual`]).
@@ -68,6 +67,8 @@ pub enum Method {
     /// target's own modes where they can follow and a residual after the limit; the appearance
     /// change as a luminance ratio image, the inner mouth and the eyelids recoloured for the
     /// target (see [`expressive_shape`], [`expressive_appearance`]).
+    /// The default: it keeps strong expressions the paper's methods mute (docs/cloning.md).
+    #[default]
     Expressive,
 }
 
@@ -143,7 +144,7 @@ impl FromStr for Method {
 /// Options of one cloned frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CloneOptions {
-    /// The method (default [`Method::Map`]).
+    /// The method (default [`Method::Expressive`]).
     pub method: Method,
     /// Global gain on the source parameters (default 1; 0 gives the target's reference face,
     /// >1 exaggerates, negative inverts). Must be finite.
@@ -172,7 +173,7 @@ pub struct CloneOptions {
 impl Default for CloneOptions {
     fn default() -> Self {
         CloneOptions {
-            method: Method::Map,
+            method: Method::Expressive,
             gain: 1.0,
             shape_gains: Vec::new(),
             appearance_gains: Vec::new(),
