@@ -222,7 +222,7 @@ pub fn read_model_file_info(
 pub fn expression_sets(
     data: &Path,
     exclude: &[u32],
-) -> Result<(Vec<(Vec<f32>, Vec<f32>)>, Vec<Vec<Vec<f32>>>)> {
+) -> Result<(crate::clone::ShapePairs, crate::clone::SpeakerShapes)> {
     let read = |p: &Path| -> Result<Vec<f32>> {
         let text =
             std::fs::read_to_string(p).map_err(|e| Error::Io(format!("{}: {e}", p.display())))?;

@@ -2,7 +2,8 @@
 //
 // Data flow per animation frame: active source -> Params -> cloner.setSourceParams -> update()
 // (map + synthesise every target) -> render the source, every target and, when open, the
-// compare view (one target with all three methods) into their canvases at device-pixel size.
+// compare view (one target with every method of the package's methods()) into their canvases at
+// device-pixel size.
 // Nothing is rendered when nothing changed (paused and idle), except the inspector's animation
 // (the Inspector panel's, or while "Create a face" is open, its preview's).
 
@@ -14,7 +15,7 @@ import { registerSource, validateTrack, recentreTrack, TrackSource, SliderSource
 import { ModelShelf } from './js/store.js';
 import { Enrolment } from './js/enrol.js';
 import './js/tracking.js'; // registers the video and webcam sources (when the package can track)
-import { app, fm, $, bytesKey, FACE_BG, METHODS, MODELS } from './js/page-state.js';
+import { app, fm, $, bytesKey, loadMethods, FACE_BG, MODELS } from './js/page-state.js';
 import { buildStage, wireTargetInputs, buildLibrary, addTargetFromBytes, setSourceFromBytes } from './js/targets.js';
 import { buildControls, refreshModelLists } from './js/controls.js';
 import { activate, buildSliders, play, syncSliders, syncTransport, usableTrack } from './js/source-control.js';
@@ -34,6 +35,12 @@ async function main() {
     return;
   }
   $('version').textContent = typeof fm.version === 'function' ? `facemimic ${fm.version()}` : '';
+  try {
+    loadMethods(); // the cloning methods and the default one, from the core's list
+  } catch (e) {
+    fatal('The cloning methods could not be read from the WebAssembly package.', `Build it again with scripts/build-wasm.sh. Details: ${message(e)}`);
+    return;
+  }
 
   app.hidpi = new HiDpi(() => {
     app.dirty = true;
@@ -189,7 +196,7 @@ function render(t) {
   // the same tiny-skia pixmap (~3x faster, within ~1.5 levels); off, tiny-skia's pattern fills
   // (the reference renderer of the CLI and the npm package) draw every triangle.
   // Targets are composited into their pictures unless "Face only" is on. The compare view shows
-  // the face alone, where the three methods differ (renderTargetWithMethod could composite too).
+  // the face alone, where the methods differ (renderTargetWithMethod could composite too).
   const { face: opts, target: targetOpts } = renderOptions();
   // Faces scrolled out of view are skipped (redrawn when they come back), except while
   // recording, which copies every face canvas into the video.
@@ -204,9 +211,8 @@ function render(t) {
     if ($('compare-name').textContent !== app.targets[i].name) $('compare-name').textContent = app.targets[i].name;
     const note = $('compare-note');
     if (note.hidden === !!app.targets[i].info.isPhoto) note.hidden = !app.targets[i].info.isPhoto;
-    for (const m of METHODS) {
-      const canvas = $(`cmp-${m}`);
-      if (app.hidpi.visible(canvas)) c.renderTargetWithMethod(i, m, ctx2d(canvas), opts);
+    for (const { method, canvas } of app.compareViews) {
+      if (app.hidpi.visible(canvas)) c.renderTargetWithMethod(i, method, ctx2d(canvas), opts);
     }
   }
   // The stage timings accumulate from update() over every render call of this frame.

@@ -10,7 +10,7 @@
 //! - **shape** ([`expressive_shape`]): `u = L d`, the displacement fitted to the target's
 //!   proportions by deformation transfer ([`super::transfer`]); bounded as a whole by its
 //!   Mahalanobis distance under the generic [`ExpressionPrior`]; the part the target's own modes
-//!   can show (`p* = S*^T u`, limited to `k` in the target's Mahalanobis norm) plus, by `style`,
+//!   can show (`p* = S*^T u`, limited to `k + sqrt(q)` in the target's Mahalanobis norm) plus, by `style`,
 //!   the residual `u - S* p*` computed AFTER that limit; then lips and eyelids never cross and
 //!   no triangle folds.
 //! - **appearance** ([`expressive_appearance`]): the target's own face times the ratio image
@@ -572,7 +572,7 @@ fn uncross(x: &mut [f32], pairs: &[(usize, usize)], down: [f32; 2]) {
 /// Options of the expressive shape and appearance, from [`super::CloneOptions`].
 #[derive(Clone, Copy, Debug)]
 pub struct ExpressiveOptions<'a> {
-    /// `Some(k)`: the target's own part within Mahalanobis norm `k`, the whole displacement
+    /// `Some(k)`: the target's own part within Mahalanobis norm `k + sqrt(q)` (`q` its modes), the whole displacement
     /// within `k` times the prior's strongest expression (a laugh in video, with the head's own
     /// motion, reaches about 2.3 of it at the 99th percentile); `None`: neither limit.
     pub clamp: Option<f32>,
@@ -613,7 +613,9 @@ pub fn expressive_shape(
         *o_j = mode.iter().zip(&t.u).map(|(a, b)| a * b).sum();
     }
     if let Some(k) = o.clamp {
-        limit_mahalanobis(&mut t.own, &t.sigmas, k);
+        // A training face of q modes lies about sqrt(q) from the mean: the limit is k beyond.
+        let radius = k + (t.own.len() as f32).sqrt();
+        limit_mahalanobis(&mut t.own, &t.sigmas, radius);
     }
     residual_after_limit(&t.u, &shape.modes, &t.own, &mut t.x);
     // t.x holds the residual; the displacement is own + style * residual.
@@ -648,7 +650,7 @@ pub fn expressive_shape(
     place(1.0, &mut x);
     if folds(&x) {
         let (mut lo, mut hi) = (0.0f32, 1.0f32);
-        for _ in 0..10 {
+        for _ in 0..24 {
             let mid = 0.5 * (lo + hi);
             place(mid, &mut x);
             if folds(&x) {

@@ -42,7 +42,8 @@ pub use expressive::{
     SourceSide, RATIO_OFFSET, RATIO_RANGE,
 };
 pub use prior::{
-    expression_displacement, learn_prior, ExpressionPrior, MAX_PRIOR_MODES, STABLE_POINTS,
+    expression_displacement, learn_prior, ExpressionPrior, ShapePairs, SpeakerShapes,
+    MAX_PRIOR_MODES, STABLE_POINTS,
 };
 pub use transfer::{transfer_displacement, transfer_operator};
 

@@ -28,6 +28,11 @@ const KEPT_SHARE: f64 = 0.98;
 /// and the eye corners (36, 39, 42, 45), which an expression hardly moves.
 pub const STABLE_POINTS: [usize; 13] = [27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 39, 42, 45];
 
+/// Neutral and expressed shapes of people, a pair each (68 points, image coordinates).
+pub type ShapePairs = Vec<(Vec<f32>, Vec<f32>)>;
+/// Shapes of speakers, a list each (68 points, image coordinates).
+pub type SpeakerShapes = Vec<Vec<Vec<f32>>>;
+
 /// A zero-mean Gaussian over expression displacements (`2n` coordinates, 68 points, canonical
 /// model coordinates).
 ///

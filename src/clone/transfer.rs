@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 /// Per triangle `t = (a, b, c)`, `K_t = V_t^-1 E_t` (`V_t`, `E_t` the edge matrices
 /// `[v_b - v_a, v_c - v_a]` of the source and target base), so the target's edge
 /// displacements are `dV_t K_t`. `u` minimises `sum_t area_t |E_t(u) - dV_t K_t|^2 +
-/// mu |u - d|^2`: the anchor term (`mu` = [`ANCHOR`] times the mesh term's mean diagonal) keeps
+/// mu_i |u_i - d_i|^2`: the anchor term (`mu_i` = `ANCHOR`, or `JAW_ANCHOR` on a jaw, times the mesh term's mean diagonal) keeps
 /// each vertex near the source's own displacement, which in the shared frame is already in
 /// comparable units, and fixes the translation the edges do not see; without it, a target's
 /// smaller mouth would shrink the smile's lift by a quarter (measured: docs/cloning.md). With
@@ -87,9 +87,20 @@ pub fn transfer_operator(
         }
         used.push(([a, b, c], w, k));
     }
-    let mu = ANCHOR * h.trace() / n as f64;
-    for i in 0..n {
-        h[(i, i)] += mu;
+    let scale = h.trace() / n as f64;
+    // 68 points: the jaw's outline (0-16) follows the target's proportions more freely.
+    let mu: Vec<f64> = (0..n)
+        .map(|i| {
+            scale
+                * if n == 68 && i <= 16 {
+                    JAW_ANCHOR
+                } else {
+                    ANCHOR
+                }
+        })
+        .collect();
+    for (i, m) in mu.iter().enumerate() {
+        h[(i, i)] += m;
     }
     let chol = h
         .cholesky()
@@ -101,7 +112,7 @@ pub fn transfer_operator(
         let (vk, ck) = (k / 2, k % 2);
         rhs.iter_mut().for_each(|r| r.fill(0.0));
         // The anchor: each vertex pulled towards the source's own displacement.
-        rhs[ck][vk] += mu;
+        rhs[ck][vk] += mu[vk];
         for &([a, b, c], w, kt) in &used {
             // dV = [d_b - d_a, d_c - d_a] restricted to coordinate ck of vertex vk.
             let de = [
@@ -132,9 +143,14 @@ pub fn transfer_operator(
 }
 
 /// The weight of the anchor term of [`transfer_operator`], relative to the mesh term's mean
-/// diagonal (chosen on franck-dev's and franck-dev2's frames against GRID targets: 0.1, 0.3,
-/// 0.5 and 1 tried; 0.5 keeps every feature's range at 0.86 or more).
-pub const ANCHOR: f64 = 0.5;
+/// diagonal (chosen on franck-dev's and franck-dev2's frames against GRID targets, with
+/// [`JAW_ANCHOR`]: 0.1 to 1 tried; less lets a smaller mouth shrink the lips' lift, more keeps
+/// the jaw's drop from following the target's face).
+pub const ANCHOR: f64 = 0.8;
+
+/// The anchor's weight on a 68-point jaw outline (points 0-16), whose motion is the mandible's
+/// turn and so scales with the target's face (the lips' and brows' motions keep the source's).
+pub const JAW_ANCHOR: f64 = 0.1;
 
 /// True when a triangle (edge matrix `m`, determinant `det`) is too thin for its deformation
 /// gradient to mean anything: its area under a tenth of its longest edge squared (its smallest

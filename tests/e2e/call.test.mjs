@@ -6,7 +6,8 @@
 //   carries energy); privacy: every video track ever given to the RTCPeerConnection is the avatar
 //   canvas's (checked by wrapping the WebRTC API in the page, not by asking the page);
 //   the experimenter's controls: switch identity mid-call with no renegotiation, set the other
-//   side's gain and head motion; garbage over the data channel does not hurt the other page;
+//   side's gain, expression gain per region and head motion; garbage over the data channel does
+//   not hurt the other page;
 //   the per-frame CSV log; the peer's camera lost (their avatar holds, marked); a reload rejoins;
 //   a server restart is survived (the call carries on; the signalling comes back with back-off);
 //   the peer leaves; the copy-paste exchange without a server; bad links are explained.
@@ -14,7 +15,7 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
-import { launchBrowser, haveChromium, screenshot, serveStatic, ROOT } from './lib.mjs';
+import { launchBrowser, haveChromium, screenshot, serveStatic, ROOT, pkg } from './lib.mjs';
 import { fakeMedia, startDemoServer, status, waitCall, remotePicture, meanAbs, twoPages } from './call-lib.mjs';
 import path from 'node:path';
 
@@ -107,6 +108,8 @@ test('two pages connect; each sees the other\'s avatar (frames, not black) and h
   for (const [p, peer] of [[a, 'spk03'], [b, 'spk02']]) {
     const s = await status(p);
     assert.equal(s.sentVideo, 'canvas');
+    assert.equal(s.method, pkg().methods().find((m) => m.isDefault).name, "the avatar is cloned with the core's default method");
+    assert.deepEqual([s.settings.mouth, s.settings.eyes, s.settings.brows], [1, 1, 1]);
     assert.equal(s.peer.avatar, peer);
     assert.equal(s.peer.camera, 'ok', 'the peer tracks its camera');
     assert.ok(s.remoteFps >= 5, `remote fps ${s.remoteFps}`);
@@ -168,14 +171,27 @@ test('identity switch mid-call (no renegotiation); the experimenter sets the oth
   await setInput(b, '#peer-gain', '0.5');
   await setInput(b, '#peer-head', '0.2');
   await waitCall(a, () => window.facemimicCall.settings.gain === 0.5 && window.facemimicCall.settings.head === 0.2, 5000);
+  // ... and A's expression gain per region (0..3), beside the gain; B sees them in A's status.
+  await setInput(b, '#peer-mouth', '3');
+  await setInput(b, '#peer-eyes', '0');
+  await setInput(b, '#peer-brows', '2.5');
+  await waitCall(a, () => {
+    const s = window.facemimicCall.settings;
+    return s.mouth === 3 && s.eyes === 0 && s.brows === 2.5 && s.gain === 0.5;
+  }, 5000);
+  assert.deepEqual(await a.$$eval('#mouth, #eyes, #brows', (els) => els.map((e) => e.value)), ['3', '0', '2.5'], "A's own sliders show them");
+  await waitCall(b, () => window.facemimicCall.peer.mouth === 3 && window.facemimicCall.peer.eyes === 0 && window.facemimicCall.peer.brows === 2.5, 5000);
+  assert.equal(await b.textContent('#peer-mouth-out'), '3.00');
   await b.selectOption('#peer-avatar', 'b:spk06.fmm');
   await waitCall(a, () => window.facemimicCall.avatar === 'spk06', 5000);
   assert.equal((await status(a)).negotiations, negA);
   // A refuses once "Let the other side set mine" is off.
   await a.uncheck('#allow-remote');
   await setInput(b, '#peer-gain', '2');
+  await setInput(b, '#peer-mouth', '1');
   await a.waitForTimeout(800);
   assert.equal((await status(a)).settings.gain, 0.5);
+  assert.equal((await status(a)).settings.mouth, 3, 'a refused region gain was applied');
   await a.check('#allow-remote');
 
   // Garbage from B's page straight into the data channel.
@@ -186,6 +202,10 @@ test('identity switch mid-call (no renegotiation); the experimenter sets the oth
       'not json',
       '{"t":"set","gain":1e9}',
       '{"t":"set","gain":"1"}',
+      '{"t":"set","mouth":3.5}',
+      '{"t":"set","eyes":-1}',
+      '{"t":"set","brows":"2"}',
+      '{"t":"set","gain":1,"mouth":1e9}',
       '{"t":"set","avatar":"../../etc/passwd"}',
       '{"t":"set"}',
       '{"t":"status","camera":"<img src=x onerror=alert(1)>"}',
@@ -199,10 +219,11 @@ test('identity switch mid-call (no renegotiation); the experimenter sets the oth
     dc.send(new Uint8Array([0, 1, 2, 255]).buffer);
     return bad.length + 1;
   });
-  await waitCall(a, () => window.facemimicCall.rejectedMessages >= 12, 5000);
+  await waitCall(a, () => window.facemimicCall.rejectedMessages >= 16, 5000);
   const s = await status(a);
   assert.equal(s.rejectedMessages - r0, sent);
   assert.equal(s.settings.gain, 0.5, 'no bad message changed a setting');
+  assert.deepEqual([s.settings.mouth, s.settings.eyes, s.settings.brows], [3, 0, 2.5], 'no bad message changed a region gain');
   assert.equal(s.avatar, 'spk06');
   assert.equal(await a.evaluate(() => ({}).polluted), undefined);
   await a.waitForTimeout(1000);
@@ -212,7 +233,8 @@ test('identity switch mid-call (no renegotiation); the experimenter sets the oth
   // Back to the defaults, and A's own controls.
   await setInput(a, '#gain', '1');
   await setInput(a, '#head', '1');
-  await waitCall(b, () => window.facemimicCall.peer.gain === 1 && window.facemimicCall.peer.head === 1, 5000);
+  for (const r of ['mouth', 'eyes', 'brows']) await setInput(a, `#${r}`, '1');
+  await waitCall(b, () => ['gain', 'head', 'mouth', 'eyes', 'brows'].every((k) => window.facemimicCall.peer[k] === 1), 5000);
 });
 
 test('the per-frame log downloads as CSV: timestamps, source and target parameters, pose, lost flag, settings', { skip }, async () => {
@@ -220,7 +242,7 @@ test('the per-frame log downloads as CSV: timestamps, source and target paramete
   const file = await download.path();
   const lines = fs.readFileSync(file, 'utf8').trim().split('\n');
   const head = lines[0].split(',');
-  for (const c of ['wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar', 'fit_scale', 'sent_scale', 'sent_rotation', 'src_shape_1', 'src_app_1', 'tgt_shape_1', 'tgt_app_1']) {
+  for (const c of ['wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar', 'fit_scale', 'sent_scale', 'sent_rotation', 'mouth_gain', 'eyes_gain', 'brows_gain', 'src_shape_1', 'src_app_1', 'tgt_shape_1', 'tgt_app_1']) {
     assert.ok(head.includes(c), `column ${c}`);
   }
   assert.ok(lines.length > 100, `${lines.length - 1} rows`);
@@ -233,6 +255,8 @@ test('the per-frame log downloads as CSV: timestamps, source and target paramete
   for (const n of ['"spk02"', '"spk05"', '"spk06"']) assert.ok(avatars.has(n), `avatar ${n} in the log (${[...avatars]})`);
   const gains = new Set(rows.map((r) => r[col('gain')]));
   assert.ok(gains.has('0.5') && gains.has('1'), `gains logged: ${[...gains]}`);
+  const mouths = new Set(rows.map((r) => r[col('mouth_gain')]));
+  assert.ok(mouths.has('3') && mouths.has('1'), `mouth gains logged: ${[...mouths]}`);
   const good = rows.filter((r) => r[col('lost')] === '0');
   assert.ok(good.length > 50);
   for (const r of good.slice(-20)) {

@@ -42,7 +42,13 @@ test('head-motion damping scales the deviation from the running mean', () => {
 });
 
 test('data channel messages: only well-formed ones pass, with only their known fields', () => {
-  assert.deepEqual(parseControl('{"t":"set","gain":0.5}', AVATARS).msg, { t: 'set', gain: 0.5, head: undefined, avatar: undefined });
+  const none = { gain: undefined, head: undefined, mouth: undefined, eyes: undefined, brows: undefined, avatar: undefined };
+  assert.deepEqual(parseControl('{"t":"set","gain":0.5}', AVATARS).msg, { t: 'set', ...none, gain: 0.5 });
+  // The expression gain per region: mouth, eyes, brows, each 0..3.
+  assert.deepEqual(parseControl('{"t":"set","mouth":3,"eyes":0,"brows":1.25}', AVATARS).msg, { t: 'set', ...none, mouth: 3, eyes: 0, brows: 1.25 });
+  assert.deepEqual(parseControl('{"t":"set","eyes":2}', AVATARS).msg, { t: 'set', ...none, eyes: 2 });
+  const rs = parseControl('{"t":"status","camera":"ok","gain":1,"head":1,"mouth":2,"eyes":0.5,"brows":3}', AVATARS).msg;
+  assert.deepEqual([rs.mouth, rs.eyes, rs.brows], [2, 0.5, 3]);
   assert.equal(parseControl('{"t":"set","avatar":"spk03","extra":"x"}', AVATARS).msg.avatar, 'spk03');
   assert.equal(parseControl('{"t":"set","avatar":"spk03","extra":"x"}', AVATARS).msg.extra, undefined);
   const st = parseControl('{"t":"status","camera":"face-lost","pipelineMs":31.5,"avatar":"spk02"}', AVATARS).msg;
@@ -61,6 +67,12 @@ test('data channel messages: only well-formed ones pass, with only their known f
     ['{"t":"set","gain":"1"}', /not a number/],
     ['{"t":"set","gain":null}', /not a number/],
     ['{"t":"set","head":1e999}', /not a number/],
+    ['{"t":"set","mouth":3.01}', /mouth is outside 0..3/],
+    ['{"t":"set","eyes":-0.1}', /eyes is outside 0..3/],
+    ['{"t":"set","brows":"1"}', /brows is not a number/],
+    ['{"t":"set","mouth":null}', /mouth is not a number/],
+    ['{"t":"set","gain":1,"brows":1e9}', /brows is outside/],
+    ['{"t":"status","camera":"ok","mouth":4}', /mouth is outside/],
     ['{"t":"set","avatar":"spk99"}', /not a bundled model/],
     ['{"t":"set","avatar":{"toString":"spk02"}}', /not a bundled model/],
     ['{"t":"status","camera":"on fire"}', /camera state/],
@@ -73,7 +85,8 @@ test('data channel messages: only well-formed ones pass, with only their known f
     assert.equal(r.msg, undefined, String(m).slice(0, 40));
     assert.match(r.error, why, String(m).slice(0, 40));
   }
-  assert.deepEqual(clampSettings({ gain: 9, head: -1 }), { gain: 2.5, head: 0 });
+  assert.deepEqual(clampSettings({ gain: 9, head: -1 }), { gain: 2.5, head: 0, mouth: 1, eyes: 1, brows: 1 });
+  assert.deepEqual(clampSettings({ gain: 1, head: 1, mouth: 4, eyes: -1, brows: 2.5 }), { gain: 1, head: 1, mouth: 3, eyes: 0, brows: 2.5 });
 });
 
 test('the frame log: a fixed ring, CSV with named columns, oldest row first', () => {
@@ -88,6 +101,9 @@ test('the frame log: a fixed ring, CSV with named columns, oldest row first', ()
       lost: i % 2 === 1,
       gain: 1,
       head: 0.5,
+      mouth: 2,
+      eyes: 1,
+      brows: i / 4,
       avatar: i < 3 ? 'spk02' : 'spk03',
       fitPose: { scale: 1, rotation: 0, tx: i, ty: 0 },
       sentPose: i % 2 ? null : { scale: 1, rotation: 0, tx: i / 2, ty: 0 },
@@ -113,6 +129,9 @@ test('the frame log: a fixed ring, CSV with named columns, oldest row first', ()
   assert.equal(rows[1][head.indexOf('tgt_shape_1')], '');
   assert.equal(rows[0][head.indexOf('tgt_shape_2')], '0.4');
   assert.equal(rows[0][head.indexOf('sent_tx')], '1');
+  assert.deepEqual(head.slice(16, 19), ['mouth_gain', 'eyes_gain', 'brows_gain']);
+  assert.deepEqual(rows.map((r) => r[head.indexOf('mouth_gain')]), ['2', '2', '2', '2']);
+  assert.deepEqual(rows.map((r) => r[head.indexOf('brows_gain')]), ['0.5', '0.75', '1', '1.25']);
   // A target with more modes widens the columns (and starts the log again).
   log.ensure(2, 3, 5, 1);
   assert.ok(log.columns.includes('tgt_shape_5'));

@@ -10,83 +10,10 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import { execFileSync } from 'node:child_process';
-import {
-  ROOT,
-  screenshot,
-  canvasStats,
-  canvasPixels,
-  meanAbsDiff,
-  faceBox,
-  cornerDistances,
-  openPage,
-  pageSuite,
-  dropFiles as dropFilesOn,
-} from './lib.mjs';
+import { ROOT, screenshot, canvasPixels, meanAbsDiff, dropFiles as dropFilesOn } from './lib.mjs';
+import { MODELS, TARGETS, SOURCE, pageTests, assertFace, assertPicture, pause, setSlider } from './page-lib.mjs';
 
-// FACEMIMIC_WWW serves another folder laid out like www/ (for developing the page).
-const WWW = path.resolve(ROOT, process.env.FACEMIMIC_WWW || 'www');
-const MODELS = path.join(WWW, 'models');
-
-const suite = pageSuite(WWW);
-
-/** Open the page in a fresh context (lib.mjs `openPage`); `autoplay` false asks for reduced motion. */
-function open(t, { width = 1440, height = 900, dpr = 1, autoplay = true } = {}) {
-  return openPage(t, suite.browser, suite.server, {
-    context: { viewport: { width, height }, deviceScaleFactor: dpr, acceptDownloads: true, reducedMotion: autoplay ? 'no-preference' : 'reduce' },
-  });
-}
-
-const TARGETS = '.face-card.target canvas.face';
-const FACE_BG = [0x1b, 0x1d, 0x22]; // the page's canvas background (FACE_BG in www/app.js)
-const SOURCE = '.face-card.source canvas.face';
-
-async function assertFace(page, selector, what) {
-  const s = await canvasStats(page, selector);
-  assert.ok(s.width > 50 && s.height > 50, `${what}: canvas backing store is ${s.width}x${s.height}`);
-  // A face (skin, eyes, mouth, hair, background) varies a lot; a blank or flat canvas does not.
-  assert.ok(s.variance > 60 && s.distinct > 200, `${what}: centre looks blank (${JSON.stringify(s)})`);
-  // Centred and scaled: the face's box is in the middle, inside the canvas, and large.
-  const box = await faceBox(page, selector, FACE_BG);
-  const r = (v) => v.toFixed(2);
-  const desc = box && `box ${r(box.left)}..${r(box.right)} x ${r(box.top)}..${r(box.bottom)}`;
-  assert.ok(box, `${what}: nothing drawn over the background`);
-  assert.ok(Math.abs(box.cx - 0.5) < 0.08 && Math.abs(box.cy - 0.5) < 0.08, `${what}: face not centred (${desc})`);
-  assert.ok(box.left > 0.01 && box.top > 0.01 && box.right < 0.99 && box.bottom < 0.99, `${what}: face touches the edge (${desc})`);
-  assert.ok(box.right - box.left > 0.6, `${what}: face too small (${desc})`);
-  return s;
-}
-
-/**
- * A target composited into its picture (the page's default): the canvas has the picture's
- * aspect (the bundled GRID pictures are 360x288), its corners are the picture (not the
- * background) and its middle (the face) varies.
- */
-async function assertPicture(page, selector, what) {
-  const s = await canvasStats(page, selector);
-  assert.ok(s.width > 50 && s.height > 50, `${what}: canvas backing store is ${s.width}x${s.height}`);
-  assert.ok(Math.abs(s.width / s.height - 1.25) < 0.03, `${what}: a ${s.width}x${s.height} canvas for a 5:4 picture`);
-  assert.ok(s.variance > 60 && s.distinct > 200, `${what}: centre looks blank (${JSON.stringify(s)})`);
-  const corners = await cornerDistances(page, selector, FACE_BG);
-  assert.ok(corners.every((d) => d > 12), `${what}: a corner is background, not the picture (${corners.map((d) => d.toFixed(1))})`);
-  return s;
-}
-
-async function pause(page) {
-  if ((await page.getAttribute('#play', 'data-state')) === 'playing') await page.click('#play');
-  assert.equal(await page.getAttribute('#play', 'data-state'), 'paused');
-}
-
-async function setSlider(page, id, value) {
-  await page.$eval(
-    `#${id}`,
-    (el, v) => {
-      el.focus();
-      el.value = String(v);
-      el.dispatchEvent(new Event('input', { bubbles: true }));
-    },
-    value,
-  );
-}
+const { suite, open } = pageTests();
 
 /** Drop model files on an element (lib.mjs `dropFiles`, as `application/octet-stream`). */
 const dropFiles = (page, selector, files) => dropFilesOn(page, selector, files, 'application/octet-stream');
@@ -140,56 +67,14 @@ test('backing stores are the CSS size times devicePixelRatio, and the phone layo
   await assertFace(page, SOURCE, 'source (phone)');
   await assertPicture(page, `${TARGETS} >> nth=0`, 'target 1 (phone)');
   await screenshot(page, 'page-phone', { fullPage: false });
-  // Faces off screen are not drawn; scrolled into view, they are.
-  await page.locator('#cmp-map-residual').scrollIntoViewIfNeeded();
+  // Faces off screen are not drawn; scrolled into view, they are (the compare view's last method).
+  await page.locator('#compare-grid canvas >> nth=-1').scrollIntoViewIfNeeded();
   await frames(3);
-  await assertFace(page, '#cmp-map-residual', 'compare view after scrolling (phone)');
+  await assertFace(page, '#compare-grid canvas >> nth=-1', 'compare view after scrolling (phone)');
   await page.locator('#inspect-mode').scrollIntoViewIfNeeded();
   await frames(3);
   await assertFace(page, '#inspect-mean', 'inspector after scrolling (phone)');
   await screenshot(page, 'page-phone-full');
-  assert.deepEqual(errors, []);
-});
-
-test('moving a slider pauses the track and changes the targets; so does the method', async (t) => {
-  const { page, errors, frames } = await open(t);
-  await frames(2);
-  await setSlider(page, 'p-shape-0', 0);
-  await frames(2);
-  assert.equal(await page.getAttribute('#play', 'data-state'), 'paused', 'the slider paused playback');
-  assert.equal(await page.$eval('#source-kind', (s) => s.value), 'sliders');
-  const before = await canvasPixels(page, `${TARGETS} >> nth=0`);
-  await setSlider(page, 'p-shape-0', 2.5);
-  await frames(2);
-  const moved = await canvasPixels(page, `${TARGETS} >> nth=0`);
-  assert.ok(meanAbsDiff(before, moved) > 0.5, `target did not change with the slider (${meanAbsDiff(before, moved)})`);
-  // The source follows the sliders too.
-  assert.match(await page.$eval('#p-shape-0 + output', (o) => o.value), /^\+2\.50σ$/);
-
-  // Method: substitute differs from map + residual for the same expression.
-  await page.click('label:has(input[value="substitute"])');
-  await frames(2);
-  const substituted = await canvasPixels(page, `${TARGETS} >> nth=0`);
-  assert.ok(meanAbsDiff(moved, substituted) > 0.2, `method change did not change the target (${meanAbsDiff(moved, substituted)})`);
-  await page.click('label:has(input[value="map"])');
-  await frames(2);
-  const mapped = await canvasPixels(page, `${TARGETS} >> nth=0`);
-  assert.ok(meanAbsDiff(mapped, substituted) > 0.2, 'map and substitute look the same');
-  await screenshot(page, 'page-slider-substitute-vs-map');
-
-  // Gain 0 gives the target's reference face: different again.
-  await setSlider(page, 'gain', 0);
-  await frames(2);
-  const zero = await canvasPixels(page, `${TARGETS} >> nth=0`);
-  assert.ok(meanAbsDiff(zero, mapped) > 0.2, 'gain 0 did not change the target');
-  assert.equal(await page.$eval('#gain-out', (o) => o.value), '0.00');
-
-  // Reset restores the defaults.
-  await page.click('#reset');
-  await frames(1);
-  assert.equal(await page.$eval('input[name=method]:checked', (r) => r.value), 'map-residual');
-  assert.equal(await page.$eval('#gain', (r) => r.value), '1');
-  assert.equal(await page.$eval('#p-shape-0', (r) => r.value), '0');
   assert.deepEqual(errors, []);
 });
 
@@ -362,31 +247,6 @@ test('a model built in another reference frame is refused as a target', async (t
   await toast.waitFor({ timeout: 5000 });
   assert.match(await toast.textContent(), /incompatible|frame/i);
   assert.equal(await page.locator(TARGETS).count(), n0);
-});
-
-test('the compare view shows the three methods on one target as three different faces', async (t) => {
-  const { page, errors, frames } = await open(t);
-  await page.check('#compare-on');
-  await page.selectOption('#compare-target', '1');
-  await frames(3);
-  await pause(page);
-  // An expressive frame: mouth mode pushed so the methods visibly differ.
-  await setSlider(page, 'p-shape-0', 2.5);
-  await setSlider(page, 'p-shape-1', -2);
-  await frames(2);
-  const ids = ['cmp-substitute', 'cmp-map', 'cmp-map-residual'];
-  const px = [];
-  for (const id of ids) {
-    await assertFace(page, `#${id}`, id);
-    px.push(await canvasPixels(page, `#${id}`));
-  }
-  assert.ok(meanAbsDiff(px[0], px[1]) > 0.2, 'substitute = map');
-  assert.ok(meanAbsDiff(px[0], px[2]) > 0.2, 'substitute = map-residual');
-  const name = await page.textContent('#compare-name');
-  assert.equal(name, await page.textContent('.face-card.target >> nth=1 >> .name'));
-  await page.locator('#compare').scrollIntoViewIfNeeded();
-  await screenshot(page, 'page-compare');
-  assert.deepEqual(errors, []);
 });
 
 test('the inspector animates a mode and lists the variance shares', async (t) => {

@@ -4,13 +4,14 @@
 // call sends (`canvas.captureStream()`); the webcam's own picture stays in this page.
 //
 // Per fit: the tracker's parameters (pose re-centred as on the main page) -> head-motion damping
-// (PoseDamper) -> Cloner (gain) -> the avatar drawn into the canvas -> a row of the frame log.
+// (PoseDamper) -> Cloner (the core's default method from the package's `methods()`; gain and
+// region gains, set when they change) -> the avatar drawn into the canvas -> a row of the frame log.
 // A lost face draws nothing new: the avatar holds its last frame (and the other side is told).
 // Changing the avatar replaces the Cloner's target: the same canvas, the same track, no
 // renegotiation.
 
 import { createSource } from './sources.js';
-import { PoseDamper, FrameLog, clampSettings } from './call-controls.js';
+import { PoseDamper, FrameLog, clampSettings, REGIONS } from './call-controls.js';
 import './tracking.js'; // registers the webcam source
 
 export const WIDTH = 640;
@@ -56,7 +57,10 @@ export class Avatar {
     this.source = null; // { model, info, name }
     this.target = null; // { model, info, name }
     this.video = null; // VideoSource
-    this.settings = { gain: 1, head: 1 };
+    this.settings = clampSettings({ gain: 1, head: 1 }); // and the region gains, 1
+    // The cloning method: the core's default (the package's one list, `methods()`).
+    const methods = fm.methods();
+    this.method = (methods.find((m) => m.isDefault) ?? methods[0]).name;
     this.damper = new PoseDamper();
     this.log = null;
     this.frames = 0; // avatar frames drawn
@@ -86,8 +90,8 @@ export class Avatar {
     this.cloner = new this.fm.Cloner(source.model);
     this.cloner.addTarget(target.model);
     this.cloner.setFollowPose(true);
-    this.cloner.setMethod('map-residual');
-    this.cloner.setGain(this.settings.gain);
+    this.cloner.setMethod(this.method);
+    this.applySettings();
     oldCloner?.free();
     const sourceChanged = this.source?.model !== source.model;
     this.source = source;
@@ -115,8 +119,15 @@ export class Avatar {
 
   setSettings(s) {
     this.settings = clampSettings({ ...this.settings, ...s });
-    this.cloner?.setGain(this.settings.gain);
+    this.applySettings();
     this.redraw();
+  }
+
+  /** The settings into the cloner (when they change, never per frame). */
+  applySettings() {
+    const s = this.settings;
+    this.cloner?.setGain(s.gain);
+    this.cloner?.setRegionGains(...REGIONS.map((r) => s[r]));
   }
 
   restartCamera() {
@@ -248,8 +259,7 @@ export class Avatar {
       captureMs: performance.timeOrigin + captured,
       renderMs: lost ? NaN : now - captured,
       lost,
-      gain: this.settings.gain,
-      head: this.settings.head,
+      ...this.settings, // gain, head, mouth, eyes, brows
       avatar: this.target.name,
       fitPose,
       sentPose: sent,

@@ -7,6 +7,11 @@
 
 /** The limits of the per-side settings (the wasm `Cloner.setGain` takes 0..2.5 as well). */
 export const GAIN_RANGE = [0, 2.5];
+/** The expression gain per region (the expressive method's `Cloner.setRegionGains`), each 0..3. */
+export const REGIONS = ['mouth', 'eyes', 'brows'];
+export const REGION_RANGE = [0, 3];
+/** Each side's settings, as its sliders (ids `gain`, `peer-gain`, ...) and messages name them. */
+export const SETTINGS = ['gain', 'head', ...REGIONS];
 /** Head motion: 0 holds the head at its running mean, 1 leaves it, above 1 exaggerates. */
 export const HEAD_RANGE = [0, 1.5];
 /** Running mean of the pose: time constant in seconds. */
@@ -56,9 +61,10 @@ const finite = (x) => typeof x === 'number' && Number.isFinite(x);
 
 /**
  * A data channel message, checked. Returns `{ msg }` (a fresh object with only known fields) or
- * `{ error }`. Kinds:
- *   {t:"set", gain?, head?, avatar?}     the experimenter sets this side's settings
- *   {t:"status", camera, pipelineMs?, encodeMs?, avatar?, gain?, head?}   the other side's state
+ * `{ error }`. Kinds (mouth, eyes, brows: the expression gain per region, REGION_RANGE):
+ *   {t:"set", gain?, head?, mouth?, eyes?, brows?, avatar?}   the experimenter sets this side's settings
+ *   {t:"status", camera, pipelineMs?, encodeMs?, avatar?, gain?, head?, mouth?, eyes?, brows?}
+ *                                        the other side's state
  *   {t:"bye"}                            the other side hangs up
  * `avatars`: the names an "avatar" may take.
  */
@@ -83,10 +89,11 @@ export function parseControl(data, avatars) {
     if (typeof m.avatar !== 'string' || !avatars.includes(m.avatar)) throw new Error('avatar is not a bundled model');
     return m.avatar;
   };
+  const regions = () => Object.fromEntries(REGIONS.map((k) => [k, num(k, REGION_RANGE)]));
   try {
     if (m.t === 'set') {
-      const out = { t: 'set', gain: num('gain', GAIN_RANGE), head: num('head', HEAD_RANGE), avatar: avatar() };
-      if (out.gain === undefined && out.head === undefined && out.avatar === undefined) return { error: 'set changes nothing' };
+      const out = { t: 'set', gain: num('gain', GAIN_RANGE), head: num('head', HEAD_RANGE), ...regions(), avatar: avatar() };
+      if (Object.keys(out).every((k) => k === 't' || out[k] === undefined)) return { error: 'set changes nothing' };
       return { msg: out };
     }
     if (m.t === 'status') {
@@ -100,6 +107,7 @@ export function parseControl(data, avatars) {
           encodeMs: num('encodeMs', [0, 60000]),
           gain: num('gain', GAIN_RANGE),
           head: num('head', HEAD_RANGE),
+          ...regions(),
           avatar: name,
         },
       };
@@ -111,16 +119,16 @@ export function parseControl(data, avatars) {
   return { error: 'unknown kind' };
 }
 
-/** The gain and head-motion factor, clamped into their ranges. */
-export function clampSettings({ gain, head }) {
-  return { gain: clamp(gain, GAIN_RANGE), head: clamp(head, HEAD_RANGE) };
+/** The settings (gain, head-motion factor, region gains; a region not given is 1), clamped into their ranges. */
+export function clampSettings({ gain, head, mouth = 1, eyes = 1, brows = 1 }) {
+  return { gain: clamp(gain, GAIN_RANGE), head: clamp(head, HEAD_RANGE), mouth: clamp(mouth, REGION_RANGE), eyes: clamp(eyes, REGION_RANGE), brows: clamp(brows, REGION_RANGE) };
 }
 
 /**
  * The per-frame log: a ring of `capacity` rows of numbers (allocated once, so a long call does
  * not grow the page's memory), written out as CSV. Columns: time and frame, the pipeline's
- * timing, the lost flag, the settings, the pose (as fitted and as sent), the source's shape and
- * appearance parameters and the avatar's (the target's, as cloned).
+ * timing, the lost flag, the settings, the pose (as fitted and as sent), the region gains, the
+ * source's shape and appearance parameters and the avatar's (the target's, as cloned).
  */
 export class FrameLog {
   constructor({ shapeModes, appearanceModes, targetShape, targetAppearance, capacity = 18000 }) {
@@ -135,6 +143,7 @@ export class FrameLog {
     const fixed = [
       'wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar',
       'fit_scale', 'fit_rotation', 'fit_tx', 'fit_ty', 'sent_scale', 'sent_rotation', 'sent_tx', 'sent_ty',
+      ...REGIONS.map((r) => `${r}_gain`),
     ];
     const seq = (p, n) => Array.from({ length: n }, (_, i) => `${p}${i + 1}`);
     this.columns = [...fixed, ...seq('src_shape_', ss), ...seq('src_app_', sa), ...seq('tgt_shape_', ts), ...seq('tgt_app_', ta)];
@@ -155,7 +164,7 @@ export class FrameLog {
     return i;
   }
 
-  /** One row. `r`: { wall, frame, captureMs, renderMs, lost, gain, head, avatar, fitPose, sentPose, src, tgt }. */
+  /** One row. `r`: { wall, frame, captureMs, renderMs, lost, gain, head, avatar, fitPose, sentPose, mouth, eyes, brows, src, tgt }. */
   push(r) {
     const w = this.columns.length;
     const o = (this.rows % this.capacity) * w;
@@ -173,11 +182,12 @@ export class FrameLog {
     };
     pose(r.fitPose, 8);
     pose(r.sentPose, 12);
+    REGIONS.forEach((k, i) => (d[o + 16 + i] = r[k] ?? NaN));
     const put = (arr, at, n) => {
       if (!arr) return;
       for (let i = 0; i < Math.min(n, arr.length); i++) d[o + at + i] = arr[i];
     };
-    let at = 16;
+    let at = 16 + REGIONS.length;
     put(r.src?.shape, at, ss);
     put(r.src?.appearance, (at += ss), sa);
     put(r.tgt?.shape, (at += sa), ts);

@@ -37,6 +37,19 @@ export function parseIceServers(text) {
   });
 }
 
+/** The microphone (echo cancellation, noise suppression): `{ track, note }`, the track `false`
+ *  when there is none or it is refused; `note` says so for the page. */
+export async function openMicrophone() {
+  try {
+    const s = await navigator.mediaDevices.getUserMedia({ audio: { echoCancellation: true, noiseSuppression: true }, video: false });
+    const track = s.getAudioTracks()[0] || false;
+    return { track, note: track ? `Microphone: ${track.label || 'on'} (sent to the other side only).` : 'Microphone: none.' };
+  } catch (e) {
+    const why = e?.name === 'NotAllowedError' ? 'permission refused' : e?.message || String(e);
+    return { track: false, note: `Microphone: not available (${why}); they see you but cannot hear you.` };
+  }
+}
+
 /** A description as connection text to copy. */
 export function encodeDescription(desc) {
   return TEXT_PREFIX + btoa(unescape(encodeURIComponent(JSON.stringify({ type: desc.type, sdp: desc.sdp }))));

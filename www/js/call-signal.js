@@ -18,6 +18,15 @@ export function defaultSignalUrl(loc = location) {
   return `${loc.protocol === 'https:' ? 'wss:' : 'ws:'}//${loc.host}/signal`;
 }
 
+/** The link for the other side: this page with only `?room=ID`. */
+export function inviteUrl(room, loc = location) {
+  const u = new URL(loc.href);
+  u.search = '';
+  u.hash = '';
+  u.searchParams.set('room', room);
+  return u.href;
+}
+
 /** A random id of `bytes` bytes, base64url. */
 export function randomId(bytes = 16) {
   const b = crypto.getRandomValues(new Uint8Array(bytes));

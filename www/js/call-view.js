@@ -13,6 +13,7 @@
 //            round trip, the jitter buffer and the decode time.
 
 import { readStamp, WIDTH, STAMP_BITS, STAMP_BLOCK } from './call-avatar.js';
+import { SETTINGS } from './call-controls.js';
 
 const $ = (id) => document.getElementById(id);
 const STALE_MS = 2000;
@@ -279,7 +280,7 @@ export class CallView {
     // The room panel.
     $('room-idle').hidden = Boolean(c.room) && c.joined;
     $('room-active').hidden = !(c.room && c.joined);
-    for (const id of ['peer-avatar', 'peer-gain', 'peer-head']) $(id).disabled = c.link?.dc?.readyState !== 'open';
+    for (const id of ['peer-avatar', ...SETTINGS.map((k) => `peer-${k}`)]) $(id).disabled = c.link?.dc?.readyState !== 'open';
     // Figures.
     const fps = this.remoteFps;
     const lat = this.latencyMs;
@@ -316,14 +317,22 @@ export class CallView {
     );
   }
 
+  /** This side's settings (gain, head motion, region gains) on its sliders. */
+  ownSettings(s) {
+    for (const k of SETTINGS) {
+      $(k).value = String(s[k]);
+      $(`${k}-out`).textContent = s[k].toFixed(2);
+    }
+  }
+
+  /** The other side's settings, as their status reports them, on the experimenter's sliders. */
   peerSettings(p) {
     const set = (id, v) => {
       if (v === null || v === undefined) return;
       if (document.activeElement !== $(id)) $(id).value = String(v);
       $(`${id}-out`).textContent = Number(v).toFixed(2);
     };
-    set('peer-gain', p.gain);
-    set('peer-head', p.head);
+    for (const k of SETTINGS) set(`peer-${k}`, p[k]);
     if (p.avatar && document.activeElement !== $('peer-avatar')) {
       const key = `b:${p.avatar}.fmm`;
       if ([...$('peer-avatar').options].some((o) => o.value === key)) $('peer-avatar').value = key;
@@ -359,6 +368,7 @@ export class CallView {
       longestStallMs: () => v.stallMax,
       peer: () => ({ ...c.peer }),
       avatar: () => c.avatar?.target?.name ?? null,
+      method: () => c.avatar?.method ?? null,
       settings: () => ({ ...(c.avatar?.settings ?? {}) }),
       camera: () => c.avatar?.camera ?? null,
       framesSent: () => c.avatar?.frames ?? 0,

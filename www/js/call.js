@@ -12,9 +12,9 @@ import { notify, message } from './toasts.js';
 import { fetchBytes } from './fetch.js';
 import { ModelStore } from './store.js';
 import { Avatar } from './call-avatar.js';
-import { SignalClient, defaultSignalUrl, randomId } from './call-signal.js';
-import { PeerLink, parseIceServers } from './call-peer.js';
-import { parseControl } from './call-controls.js';
+import { SignalClient, defaultSignalUrl, inviteUrl, randomId } from './call-signal.js';
+import { PeerLink, openMicrophone, parseIceServers } from './call-peer.js';
+import { parseControl, SETTINGS } from './call-controls.js';
 import { CallView } from './call-view.js';
 
 const $ = (id) => document.getElementById(id);
@@ -33,7 +33,7 @@ const call = {
   peerPresent: false,
   peerLeft: false,
   manual: false,
-  peer: { camera: null, avatar: null, gain: null, head: null, pipelineMs: null, encodeMs: null, at: 0 },
+  peer: { camera: null, avatar: null, gain: null, head: null, mouth: null, eyes: null, brows: null, pipelineMs: null, encodeMs: null, at: 0 },
   rejected: 0, // data channel messages refused
   mic: null,
   error: null,
@@ -118,11 +118,7 @@ async function setAvatarKey(key) {
 
 function setOwnSettings(s) {
   call.avatar.setSettings(s);
-  const { gain, head } = call.avatar.settings;
-  $('gain').value = String(gain);
-  $('head').value = String(head);
-  $('gain-out').textContent = gain.toFixed(2);
-  $('head-out').textContent = head.toFixed(2);
+  view.ownSettings(call.avatar.settings);
   sendStatus();
 }
 
@@ -139,24 +135,8 @@ function peerId(room) {
   return id;
 }
 
-function inviteUrl(room) {
-  const u = new URL(location.href);
-  u.search = '';
-  u.hash = '';
-  u.searchParams.set('room', room);
-  return u.href;
-}
-
 async function getMic() {
-  if (call.mic !== null) return call.mic;
-  try {
-    const s = await navigator.mediaDevices.getUserMedia({ audio: { echoCancellation: true, noiseSuppression: true }, video: false });
-    call.mic = s.getAudioTracks()[0] || false;
-    $('mic-note').textContent = call.mic ? `Microphone: ${call.mic.label || 'on'} (sent to the other side only).` : 'Microphone: none.';
-  } catch (e) {
-    call.mic = false;
-    $('mic-note').textContent = `Microphone: not available (${e.name === 'NotAllowedError' ? 'permission refused' : message(e)}); they see you but cannot hear you.`;
-  }
+  if (call.mic === null) ({ track: call.mic, note: $('mic-note').textContent } = await openMicrophone());
   return call.mic;
 }
 
@@ -312,8 +292,7 @@ function sendStatus() {
     pipelineMs: a.pipelineMs ?? undefined,
     encodeMs: view.encodeMs ?? undefined,
     avatar: a.target?.name,
-    gain: a.settings.gain,
-    head: a.settings.head,
+    ...a.settings, // gain, head, mouth, eyes, brows
   });
 }
 
@@ -325,16 +304,15 @@ function onControl(data) {
     return;
   }
   if (msg.t === 'status') {
-    Object.assign(call.peer, { camera: msg.camera, avatar: msg.avatar ?? call.peer.avatar, gain: msg.gain ?? call.peer.gain, head: msg.head ?? call.peer.head, pipelineMs: msg.pipelineMs ?? null, encodeMs: msg.encodeMs ?? null, at: performance.now() });
+    Object.assign(call.peer, { camera: msg.camera, avatar: msg.avatar ?? call.peer.avatar, pipelineMs: msg.pipelineMs ?? null, encodeMs: msg.encodeMs ?? null, at: performance.now() });
+    for (const k of SETTINGS) call.peer[k] = msg[k] ?? call.peer[k];
     view.peerSettings(call.peer);
   } else if (msg.t === 'set') {
     if (!$('allow-remote').checked) {
       view.note('The other side tried to change your settings (not allowed: see "Let the other side set mine").');
       return;
     }
-    const s = {};
-    if (msg.gain !== undefined) s.gain = msg.gain;
-    if (msg.head !== undefined) s.head = msg.head;
+    const s = Object.fromEntries(SETTINGS.filter((k) => msg[k] !== undefined).map((k) => [k, msg[k]]));
     if (Object.keys(s).length) setOwnSettings(s);
     if (msg.avatar !== undefined) setAvatarKey(`b:${msg.avatar}.fmm`).catch((e) => notify('error', 'Could not change the avatar', message(e)));
     view.note('The other side changed your settings.');
@@ -382,12 +360,13 @@ function wire() {
   });
   $('source-model').addEventListener('change', () => applyModels().catch((e) => notify('error', 'Could not use this model', message(e))));
   $('avatar-model').addEventListener('change', () => setAvatarKey($('avatar-model').value).catch((e) => notify('error', 'Could not use this avatar', message(e))));
-  $('gain').addEventListener('input', () => setOwnSettings({ gain: Number($('gain').value) }));
-  $('head').addEventListener('input', () => setOwnSettings({ head: Number($('head').value) }));
+  // Gain, head motion and the region gains: this side's own, and the other side's (the experimenter).
   const setPeer = (patch) => call.link?.sendControl({ t: 'set', ...patch });
+  for (const k of SETTINGS) {
+    $(k).addEventListener('input', () => setOwnSettings({ [k]: Number($(k).value) }));
+    $(`peer-${k}`).addEventListener('input', () => setPeer({ [k]: Number($(`peer-${k}`).value) }));
+  }
   $('peer-avatar').addEventListener('change', () => setPeer({ avatar: call.models.get($('peer-avatar').value)?.name }));
-  $('peer-gain').addEventListener('input', () => setPeer({ gain: Number($('peer-gain').value) }));
-  $('peer-head').addEventListener('input', () => setPeer({ head: Number($('peer-head').value) }));
   $('download-log').addEventListener('click', () => {
     const csv = call.avatar.log.toCSV();
     const url = URL.createObjectURL(new Blob([csv], { type: 'text/csv' }));

@@ -1,15 +1,21 @@
-// The control panels: the inspector, the cloning settings (method, gain, constraint,
-// follow-pose, mesh, fast raster, face only), the compare view's target, reset, the transport's
-// buttons and the space bar, and the menus listing the models on the stage.
+// The control panels: the inspector, the cloning settings (method, gain, constraint, the
+// expressive method's region gains and style, follow-pose, mesh, fast raster, face only), the
+// compare view (one canvas per method) and its target, reset, the transport's buttons and the
+// space bar, and the menus listing the models on the stage. The method radios and the compare
+// view's canvases are made from the package's `methods()` (app.methods), the core's one list.
 
 import { Inspector } from './inspector.js';
 import { styleTarget } from './cards.js';
 import { activate, play, syncTransport, usableTrack } from './source-control.js';
-import { app, fm, $, DEFAULTS, FACE_BG, METHODS } from './page-state.js';
+import { app, fm, $, DEFAULTS, FACE_BG, REGIONS } from './page-state.js';
+
+/** The method that has its own settings (region gains, style) on the panel. */
+const EXPRESSIVE = 'expressive';
 
 /** The panels' controls: the inspector, the cloning settings, the compare view, the transport,
  *  the source menu, the inspector's model menu and the space bar (play and pause). */
 export function buildControls() {
+  buildMethods();
   app.inspector = new Inspector(fm, {
     mean: $('inspect-mean'),
     mode: $('inspect-mode'),
@@ -20,14 +26,15 @@ export function buildControls() {
     sigma: $('inspect-sigma'),
     sigmaOut: $('inspect-sigma-out'),
   }, { background: FACE_BG });
-  for (const id of ['inspect-mean', 'inspect-mode', 'cmp-substitute', 'cmp-map', 'cmp-map-residual']) {
-    app.hidpi.watch($(id));
-  }
+  for (const id of ['inspect-mean', 'inspect-mode']) app.hidpi.watch($(id));
+  for (const v of app.compareViews) app.hidpi.watch(v.canvas);
 
   $('method').addEventListener('change', (e) => {
     if (e.target.name === 'method') setMethod(e.target.value);
   });
   $('gain').addEventListener('input', () => setGain(Number($('gain').value)));
+  for (const r of REGIONS) $(`gain-${r}`).addEventListener('input', () => setExpressive({ [r]: Number($(`gain-${r}`).value) }));
+  $('style').addEventListener('input', () => setExpressive({ style: Number($('style').value) }));
   $('clamp').addEventListener('change', applyClamp);
   $('clamp-k').addEventListener('input', applyClamp);
   $('follow-pose').addEventListener('change', () => {
@@ -99,6 +106,41 @@ export function buildControls() {
   syncControls();
 }
 
+/** The method radios and the compare view's canvases, one per method of the package's list. */
+function buildMethods() {
+  const radios = app.methods.map((m) => {
+    const label = document.createElement('label');
+    label.title = m.description;
+    const input = document.createElement('input');
+    Object.assign(input, { type: 'radio', name: 'method', value: m.name });
+    const span = document.createElement('span');
+    span.textContent = m.label;
+    label.append(input, span);
+    return label;
+  });
+  $('method').append(...radios);
+  const grid = $('compare-grid');
+  grid.style.setProperty('--n', String(app.methods.length));
+  app.compareViews = app.methods.map((m) => {
+    const fig = document.createElement('figure');
+    fig.className = 'card';
+    fig.title = `${m.label}: ${m.description}`;
+    const canvas = document.createElement('canvas');
+    canvas.id = `cmp-${m.name}`;
+    canvas.className = 'face';
+    canvas.setAttribute('aria-label', m.label);
+    const cap = document.createElement('figcaption');
+    const b = document.createElement('b');
+    b.textContent = m.label;
+    const span = document.createElement('span');
+    span.textContent = m.description;
+    cap.append(b, span);
+    fig.append(canvas, cap);
+    grid.append(fig);
+    return { method: m.name, canvas };
+  });
+}
+
 /** Targets as the face alone (the paper's view) or composited into their pictures. */
 function setFaceOnly(on) {
   app.settings.faceOnly = on;
@@ -106,12 +148,44 @@ function setFaceOnly(on) {
   app.dirty = true;
 }
 
-/** The cloning method (one of METHODS). */
+/** The cloning method (one of the package's methods). */
 function setMethod(m) {
-  if (!METHODS.includes(m)) return;
+  if (!app.methods.some((x) => x.name === m)) return;
   app.settings.method = m;
   app.cloner.setMethod(m);
+  showMethod();
   app.dirty = true;
+}
+
+/** The method's description under the radios; the expressive settings shown with that method. */
+function showMethod() {
+  const m = app.methods.find((x) => x.name === app.settings.method);
+  $('method-note').textContent = m ? `${m.label}: ${m.description}.` : '';
+  $('expressive-settings').hidden = app.settings.method !== EXPRESSIVE;
+}
+
+/** The expressive method's region gains and style (they also drive the compare view's column). */
+function setExpressive(patch) {
+  Object.assign(app.settings, patch);
+  applyExpressive();
+  syncExpressive();
+  app.dirty = true;
+}
+
+function applyExpressive() {
+  const s = app.settings;
+  app.cloner.setRegionGains(s.mouth, s.eyes, s.brows);
+  app.cloner.setStyle(s.style);
+}
+
+function syncExpressive() {
+  const s = app.settings;
+  for (const r of REGIONS) {
+    $(`gain-${r}`).value = String(s[r]);
+    $(`gain-${r}-out`).value = s[r].toFixed(2);
+  }
+  $('style').value = String(s.style);
+  $('style-out').value = s.style.toFixed(2);
 }
 
 /** The cloning gain. */
@@ -139,6 +213,7 @@ function applySettingsToCloner() {
   app.cloner.setGain(s.gain);
   app.cloner.setClamp(s.clamp ? s.k : null);
   app.cloner.setFollowPose(s.followPose);
+  applyExpressive();
 }
 
 /** The controls show the settings. */
@@ -155,6 +230,8 @@ function syncControls() {
   $('mesh').checked = s.mesh;
   $('fast-raster').checked = s.fast;
   $('face-only').checked = s.faceOnly;
+  syncExpressive();
+  showMethod();
 }
 
 /** The settings back to their defaults, the source to its reference face. */

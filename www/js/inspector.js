@@ -135,7 +135,7 @@ export class Inspector {
       ['Images', `${i.imageWidth}×${i.imageHeight}`],
       ['Frame id', String(i.fingerprint).slice(0, 12)],
     ];
-    if (i.isPhoto) rows.splice(1, 0, ['Kind', 'photo target (substitution)']);
+    if (i.isPhoto) rows.splice(1, 0, ['Kind', 'photo target (no modes of its own)']);
     if (i.backdrop) rows.push(['Picture', `${i.backdrop.width}×${i.backdrop.height}, ${(i.backdrop.bytes / 1024).toFixed(0)} KB`]);
     else if (i.backdropNotice) rows.push(['Picture', 'damaged: shown face only']);
     const dl = this.els.info;

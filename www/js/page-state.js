@@ -11,17 +11,24 @@ export { fm };
 export const notVideos = (files) => !files.every(looksLikeVideo);
 
 export const MODELS = 'models/';
-export const METHODS = ['substitute', 'map', 'map-residual'];
-// faceOnly: targets drawn as the face alone (the paper's view) instead of composited into their
-// picture (the model's backdrop; models without one are drawn face only either way).
-export const DEFAULTS = { method: 'map-residual', gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: true, faceOnly: false };
+// method: the core's default, the entry of the package's `methods()` with `isDefault` (set by
+// loadMethods once the package is loaded). mouth, eyes, brows: the expressive method's region
+// gains; style: 0 the target's own range .. 1 the source's full motion. faceOnly: targets drawn
+// as the face alone (the paper's view) instead of composited into their picture (the model's
+// backdrop; models without one are drawn face only either way).
+export const DEFAULTS = {
+  method: null, gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: true, faceOnly: false,
+  mouth: 1, eyes: 1, brows: 1, style: 1,
+};
+/** The expressive method's region gains, in `Cloner.setRegionGains`' order (settings' keys). */
+export const REGIONS = ['mouth', 'eyes', 'brows'];
 export const FACE_BG = '#1b1d22'; // = --face-bg in style.css: the canvas background meets the card without a seam
 export const FACE_ASPECT = 0.8; // a face canvas's width / height (= the .face-card default --ar in style.css)
 /** A picture's canvas keeps the picture's aspect within these bounds (beyond, it is letterboxed). */
 export const PICTURE_ASPECT = [0.75, 1.8];
-export const PHOTO_NOTE = 'photo · substitution';
+export const PHOTO_NOTE = 'photo';
 export const PHOTO_TITLE =
-  "A target made from one photo: it has no modes of its own, so the source's expression is substituted onto the photo's face (the paper's Fig. 4 A), whatever the method";
+  "A target made from one photo: it has no modes of its own, so a method that maps into the target's modes substitutes the source's expression onto the photo's face instead (the paper's Fig. 4 A); the expressive method needs none and clones it as any target";
 
 export const $ = (id) => document.getElementById(id);
 
@@ -42,8 +49,18 @@ export const app = {
   inspector: null,
   recorder: null,
   compareIndex: 0,
+  methods: [], // the package's methods(): [{ name, label, description, isDefault }], in the core's order
+  compareViews: [], // the compare view: [{ method, canvas }], one per method
   stats: { fps: 0, map: 0, synth: 0, raster: 0, blit: 0, frameMs: 0, last: 0, shown: 0 },
 };
+
+/** The cloning methods from the package (the core's one list) and the default method from it. */
+export function loadMethods() {
+  app.methods = fm.methods();
+  if (!app.methods.length) throw new Error('the package lists no cloning method');
+  DEFAULTS.method = (app.methods.find((m) => m.isDefault) ?? app.methods[0]).name;
+  app.settings.method = DEFAULTS.method;
+}
 
 /** A cheap identity for a model file's bytes (FNV-1a over a sample + the length). */
 export function bytesKey(bytes) {

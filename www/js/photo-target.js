@@ -1,7 +1,8 @@
 // Photo targets: a photo dropped on the targets (the "Add a target" card or a target card) or
 // chosen with "Add a photo target…" becomes a target made from that one picture (the package's
-// `Model.fromPhoto`: the photo's face is the model's base, the photo its backdrop, and the source's
-// expression is substituted onto it whatever the method). The face's 68 landmarks come from a
+// `Model.fromPhoto`: the photo's face is the model's base, the photo its backdrop; with no modes
+// of its own, a method that maps into them substitutes the source's expression onto it instead,
+// the expressive method clones it as any target). The face's 68 landmarks come from a
 // `.pts` file dropped or chosen with the photo (same name), else from the page's face finder
 // (finder-client.js, the worker the photo and video sources use); with several faces the user
 // picks one in a small dialog that reuses the tracking panel's placement step (placement.js).

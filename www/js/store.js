@@ -206,7 +206,7 @@ export class ModelShelf {
           'small',
           'shelf-meta',
           info.isPhoto
-            ? `photo target · substitution · ${(record.size / 1e6).toFixed(2)} MB`
+            ? `photo target · ${(record.size / 1e6).toFixed(2)} MB`
             : `${record.origin === 'built' ? 'created here' : 'dropped'} · ${info.shapeModes}+${info.appearanceModes} modes · ${(record.size / 1e6).toFixed(1)} MB`,
         );
     const text = this.el('div', 'shelf-text');

@@ -254,7 +254,7 @@ async function photoTargetFrom({ file, pts }, entry) {
   if (entry && app.targets.includes(entry)) ok = replaceTargetModel(entry, made.model, file.name);
   else {
     ok = addTargetModel(made.model, file.name);
-    if (ok) notify('info', `Added ${made.name}, a photo target`, `${file.name}: ${how}; cloned by substitution`);
+    if (ok) notify('info', `Added ${made.name}, a photo target`, `${file.name}: ${how}`);
   }
   if (!ok || !app.shelf) return ok;
   // Kept in "Your models" like a dropped model, so it comes back after a reload.
