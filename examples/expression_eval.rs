@@ -5,7 +5,8 @@
 //! ```sh
 //! cargo run --profile eval --example expression_eval -- \
 //!     [--methods substitute,map,map-residual] [--gains 1,2] [--targets spk02,spk03,spk06,spk10] \
-//!     [--sheet scratch/expression-sheet.png] [--dump-dir scratch/expression-dump] [--seed 1]
+//!     [--sheet scratch/expression-sheet.png] [--sheet-rows laugh,smile,jaw-drop,blink,brows]
+//!     [--no-source] [--dump-dir scratch/expression-dump] [--seed 1]
 //! ```
 //!
 //! **Split.** The source model `franck` is built from `franck-dev/train20.txt` (its 20 frames are
@@ -31,7 +32,9 @@
 //! and over the frames within 10 of a blink (a run of source eye openings below 60% of the
 //! clip's median, gaps of one frame bridged). `--gains` checks that a higher gain never gives a
 //! narrower range. `--sheet` draws the strongest expressions cloned and composited into each
-//! target's picture; `--dump-dir` writes the laughing frames (top 10% of source mouth width +
+//! target's picture (PNG, or JPEG at quality 90 when the name ends in `.jpg`); `--no-source`
+//! leaves franck's frames out of it (each row labelled with its frame number instead), which is
+//! the only kind of sheet that may be published; `--dump-dir` writes the laughing frames (top 10% of source mouth width +
 //! lift) and as many random others, with their clones, for an external expression classifier.
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
@@ -101,9 +104,25 @@ mod native {
         /// GRID speakers to clone onto, comma-separated (each data/grid/<speaker>_*/).
         #[arg(long, default_value = DEFAULT_TARGETS, value_name = "SPK,...")]
         targets: String,
-        /// Write a contact sheet of the strongest expressions (PNG).
+        /// Write a contact sheet of the strongest expressions (PNG; JPEG at quality 90 when
+        /// the name ends in .jpg or .jpeg).
         #[arg(long, value_name = "PATH")]
         sheet: Option<PathBuf>,
+        /// The sheet's rows, in order, each the strongest frame of its kind at least 24 frames
+        /// from the rows before it: laugh (source mouth width + lift), smile (the same among
+        /// frames whose jaw drop is at most its median), jaw-drop, blink (the deepest short
+        /// blink), brows (the highest brows among frames whose eye opening is at least its
+        /// median: brows measured from the eye centres also "rise" as the lids close).
+        #[arg(
+            long,
+            default_value = "laugh,laugh,laugh,laugh,blink,jaw-drop",
+            value_name = "KIND,..."
+        )]
+        sheet_rows: String,
+        /// Leave the source frames out of the sheet (franck's pictures may never be published)
+        /// and label each row with its frame number instead.
+        #[arg(long)]
+        no_source: bool,
         /// Write laughing and random frames with their clones and a manifest here.
         #[arg(long, value_name = "DIR")]
         dump_dir: Option<PathBuf>,
@@ -140,6 +159,7 @@ mod native {
             })
             .collect();
         let gains = parse_gains(&args.gains)?;
+        let sheet_rows = parse_sheet_rows(&args.sheet_rows)?;
         if args.every == 0 {
             return Err(Error::Params("--every must be at least 1".into()));
         }
@@ -166,8 +186,14 @@ mod native {
         report(&cloner, &frames, &source, &runs);
         gain_check(&cloner, &source.series, &runs, &setups, &gains);
         if let Some(path) = &args.sheet {
-            let picks = pick_sheet_frames(&frames, &source.series, &source.blinks);
-            write_sheet(&mut cloner, &frames, &setups, &picks, path)?;
+            let picks = pick_sheet_frames(&frames, &source.series, &source.blinks, &sheet_rows);
+            write_sheet(
+                &mut cloner,
+                &frames,
+                &setups,
+                &picks,
+                (path, args.no_source),
+            )?;
         }
         if let Some(dir) = &args.dump_dir {
             dump(
@@ -232,6 +258,65 @@ mod native {
         out.sort_by(f32::total_cmp);
         out.dedup();
         Ok(out)
+    }
+
+    /// A kind of contact-sheet row: which strongest source frame it shows.
+    #[derive(Clone, Copy, Debug)]
+    enum SheetRow {
+        /// The largest mouth width + lip-corner lift.
+        Laugh,
+        /// The largest mouth width + lift among the frames whose jaw drop is at most its median.
+        Smile,
+        /// The largest jaw drop.
+        JawDrop,
+        /// The deepest short blink.
+        Blink,
+        /// The highest brows among the frames whose eye opening is at least its median (the
+        /// brows are measured from the eye centres, which drop as the lids close).
+        Brows,
+    }
+
+    impl SheetRow {
+        /// Every kind with its name on the command line.
+        const NAMES: [(SheetRow, &'static str); 5] = [
+            (SheetRow::Laugh, "laugh"),
+            (SheetRow::Smile, "smile"),
+            (SheetRow::JawDrop, "jaw-drop"),
+            (SheetRow::Blink, "blink"),
+            (SheetRow::Brows, "brows"),
+        ];
+
+        /// The kind's name.
+        fn name(self) -> &'static str {
+            Self::NAMES
+                .iter()
+                .find(|(k, _)| std::mem::discriminant(k) == std::mem::discriminant(&self))
+                .map_or("?", |(_, n)| n)
+        }
+    }
+
+    /// The sheet's row kinds named in `s`, in order (repeats allowed: each takes the next
+    /// strongest frame).
+    fn parse_sheet_rows(s: &str) -> Result<Vec<SheetRow>> {
+        let rows = split_list(s)
+            .map(|name| {
+                SheetRow::NAMES
+                    .iter()
+                    .find(|(_, n)| *n == name)
+                    .map(|(k, _)| *k)
+                    .ok_or_else(|| {
+                        let names: Vec<&str> = SheetRow::NAMES.iter().map(|(_, n)| *n).collect();
+                        Error::Params(format!(
+                            "--sheet-rows: '{name}' is not one of {}",
+                            names.join(", ")
+                        ))
+                    })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        if rows.is_empty() {
+            return Err(Error::Params("--sheet-rows names no row".into()));
+        }
+        Ok(rows)
     }
 
     /// `data/grid/<speaker>_*/train20.txt`; with several clips of the speaker, the last by name
@@ -918,6 +1003,32 @@ mod native {
             .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
     }
 
+    /// Writes a pixmap (opaque) as JPEG at quality 90 when `path` ends in `.jpg` or `.jpeg`,
+    /// else as PNG.
+    fn save_picture(path: &Path, pixmap: &Pixmap) -> Result<()> {
+        let jpeg = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
+        if !jpeg {
+            return save_png(path, pixmap);
+        }
+        let rgb: Vec<u8> = facemimic::demultiply(pixmap)
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        let file = std::fs::File::create(path)
+            .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+        image::codecs::jpeg::JpegEncoder::new_with_quality(std::io::BufWriter::new(file), 90)
+            .encode(
+                &rgb,
+                pixmap.width(),
+                pixmap.height(),
+                image::ExtendedColorType::Rgb8,
+            )
+            .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
+    }
+
     /// Creates the folder `dir` (and its parents).
     fn make_dir(dir: &Path) -> Result<()> {
         std::fs::create_dir_all(dir).map_err(|e| Error::Io(format!("{}: {e}", dir.display())))
@@ -938,29 +1049,30 @@ mod native {
         })
     }
 
-    /// The contact sheet's six frames: the four largest source mouth width + lift, the
-    /// deepest short blink and the largest jaw drop, each apart from the others.
+    /// The contact sheet's frames: per kind of `rows`, in order, the strongest frame of that
+    /// kind at least [`SHEET_SPACING`] frames from the ones chosen before (a kind with no such
+    /// frame is left out, with a note).
     fn pick_sheet_frames(
         frames: &[Frame],
         source: &Series,
         blinks: &[Blink],
+        rows: &[SheetRow],
     ) -> Vec<(usize, String)> {
         let by = |key: &dyn Fn(&Features) -> f32| {
             let mut idx: Vec<usize> = (0..frames.len()).collect();
             idx.sort_by(|&a, &b| key(&source[b]).total_cmp(&key(&source[a])));
             idx
         };
-        let mut chosen: Vec<(usize, String)> = Vec::new();
-        for i in by(&|f| f.mouth_width + f.lift) {
-            if chosen.len() == 4 {
-                break;
-            }
-            if apart(frames, &chosen, i) {
-                chosen.push((i, "mouth width + lift".into()));
-            }
-        }
-        // The deepest blink (a short run; on franck the long ones are eyes lowered while
-        // looking down, or shut while laughing) apart from the smiles.
+        let smile = |f: &Features| f.mouth_width + f.lift;
+        let median = |key: &dyn Fn(&Features) -> f32| {
+            let mut v: Vec<f32> = source.iter().map(key).collect();
+            v.sort_by(f32::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        };
+        let median_jaw = median(&|f| f.jaw_drop);
+        let median_eyes = median(&|f| f.get(Feature::Eyes));
+        // The deepest blinks first: short runs only (on franck the long ones are eyes lowered
+        // while looking down, or shut while laughing).
         let mut short: Vec<usize> = blinks
             .iter()
             .filter(|b| b.last - b.first < LONG_BLINK)
@@ -971,30 +1083,46 @@ mod native {
                 .get(Feature::Eyes)
                 .total_cmp(&source[b].get(Feature::Eyes))
         });
-        if let Some(i) = short.into_iter().find(|&i| apart(frames, &chosen, i)) {
-            chosen.push((i, "blink".into()));
-        }
-        if let Some(i) = by(&|f| f.jaw_drop)
-            .into_iter()
-            .find(|&i| apart(frames, &chosen, i))
-        {
-            chosen.push((i, "jaw drop".into()));
+        let mut chosen: Vec<(usize, String)> = Vec::new();
+        for &kind in rows {
+            let candidates: Vec<usize> = match kind {
+                SheetRow::Laugh => by(&smile),
+                SheetRow::Smile => by(&smile)
+                    .into_iter()
+                    .filter(|&i| source[i].jaw_drop <= median_jaw)
+                    .collect(),
+                SheetRow::JawDrop => by(&|f| f.jaw_drop),
+                SheetRow::Blink => short.clone(),
+                SheetRow::Brows => by(&|f| f.brow)
+                    .into_iter()
+                    .filter(|&i| source[i].get(Feature::Eyes) >= median_eyes)
+                    .collect(),
+            };
+            match candidates.into_iter().find(|&i| apart(frames, &chosen, i)) {
+                Some(i) => chosen.push((i, kind.name().into())),
+                None => eprintln!(
+                    "expression_eval: no frame for the sheet row '{}'",
+                    kind.name()
+                ),
+            }
         }
         chosen
     }
 
-    /// The contact sheet: a row per picked frame, the source frame cropped to the face, then
-    /// per target and method the clone composited into the target's picture, cropped to the
-    /// face (a fixed box per target: its face at rest, with room below for the jaw).
+    /// The contact sheet: a row per picked frame, the source frame cropped to the face (unless
+    /// `no_source`: then the row's first cell carries its frame number), then per target and
+    /// method the clone composited into the target's picture, cropped to the face (a fixed box
+    /// per target: its face at rest, with room below for the jaw).
     fn write_sheet(
         cloner: &mut Cloner,
         frames: &[Frame],
         setups: &[CloneOptions],
         picks: &[(usize, String)],
-        path: &Path,
+        (path, no_source): (&Path, bool),
     ) -> Result<()> {
-        let nt = cloner.n_targets() as u32;
-        let width = CELL.0 * (1 + nt * setups.len() as u32) + GAP * nt;
+        let (nt, nm) = (cloner.n_targets() as u32, setups.len() as u32);
+        let first = u32::from(!no_source);
+        let width = CELL.0 * (first + nt * nm) + GAP * (nt - 1 + first);
         let mut sheet = canvas(width, CELL.1 * picks.len() as u32)?;
         let mut comps = compositors(cloner)?;
         let views: Vec<Similarity> = (0..cloner.n_targets())
@@ -1004,26 +1132,31 @@ mod native {
                 cell_view([b[0] - 0.15 * w, b[1] - 0.25 * h, 1.3 * w, 1.35 * h])
             })
             .collect();
-        for (row, (i, why)) in picks.iter().enumerate() {
-            let f = &frames[*i];
-            let y = (row as u32 * CELL.1) as i32;
-            let picture = pixmap_of(&io::read_image(&f.path)?)?;
-            let mut cell = canvas(CELL.0, CELL.1)?;
-            let v = cell_view(face_box(&f.landmarks));
-            let paint = PixmapPaint {
-                quality: FilterQuality::Bilinear,
-                ..PixmapPaint::default()
-            };
-            let to_cell = Transform::from_row(v.a, 0.0, 0.0, v.a, v.tx, v.ty);
-            cell.draw_pixmap(0, 0, picture.as_ref(), &paint, to_cell, None);
+        let put = |sheet: &mut Pixmap, x: u32, y: u32, cell: &Pixmap| {
             sheet.draw_pixmap(
-                0,
-                y,
+                x as i32,
+                y as i32,
                 cell.as_ref(),
                 &PixmapPaint::default(),
                 Transform::identity(),
                 None,
             );
+        };
+        for (row, (i, why)) in picks.iter().enumerate() {
+            let f = &frames[*i];
+            let y = row as u32 * CELL.1;
+            if !no_source {
+                let picture = pixmap_of(&io::read_image(&f.path)?)?;
+                let mut cell = canvas(CELL.0, CELL.1)?;
+                let v = cell_view(face_box(&f.landmarks));
+                let paint = PixmapPaint {
+                    quality: FilterQuality::Bilinear,
+                    ..PixmapPaint::default()
+                };
+                let to_cell = Transform::from_row(v.a, 0.0, 0.0, v.a, v.tx, v.ty);
+                cell.draw_pixmap(0, 0, picture.as_ref(), &paint, to_cell, None);
+                put(&mut sheet, 0, y, &cell);
+            }
             for (m, options) in setups.iter().enumerate() {
                 cloner.clone_frame(&f.params, options)?;
                 for t in 0..cloner.n_targets() {
@@ -1034,32 +1167,76 @@ mod native {
                         cloner.target_shape(t),
                     );
                     comps[t].draw(model, app, shape, &views[t], &mut cell.as_mut())?;
-                    let col = 1 + t as u32 * setups.len() as u32 + m as u32;
-                    let x = (col * CELL.0 + GAP * (t as u32 + 1)) as i32;
-                    sheet.draw_pixmap(
-                        x,
-                        y,
-                        cell.as_ref(),
-                        &PixmapPaint::default(),
-                        Transform::identity(),
-                        None,
-                    );
+                    let t = t as u32;
+                    let x = (first + t * nm + m as u32) * CELL.0 + GAP * (first + t);
+                    put(&mut sheet, x, y, &cell);
                 }
+            }
+            if no_source {
+                draw_number(&mut sheet, (3, y + 3), f.number);
             }
             println!("sheet row {row}: {} {:06} ({why})", f.clip, f.number);
         }
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             make_dir(dir)?;
         }
-        save_png(path, &sheet)?;
+        save_picture(path, &sheet)?;
         let methods: Vec<String> = setups.iter().map(|s| s.method.to_string()).collect();
         println!(
-            "sheet: {} ({} rows; columns: the source frame, then per target in order, the methods {})",
+            "sheet: {} ({} rows; columns: {}per target in order, the methods {})",
             path.display(),
             picks.len(),
+            if no_source {
+                "no source frame (each row labelled with its frame number), "
+            } else {
+                "the source frame, then "
+            },
             methods.join(", ")
         );
         Ok(())
+    }
+
+    /// 3x5 pixel digits: five lines of three bits, top line first, the left pixel the high bit.
+    const DIGITS: [[u8; 5]; 10] = [
+        [7, 5, 5, 5, 7],
+        [2, 6, 2, 2, 7],
+        [7, 1, 7, 4, 7],
+        [7, 1, 7, 1, 7],
+        [5, 5, 7, 1, 1],
+        [7, 4, 7, 1, 7],
+        [7, 4, 7, 5, 7],
+        [7, 1, 1, 1, 1],
+        [7, 5, 7, 5, 7],
+        [7, 5, 7, 1, 7],
+    ];
+    /// Side of a digit's pixel on the sheet, in sheet pixels.
+    const DIGIT_PIXEL: u32 = 3;
+
+    /// Writes `number` in white on a dark box whose top-left corner is `(x, y)`.
+    fn draw_number(sheet: &mut Pixmap, (x, y): (u32, u32), number: u32) {
+        let text = number.to_string();
+        let k = DIGIT_PIXEL as f32;
+        let mut fill = |x: f32, y: f32, w: f32, h: f32, grey: u8| {
+            if let Some(r) = facemimic::tiny_skia::Rect::from_xywh(x, y, w, h) {
+                let mut paint = facemimic::tiny_skia::Paint::default();
+                paint.set_color_rgba8(grey, grey, grey, 255);
+                sheet.fill_rect(r, &paint, Transform::identity(), None);
+            }
+        };
+        let n = text.len() as f32;
+        fill(x as f32, y as f32, k * (4.0 * n + 1.0), 7.0 * k, 16);
+        for (d, c) in text.bytes().enumerate() {
+            let glyph = DIGITS[usize::from(c - b'0')];
+            for (line, bits) in glyph.iter().enumerate() {
+                for col in 0..3 {
+                    if bits & (4 >> col) != 0 {
+                        let gx = x as f32 + k * (1.0 + 4.0 * d as f32 + col as f32);
+                        let gy = y as f32 + k * (1.0 + line as f32);
+                        fill(gx, gy, k, k, 255);
+                    }
+                }
+            }
+        }
     }
 
     // -----------------------------------------------------------------------------------

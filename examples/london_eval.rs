@@ -26,8 +26,8 @@
 //! the real change is under 0.01).
 //!
 //! Prints two markdown tables; writes the per-pair CSV (`--csv`, default
-//! `scratch/london_pairs.csv`), a contact sheet (`--sheet PNG`) and files for an external
-//! expression classifier (`--dump-dir DIR`).
+//! `scratch/london_pairs.csv`), a contact sheet (`--sheet PNG`, or a `.jpg`: JPEG at quality
+//! 90) and files for an external expression classifier (`--dump-dir DIR`).
 //!
 //!   cargo run --profile eval --example london_eval -- [--limit N] [--stride S]
 //!       [--methods substitute,map,map-residual] [--csv PATH] [--sheet PNG] [--dump-dir DIR]
@@ -103,7 +103,8 @@ mod native {
         /// The per-pair CSV (default: scratch/london_pairs.csv in the crate).
         #[arg(long, value_name = "PATH")]
         csv: Option<PathBuf>,
-        /// Write a contact sheet (PNG): X smiling, Y neutral, the clone per method, Y smiling.
+        /// Write a contact sheet: X smiling, Y neutral, the clone per method, Y smiling (PNG;
+        /// JPEG at quality 90 when the name ends in .jpg or .jpeg).
         #[arg(long, value_name = "PNG")]
         sheet: Option<PathBuf>,
         /// Rows of the contact sheet.
@@ -1197,9 +1198,7 @@ mod native {
                 people[y].id
             );
         }
-        make_parent(path)?;
-        image::save_buffer(path, &sheet, sw, sh, image::ExtendedColorType::Rgb8)
-            .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
+        save_rgb(path, &sheet, (sw, sh))?;
         let names: Vec<String> = methods.iter().map(|m| m.to_string()).collect();
         println!(
             "wrote {} (columns: X smiling | Y neutral | {} | Y smiling, aligned)",
@@ -1207,6 +1206,26 @@ mod native {
             names.join(" | ")
         );
         Ok(())
+    }
+
+    /// Writes an RGB picture, making its folder: JPEG at quality 90 when `path` ends in `.jpg`
+    /// or `.jpeg`, else PNG.
+    fn save_rgb(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> Result<()> {
+        make_parent(path)?;
+        let io_error = |e: &dyn std::fmt::Display| Error::Io(format!("{}: {e}", path.display()));
+        let jpeg = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
+        if jpeg {
+            let file = std::fs::File::create(path).map_err(|e| io_error(&e))?;
+            image::codecs::jpeg::JpegEncoder::new_with_quality(std::io::BufWriter::new(file), 90)
+                .encode(rgb, w, h, image::ExtendedColorType::Rgb8)
+                .map_err(|e| io_error(&e))
+        } else {
+            image::save_buffer(path, rgb, w, h, image::ExtendedColorType::Rgb8)
+                .map_err(|e| io_error(&e))
+        }
     }
 
     /// A face box `[x, y, w, h]` (whole pixels, inside a `w x h` picture): the landmarks' box

@@ -4,7 +4,7 @@
 // frame costs while the page's finder worker searches (see benchTracking).
 // Prints a JSON summary into <pre id="result"> (data-done="1" when finished) for headless runs
 // (scripts/bench/page.mjs).
-import init, { Model, Cloner, FaceFinder, Tracker, version } from './pkg/facemimic.js';
+import init, { Model, Cloner, FaceFinder, Tracker, version, methods } from './pkg/facemimic.js';
 
 const MODELS = './models/';
 const W = 360;
@@ -17,7 +17,8 @@ const int = (name, dflt, min, max) => {
 const FRAMES = int('frames', 300, 1, 100000);
 const WARMUP = int('warmup', 30, 0, 10000);
 const TARGETS = int('targets', 4, 0, 16);
-const METHOD = q.get('method') || 'map';
+// The method: ?method=NAME, or the core's default (from methods(), once the module is loaded).
+let METHOD = q.get('method');
 const MESH = q.get('mesh') === '1';
 const RASTERS = ['tiny-skia', 'scanline'];
 const RASTER = q.get('raster') || 'scanline';
@@ -277,6 +278,7 @@ async function benchTracking(source) {
 
 async function main() {
   await init();
+  METHOD ||= methods().find((m) => m.isDefault).name;
   const manifest = await (await fetchOk(MODELS + 'manifest.json')).json();
   const trackFile = typeof manifest.track === 'string' ? manifest.track : manifest.track.file;
   const track = await (await fetchOk(MODELS + trackFile)).json();

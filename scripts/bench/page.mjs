@@ -1,5 +1,5 @@
 // Runs www/bench.html in headless Chromium and prints its JSON summary (a script, not a test).
-//   node scripts/bench/page.mjs [--frames N] [--method map] [--mesh] [--raster tiny-skia|scanline]
+//   node scripts/bench/page.mjs [--frames N] [--method NAME (default: the core's)] [--mesh] [--raster tiny-skia|scanline]
 //     [--composite FRAMES]  (source + targets composited at 640x480, follow-pose; 0 skips)
 //     [--finder RUNS]  (face finder runs on a 640x480 frame; 0 skips)
 //     [--track PASSES] [--lost FRAMES]  (tracking the bundled clip: ms per fit, and per lost
@@ -13,11 +13,12 @@ const opt = (name, dflt) => {
   const i = args.indexOf(`--${name}`);
   return i >= 0 && args[i + 1] ? args[i + 1] : dflt;
 };
+const method = opt('method', '');
 const query = new URLSearchParams({
+  ...(method ? { method } : {}),
   frames: opt('frames', '300'),
   warmup: opt('warmup', '30'),
   targets: opt('targets', '4'),
-  method: opt('method', 'map'),
   mesh: args.includes('--mesh') ? '1' : '0',
   raster: opt('raster', 'scanline'),
   finder: opt('finder', '20'),

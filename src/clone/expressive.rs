@@ -129,8 +129,9 @@ pub struct SourceFrame {
     app: Vec<f32>,
     /// The region-gained ratio image (`N`).
     pub ratio: Vec<f32>,
-    /// Scratch for smoothing the ratio image (`N`).
-    blurred: Vec<f32>,
+    /// Scratch for smoothing the ratio image (two grids each).
+    grid: Vec<f32>,
+    tmp: Vec<f32>,
     /// How open the source's mouth is beyond its neutral (0..1).
     open: f32,
     /// How closed each source eye is beyond its neutral (0..1).
@@ -183,43 +184,87 @@ fn inside_polygon(p: [f32; 2], s: &[f32], range: std::ops::Range<usize>) -> bool
     inside
 }
 
-/// Smooths the ratio image with a 5 x 5 box over the frame's pixels (each pass averaging the
+/// Smooths the ratio image with a 5 x 5 box over the frame's pixels (the mean of the
 /// neighbours that are frame pixels), as Liu et al. filter theirs: the expression's shading
 /// carries, the noise of the source's appearance does not. A ratio of exactly 1 everywhere
-/// stays exactly 1. Allocates nothing (`tmp` is `N` long).
-fn smooth_ratio(side: &SourceSide, ratio: &mut [f32], tmp: &mut [f32]) {
+/// stays exactly 1. Running sums over the frame's grid (values and weights, rows then
+/// columns), so a pass costs a few operations a grid cell. Allocates nothing (`grid` and `tmp`
+/// are two grids long).
+fn smooth_ratio(side: &SourceSide, ratio: &mut [f32], grid: &mut [f32], tmp: &mut [f32]) {
     if ratio.iter().all(|&v| v == 1.0) {
         return;
     }
-    box_pass(side, ratio, tmp, 1);
-    box_pass(side, tmp, ratio, side.grid_width as isize);
+    let cells = side.grid.len();
+    let w = side.grid_width.max(1);
+    let (v, wt) = grid.split_at_mut(cells);
+    for ((cell, vv), ww) in side.grid.iter().zip(v.iter_mut()).zip(wt.iter_mut()) {
+        (*vv, *ww) = match *cell {
+            u32::MAX => (0.0, 0.0),
+            k => (ratio[k as usize], 1.0),
+        };
+    }
+    let (tv, tw) = tmp.split_at_mut(cells);
+    box_rows(v, tv, w);
+    box_rows(wt, tw, w);
+    box_columns(tv, v, w);
+    box_columns(tw, wt, w);
+    for (cell, (vv, ww)) in side.grid.iter().zip(v.iter().zip(wt.iter())) {
+        if *cell != u32::MAX {
+            ratio[*cell as usize] = vv / ww;
+        }
+    }
 }
 
-/// One pass of [`smooth_ratio`]: `dst` at every frame pixel = the mean of `src` over the frame
-/// pixels within two grid steps of `step` (1: along rows, the grid width: along columns).
-fn box_pass(side: &SourceSide, src: &[f32], dst: &mut [f32], step: isize) {
-    const R: isize = 2;
-    let len = side.grid.len() as isize;
-    let w = side.grid_width as isize;
-    for (k, &idx) in side.grid.iter().enumerate() {
-        if idx == u32::MAX {
+/// Box sums of radius 2 along each row of a `w`-wide grid: `dst` = the sum of `src` over the
+/// cells within two steps on the same row (a running sum: one add and one subtract a cell).
+fn box_rows(src: &[f32], dst: &mut [f32], w: usize) {
+    const R: usize = 2;
+    for (s, d) in src.chunks_exact(w).zip(dst.chunks_exact_mut(w)) {
+        let mut sum = 0f32;
+        for i in 0..w + R {
+            if i < w {
+                sum += s[i];
+            }
+            if i > 2 * R {
+                sum -= s[i - 2 * R - 1];
+            }
+            if i >= R {
+                d[i - R] = sum;
+            }
+        }
+    }
+}
+
+/// Box sums of radius 2 along each column of a `w`-wide grid, a row at a time (each row the
+/// previous one's plus the row entering, less the row leaving: whole rows at once, which the
+/// compiler vectorises).
+fn box_columns(src: &[f32], dst: &mut [f32], w: usize) {
+    const R: usize = 2;
+    let h = src.len() / w;
+    for y in 0..h {
+        let (done, rest) = dst.split_at_mut(y * w);
+        let row = &mut rest[..w];
+        if y == 0 {
+            row.fill(0.0);
+            for j in 0..=R.min(h - 1) {
+                row.iter_mut()
+                    .zip(&src[j * w..(j + 1) * w])
+                    .for_each(|(d, s)| *d += s);
+            }
             continue;
         }
-        let (k, x) = (k as isize, k as isize % w.max(1));
-        let (mut sum, mut n) = (0f32, 0f32);
-        for d in -R..=R {
-            let j = k + d * step;
-            // Along rows, stay on the row.
-            if j < 0 || j >= len || (step == 1 && !(0..w).contains(&(x + d))) {
-                continue;
-            }
-            let p = side.grid[j as usize];
-            if p != u32::MAX {
-                sum += src[p as usize];
-                n += 1.0;
-            }
+        row.copy_from_slice(&done[(y - 1) * w..]);
+        if y + R < h {
+            row.iter_mut()
+                .zip(&src[(y + R) * w..(y + R + 1) * w])
+                .for_each(|(d, s)| *d += s);
         }
-        dst[idx as usize] = sum / n;
+        if y > R {
+            let out = y - R - 1;
+            row.iter_mut()
+                .zip(&src[out * w..(out + 1) * w])
+                .for_each(|(d, s)| *d -= s);
+        }
     }
 }
 
@@ -311,7 +356,8 @@ impl SourceSide {
             d: vec![0.0; source.shape().base.len()],
             app: vec![0.0; source.appearance().base.len()],
             ratio: vec![1.0; self.y0.len()],
-            blurred: vec![1.0; self.y0.len()],
+            grid: vec![0.0; 2 * self.grid.len()],
+            tmp: vec![0.0; 2 * self.grid.len()],
             open: 0.0,
             closed: [0.0; 2],
         }
@@ -383,8 +429,8 @@ impl SourceFrame {
             *r = v.clamp(RATIO_RANGE[0], RATIO_RANGE[1]);
         }
         // Twice: a 9 x 9 tent, about a tenth of the eye distance.
-        smooth_ratio(side, &mut self.ratio, &mut self.blurred);
-        smooth_ratio(side, &mut self.ratio, &mut self.blurred);
+        smooth_ratio(side, &mut self.ratio, &mut self.grid, &mut self.tmp);
+        smooth_ratio(side, &mut self.ratio, &mut self.grid, &mut self.tmp);
         // Inside the eyes the target keeps its own eye (the closure below blends in its lid):
         // a ratio there would paste the source's iris and lashes as a ghost.
         for e in &side.eyes {
