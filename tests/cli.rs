@@ -1091,3 +1091,85 @@ fn fit_gives_the_golden_track_the_npm_package_gives() {
         }
     }
 }
+
+/// `clone --method` takes every method of the core's one list (`Method::ALL`), with the
+/// expressive method's region gains and style; a wrong name or style fails with the list.
+#[test]
+fn clone_takes_every_method_of_the_list() {
+    let model = spk07_model();
+    let dir = scratch("methods");
+    let frame = grid("spk07_id2_vcd_swwp2s/000017.jpg");
+    for m in facemimic::clone::Method::ALL {
+        let out = dir.join(format!("{}.png", m.name()));
+        ok(&[
+            &"clone",
+            &"--source",
+            &model,
+            &"--target",
+            &model,
+            &"--image",
+            &frame,
+            &"--method",
+            &m.name(),
+            &"--mouth-gain",
+            &"1.5",
+            &"--style",
+            &"0.8",
+            &"--out",
+            &out,
+        ]);
+        assert!(facemimic::io::read_image(&out).is_ok(), "{}", m.name());
+    }
+    let err = fails(&[
+        &"clone",
+        &"--source",
+        &model,
+        &"--target",
+        &model,
+        &"--image",
+        &frame,
+        &"--method",
+        &"laugh",
+    ]);
+    for m in facemimic::clone::Method::ALL {
+        assert!(err.contains(m.name()), "{err}");
+    }
+    let err = fails(&[
+        &"clone",
+        &"--source",
+        &model,
+        &"--target",
+        &model,
+        &"--image",
+        &frame,
+        &"--style",
+        &"2",
+    ]);
+    assert!(err.contains("style"), "{err}");
+}
+
+/// The TypeScript `Method` type of the wasm package and of the npm README list exactly the
+/// core's methods, in its order.
+#[test]
+fn the_typescript_method_type_is_the_core_list() {
+    let want: Vec<String> = facemimic::clone::Method::ALL
+        .iter()
+        .map(|m| format!("\"{}\"", m.name()))
+        .collect();
+    for file in ["src/wasm/mod.rs", "npm/README.md"] {
+        let text = std::fs::read_to_string(root().join(file)).unwrap();
+        let line = text
+            .lines()
+            .find(|l| l.contains("type Method = "))
+            .unwrap_or_else(|| panic!("{file}: no `type Method`"));
+        let names: Vec<String> = line
+            .split('=')
+            .nth(1)
+            .unwrap()
+            .trim_end_matches(';')
+            .split('|')
+            .map(|s| s.trim().trim_end_matches(';').to_string())
+            .collect();
+        assert_eq!(names, want, "{file}");
+    }
+}
