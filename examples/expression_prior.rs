@@ -7,9 +7,11 @@
 //! cargo run --release --example expression_prior
 //! ```
 
-use std::path::Path;
+#![cfg_attr(target_arch = "wasm32", no_main)]
 
+#[cfg(not(target_arch = "wasm32"))]
 fn main() -> facemimic::Result<()> {
+    use std::path::Path;
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
     let (london, speakers) = facemimic::io::expression_sets(&data, &[])?;
     let frame = facemimic::canonical_frame();
