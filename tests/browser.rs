@@ -259,6 +259,9 @@ fn cloner_paints_faces_without_holes_and_follows_the_source() {
     let js_target = JsModel::from(target.clone());
     let mut cloner = JsCloner::new(&js_source).expect("cloner");
     assert_eq!(cloner.add_target(&js_target).expect("compatible target"), 0);
+    // The default is the expressive method; this test follows the paper's map.
+    assert_eq!(cloner.method(), "expressive");
+    cloner.set_method("map").expect("method");
 
     // Source and target at base parameters.
     cloner.update().expect("update");
