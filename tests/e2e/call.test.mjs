@@ -182,6 +182,11 @@ test('identity switch mid-call (no renegotiation); the experimenter sets the oth
   assert.deepEqual(await a.$$eval('#mouth, #eyes, #brows', (els) => els.map((e) => e.value)), ['3', '0', '2.5'], "A's own sliders show them");
   await waitCall(b, () => window.facemimicCall.peer.mouth === 3 && window.facemimicCall.peer.eyes === 0 && window.facemimicCall.peer.brows === 2.5, 5000);
   assert.equal(await b.textContent('#peer-mouth-out'), '3.00');
+  // ... and its style (0..1: the avatar's own range to the full motion).
+  await setInput(b, '#peer-style', '0.25');
+  await waitCall(a, () => window.facemimicCall.settings.style === 0.25, 5000);
+  await waitCall(b, () => window.facemimicCall.peer.style === 0.25, 5000);
+  assert.equal(await a.inputValue('#style'), '0.25', "A's own style slider shows it");
   await b.selectOption('#peer-avatar', 'b:spk06.fmm');
   await waitCall(a, () => window.facemimicCall.avatar === 'spk06', 5000);
   assert.equal((await status(a)).negotiations, negA);
@@ -242,7 +247,7 @@ test('the per-frame log downloads as CSV: timestamps, source and target paramete
   const file = await download.path();
   const lines = fs.readFileSync(file, 'utf8').trim().split('\n');
   const head = lines[0].split(',');
-  for (const c of ['wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar', 'fit_scale', 'sent_scale', 'sent_rotation', 'mouth_gain', 'eyes_gain', 'brows_gain', 'src_shape_1', 'src_app_1', 'tgt_shape_1', 'tgt_app_1']) {
+  for (const c of ['wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar', 'fit_scale', 'sent_scale', 'sent_rotation', 'mouth_gain', 'eyes_gain', 'brows_gain', 'style', 'src_shape_1', 'src_app_1', 'tgt_shape_1', 'tgt_app_1']) {
     assert.ok(head.includes(c), `column ${c}`);
   }
   assert.ok(lines.length > 100, `${lines.length - 1} rows`);

@@ -42,10 +42,14 @@ test('head-motion damping scales the deviation from the running mean', () => {
 });
 
 test('data channel messages: only well-formed ones pass, with only their known fields', () => {
-  const none = { gain: undefined, head: undefined, mouth: undefined, eyes: undefined, brows: undefined, avatar: undefined };
+  const none = { gain: undefined, head: undefined, mouth: undefined, eyes: undefined, brows: undefined, style: undefined, avatar: undefined };
   assert.deepEqual(parseControl('{"t":"set","gain":0.5}', AVATARS).msg, { t: 'set', ...none, gain: 0.5 });
   // The expression gain per region: mouth, eyes, brows, each 0..3.
   assert.deepEqual(parseControl('{"t":"set","mouth":3,"eyes":0,"brows":1.25}', AVATARS).msg, { t: 'set', ...none, mouth: 3, eyes: 0, brows: 1.25 });
+  // The expressive method's style, 0..1.
+  assert.deepEqual(parseControl('{"t":"set","style":0.25}', AVATARS).msg, { t: 'set', ...none, style: 0.25 });
+  assert.match(parseControl('{"t":"set","style":1.5}', AVATARS).error, /style is outside 0..1/);
+  assert.match(parseControl('{"t":"set","style":"0"}', AVATARS).error, /style is not a number/);
   assert.deepEqual(parseControl('{"t":"set","eyes":2}', AVATARS).msg, { t: 'set', ...none, eyes: 2 });
   const rs = parseControl('{"t":"status","camera":"ok","gain":1,"head":1,"mouth":2,"eyes":0.5,"brows":3}', AVATARS).msg;
   assert.deepEqual([rs.mouth, rs.eyes, rs.brows], [2, 0.5, 3]);
@@ -85,8 +89,8 @@ test('data channel messages: only well-formed ones pass, with only their known f
     assert.equal(r.msg, undefined, String(m).slice(0, 40));
     assert.match(r.error, why, String(m).slice(0, 40));
   }
-  assert.deepEqual(clampSettings({ gain: 9, head: -1 }), { gain: 2.5, head: 0, mouth: 1, eyes: 1, brows: 1 });
-  assert.deepEqual(clampSettings({ gain: 1, head: 1, mouth: 4, eyes: -1, brows: 2.5 }), { gain: 1, head: 1, mouth: 3, eyes: 0, brows: 2.5 });
+  assert.deepEqual(clampSettings({ gain: 9, head: -1 }), { gain: 2.5, head: 0, mouth: 1, eyes: 1, brows: 1, style: 1 });
+  assert.deepEqual(clampSettings({ gain: 1, head: 1, mouth: 4, eyes: -1, brows: 2.5, style: 3 }), { gain: 1, head: 1, mouth: 3, eyes: 0, brows: 2.5, style: 1 });
 });
 
 test('the frame log: a fixed ring, CSV with named columns, oldest row first', () => {

@@ -128,6 +128,7 @@ export class Avatar {
     const s = this.settings;
     this.cloner?.setGain(s.gain);
     this.cloner?.setRegionGains(...REGIONS.map((r) => s[r]));
+    this.cloner?.setStyle(s.style);
   }
 
   restartCamera() {
@@ -259,7 +260,7 @@ export class Avatar {
       captureMs: performance.timeOrigin + captured,
       renderMs: lost ? NaN : now - captured,
       lost,
-      ...this.settings, // gain, head, mouth, eyes, brows
+      ...this.settings, // gain, head, mouth, eyes, brows, style
       avatar: this.target.name,
       fitPose,
       sentPose: sent,

@@ -10,8 +10,10 @@ export const GAIN_RANGE = [0, 2.5];
 /** The expression gain per region (the expressive method's `Cloner.setRegionGains`), each 0..3. */
 export const REGIONS = ['mouth', 'eyes', 'brows'];
 export const REGION_RANGE = [0, 3];
+/** The expressive method's style (`Cloner.setStyle`): 0 the avatar's own range, 1 the full motion. */
+export const STYLE_RANGE = [0, 1];
 /** Each side's settings, as its sliders (ids `gain`, `peer-gain`, ...) and messages name them. */
-export const SETTINGS = ['gain', 'head', ...REGIONS];
+export const SETTINGS = ['gain', 'head', ...REGIONS, 'style'];
 /** Head motion: 0 holds the head at its running mean, 1 leaves it, above 1 exaggerates. */
 export const HEAD_RANGE = [0, 1.5];
 /** Running mean of the pose: time constant in seconds. */
@@ -61,9 +63,10 @@ const finite = (x) => typeof x === 'number' && Number.isFinite(x);
 
 /**
  * A data channel message, checked. Returns `{ msg }` (a fresh object with only known fields) or
- * `{ error }`. Kinds (mouth, eyes, brows: the expression gain per region, REGION_RANGE):
- *   {t:"set", gain?, head?, mouth?, eyes?, brows?, avatar?}   the experimenter sets this side's settings
- *   {t:"status", camera, pipelineMs?, encodeMs?, avatar?, gain?, head?, mouth?, eyes?, brows?}
+ * `{ error }`. Kinds (mouth, eyes, brows: the expression gain per region, REGION_RANGE; style:
+ * STYLE_RANGE):
+ *   {t:"set", gain?, head?, mouth?, eyes?, brows?, style?, avatar?}   the experimenter sets this side's settings
+ *   {t:"status", camera, pipelineMs?, encodeMs?, avatar?, gain?, head?, mouth?, eyes?, brows?, style?}
  *                                        the other side's state
  *   {t:"bye"}                            the other side hangs up
  * `avatars`: the names an "avatar" may take.
@@ -92,7 +95,7 @@ export function parseControl(data, avatars) {
   const regions = () => Object.fromEntries(REGIONS.map((k) => [k, num(k, REGION_RANGE)]));
   try {
     if (m.t === 'set') {
-      const out = { t: 'set', gain: num('gain', GAIN_RANGE), head: num('head', HEAD_RANGE), ...regions(), avatar: avatar() };
+      const out = { t: 'set', gain: num('gain', GAIN_RANGE), head: num('head', HEAD_RANGE), ...regions(), style: num('style', STYLE_RANGE), avatar: avatar() };
       if (Object.keys(out).every((k) => k === 't' || out[k] === undefined)) return { error: 'set changes nothing' };
       return { msg: out };
     }
@@ -108,6 +111,7 @@ export function parseControl(data, avatars) {
           gain: num('gain', GAIN_RANGE),
           head: num('head', HEAD_RANGE),
           ...regions(),
+          style: num('style', STYLE_RANGE),
           avatar: name,
         },
       };
@@ -119,9 +123,10 @@ export function parseControl(data, avatars) {
   return { error: 'unknown kind' };
 }
 
-/** The settings (gain, head-motion factor, region gains; a region not given is 1), clamped into their ranges. */
-export function clampSettings({ gain, head, mouth = 1, eyes = 1, brows = 1 }) {
-  return { gain: clamp(gain, GAIN_RANGE), head: clamp(head, HEAD_RANGE), mouth: clamp(mouth, REGION_RANGE), eyes: clamp(eyes, REGION_RANGE), brows: clamp(brows, REGION_RANGE) };
+/** The settings (gain, head-motion factor, region gains, style; a region or style not given is 1), clamped into their ranges. */
+export function clampSettings({ gain, head, mouth = 1, eyes = 1, brows = 1, style = 1 }) {
+  const regions = { mouth: clamp(mouth, REGION_RANGE), eyes: clamp(eyes, REGION_RANGE), brows: clamp(brows, REGION_RANGE) };
+  return { gain: clamp(gain, GAIN_RANGE), head: clamp(head, HEAD_RANGE), ...regions, style: clamp(style, STYLE_RANGE) };
 }
 
 /**
@@ -144,6 +149,7 @@ export class FrameLog {
       'wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar',
       'fit_scale', 'fit_rotation', 'fit_tx', 'fit_ty', 'sent_scale', 'sent_rotation', 'sent_tx', 'sent_ty',
       ...REGIONS.map((r) => `${r}_gain`),
+      'style',
     ];
     const seq = (p, n) => Array.from({ length: n }, (_, i) => `${p}${i + 1}`);
     this.columns = [...fixed, ...seq('src_shape_', ss), ...seq('src_app_', sa), ...seq('tgt_shape_', ts), ...seq('tgt_app_', ta)];
@@ -164,7 +170,7 @@ export class FrameLog {
     return i;
   }
 
-  /** One row. `r`: { wall, frame, captureMs, renderMs, lost, gain, head, avatar, fitPose, sentPose, mouth, eyes, brows, src, tgt }. */
+  /** One row. `r`: { wall, frame, captureMs, renderMs, lost, gain, head, avatar, fitPose, sentPose, mouth, eyes, brows, style, src, tgt }. */
   push(r) {
     const w = this.columns.length;
     const o = (this.rows % this.capacity) * w;
@@ -183,11 +189,12 @@ export class FrameLog {
     pose(r.fitPose, 8);
     pose(r.sentPose, 12);
     REGIONS.forEach((k, i) => (d[o + 16 + i] = r[k] ?? NaN));
+    d[o + 16 + REGIONS.length] = r.style ?? NaN;
     const put = (arr, at, n) => {
       if (!arr) return;
       for (let i = 0; i < Math.min(n, arr.length); i++) d[o + at + i] = arr[i];
     };
-    let at = 16 + REGIONS.length;
+    let at = 17 + REGIONS.length;
     put(r.src?.shape, at, ss);
     put(r.src?.appearance, (at += ss), sa);
     put(r.tgt?.shape, (at += sa), ts);

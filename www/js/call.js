@@ -33,7 +33,7 @@ const call = {
   peerPresent: false,
   peerLeft: false,
   manual: false,
-  peer: { camera: null, avatar: null, gain: null, head: null, mouth: null, eyes: null, brows: null, pipelineMs: null, encodeMs: null, at: 0 },
+  peer: { camera: null, avatar: null, gain: null, head: null, mouth: null, eyes: null, brows: null, style: null, pipelineMs: null, encodeMs: null, at: 0 },
   rejected: 0, // data channel messages refused
   mic: null,
   error: null,
@@ -292,7 +292,7 @@ function sendStatus() {
     pipelineMs: a.pipelineMs ?? undefined,
     encodeMs: view.encodeMs ?? undefined,
     avatar: a.target?.name,
-    ...a.settings, // gain, head, mouth, eyes, brows
+    ...a.settings, // gain, head, mouth, eyes, brows, style
   });
 }
 
