@@ -5,6 +5,10 @@ use crate::error::{Error, Result};
 /// Largest image side accepted anywhere (guards allocations from hostile sizes).
 pub const MAX_IMAGE_SIDE: u32 = 8192;
 
+/// Luminance weights (Rec. 601) of R, G and B: the fitter's grey levels and the expressive
+/// method's ratio images.
+pub(crate) const LUMA: [f32; 3] = [0.299, 0.587, 0.114];
+
 /// A borrowed, tightly packed RGBA8 image (the layout of a browser `ImageData`).
 #[derive(Clone, Copy, Debug)]
 pub struct ImageRef<'a> {

@@ -1092,6 +1092,11 @@ fn fit_gives_the_golden_track_the_npm_package_gives() {
     }
 }
 
+/// `args` as `ok` and `fails` take them.
+fn dyns(v: &[std::ffi::OsString]) -> Vec<&dyn AsRef<std::ffi::OsStr>> {
+    v.iter().map(|x| x as &dyn AsRef<std::ffi::OsStr>).collect()
+}
+
 /// `clone --method` takes every method of the core's one list (`Method::ALL`), with the
 /// expressive method's region gains and style; a wrong name or style fails with the list.
 #[test]
@@ -1099,52 +1104,40 @@ fn clone_takes_every_method_of_the_list() {
     let model = spk07_model();
     let dir = scratch("methods");
     let frame = grid("spk07_id2_vcd_swwp2s/000017.jpg");
+    // `clone` of the frame onto spk07 itself, with `extra` arguments.
+    let args = |extra: &[&str]| -> Vec<std::ffi::OsString> {
+        let mut v: Vec<std::ffi::OsString> = ["clone", "--source"].map(Into::into).to_vec();
+        v.extend([
+            model.as_os_str().into(),
+            "--target".into(),
+            model.as_os_str().into(),
+        ]);
+        v.extend(["--image".into(), frame.as_os_str().into()]);
+        v.extend(extra.iter().map(Into::into));
+        v
+    };
     for m in facemimic::clone::Method::ALL {
         let out = dir.join(format!("{}.png", m.name()));
-        ok(&[
-            &"clone",
-            &"--source",
-            &model,
-            &"--target",
-            &model,
-            &"--image",
-            &frame,
-            &"--method",
-            &m.name(),
-            &"--mouth-gain",
-            &"1.5",
-            &"--style",
-            &"0.8",
-            &"--out",
-            &out,
-        ]);
+        let extra = [
+            "--method",
+            m.name(),
+            "--mouth-gain",
+            "1.5",
+            "--style",
+            "0.8",
+            "--out",
+        ];
+        let mut a = args(&extra);
+        a.push(out.as_os_str().into());
+        ok(&dyns(&a));
         assert!(facemimic::io::read_image(&out).is_ok(), "{}", m.name());
     }
-    let err = fails(&[
-        &"clone",
-        &"--source",
-        &model,
-        &"--target",
-        &model,
-        &"--image",
-        &frame,
-        &"--method",
-        &"laugh",
-    ]);
+    let refused = |extra: &[&str]| fails(&dyns(&args(extra)));
+    let err = refused(&["--method", "laugh"]);
     for m in facemimic::clone::Method::ALL {
         assert!(err.contains(m.name()), "{err}");
     }
-    let err = fails(&[
-        &"clone",
-        &"--source",
-        &model,
-        &"--target",
-        &model,
-        &"--image",
-        &frame,
-        &"--style",
-        &"2",
-    ]);
+    let err = refused(&["--style", "2"]);
     assert!(err.contains("style"), "{err}");
 }
 

@@ -654,3 +654,39 @@ fn london_smiles_arrive_on_one_photo_targets_in_full() {
     );
     let _ = Path::new("");
 }
+
+/// The source's side of a frame is kept between calls with the same parameters and gains (the
+/// compare view after the main update), and never reused for others.
+#[test]
+fn the_source_frame_is_reused_only_for_the_same_frame() {
+    let a = open_mouth_params();
+    let mut b = a.clone();
+    b.shape.iter_mut().for_each(|v| *v *= -0.5);
+    let fresh = |p: &Params, o: &CloneOptions| {
+        let mut c = Cloner::new(spk07().clone()).unwrap();
+        c.add_target(target("spk02").clone()).unwrap();
+        c.clone_frame(p, o).unwrap();
+        (c.target_shape(0).to_vec(), c.target_appearance(0).to_vec())
+    };
+    let mut c = Cloner::new(spk07().clone()).unwrap();
+    c.add_target(target("spk02").clone()).unwrap();
+    let mut out = c.target_frame(0).unwrap();
+    let louder = CloneOptions {
+        regions: RegionGains {
+            mouth: 2.0,
+            ..RegionGains::default()
+        },
+        ..expressive()
+    };
+    for (p, o) in [
+        (&a, &expressive()),
+        (&b, &expressive()),
+        (&b, &louder),
+        (&a, &expressive()),
+    ] {
+        c.clone_frame(&a, &expressive()).unwrap();
+        c.clone_target(0, p, o, &mut out).unwrap();
+        let (shape, app) = fresh(p, o);
+        assert_eq!((out.shape(), out.appearance()), (&shape[..], &app[..]));
+    }
+}

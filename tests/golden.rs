@@ -158,6 +158,12 @@ fn draw_composite(target: &Model, follow: bool) -> (Vec<u8>, (u32, u32)) {
         ..CloneOptions::default()
     };
     cloner.clone_frame(&params, &options).unwrap();
+    composite(target, &cloner)
+}
+
+/// The cloner's first target composited into its picture at the picture's size (straight
+/// RGBA8, and the size).
+fn composite(target: &Model, cloner: &Cloner) -> (Vec<u8>, (u32, u32)) {
     let mut compositor = Compositor::new(target, DrawOptions::default()).unwrap();
     let (w, h) = compositor.size();
     let mut pixmap = Pixmap::new(w, h).unwrap();
@@ -236,21 +242,7 @@ fn draw_expressive(target: &Model) -> (Vec<u8>, (u32, u32)) {
         ..CloneOptions::default()
     };
     cloner.clone_frame(&params, &options).unwrap();
-    let mut compositor = Compositor::new(target, DrawOptions::default()).unwrap();
-    let (w, h) = compositor.size();
-    let mut pixmap = Pixmap::new(w, h).unwrap();
-    let [r, g, b, a] = BACKGROUND;
-    pixmap.fill(Color::from_rgba8(r, g, b, a));
-    compositor
-        .draw(
-            target,
-            cloner.target_appearance(0),
-            cloner.target_shape(0),
-            &picture_view(w, h, w, h),
-            &mut pixmap.as_mut(),
-        )
-        .unwrap();
-    (facemimic::demultiply(&pixmap), (w, h))
+    composite(target, &cloner)
 }
 
 /// Compares `got` with the golden image `name` (or writes it with `FACEMIMIC_BLESS=1`).

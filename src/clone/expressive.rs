@@ -27,7 +27,8 @@ use super::transfer::{transfer_displacement, transfer_operator};
 /// Luminance of an RGB triple (Rec. 601 weights), the channel the ratio image lives on.
 #[inline]
 pub fn luma(rgb: &[f32]) -> f32 {
-    0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2]
+    let [r, g, b] = crate::image::LUMA;
+    r * rgb[0] + g * rgb[1] + b * rgb[2]
 }
 
 /// The ratio image's offset (appearance units, 0..1): keeps dark pixels' ratios from
@@ -110,6 +111,8 @@ pub struct SourceSide {
     mouth_w: Vec<f32>,
     /// Frame pixels of the skin away from the eyes and the mouth.
     skin_pixels: Vec<u32>,
+    /// Per frame pixel: 1 inside the inner lips, 2 and 3 inside each eye, 0 elsewhere.
+    inner: Vec<u8>,
     /// Frame pixels inside each eye.
     eyes: [Vec<u32>; 2],
     /// Each eye pixel's weight, as `mouth_w`.
@@ -314,8 +317,8 @@ impl SourceSide {
         };
         let a0 = &source.appearance().base;
         let y0: Vec<f32> = a0.chunks_exact(3).map(luma).collect();
-        let (mut skin, mut skin_n) = (0f64, 0usize);
         let mut skin_pixels = Vec::new();
+        let mut inner = vec![0u8; frame.n_pixels()];
         for (k, px) in frame.pixels().iter().enumerate() {
             let t = tris[px.triangle as usize];
             let mut w = [0f32; 3];
@@ -336,15 +339,16 @@ impl SourceSide {
             if inside(60..68) {
                 mouth.push(k as u32);
                 mouth_w.push(edge(at, 60..68));
+                inner[k] = 1;
             } else if inside(36..42) {
                 eyes[0].push(k as u32);
                 eyes_w[0].push(edge(at, 36..42));
+                inner[k] = 2;
             } else if inside(42..48) {
                 eyes[1].push(k as u32);
                 eyes_w[1].push(edge(at, 42..48));
+                inner[k] = 3;
             } else if !t.iter().any(|v| (36..=67).contains(v)) || !scheme68 {
-                skin += y0[k] as f64;
-                skin_n += 1;
                 skin_pixels.push(k as u32);
             }
         }
@@ -372,11 +376,12 @@ impl SourceSide {
             scheme68,
             pixel_regions,
             y0,
-            skin: if skin_n > 0 {
-                (skin / skin_n as f64) as f32
-            } else {
-                0.5
-            },
+            skin: luma(&mean_rgb(
+                a0,
+                skin_pixels.iter().map(|&k| k as usize),
+                [0.5; 3],
+            )),
+            inner,
             mouth,
             mouth_w,
             skin_pixels,
@@ -555,25 +560,20 @@ impl ExpressiveTarget {
         };
         let n = pixels.len();
         let lips = (0..n).filter(|&k| {
-            side.scheme68
-                && in_tri(k, &|v| (48..=59).contains(&v))
-                && !side.mouth.contains(&(k as u32))
+            side.scheme68 && in_tri(k, &|v| (48..=59).contains(&v)) && side.inner[k] == 0
         });
         let lip = chroma(mean_rgb(a0, lips, [0.6, 0.35, 0.35]));
         let mut lid = [[0.5f32; 3]; 2];
         for (e, (lo, hi)) in [(36u32, 41u32), (42, 47)].into_iter().enumerate() {
             let ring = (0..n).filter(|&k| {
-                side.scheme68
-                    && in_tri(k, &|v| (lo..=hi).contains(&v))
-                    && !side.eyes[e].contains(&(k as u32))
+                side.scheme68 && in_tri(k, &|v| (lo..=hi).contains(&v)) && side.inner[k] == 0
             });
             lid[e] = mean_rgb(a0, ring, [0.5; 3]);
         }
         // Teeth: a neutral white warmed 40% of the way towards the target's skin's hue, so they
         // sit in the picture's warm light (0.2, 0.35, 0.5 tried on London pairs: the mouth's
         // colour error fell with warmth; cooler teeth looked pasted in).
-        let skin_px = (0..n).filter(|&k| !side.scheme68 || !in_tri(k, &|v| (36..=67).contains(&v)));
-        let skin_rgb = mean_rgb(a0, skin_px, [0.5; 3]);
+        let skin_rgb = mean_rgb(a0, side.skin_pixels.iter().map(|&k| k as usize), [0.5; 3]);
         let warm = chroma(skin_rgb);
         let white = chroma([0, 1, 2].map(|c| 0.6 + 0.4 * warm[c]));
         // The mouth's dark parts: the lips' colour, a little paler.
@@ -588,16 +588,10 @@ impl ExpressiveTarget {
             area0: tris
                 .iter()
                 .map(|t| {
-                    let [a, b, c] = t.map(|i| point(base, i as usize));
-                    let m = [
-                        [(b[0] - a[0]) as f64, (c[0] - a[0]) as f64],
-                        [(b[1] - a[1]) as f64, (c[1] - a[1]) as f64],
-                    ];
-                    let area = signed_area(base, t);
-                    if super::transfer::sliver(&m, 2.0 * area as f64) {
+                    if super::transfer::is_sliver(base, t) {
                         0.0
                     } else {
-                        area
+                        signed_area(base, t)
                     }
                 })
                 .collect(),

@@ -93,6 +93,12 @@ impl Method {
         }
     }
 
+    /// True when the method expresses the source in the target's own modes (`map`,
+    /// `map-residual`), which a photo target ([`Model::is_photo`]) does not have.
+    pub fn needs_target_modes(&self) -> bool {
+        matches!(self, Method::Map | Method::MapResidual)
+    }
+
     /// A short label for the page's controls.
     pub fn label(&self) -> &'static str {
         match self {
@@ -371,7 +377,7 @@ pub fn target_pose(
 /// cloned by substitution (Fig. 4 A: the source's modes on the photo's face). The expressive
 /// method needs no target modes and is kept.
 pub fn effective_method(method: Method, target: &Model) -> Method {
-    if target.is_photo() && method != Method::Expressive {
+    if target.is_photo() && method.needs_target_modes() {
         Method::Substitute
     } else {
         method
@@ -610,6 +616,24 @@ impl<'a> Step<'a> {
         );
         map_params(&pair.shape_map, p, &mut out.params.shape);
         map_params(&pair.appearance_map, lambda, &mut out.params.appearance);
+        if method != Method::Substitute {
+            if let Some(k) = options.clamp {
+                constrain(
+                    &mut out.params.appearance,
+                    &pair.target_appearance_sigmas,
+                    k,
+                );
+            }
+        }
+        // The target's own mapped appearance, `A0* + A* lambda*` (Eq. 3).
+        let own_appearance = |params: &Params, out: &mut [f32]| {
+            crate::model::appearance::synthesise(
+                &m.appearance().base,
+                &m.appearance().modes,
+                &params.appearance,
+                out,
+            )
+        };
         match method {
             Method::Substitute => {
                 substitute_shape(&m.shape().base, &self.source.shape().modes, p, acc);
@@ -623,31 +647,14 @@ impl<'a> Step<'a> {
             Method::Map | Method::MapResidual => {
                 if let Some(k) = options.clamp {
                     constrain(&mut out.params.shape, &pair.target_shape_sigmas, k);
-                    constrain(
-                        &mut out.params.appearance,
-                        &pair.target_appearance_sigmas,
-                        k,
-                    );
                 }
                 map_shape(&m.shape().base, &m.shape().modes, &out.params.shape, acc);
                 if method == Method::MapResidual {
                     add_residual(&pair.residual, p, acc);
                 }
-                crate::model::appearance::synthesise(
-                    &m.appearance().base,
-                    &m.appearance().modes,
-                    &out.params.appearance,
-                    &mut out.appearance,
-                );
+                own_appearance(&out.params, &mut out.appearance);
             }
             Method::Expressive => {
-                if let Some(k) = options.clamp {
-                    constrain(
-                        &mut out.params.appearance,
-                        &pair.target_appearance_sigmas,
-                        k,
-                    );
-                }
                 let eo = ExpressiveOptions {
                     clamp: options.clamp,
                     style: options.style,
@@ -663,12 +670,7 @@ impl<'a> Step<'a> {
                     acc,
                 );
                 if options.style < 1.0 {
-                    crate::model::appearance::synthesise(
-                        &m.appearance().base,
-                        &m.appearance().modes,
-                        &out.params.appearance,
-                        &mut out.appearance,
-                    );
+                    own_appearance(&out.params, &mut out.appearance);
                 }
                 expressive_appearance(
                     ex,
@@ -746,6 +748,10 @@ struct Prepared {
     side: SourceSide,
     /// The expressive method's source frame: displacement, appearance, ratio image.
     frame: SourceFrame,
+    /// What `frame` was prepared from (the gained parameters and the region gains), and
+    /// whether it holds anything yet.
+    frame_key: Vec<f32>,
+    frame_ready: bool,
     /// The prior that bounds the expressive method's displacements.
     prior: ExpressionPrior,
 }
@@ -771,6 +777,8 @@ impl Cloner {
                 sub_appearance: vec![0.0; source.appearance().n_modes()],
                 side,
                 frame,
+                frame_key: vec![0.0; source.shape().n_modes() + source.appearance().n_modes() + 3],
+                frame_ready: false,
                 prior: ExpressionPrior::builtin().clone(),
             },
             acc: vec![0.0; source.shape().base.len()],
@@ -976,13 +984,22 @@ impl Cloner {
             constrain(&mut s.sub_appearance, &self.source_appearance_sigmas, k);
         }
         if options.method == Method::Expressive {
-            s.frame.prepare(
-                &s.side,
-                &self.source,
-                &s.shape,
-                &s.appearance,
-                &options.regions,
-            );
+            // The same source frame again (the compare view after the main update): its
+            // synthesis and ratio image are already there.
+            let r = &options.regions;
+            let gains = [r.mouth, r.eyes, r.brows];
+            let key = s.shape.iter().chain(&s.appearance).chain(&gains);
+            if !(s.frame_ready && s.frame_key.iter().eq(key.clone())) {
+                s.frame_key.iter_mut().zip(key).for_each(|(k, v)| *k = *v);
+                s.frame.prepare(
+                    &s.side,
+                    &self.source,
+                    &s.shape,
+                    &s.appearance,
+                    &options.regions,
+                );
+                s.frame_ready = true;
+            }
         }
         Ok(())
     }

@@ -44,7 +44,6 @@ pub fn transfer_operator(
             target.len()
         )));
     }
-    let pt = |s: &[f32], i: usize| [s[2 * i] as f64, s[2 * i + 1] as f64];
     let mut h = DMatrix::<f64>::zeros(n, n);
     // Per usable triangle: its vertices, weight and K = V^-1 E.
     let mut used = Vec::with_capacity(triangles.len());
@@ -55,16 +54,8 @@ pub fn transfer_operator(
                 "deformation transfer: triangle index out of range".into(),
             ));
         }
-        let edges = |s: &[f32]| {
-            let (pa, pb, pc) = (pt(s, a), pt(s, b), pt(s, c));
-            [
-                [pb[0] - pa[0], pc[0] - pa[0]],
-                [pb[1] - pa[1], pc[1] - pa[1]],
-            ]
-        };
-        let (v, e) = (edges(source), edges(target));
-        let det_v = v[0][0] * v[1][1] - v[0][1] * v[1][0];
-        let det_e = e[0][0] * e[1][1] - e[0][1] * e[1][0];
+        let (v, e) = (edge_matrix(source, t), edge_matrix(target, t));
+        let (det_v, det_e) = (det(&v), det(&e));
         if sliver(&v, det_v) || sliver(&e, det_e) {
             continue;
         }
@@ -152,12 +143,28 @@ pub const ANCHOR: f64 = 0.8;
 /// turn and so scales with the target's face (the lips' and brows' motions keep the source's).
 pub const JAW_ANCHOR: f64 = 0.1;
 
+/// The edge matrix `[v_b - v_a, v_c - v_a]` (columns) of triangle `t = (a, b, c)` on shape `s`.
+fn edge_matrix(s: &[f32], t: &[u32; 3]) -> [[f64; 2]; 2] {
+    let [a, b, c] = t.map(|i| [s[2 * i as usize] as f64, s[2 * i as usize + 1] as f64]);
+    [[b[0] - a[0], c[0] - a[0]], [b[1] - a[1], c[1] - a[1]]]
+}
+
+fn det(m: &[[f64; 2]; 2]) -> f64 {
+    m[0][0] * m[1][1] - m[0][1] * m[1][0]
+}
+
+/// True when triangle `t` of shape `s` is a [`sliver`].
+pub(crate) fn is_sliver(s: &[f32], t: &[u32; 3]) -> bool {
+    let m = edge_matrix(s, t);
+    sliver(&m, det(&m))
+}
+
 /// True when a triangle (edge matrix `m`, determinant `det`) is too thin for its deformation
 /// gradient to mean anything: its area under a tenth of its longest edge squared (its smallest
 /// height under a fifth of that edge, so `V^-1` magnifies at most about five times; a closed
 /// mouth's inner-lip triangles, for one, and their neighbours). An equilateral triangle has
 /// 0.43.
-pub(crate) fn sliver(m: &[[f64; 2]; 2], det: f64) -> bool {
+fn sliver(m: &[[f64; 2]; 2], det: f64) -> bool {
     let e1 = m[0][0] * m[0][0] + m[1][0] * m[1][0];
     let e2 = m[0][1] * m[0][1] + m[1][1] * m[1][1];
     let e3 = (m[0][1] - m[0][0]).powi(2) + (m[1][1] - m[1][0]).powi(2);

@@ -8,8 +8,7 @@ use crate::model::Model;
 use super::linalg::cholesky;
 use crate::pca::gram_schmidt;
 
-/// Luminance weights (Rec. 601) used to turn the RGB appearance into grey levels.
-pub(crate) const LUMA: [f32; 3] = [0.299, 0.587, 0.114];
+use crate::image::LUMA;
 
 /// Red-difference chroma weights (Rec. 601 `Cr`): separates lips and skin, which luminance
 /// barely does.
