@@ -39,8 +39,7 @@
 use native::main;
 
 #[cfg(not(any(target_arch = "wasm32", test)))]
-#[path = "../tests/common/mod.rs"]
-mod common;
+use facemimic_testkit as common;
 
 /// Native only: the example reads files.
 #[cfg(not(any(target_arch = "wasm32", test)))]

@@ -6,11 +6,7 @@
 //! outcome class is new into `fuzz/corpus/` (replayed by `tests/fuzz.rs`), and exits non-zero
 //! on the first failure (saved as `fuzz/failures/<target>-<n>`).
 
-#[path = "../tests/common/mod.rs"]
-mod common;
-#[path = "../fuzz/engine.rs"]
-#[allow(dead_code)]
-mod engine;
+use facemimic_testkit::fuzz as engine;
 
 use std::time::Instant;
 

@@ -11,8 +11,7 @@
 #![cfg_attr(target_arch = "wasm32", no_main)]
 
 #[cfg(not(target_arch = "wasm32"))]
-#[path = "../tests/common/mod.rs"]
-mod common;
+use facemimic_testkit as common;
 
 #[cfg(not(target_arch = "wasm32"))]
 fn main() {

@@ -12,7 +12,7 @@ out=www/models
 bin=${CARGO_TARGET_DIR:-target}/release/facemimic
 mkdir -p "$out"
 
-cargo build --release --bin facemimic -q
+cargo build --release -p facemimic-cli --bin facemimic -q
 
 stamp="$out/.stamp"
 if [ -f "$stamp" ] && [ -z "$(find data/grid src/canonical_frame.txt "$bin" -newer "$stamp" -print -quit)" ]; then

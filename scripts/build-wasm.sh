@@ -3,7 +3,7 @@
 #
 #   scripts/build-wasm.sh [--force]
 #
-# Steps: cargo (wasm32, release, simd128 from .cargo/config.toml) -> wasm-bindgen --target web
+# Steps: cargo (crates/wasm, wasm32, release, simd128 from .cargo/config.toml) -> wasm-bindgen --target web
 # -> wasm-opt -O3 (npm `binaryen`, never Debian's) -> package.json / README / licences from npm/
 # (and the face finder weights' licence from data/weights/).
 # Idempotent: does nothing when pkg/ and www/pkg/ are newer than every input.
@@ -19,14 +19,14 @@ FORCE=0
 [ "${1:-}" = "--force" ] && FORCE=1
 
 TARGET_DIR=${CARGO_TARGET_DIR:-$ROOT/target}
-RAW="$TARGET_DIR/wasm32-unknown-unknown/release/facemimic.wasm"
+RAW="$TARGET_DIR/wasm32-unknown-unknown/release/facemimic_wasm.wasm"
 PKG="$ROOT/pkg"
 WWW_PKG="$ROOT/www/pkg"
 STAMP="$PKG/.build-stamp"
 
 # Inputs: Rust sources, embedded weights, manifests, the package template and this script.
 newest_input() {
-  find src data/weights Cargo.toml Cargo.lock .cargo npm scripts/build-wasm.sh -type f -newer "$1" -print -quit 2>/dev/null
+  find src crates/wasm data/weights Cargo.toml Cargo.lock .cargo npm scripts/build-wasm.sh -type f -newer "$1" -print -quit 2>/dev/null
 }
 
 if [ "$FORCE" = 0 ] && [ -f "$STAMP" ] && [ -f "$WWW_PKG/facemimic_bg.wasm" ] && [ -z "$(newest_input "$STAMP")" ]; then
@@ -47,8 +47,8 @@ if [ "${FACEMIMIC_NO_OPT:-0}" != 1 ] && [ ! -x "$WASM_OPT" ]; then
   die "node_modules/.bin/wasm-opt missing (npm package binaryen): run scripts/setup.sh"
 fi
 
-log "cargo build --lib --release --target wasm32-unknown-unknown"
-cargo build --lib --release --target wasm32-unknown-unknown
+log "cargo build -p facemimic-wasm --lib --release --target wasm32-unknown-unknown"
+cargo build -p facemimic-wasm --lib --release --target wasm32-unknown-unknown
 
 mkdir -p "$PKG"
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/facemimic-pkg.XXXXXX")

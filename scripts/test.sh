@@ -13,18 +13,19 @@ bash scripts/setup.sh --browser
 
 step "format and lints"
 cargo fmt --all -- --check
-cargo clippy --all-targets -q -- -D warnings
-RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -q
+cargo clippy --workspace --all-targets -q -- -D warnings
+cargo clippy -p facemimic-wasm --all-targets --target wasm32-unknown-unknown -q -- -D warnings
+RUSTDOCFLAGS=-Dwarnings cargo doc --workspace --no-deps -q
 
 step "native tests"
-cargo test --all-targets
+cargo test --workspace --all-targets
 
 step "build the wasm package and the default models"
 bash scripts/build-wasm.sh
 bash scripts/build-models.sh
 
 step "wasm tests (Node, then headless Chromium)"
-cargo test --target wasm32-unknown-unknown
+cargo test -p facemimic -p facemimic-wasm --target wasm32-unknown-unknown
 
 step "signalling server tests (the call page's WebSocket endpoint, hostile clients)"
 node --test --test-concurrency=1 tests/server/

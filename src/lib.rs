@@ -3,8 +3,9 @@
 //! Real-time facial expression cloning with Active Appearance Models (Theobald, Matthews,
 //! Cohn & Boker, "Real-time expression cloning using appearance models", ICMI 2007).
 //!
-//! The crate is a pure-Rust core (no browser knowledge) with a thin wasm-bindgen layer
-//! (`wasm` module, wasm32 only) and a thin CLI (`src/bin/facemimic`). See `ARCHITECTURE.md`.
+//! This crate is the pure-Rust core (no browser knowledge, no command line): the wasm-bindgen
+//! glue (`crates/wasm`, the npm package) and the CLI (`crates/cli`) are thin crates over it. See
+//! `ARCHITECTURE.md`.
 //!
 //! - [`Builder`] builds a person-specific [`Model`] from landmarked images: a Procrustes-aligned
 //!   PCA shape model (Eq. 1), a shape-normalised PCA appearance model (Eq. 2) and a triangulated
@@ -44,8 +45,6 @@ mod pca;
 mod render;
 mod similarity;
 mod train;
-#[cfg(target_arch = "wasm32")]
-pub mod wasm;
 
 pub use error::{Error, FormatError, Result};
 pub use find::{Face, FaceFinder, FindOptions};

@@ -3,8 +3,7 @@
 //! CLI) cloning between each other whichever was built first, and models of other frames still
 //! refused with the frame error.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
 use facemimic::canonical::{parse_frame, write_frame, CANONICAL_FRAME_TEXT, CANONICAL_LANDMARKS};
 use facemimic::clone::{CloneOptions, Cloner};
@@ -120,63 +119,4 @@ fn separately_built_models_clone_both_ways() {
         }
         other => panic!("expected the frame error, got {other:?}"),
     }
-}
-
-fn cli(args: &[&std::ffi::OsStr]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_facemimic"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-/// The CLI: `build` without `--frame` builds in the canonical frame, so `clone` works between
-/// two models built separately; `--own-frame` models are refused by `clone` with one line.
-#[test]
-fn cli_builds_in_the_canonical_frame() {
-    let dir: PathBuf =
-        std::env::temp_dir().join(format!("facemimic-canonical-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let grid = root().join("data/grid");
-    let mk = |name: &str, clip: &str, extra: &[&str]| -> PathBuf {
-        let out = dir.join(format!("{name}.fmm"));
-        let list = grid.join(clip).join("train20.txt");
-        let mut args: Vec<&std::ffi::OsStr> = vec![
-            "build".as_ref(),
-            "--out".as_ref(),
-            out.as_os_str(),
-            "--list".as_ref(),
-            list.as_os_str(),
-        ];
-        args.extend(extra.iter().map(std::ffi::OsStr::new));
-        let o = cli(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        out
-    };
-    let me = mk("me", "spk02_brbk7n", &[]);
-    let other = mk("other", "spk07_pwij3p", &[]);
-    let own = mk("own", "spk03_lbax4n", &["--own-frame"]);
-    let frame = grid.join("spk02_brbk7n/000002.jpg");
-    let png = dir.join("out.png");
-    let clone = |s: &Path, t: &Path| {
-        cli(&[
-            "clone".as_ref(),
-            "--source".as_ref(),
-            s.as_os_str(),
-            "--target".as_ref(),
-            t.as_os_str(),
-            "--image".as_ref(),
-            frame.as_os_str(),
-            "--out".as_ref(),
-            png.as_os_str(),
-        ])
-    };
-    let o = clone(&me, &other);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(png.exists());
-    let o = clone(&me, &own);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success());
-    assert!(err.contains("different reference frames"), "{err}");
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
-    std::fs::remove_dir_all(&dir).ok();
 }

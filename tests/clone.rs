@@ -3,7 +3,7 @@
 //! (`cargo test --target wasm32-unknown-unknown`) on small synthetic models built in memory;
 //! the real-data test (GRID) is native only.
 
-mod common;
+use facemimic_testkit as common;
 
 use common::Rng;
 use facemimic::clone::{

@@ -3,7 +3,7 @@
 //! feathered edge), the extended mesh (no folding for the head motions of a conversation, the
 //! room untouched), backdrops in model files, photo targets and their bad input.
 
-mod common;
+use facemimic_testkit as common;
 
 use std::path::Path;
 

@@ -16,7 +16,7 @@
 //!
 //! `cargo test --release --test composite_measure -- --nocapture` prints the tables.
 
-mod common;
+use facemimic_testkit as common;
 
 use std::path::Path;
 

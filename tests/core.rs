@@ -7,7 +7,7 @@
 //! test (a deterministic RNG, a 68-point template compiled in with `include_str!`), no files
 //! are read at run time.
 
-mod common;
+use facemimic_testkit as common;
 
 use common::pixels::in_triangle;
 use common::Rng;

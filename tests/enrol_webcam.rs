@@ -30,7 +30,7 @@
 //! variable is set. `cargo test --release --test enrol_webcam -- --nocapture` prints the
 //! figures (about a minute in release).
 
-mod common;
+use facemimic_testkit as common;
 
 use std::ops::Range;
 

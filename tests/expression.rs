@@ -6,7 +6,7 @@
 //! Models: spk07 (the source) and spk02, spk03, spk06, spk10 (targets) from their committed
 //! GRID `train20.txt` frames; franck from `../shared/data/franck-dev/train20.txt`.
 
-mod common;
+use facemimic_testkit as common;
 
 use std::path::Path;
 

@@ -11,7 +11,7 @@
 //!   drawn smiley among them) and fabric.
 //! - Bad input: tiny, greyscale, faces partly outside the frame.
 
-mod common;
+use facemimic_testkit as common;
 
 use std::path::{Path, PathBuf};
 

@@ -32,7 +32,7 @@
 //! Skips with a message when ../shared is absent; fails then if the CI variable is set.
 //! `cargo test --release --test follow -- --nocapture` prints the figures.
 
-mod common;
+use facemimic_testkit as common;
 
 use common::following::{errors, follow, mean, over, pearson, spk07};
 use common::{frame, repo, shared_data};

@@ -6,10 +6,8 @@
 //! numeric tests also run under wasm (`cargo test --target wasm32-unknown-unknown --test
 //! format`). The allocation-counting test is native only.
 
-mod common;
-#[path = "../fuzz/engine.rs"]
-#[allow(dead_code)]
-mod engine;
+use facemimic_testkit as common;
+use facemimic_testkit::fuzz as engine;
 
 use std::sync::OnceLock;
 

@@ -2,9 +2,7 @@
 //! (`fuzz/corpus/`): no panic, no non-finite output, no model load over its memory budget.
 //! Long runs: `cargo run --release --example fuzz -- 10000000` (see the README).
 
-mod common;
-#[path = "../fuzz/engine.rs"]
-mod engine;
+use facemimic_testkit::fuzz as engine;
 
 #[global_allocator]
 static ALLOC: engine::CountingAlloc = engine::CountingAlloc;

@@ -32,7 +32,7 @@
 //! pixels may differ. Regenerate (after an intended change only) with
 //! `FACEMIMIC_BLESS=1 cargo test --release --test golden`, and look at the images.
 
-mod common;
+use facemimic_testkit as common;
 
 use std::path::{Path, PathBuf};
 

@@ -5,7 +5,7 @@
 //! options) and also at half size, where lettering and patterns fall to the sizes of faces the
 //! detector sees best. No face may be reported on any of them.
 
-mod common;
+use facemimic_testkit as common;
 
 use facemimic::{io, FaceFinder, Image, ImageRef};
 

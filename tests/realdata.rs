@@ -4,7 +4,7 @@
 //! not trained on. The figures printed here are recorded in `docs/core-figures.md`
 //! (`cargo test --release --test realdata -- --nocapture`).
 
-mod common;
+use facemimic_testkit as common;
 
 use std::path::{Path, PathBuf};
 

@@ -13,7 +13,7 @@
 //!
 //! Error: mean point-to-point distance / distance between landmarks 36 and 45 of the truth.
 
-mod common;
+use facemimic_testkit as common;
 
 use std::cell::RefCell;
 use std::rc::Rc;

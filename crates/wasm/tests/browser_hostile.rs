@@ -8,15 +8,13 @@
 //! precomputation is over its memory budget; a model name the reader would reject. After each,
 //! the module keeps working.
 
-mod common;
-#[path = "../fuzz/engine.rs"]
-#[allow(dead_code)]
-mod engine;
+use facemimic_testkit as common;
+use facemimic_testkit::fuzz as engine;
 
 use common::js::{message, params_js};
 use facemimic::format::write_model;
-use facemimic::wasm::{JsCloner, JsModel, WasmTracker};
 use facemimic::{Model, ModelParts, Similarity};
+use facemimic_wasm::{JsCloner, JsModel, WasmTracker};
 use wasm_bindgen_test::*;
 
 wasm_bindgen_test_configure!(run_in_browser);

@@ -9,18 +9,18 @@
 //! - Bad input (a buffer of the wrong length, 0x0, sizes over the limit and `u32::MAX`): a JS
 //!   `Error` (a `JsError`) naming the problem, never a trap; the finder keeps working after.
 
-mod common;
+use facemimic_testkit as common;
 
 use common::js::message;
 use facemimic::landmarks::parse_pts;
-use facemimic::wasm::JsFaceFinder;
+use facemimic_wasm::JsFaceFinder;
 use js_sys::{Array, Float32Array, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-const JPG: &[u8] = include_bytes!("../data/grid/spk01_bbaf2n/000004.jpg");
-const PTS: &str = include_str!("../data/grid/spk01_bbaf2n/000004.pts");
+const JPG: &[u8] = include_bytes!("../../../data/grid/spk01_bbaf2n/000004.jpg");
+const PTS: &str = include_str!("../../../data/grid/spk01_bbaf2n/000004.pts");
 
 fn frame() -> (Vec<u8>, u32, u32) {
     let img = image::load_from_memory_with_format(JPG, image::ImageFormat::Jpeg)
@@ -214,7 +214,7 @@ fn enrol_is_enrol_face_with_this_finder() {
     let (rgba, w, h) = frame();
     let mut finder = JsFaceFinder::new().expect("finder");
     let a = finder.enrol(&rgba, w, h, None).expect("enrol");
-    let b = facemimic::wasm::enrol_face(&rgba, w, h, None).expect("enrolFace");
+    let b = facemimic_wasm::enrol_face(&rgba, w, h, None).expect("enrolFace");
     let la = Float32Array::from(get(&a, "landmarks")).to_vec();
     let lb = Float32Array::from(get(&b, "landmarks")).to_vec();
     assert_eq!(la.len(), 136);

@@ -10,9 +10,9 @@ use super::surface::{paint, Ctx, RenderOptions, Sink};
 use super::{
     install_panic_hook, js_err, params_from_js, params_to_js, Context2dArg, RenderOptionsArg,
 };
-use crate::image::ImageRef;
-use crate::model::{Model, Params, Reference};
-use crate::render::{base_box, fit_view, FaceDrawer};
+use facemimic::ImageRef;
+use facemimic::{base_box, fit_view, FaceDrawer};
+use facemimic::{Model, Params, Reference};
 
 /// The plain object `Model.info()` returns (see the TypeScript `ModelInfo`).
 #[derive(Serialize)]
@@ -172,7 +172,7 @@ impl JsModel {
     pub fn from_bytes(bytes: &[u8]) -> Result<JsModel, JsError> {
         install_panic_hook();
         let (model, info) =
-            crate::model::format::read_model_info(bytes).map_err(|e| js_err(e.into()))?;
+            facemimic::format::read_model_info(bytes).map_err(|e| js_err(e.into()))?;
         let mut m = JsModel::from(model);
         m.notice = info.backdrop_notice;
         Ok(m)
@@ -193,9 +193,8 @@ impl JsModel {
     ) -> Result<JsModel, JsError> {
         install_panic_hook();
         let image = ImageRef::new(width, height, rgba).map_err(js_err)?;
-        let frame = crate::train::canonical::canonical_frame();
-        let model =
-            crate::train::photo::photo_model(name, &image, landmarks, frame).map_err(js_err)?;
+        let frame = facemimic::canonical_frame();
+        let model = facemimic::photo_model(name, &image, landmarks, frame).map_err(js_err)?;
         Ok(JsModel::from(model))
     }
 
@@ -203,7 +202,7 @@ impl JsModel {
     /// Throws (writing nothing) if the model is one `fromBytes` would reject.
     #[wasm_bindgen(js_name = toBytes)]
     pub fn to_bytes(&self) -> Result<Vec<u8>, JsError> {
-        crate::model::format::write_model_checked(&self.model).map_err(|e| js_err(e.into()))
+        facemimic::format::write_model_checked(&self.model).map_err(|e| js_err(e.into()))
     }
 
     /// The model's name (e.g. `"spk07"`).

@@ -10,13 +10,13 @@
 //! overlay and `renderMode` draw, and that bad input (a corrupt model file, NaN parameters,
 //! a wrong context, an unknown method) throws a JS `Error` and leaves the module working.
 
-mod common;
+use facemimic_testkit as common;
 
 use common::js::{message, offscreen_ctx, params_js};
 use common::pixels::{in_triangle, mean_abs_diff};
 use facemimic::landmarks::parse_pts;
-use facemimic::wasm::{canvas_view, render_mode, JsCloner, JsModel, RenderOptionsArg};
 use facemimic::{BuildOptions, Builder, Image, Model, Params, Similarity, TrainingImage};
+use facemimic_wasm::{canvas_view, render_mode, JsCloner, JsModel, RenderOptionsArg};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
@@ -43,22 +43,22 @@ const H: u32 = 288;
 const MAGENTA: [u8; 3] = [255, 0, 255];
 
 const SPK07: [&str; 8] = [
-    include_str!("../data/grid/spk07_pwij3p/000000.pts"),
-    include_str!("../data/grid/spk07_pwij3p/000004.pts"),
-    include_str!("../data/grid/spk07_pwij3p/000011.pts"),
-    include_str!("../data/grid/spk07_pwij3p/000012.pts"),
-    include_str!("../data/grid/spk07_pwij3p/000019.pts"),
-    include_str!("../data/grid/spk07_pwij3p/000028.pts"),
-    include_str!("../data/grid/spk07_pwij3p/000035.pts"),
-    include_str!("../data/grid/spk07_pwij3p/000045.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000000.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000004.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000011.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000012.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000019.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000028.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000035.pts"),
+    include_str!("../../../data/grid/spk07_pwij3p/000045.pts"),
 ];
 const SPK02: [&str; 6] = [
-    include_str!("../data/grid/spk02_brbk7n/000002.pts"),
-    include_str!("../data/grid/spk02_brbk7n/000010.pts"),
-    include_str!("../data/grid/spk02_brbk7n/000012.pts"),
-    include_str!("../data/grid/spk02_brbk7n/000015.pts"),
-    include_str!("../data/grid/spk02_brbk7n/000018.pts"),
-    include_str!("../data/grid/spk02_brbk7n/000020.pts"),
+    include_str!("../../../data/grid/spk02_brbk7n/000002.pts"),
+    include_str!("../../../data/grid/spk02_brbk7n/000010.pts"),
+    include_str!("../../../data/grid/spk02_brbk7n/000012.pts"),
+    include_str!("../../../data/grid/spk02_brbk7n/000015.pts"),
+    include_str!("../../../data/grid/spk02_brbk7n/000018.pts"),
+    include_str!("../../../data/grid/spk02_brbk7n/000020.pts"),
 ];
 
 /// A procedural 360x288 picture that varies with the image index (so the appearance model

@@ -9,12 +9,15 @@
 //! The source is spk07 built in the test from 8 of its GRID training frames
 //! (`data/grid/spk07_pwij3p`).
 
-mod common;
+// `expect_err` would need `Debug` on the JS classes, which the package does not derive.
+#![allow(clippy::err_expect)]
+
+use facemimic_testkit as common;
 
 use common::js::{message, params_js};
 use facemimic::landmarks::parse_pts;
-use facemimic::wasm::{JsCloner, JsModel, RenderOptionsArg};
 use facemimic::{BuildOptions, Builder, Image, Model, TrainingImage};
+use facemimic_wasm::{JsCloner, JsModel, RenderOptionsArg};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
@@ -35,41 +38,41 @@ const H: u32 = 288;
 
 const SPK07: [(&[u8], &str); 8] = [
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000000.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000000.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000000.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000000.pts"),
     ),
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000004.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000004.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000004.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000004.pts"),
     ),
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000011.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000011.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000011.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000011.pts"),
     ),
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000012.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000012.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000012.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000012.pts"),
     ),
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000019.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000019.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000019.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000019.pts"),
     ),
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000028.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000028.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000028.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000028.pts"),
     ),
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000035.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000035.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000035.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000035.pts"),
     ),
     (
-        include_bytes!("../data/grid/spk07_pwij3p/000045.jpg"),
-        include_str!("../data/grid/spk07_pwij3p/000045.pts"),
+        include_bytes!("../../../data/grid/spk07_pwij3p/000045.jpg"),
+        include_str!("../../../data/grid/spk07_pwij3p/000045.pts"),
     ),
 ];
 const PHOTO: (&[u8], &str) = (
-    include_bytes!("../data/grid/spk03_lbax4n/000000.jpg"),
-    include_str!("../data/grid/spk03_lbax4n/000000.pts"),
+    include_bytes!("../../../data/grid/spk03_lbax4n/000000.jpg"),
+    include_str!("../../../data/grid/spk03_lbax4n/000000.pts"),
 );
 
 fn decode((jpeg, pts): (&[u8], &str), name: &str) -> TrainingImage {

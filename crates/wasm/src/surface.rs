@@ -1,18 +1,18 @@
 //! Canvas plumbing shared by every render entry point: the 2D context (on-screen or offscreen),
 //! the render options read from JS, the reusable tiny-skia pixmaps (one per canvas size), the
 //! blit and the clock. What is drawn, and where in the canvas, is the core's
-//! ([`crate::FaceDrawer`], [`crate::fit_view`]).
+//! ([`facemimic::FaceDrawer`], [`facemimic::fit_view`]).
 
 use std::cell::RefCell;
 
-use tiny_skia::{Color, Pixmap, PixmapMut};
+use facemimic::tiny_skia::{Color, Pixmap, PixmapMut};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::{Clamped, JsCast};
 use web_sys::{CanvasRenderingContext2d, ImageData, OffscreenCanvasRenderingContext2d};
 
-use crate::image::MAX_IMAGE_SIDE;
-use crate::render::{DrawOptions, Rasterizer};
-use crate::similarity::Similarity;
+use facemimic::Similarity;
+use facemimic::MAX_IMAGE_SIDE;
+use facemimic::{DrawOptions, Rasterizer};
 
 #[wasm_bindgen]
 extern "C" {
@@ -119,7 +119,7 @@ pub(crate) fn describe(value: &JsValue) -> String {
     }
 }
 
-/// Parsed [`RenderOptions`](crate::wasm) (`{ background?: string, mesh?: boolean, raster?: string }`).
+/// Parsed [`RenderOptions`](crate) (`{ background?: string, mesh?: boolean, raster?: string }`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct RenderOptions {
     /// Premultiplied background colour.
@@ -386,7 +386,7 @@ where
         let bytes: &[u8] = if background.is_opaque() {
             surface.pixmap.data()
         } else {
-            crate::render::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
+            facemimic::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
             &surface.straight
         };
         match sink {
@@ -470,7 +470,7 @@ fn numbers_into(value: &JsValue, out: &mut [f32], what: &str) -> Result<(), JsEr
 /// Reads `{ pose: { scale, rotation, tx, ty }, shape, appearance }` into `out`, whose vectors
 /// already have the model's lengths (the lengths are checked, nothing is allocated). On error
 /// `out` may be partly written: read into a scratch copy and swap on success.
-pub(crate) fn params_into(value: &JsValue, out: &mut crate::model::Params) -> Result<(), JsError> {
+pub(crate) fn params_into(value: &JsValue, out: &mut facemimic::Params) -> Result<(), JsError> {
     if !value.is_object() {
         return Err(JsError::new(&format!(
             "parameters: expected {{ pose: {{ scale, rotation, tx, ty }}, shape: [...], appearance: [...] }}, got {}",

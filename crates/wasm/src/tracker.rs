@@ -1,4 +1,4 @@
-//! `Tracker` in JS: real-time AAM tracking of RGBA frames (wraps [`crate::fit::Tracker`]).
+//! `Tracker` in JS: real-time AAM tracking of RGBA frames (wraps [`facemimic::fit::Tracker`]).
 //!
 //! Every entry point validates its input and returns `Result<_, JsError>`; nothing panics
 //! across the boundary.
@@ -9,12 +9,12 @@ use wasm_bindgen::prelude::*;
 use js_sys::{Array, Float32Array, Reflect};
 use wasm_bindgen::JsCast;
 
-use crate::fit::{
+use facemimic::fit::{
     FitOptions, FitResult, FollowOptions, Follower, Sequence, TrackPolicy, Tracker,
     DEFAULT_TIME_STEP,
 };
-use crate::image::ImageRef;
-use crate::similarity::PoseJson;
+use facemimic::ImageRef;
+use facemimic::PoseJson;
 
 use super::model::JsModel;
 
@@ -126,7 +126,7 @@ export interface TrackPolicy {
 }
 "##;
 
-fn err(e: crate::Error) -> JsError {
+fn err(e: facemimic::Error) -> JsError {
     JsError::new(&format!("tracker: {e}"))
 }
 
@@ -170,7 +170,7 @@ impl WasmTracker {
     #[wasm_bindgen(constructor)]
     pub fn new(model_bytes: &[u8]) -> Result<WasmTracker, JsError> {
         super::install_panic_hook();
-        let model = crate::model::format::read_model(model_bytes).map_err(|e| err(e.into()))?;
+        let model = facemimic::format::read_model(model_bytes).map_err(|e| err(e.into()))?;
         let inner = Tracker::new(&model, FitOptions::default()).map_err(err)?;
         Ok(WasmTracker { inner })
     }
@@ -216,7 +216,7 @@ impl WasmTracker {
                     "tracker: startAuto needs a 68-landmark model (the face finder's layout); this one has {n}"
                 )));
             }
-            let finder = crate::find::FaceFinder::new().map_err(err)?;
+            let finder = facemimic::find::FaceFinder::new().map_err(err)?;
             self.inner.set_face_source(Box::new(finder));
         }
         self.inner.start_auto().map_err(err)
@@ -328,19 +328,19 @@ impl WasmTracker {
 
 impl WasmTracker {
     /// `track`'s step: the core's, `dt` defaulting to [`DEFAULT_TIME_STEP`].
-    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> crate::Result<()> {
+    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> facemimic::Result<()> {
         self.inner
             .track_timed(image, dt.unwrap_or(DEFAULT_TIME_STEP))
             .map(drop)
     }
 }
 
-fn follow_err(e: crate::Error) -> JsError {
+fn follow_err(e: facemimic::Error) -> JsError {
     JsError::new(&format!("follower: {e}"))
 }
 
 /// Follows anyone's face with a model that is not theirs (a bundled person's): the
-/// person-independent path ([`crate::fit::Follower`]; docs/fitting.md, "Following anyone").
+/// person-independent path ([`facemimic::fit::Follower`]; docs/fitting.md, "Following anyone").
 /// Each frame, the face finder's landmarks near the last face, smoothed, read as expression
 /// relative to the person's own running neutral shape and mapped onto the model's shape modes;
 /// the appearance stays at the model's mean. Same calls and results as `Tracker`, so a page
@@ -425,7 +425,7 @@ impl WasmFollower {
 
 impl WasmFollower {
     /// `track`'s step: the core's, `dt` defaulting to the follower's.
-    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> crate::Result<()> {
+    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> facemimic::Result<()> {
         self.inner.track(image, dt.unwrap_or(self.dt)).map(drop)
     }
 }

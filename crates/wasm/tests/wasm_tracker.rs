@@ -16,15 +16,15 @@
 //!   `tests/data/tiny-track.csv` that `tests/cli.rs` checks `facemimic fit` against (landmarks,
 //!   pose and `placed` in the frame's pixels, the fit scale chosen by the tracker).
 
-mod common;
+use facemimic_testkit as common;
 
 use common::js::message;
-use facemimic::wasm::{lerp_pose, recentre_pose, JsModel, WasmFollower, WasmTracker};
+use facemimic_wasm::{lerp_pose, recentre_pose, JsModel, WasmFollower, WasmTracker};
 use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen_test::wasm_bindgen_test;
 
-const TINY: &[u8] = include_bytes!("data/tiny-v1.fmm");
+const TINY: &[u8] = include_bytes!("../../../tests/data/tiny-v1.fmm");
 
 fn get(o: &JsValue, k: &str) -> f64 {
     Reflect::get(o, &JsValue::from_str(k))
@@ -113,17 +113,17 @@ fn fit_scale_and_policy() {
 
 /// The frames of the golden track (`tests/cli.rs`, `GOLDEN_TRACK`).
 const GOLDEN_FRAMES: [&[u8]; 6] = [
-    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000000.jpg"),
-    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000001.jpg"),
-    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000002.jpg"),
-    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000003.jpg"),
-    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000004.jpg"),
-    include_bytes!("../data/grid/spk07_id2_vcd_swwp2s/000005.jpg"),
+    include_bytes!("../../../data/grid/spk07_id2_vcd_swwp2s/000000.jpg"),
+    include_bytes!("../../../data/grid/spk07_id2_vcd_swwp2s/000001.jpg"),
+    include_bytes!("../../../data/grid/spk07_id2_vcd_swwp2s/000002.jpg"),
+    include_bytes!("../../../data/grid/spk07_id2_vcd_swwp2s/000003.jpg"),
+    include_bytes!("../../../data/grid/spk07_id2_vcd_swwp2s/000004.jpg"),
+    include_bytes!("../../../data/grid/spk07_id2_vcd_swwp2s/000005.jpg"),
 ];
 
 #[wasm_bindgen_test]
 fn tracks_the_golden_frames_as_the_cli() {
-    let golden = include_str!("data/tiny-track.csv");
+    let golden = include_str!("../../../tests/data/tiny-track.csv");
     // The CLI's frames: enlarged twice, each pixel a 2x2 block (tests/cli.rs `doubled`).
     let doubled = |jpeg: &[u8]| {
         let img = image::load_from_memory(jpeg).unwrap().to_rgba8();
@@ -133,7 +133,7 @@ fn tracks_the_golden_frames_as_the_cli() {
         })
     };
     let init: Vec<f32> = facemimic::landmarks::parse_pts(include_str!(
-        "../data/grid/spk07_id2_vcd_swwp2s/000000.pts"
+        "../../../data/grid/spk07_id2_vcd_swwp2s/000000.pts"
     ))
     .unwrap()
     .iter()

@@ -4,8 +4,8 @@ use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
 
 use super::install_panic_hook;
-use crate::find::BBox;
-use crate::{EnrolFinder, ImageRef};
+use facemimic::find::BBox;
+use facemimic::{EnrolFinder, ImageRef};
 
 #[wasm_bindgen(typescript_custom_section)]
 const TS_FIND: &'static str = r##"
@@ -43,7 +43,7 @@ impl JsFaceFinder {
     #[wasm_bindgen(constructor)]
     pub fn new() -> Result<JsFaceFinder, JsError> {
         install_panic_hook();
-        EnrolFinder::new(crate::ENROL_BOXES)
+        EnrolFinder::new(facemimic::ENROL_BOXES)
             .map(|inner| JsFaceFinder {
                 inner,
                 precise: false,

@@ -8,10 +8,10 @@ use web_sys::ImageData;
 use super::model::{model_info, JsModel};
 use super::surface::{now_ms, paint, params_into, Ctx, RenderOptions, Sink, Stages};
 use super::{install_panic_hook, js_err, params_to_js, Context2dArg, RenderOptionsArg};
-use crate::clone::{CloneOptions, Cloner, Method, TargetFrame};
-use crate::model::frame::ReferenceFrame;
-use crate::model::{Model, Params};
-use crate::render::{base_box, fit_view, picture_view, Compositor, FaceDrawer};
+use facemimic::clone::{CloneOptions, Cloner, Method, TargetFrame};
+use facemimic::ReferenceFrame;
+use facemimic::{base_box, fit_view, picture_view, Compositor, FaceDrawer};
+use facemimic::{Model, Params};
 
 /// Stage timings accumulated since the last `update()`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -138,7 +138,7 @@ impl JsCloner {
             .image_shape(&self.source_params, &mut self.shape)
             .map_err(js_err)?;
         // Eq. 2 for the source, cache-blocked (bit-identical to `instance_unchecked`).
-        crate::model::appearance::synthesise(
+        facemimic::numerics::synthesise(
             &model.appearance().base,
             &model.appearance().modes,
             &self.source_params.appearance,
@@ -445,7 +445,7 @@ impl JsCloner {
     #[wasm_bindgen(js_name = setRegionGains)]
     pub fn set_region_gains(&mut self, mouth: f32, eyes: f32, brows: f32) -> Result<(), JsError> {
         let mut o = self.options.clone();
-        o.regions = crate::clone::RegionGains { mouth, eyes, brows };
+        o.regions = facemimic::clone::RegionGains { mouth, eyes, brows };
         self.set_options(o)
     }
 

@@ -1,5 +1,5 @@
-//! `buildModel`, `selectVaried` and `shapeCoverage` for JavaScript: the core [`crate::Builder`]
-//! and [`crate::select_varied`] over RGBA frames.
+//! `buildModel`, `selectVaried` and `shapeCoverage` for JavaScript: the core [`facemimic::Builder`]
+//! and [`facemimic::select_varied`] over RGBA frames.
 //!
 //! Every entry point validates its input and returns `Result<_, JsError>`; nothing panics
 //! across the boundary. The build runs synchronously: in a page, call it from a Web Worker
@@ -10,12 +10,12 @@ use wasm_bindgen::prelude::*;
 use super::install_panic_hook;
 use super::model::JsModel;
 use super::surface::describe;
-use crate::image::{Image, ImageRef};
-use crate::train::{BuildOptions, ReferenceChoice};
-use crate::{
+use facemimic::{
     enrol, EnrolFinder, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, DEFAULT_MIN_SCORE,
     ENROL_BOXES, MAX_REFINE_ROUNDS,
 };
+use facemimic::{BuildOptions, ReferenceChoice};
+use facemimic::{Image, ImageRef};
 
 #[wasm_bindgen]
 extern "C" {
@@ -138,12 +138,12 @@ fn pixels(v: &JsValue, what: &str) -> Result<Vec<u8>, JsError> {
 
 fn dim(obj: &JsValue, key: &str, what: &str) -> Result<u32, JsError> {
     match number(obj, key, &format!("{what}.{key}"))? {
-        Some(x) if x >= 1.0 && x <= crate::MAX_IMAGE_SIDE as f64 && x.fract() == 0.0 => {
+        Some(x) if x >= 1.0 && x <= facemimic::MAX_IMAGE_SIDE as f64 && x.fract() == 0.0 => {
             Ok(x as u32)
         }
         _ => Err(JsError::new(&format!(
             "buildModel: {what}.{key} must be a whole number in 1..={}",
-            crate::MAX_IMAGE_SIDE
+            facemimic::MAX_IMAGE_SIDE
         ))),
     }
 }
@@ -429,11 +429,11 @@ fn with_finder<T>(f: impl FnOnce(&mut EnrolFinder) -> Result<T, JsError>) -> Res
     })
 }
 
-fn build_err(e: crate::Error) -> JsError {
+fn build_err(e: facemimic::Error) -> JsError {
     match e {
-        crate::Error::Cancelled => JsError::new("cancelled"),
+        facemimic::Error::Cancelled => JsError::new("cancelled"),
         // The pipeline's messages name the frames already ("a face in 0 of 3 frames, ...").
-        crate::Error::Training(msg) => JsError::new(&format!("buildModel: {msg}")),
+        facemimic::Error::Training(msg) => JsError::new(&format!("buildModel: {msg}")),
         e => JsError::new(&format!("buildModel: {e}")),
     }
 }
@@ -445,7 +445,7 @@ pub fn select_varied_js(shapes: Vec<js_sys::Float32Array>, n: usize) -> Result<V
     install_panic_hook();
     let owned: Vec<Vec<f32>> = shapes.iter().map(|s| s.to_vec()).collect();
     let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
-    crate::select_varied(&refs, n)
+    facemimic::select_varied(&refs, n)
         .map(|v| v.into_iter().map(|i| i as u32).collect())
         .map_err(|e| JsError::new(&format!("selectVaried: {e}")))
 }
@@ -461,7 +461,7 @@ pub fn shape_coverage_js(
     let owned: Vec<Vec<f32>> = shapes.iter().map(|s| s.to_vec()).collect();
     let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
     let chosen: Vec<usize> = chosen.into_iter().map(|i| i as usize).collect();
-    crate::coverage(&refs, &chosen).map_err(|e| JsError::new(&format!("shapeCoverage: {e}")))
+    facemimic::coverage(&refs, &chosen).map_err(|e| JsError::new(&format!("shapeCoverage: {e}")))
 }
 
 /// The face to enrol in one RGBA frame: the finder's most confident face if its score reaches

@@ -30,8 +30,8 @@ use facemimic::{
     TrainingImage,
 };
 
-use crate::common::synthetic;
-pub use crate::common::Rng;
+use crate::synthetic;
+pub use crate::Rng;
 
 // ------------------------------------------------------------------------------------------
 // Counting allocator.

@@ -12,7 +12,7 @@ use super::{install_panic_hook, js_err};
 #[wasm_bindgen(js_name = parsePts)]
 pub fn parse_pts(text: &str) -> Result<js_sys::Float32Array, JsError> {
     install_panic_hook();
-    let v = crate::landmarks::parse_pts(text).map_err(js_err)?;
+    let v = facemimic::landmarks::parse_pts(text).map_err(js_err)?;
     Ok(js_sys::Float32Array::from(&v[..]))
 }
 
@@ -23,5 +23,5 @@ pub fn parse_pts(text: &str) -> Result<js_sys::Float32Array, JsError> {
 #[wasm_bindgen(js_name = landmarkError)]
 pub fn landmark_error(a: &[f32], truth: &[f32]) -> f32 {
     install_panic_hook();
-    crate::find::landmark_error(a, truth)
+    facemimic::find::landmark_error(a, truth)
 }

@@ -2,12 +2,15 @@
 //! random number generator ([`Rng`]), the landmark perturbation of the fitting measures
 //! ([`perturb`]), the synthetic training set ([`synthetic`]), the image comparison
 //! ([`pixels`]) and, natively, the research data in `../shared` ([`shared_data`]; see the
-//! README, "The quick loop"). Included with `mod common;` (tests) or
-//! `#[path = "../tests/common/mod.rs"] mod common;` (examples, benchmarks).
+//! README, "The quick loop") and the mutation fuzzing engine ([`fuzz`]). A dev-dependency of
+//! every crate of the workspace, never a dependency of the product.
 #![allow(dead_code)]
+#![allow(missing_docs)]
+#![allow(clippy::needless_range_loop)]
 
 #[cfg(not(target_arch = "wasm32"))]
 pub mod following;
+pub mod fuzz;
 #[cfg(target_arch = "wasm32")]
 pub mod js;
 pub mod pixels;
@@ -54,7 +57,7 @@ pub fn perturb(lm: &[f32], rng: &mut Rng) -> Vec<f32> {
 /// `../shared/data/NAME` beside the repository, or `None` after a visible "SKIPPED" message
 /// when it is absent. Under `CI` its absence is a failure: CI always has `../shared`.
 pub fn shared_data(name: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
+    let d = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
         .join("../shared/data")
         .join(name);
     if d.is_dir() {
@@ -72,7 +75,7 @@ pub fn shared_data(name: &str) -> Option<PathBuf> {
 #[cfg(not(target_arch = "wasm32"))]
 /// A path in the repository.
 pub fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join(p)
 }
 
 #[cfg(not(target_arch = "wasm32"))]

@@ -2,7 +2,7 @@
 
 use wasm_bindgen::prelude::*;
 
-use crate::similarity::{PoseJson, Similarity};
+use facemimic::{PoseJson, Similarity};
 
 fn pose_from_js(what: &str, v: JsValue) -> Result<Similarity, JsError> {
     serde_wasm_bindgen::from_value(v).map_err(|e| JsError::new(&format!("{what}: {e}")))

@@ -8,21 +8,21 @@
 //! the test; runs under Node (`cargo test --target wasm32-unknown-unknown --test wasm_enrol`).
 
 use facemimic::format::write_model_checked;
-use facemimic::wasm::build_model;
 use facemimic::{enrol, BuildOptions, EnrolFrame, EnrolOptions, Image};
+use facemimic_wasm::build_model;
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
 
 const FRAMES: [&[u8]; 8] = [
-    include_bytes!("../data/grid/spk02_brbk7n/000002.jpg"),
-    include_bytes!("../data/grid/spk02_brbk7n/000010.jpg"),
-    include_bytes!("../data/grid/spk02_brbk7n/000012.jpg"),
-    include_bytes!("../data/grid/spk02_brbk7n/000015.jpg"),
-    include_bytes!("../data/grid/spk02_brbk7n/000018.jpg"),
-    include_bytes!("../data/grid/spk02_brbk7n/000020.jpg"),
-    include_bytes!("../data/grid/spk02_brbk7n/000021.jpg"),
-    include_bytes!("../data/grid/spk02_brbk7n/000022.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000002.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000010.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000012.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000015.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000018.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000020.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000021.jpg"),
+    include_bytes!("../../../data/grid/spk02_brbk7n/000022.jpg"),
 ];
 
 fn decode(jpeg: &[u8]) -> Image {

@@ -3,7 +3,7 @@
 //! data, and bad input (missing files, wrong formats, corrupt models, bad parameters), which
 //! must end with one line on stderr, a non-zero exit and never a panic.
 
-mod common;
+use facemimic_testkit as common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -12,7 +12,7 @@ use std::sync::OnceLock;
 use serde_json::Value;
 
 fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
 }
 
 fn grid(rel: &str) -> PathBuf {
@@ -576,7 +576,8 @@ fn build_precision_and_inspect_version() {
         e.contains("unknown precision 'f64' (expected f32, f16, i8 or i6)"),
         "{e}"
     );
-    let v1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny-v1.fmm");
+    let v1 =
+        Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join("tests/data/tiny-v1.fmm");
     let info = json(&ok(&[&"inspect", &v1]));
     assert_eq!(info["format_version"], 1, "{info}");
     assert_eq!(info["precision"], "f32", "{info}");
@@ -1035,7 +1036,7 @@ fn doubled(img: &facemimic::Image) -> image::RgbaImage {
 #[test]
 fn fit_gives_the_golden_track_the_npm_package_gives() {
     let dir = scratch("fit-golden");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."));
     let model = root.join("tests/data/tiny-v1.fmm");
     let frames: Vec<PathBuf> = (0..6)
         .map(|i| {

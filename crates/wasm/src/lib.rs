@@ -1,8 +1,8 @@
 //! The wasm-bindgen glue (wasm32 only): the JavaScript API of the npm package `facemimic`.
 //!
-//! A thin layer over the core: [`JsModel`] (`Model` in JS) wraps [`crate::Model`] and
-//! [`crate::model::format`], [`JsCloner`] (`Cloner`) wraps [`crate::clone::Cloner`], and rendering goes
-//! through [`crate::FaceDrawer`] into a reusable tiny-skia pixmap per canvas size, then into the
+//! A thin layer over the core: [`JsModel`] (`Model` in JS) wraps [`facemimic::Model`] and
+//! [`facemimic::format`], [`JsCloner`] (`Cloner`) wraps [`facemimic::clone::Cloner`], and rendering goes
+//! through [`facemimic::FaceDrawer`] into a reusable tiny-skia pixmap per canvas size, then into the
 //! canvas with `putImageData`. The contract is `npm/README.md`.
 //!
 //! Every entry point validates its input and returns `Result<_, JsError>`: a bad model file,
@@ -10,9 +10,11 @@
 //! names the problem; nothing panics across the boundary (a panic hook logs any bug to the
 //! console as a safety net).
 
+#![cfg(target_arch = "wasm32")]
+
 use wasm_bindgen::prelude::*;
 
-use crate::model::Params;
+use facemimic::Params;
 
 mod build;
 mod cloner;
@@ -32,7 +34,7 @@ pub use pose::{lerp_pose, mean_pose, recentre_pose};
 pub use tracker::{WasmFollower, WasmTracker};
 
 /// Converts a library error into a JS `Error` (its message names the problem).
-pub(crate) fn js_err(e: crate::Error) -> JsError {
+pub(crate) fn js_err(e: facemimic::Error) -> JsError {
     JsError::new(&e.to_string())
 }
 
@@ -54,7 +56,7 @@ pub(crate) fn params_to_js(params: &Params) -> Result<JsValue, JsError> {
     serde_wasm_bindgen::to_value(params).map_err(|e| JsError::new(&format!("parameters: {e}")))
 }
 
-pub use crate::render::canvas_view;
+pub use facemimic::canvas_view;
 
 /// The package version (the crate's).
 #[wasm_bindgen]
@@ -75,13 +77,13 @@ pub fn methods() -> Result<JsValue, JsError> {
         description: &'static str,
         is_default: bool,
     }
-    let list: Vec<Info> = crate::clone::Method::ALL
+    let list: Vec<Info> = facemimic::clone::Method::ALL
         .iter()
         .map(|m| Info {
             name: m.name(),
             label: m.label(),
             description: m.description(),
-            is_default: *m == crate::clone::Method::default(),
+            is_default: *m == facemimic::clone::Method::default(),
         })
         .collect();
     serde_wasm_bindgen::to_value(&list).map_err(|e| JsError::new(&e.to_string()))
