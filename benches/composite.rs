@@ -78,14 +78,19 @@ fn bench(c: &mut Criterion) {
         cloner.add_target(t.clone()).unwrap();
     }
     cloner.clone_frame(&frames[3], &options).unwrap();
+    bench_one_target(c, &targets[0], &cloner);
+    bench_frame(c, &source, &targets, &mut cloner, &frames, &options);
+}
 
+/// One target's face drawn alone and composited, with each rasteriser (`cloner` holds the
+/// cloned frame; the target is its first).
+fn bench_one_target(c: &mut Criterion, t: &Model, cloner: &Cloner) {
     let mut group = c.benchmark_group("one_target_640x480");
     for raster in [Rasterizer::TinySkia, Rasterizer::Scanline] {
         let draw = DrawOptions {
             rasterizer: raster,
             mesh: false,
         };
-        let t = &targets[0];
         let b = t.backdrop().unwrap();
         let view = picture_view(b.width(), b.height(), W, H);
         let mut pixmap = canvas();
@@ -120,9 +125,18 @@ fn bench(c: &mut Criterion) {
         });
     }
     group.finish();
+}
 
-    // The page's default frame: clone onto 4 targets, draw the source face and the 4 targets
-    // composited, every picture 640x480.
+/// The page's default frame with each rasteriser: clone `frames` in turn onto the 4 targets,
+/// draw the source face and the 4 targets composited, every picture 640x480.
+fn bench_frame(
+    c: &mut Criterion,
+    source: &Model,
+    targets: &[Model],
+    cloner: &mut Cloner,
+    frames: &[Params],
+    options: &CloneOptions,
+) {
     let mut group = c.benchmark_group("frame_source_and_4_composited_640x480");
     for raster in [Rasterizer::TinySkia, Rasterizer::Scanline] {
         let draw = DrawOptions {
@@ -130,7 +144,7 @@ fn bench(c: &mut Criterion) {
             mesh: false,
         };
         let mut source_drawer = FaceDrawer::new(source.frame(), draw).unwrap();
-        let source_view = canvas_view(&source, W, H);
+        let source_view = canvas_view(source, W, H);
         let mut compositors: Vec<Compositor> = targets
             .iter()
             .map(|t| Compositor::new(t, draw).unwrap())
@@ -148,11 +162,11 @@ fn bench(c: &mut Criterion) {
             bench.iter(|| {
                 let p = &frames[k % frames.len()];
                 k += 1;
-                cloner.clone_frame(black_box(p), &options).unwrap();
+                cloner.clone_frame(black_box(p), options).unwrap();
                 let (first, rest) = pixmaps.split_first_mut().unwrap();
                 first.fill(Color::from_rgba8(32, 32, 36, 255));
                 source_drawer
-                    .render(&source, p, &source_view, &mut first.as_mut())
+                    .render(source, p, &source_view, &mut first.as_mut())
                     .unwrap();
                 for (i, pix) in rest.iter_mut().enumerate() {
                     compositors[i]

@@ -10,7 +10,9 @@ use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use facemimic::tiny_skia::{Color, Pixmap};
-use facemimic::{io, BuildOptions, Builder, DrawOptions, FaceDrawer, Similarity};
+use facemimic::{
+    io, BuildOptions, Builder, DrawOptions, FaceDrawer, ImageRef, Model, Params, Similarity,
+};
 
 fn benches(c: &mut Criterion) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid/spk07_pwij3p");
@@ -49,6 +51,14 @@ fn benches(c: &mut Criterion) {
         })
     });
 
+    let appearance = bench_synthesis(c, &model, &params);
+    bench_upload_warp(c, &mut renderer, &mut pixmap, &model, &params, &appearance);
+    bench_sampling(c, &model, &view, &probe.landmarks);
+}
+
+/// Appearance synthesis (Eq. 2) from the expanded f32 modes and straight from the compact
+/// storages; returns the i6 synthesis (checked against the f32 one).
+fn bench_synthesis(c: &mut Criterion, model: &Model, params: &Params) -> Vec<f32> {
     let mut appearance = vec![0f32; model.appearance().len()];
     c.bench_function("appearance synthesis (Eq. 2)", |b| {
         b.iter(|| {
@@ -61,7 +71,8 @@ fn benches(c: &mut Criterion) {
     // Synthesis straight from the compact storages (what a per-frame reader of the packed file
     // would do), against the f32 expansion the library does once on load (above).
     let d = model.appearance().len();
-    let compact = Compact::new(&model.appearance().base, &model.appearance().modes, d);
+    let (base, modes, _) = model.appearance().clone().into_arrays();
+    let compact = Compact::new(&base, &modes, d);
     c.bench_function("appearance synthesis from i8 storage (no expansion)", |b| {
         b.iter(|| compact.synthesise_i8(black_box(&params.appearance), &mut appearance))
     });
@@ -79,16 +90,28 @@ fn benches(c: &mut Criterion) {
         .fold(0f32, |a, (x, y)| a.max((x - y).abs()));
     assert!(worst < 0.05, "i6 synthesis off by {worst}");
 
+    appearance
+}
+
+/// The parts of a render: the upload of `appearance` and the warp at `params`' shape.
+fn bench_upload_warp(
+    c: &mut Criterion,
+    renderer: &mut FaceDrawer,
+    pixmap: &mut Pixmap,
+    model: &Model,
+    params: &Params,
+    appearance: &[f32],
+) {
     c.bench_function("upload appearance to texture", |b| {
         b.iter(|| {
             renderer
-                .upload(model.frame(), black_box(&appearance))
+                .upload(model.frame(), black_box(appearance))
                 .unwrap()
         })
     });
 
     let mut shape = vec![0f32; model.landmarks() * 2];
-    model.image_shape(&params, &mut shape).unwrap();
+    model.image_shape(params, &mut shape).unwrap();
     c.bench_function("warp texture onto 360x288 (tiny-skia)", |b| {
         b.iter(|| {
             renderer
@@ -101,22 +124,21 @@ fn benches(c: &mut Criterion) {
                 .unwrap()
         })
     });
+}
 
+/// Sampling the probe image into the reference frame at its `landmarks`, and the projection
+/// (pose, shape, appearance) from them.
+fn bench_sampling(c: &mut Criterion, model: &Model, view: &ImageRef<'_>, landmarks: &[f32]) {
     let mut g = vec![0f32; model.appearance().len()];
     c.bench_function("sample_rgb image -> frame", |b| {
         b.iter(|| {
-            facemimic::numerics::sample_rgb(
-                model.frame(),
-                &view,
-                black_box(&probe.landmarks),
-                &mut g,
-            )
-            .unwrap()
+            facemimic::numerics::sample_rgb(model.frame(), view, black_box(landmarks), &mut g)
+                .unwrap()
         })
     });
 
     c.bench_function("project (pose, shape, appearance)", |b| {
-        b.iter(|| black_box(model.project(&view, black_box(&probe.landmarks)).unwrap()))
+        b.iter(|| black_box(model.project(view, black_box(landmarks)).unwrap()))
     });
 }
 

@@ -72,7 +72,9 @@ fn track_in_sequence(
                 i = 0;
                 tracker.start_from_landmarks(&seq[0].1).expect("start");
             }
-            let r = tracker.track(&views[i]).expect("track");
+            let r = tracker
+                .track(&views[i], facemimic::fit::DEFAULT_TIME_STEP)
+                .expect("track");
             i += 1;
             r.error
         })
@@ -203,7 +205,9 @@ fn bench_reacquire(c: &mut Criterion, name: &str, model: &Model, image: &Image) 
     group.bench_function(name, |b| {
         b.iter(|| {
             tracker.start_auto().expect("auto");
-            let r = tracker.track(&view).expect("track");
+            let r = tracker
+                .track(&view, facemimic::fit::DEFAULT_TIME_STEP)
+                .expect("track");
             assert!(r.reacquired, "no face found");
             r.error
         })

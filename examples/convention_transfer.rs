@@ -489,6 +489,38 @@ mod native {
             "target/convention-cache"
         });
         std::fs::create_dir_all(&cache).unwrap();
+        let (samples, speakers) = load_samples(&shared, &cache);
+        let ngrid = speakers.len();
+        let idx_of = |f: &dyn Fn(usize) -> bool| -> Vec<usize> {
+            (0..samples.len()).filter(|&k| f(k)).collect()
+        };
+        let a = idx_of(&|k| k < ngrid && speakers[k] <= 5);
+        let b = idx_of(&|k| k < ngrid && speakers[k] > 5);
+        let all = idx_of(&|k| k < ngrid);
+        if generic {
+            generic_table(&samples, &a, &b, &all);
+            return;
+        }
+        if stages_n == 0 {
+            shape_reg_table(&samples, &a, &b, &all);
+            return;
+        }
+        println!("stages {stages_n} perturb {perturb} lambda {lambda} scales {scales:?}");
+        let sa = train(&samples, &a, stages_n, perturb, lambda, &scales);
+        report("train A, test B", &samples, &b, &sa);
+        report("train A, on A", &samples, &a, &sa);
+        let sb = train(&samples, &b, stages_n, perturb, lambda, &scales);
+        report("train B, test A", &samples, &a, &sb);
+        let s = train(&samples, &all, stages_n, perturb, lambda, &scales);
+        for set in ["franck-dev", "franck-dev2", "webcam-dev", "webcam-dev-test"] {
+            let idx = set_indices(&samples, set);
+            report(set, &samples, &idx, &s);
+        }
+    }
+
+    /// The samples: GRID's speakers (each a speaker's number in the second vector, in the
+    /// same order), then the dev and test sets.
+    fn load_samples(shared: &Path, cache: &Path) -> (Vec<Sample>, Vec<usize>) {
         let mut finder = EnrolFinder::new(1).unwrap();
         let mut samples = Vec::new();
         let mut speakers = Vec::new();
@@ -512,7 +544,6 @@ mod native {
             }
             samples.extend(v);
         }
-        let ngrid = samples.len();
         for (set, step, range) in [
             ("franck-dev", 5, 0..1000),
             ("franck-dev2", 5, 0..100000),
@@ -532,53 +563,47 @@ mod native {
             );
             samples.extend(v);
         }
-        let idx_of = |f: &dyn Fn(usize) -> bool| -> Vec<usize> {
-            (0..samples.len()).filter(|&k| f(k)).collect()
-        };
-        let a = idx_of(&|k| k < ngrid && speakers[k] <= 5);
-        let b = idx_of(&|k| k < ngrid && speakers[k] > 5);
-        let all = idx_of(&|k| k < ngrid);
-        if generic {
-            for modes in [4, 8, 12] {
-                let (b0, a0) = generic_aam(&samples, &a, &b, modes);
-                let (b1, a1) = generic_aam(&samples, &b, &a, modes);
-                let mut line = format!(
-                    "generic AAM, <= {modes} modes: A->B {b0:.4}->{a0:.4}  B->A {b1:.4}->{a1:.4}"
-                );
-                for set in ["franck-dev", "webcam-dev", "webcam-dev-test"] {
-                    let idx = idx_of(&|k| samples[k].set == set);
-                    let (bb, aa) = generic_aam(&samples, &all, &idx, modes);
-                    line += &format!("  {set} {bb:.4}->{aa:.4}");
-                }
-                println!("{line}");
+        (samples, speakers)
+    }
+
+    /// The indices of the samples of `set`.
+    fn set_indices(samples: &[Sample], set: &str) -> Vec<usize> {
+        (0..samples.len())
+            .filter(|&k| samples[k].set == set)
+            .collect()
+    }
+
+    /// `generic`: the generic AAM's errors (before and after) with 4, 8 and 12 modes, across
+    /// the GRID halves `a` and `b` and from all of GRID onto each dev set.
+    fn generic_table(samples: &[Sample], a: &[usize], b: &[usize], all: &[usize]) {
+        for modes in [4, 8, 12] {
+            let (b0, a0) = generic_aam(samples, a, b, modes);
+            let (b1, a1) = generic_aam(samples, b, a, modes);
+            let mut line = format!(
+                "generic AAM, <= {modes} modes: A->B {b0:.4}->{a0:.4}  B->A {b1:.4}->{a1:.4}"
+            );
+            for set in ["franck-dev", "webcam-dev", "webcam-dev-test"] {
+                let idx = set_indices(samples, set);
+                let (bb, aa) = generic_aam(samples, all, &idx, modes);
+                line += &format!("  {set} {bb:.4}->{aa:.4}");
             }
-            return;
+            println!("{line}");
         }
-        if stages_n == 0 {
-            for lam in [0.0001, 0.001, 0.01, 0.1] {
-                let (b0, a0) = shape_reg(&samples, &a, &b, lam);
-                let (b1, a1) = shape_reg(&samples, &b, &a, lam);
-                let mut line =
-                    format!("lambda {lam}: A->B {b0:.4}->{a0:.4}  B->A {b1:.4}->{a1:.4}");
-                for set in ["franck-dev", "franck-dev2", "webcam-dev", "webcam-dev-test"] {
-                    let idx = idx_of(&|k| samples[k].set == set);
-                    let (bb, aa) = shape_reg(&samples, &all, &idx, lam);
-                    line += &format!("  {set} {bb:.4}->{aa:.4}");
-                }
-                println!("{line}");
+    }
+
+    /// Stages 0: the shape regression's errors (before and after) for a range of lambdas,
+    /// across the GRID halves `a` and `b` and from all of GRID onto each dev set.
+    fn shape_reg_table(samples: &[Sample], a: &[usize], b: &[usize], all: &[usize]) {
+        for lam in [0.0001, 0.001, 0.01, 0.1] {
+            let (b0, a0) = shape_reg(samples, a, b, lam);
+            let (b1, a1) = shape_reg(samples, b, a, lam);
+            let mut line = format!("lambda {lam}: A->B {b0:.4}->{a0:.4}  B->A {b1:.4}->{a1:.4}");
+            for set in ["franck-dev", "franck-dev2", "webcam-dev", "webcam-dev-test"] {
+                let idx = set_indices(samples, set);
+                let (bb, aa) = shape_reg(samples, all, &idx, lam);
+                line += &format!("  {set} {bb:.4}->{aa:.4}");
             }
-            return;
-        }
-        println!("stages {stages_n} perturb {perturb} lambda {lambda} scales {scales:?}");
-        let sa = train(&samples, &a, stages_n, perturb, lambda, &scales);
-        report("train A, test B", &samples, &b, &sa);
-        report("train A, on A", &samples, &a, &sa);
-        let sb = train(&samples, &b, stages_n, perturb, lambda, &scales);
-        report("train B, test A", &samples, &a, &sb);
-        let s = train(&samples, &all, stages_n, perturb, lambda, &scales);
-        for set in ["franck-dev", "franck-dev2", "webcam-dev", "webcam-dev-test"] {
-            let idx = idx_of(&|k| samples[k].set == set);
-            report(set, &samples, &idx, &s);
+            println!("{line}");
         }
     }
 }

@@ -72,7 +72,9 @@ mod native {
         let mut per_point = vec![0.0f32; 68];
         let mut errs = Vec::new();
         for f in test {
-            let r = t.track(&f.image.view().unwrap()).unwrap();
+            let r = t
+                .track(&f.image.view().unwrap(), facemimic::fit::DEFAULT_TIME_STEP)
+                .unwrap();
             let e = point_errors(&r.landmarks, &f.landmarks);
             for (p, v) in per_point.iter_mut().zip(&e) {
                 *p += v / test.len() as f32;

@@ -1,6 +1,6 @@
 //! Learns the generic expression prior shipped in `data/weights/expression_prior.fmep` from
 //! the landmarks committed under `data/` (the London set's 60 neutral -> smiling pairs and
-//! GRID's ten speakers, both CC BY 4.0), and writes it; `tests/expression.rs` learns it again
+//! GRID's ten speakers, both CC BY 4.0), and writes it; `tests/integration/expression.rs` learns it again
 //! and compares the bytes.
 //!
 //! ```sh

@@ -63,6 +63,25 @@ mod native {
                 .to_vec();
         }
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+        let mut finder = finder_from_env();
+        let mut dump = std::env::var_os("FIND_EVAL_DUMP")
+            .map(|p| std::io::BufWriter::new(std::fs::File::create(p).unwrap()));
+        let against = std::env::var("FIND_EVAL_AGAINST")
+            .ok()
+            .map(|p| read_dump(&p));
+        for set in sets {
+            let mut tally = Tally::default();
+            for p in frames(&root.join(&set)).iter().step_by(step) {
+                let key = p.strip_prefix(&root).unwrap().to_string_lossy().to_string();
+                tally.frame(&mut finder, p, &key, dump.as_mut(), against.as_ref());
+            }
+            tally.report(&set, against.is_some());
+        }
+    }
+
+    /// The face finder with the options the environment asks for (`FIND_THRESHOLD`,
+    /// `FIND_MIRROR`, `FIND_NO_LOCAL`).
+    fn finder_from_env() -> FaceFinder {
         let mut finder = FaceFinder::new().unwrap();
         let mut opts = finder.options();
         if let Ok(t) = std::env::var("FIND_THRESHOLD") {
@@ -72,85 +91,100 @@ mod native {
         // `FIND_NO_LOCAL` set: the finder without its local correction (to measure it).
         finder.set_local_correction(std::env::var_os("FIND_NO_LOCAL").is_none());
         finder.set_options(opts);
-        let mut dump = std::env::var_os("FIND_EVAL_DUMP")
-            .map(|p| std::io::BufWriter::new(std::fs::File::create(p).unwrap()));
-        let against = std::env::var("FIND_EVAL_AGAINST")
-            .ok()
-            .map(|p| read_dump(&p));
-        for set in sets {
-            let all = frames(&root.join(&set));
-            let (mut versus, mut only_one) = (Vec::new(), 0);
-            let (mut n, mut found, mut err_sum, mut worst, mut secs, mut extra) =
-                (0, 0, 0.0, 0.0f32, 0.0, 0);
-            let mut missed = Vec::new();
-            let mut errors = Vec::new();
-            // The found frames' points and dlib's, for the convention-free figure.
-            let mut pairs: Vec<(Vec<f32>, Vec<f32>)> = Vec::new();
-            for p in all.iter().step_by(step) {
-                let img = read_image(p).unwrap();
-                let truth =
-                    read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
-                let view = img.view().unwrap();
-                let t = Instant::now();
-                let faces = finder.find(&view);
-                secs += t.elapsed().as_secs_f64();
-                n += 1;
-                let key = p.strip_prefix(&root).unwrap().to_string_lossy().to_string();
-                let points = faces.first().map_or(&[][..], |f| &f.landmarks[..]);
-                if let Some(d) = dump.as_mut() {
-                    let values: Vec<String> = points.iter().map(|v| v.to_string()).collect();
-                    writeln!(d, "{key} {}", values.join(" ")).unwrap();
-                }
-                if let Some(other) = against.as_ref().and_then(|a| a.get(&key)) {
-                    match (points.is_empty(), other.is_empty()) {
-                        (false, false) => {
-                            versus.push(facemimic::find::landmark_error(points, other))
-                        }
-                        (true, true) => {}
-                        _ => only_one += 1,
-                    }
-                }
-                extra += faces.len().saturating_sub(1);
-                match faces
-                    .first()
-                    .map(|f| facemimic::find::landmark_error(&f.landmarks, &truth))
-                {
-                    Some(e) if e < 0.25 => {
-                        if std::env::var_os("FIND_EVAL_BOXES").is_some() {
-                            let f = &faces[0];
-                            let lb = facemimic::BBox::of_points(&truth);
-                            println!(
-                                "box {:.3} {:.3} {:.3} {:.3} score {:.3}",
-                                (f.bbox.x + 0.5 * f.bbox.width - lb.x - 0.5 * lb.width) / lb.width,
-                                (f.bbox.y + 0.5 * f.bbox.height - lb.y - 0.5 * lb.height)
-                                    / lb.height,
-                                f.bbox.width / lb.width,
-                                f.bbox.height / lb.height,
-                                f.score
-                            );
-                        }
-                        found += 1;
-                        pairs.push((faces[0].landmarks.clone(), truth.clone()));
-                        errors.push(e);
-                        err_sum += e;
-                        worst = worst.max(e);
-                    }
-                    _ => missed.push(p.file_name().unwrap().to_string_lossy().to_string()),
+        finder
+    }
+
+    /// What one set's evaluation gathers, frame by frame.
+    #[derive(Default)]
+    struct Tally {
+        n: usize,
+        found: usize,
+        err_sum: f32,
+        worst: f32,
+        secs: f64,
+        extra: usize,
+        missed: Vec<String>,
+        errors: Vec<f32>,
+        /// The found frames' points and dlib's, for the convention-free figure.
+        pairs: Vec<(Vec<f32>, Vec<f32>)>,
+        /// The errors against `FIND_EVAL_AGAINST`'s points.
+        versus: Vec<f32>,
+        /// Frames where only this run or only `FIND_EVAL_AGAINST` found a face.
+        only_one: usize,
+    }
+
+    impl Tally {
+        /// Finds the faces of the frame at `p` (`key` in the dumps), writes them to `dump`,
+        /// compares them with `against`'s and with the dlib points, and counts the result.
+        fn frame(
+            &mut self,
+            finder: &mut FaceFinder,
+            p: &Path,
+            key: &str,
+            dump: Option<&mut std::io::BufWriter<std::fs::File>>,
+            against: Option<&HashMap<String, Vec<f32>>>,
+        ) {
+            let img = read_image(p).unwrap();
+            let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height).unwrap();
+            let view = img.view().unwrap();
+            let t = Instant::now();
+            let faces = finder.find(&view);
+            self.secs += t.elapsed().as_secs_f64();
+            self.n += 1;
+            let points = faces.first().map_or(&[][..], |f| &f.landmarks[..]);
+            if let Some(d) = dump {
+                let values: Vec<String> = points.iter().map(|v| v.to_string()).collect();
+                writeln!(d, "{key} {}", values.join(" ")).unwrap();
+            }
+            if let Some(other) = against.and_then(|a| a.get(key)) {
+                match (points.is_empty(), other.is_empty()) {
+                    (false, false) => self
+                        .versus
+                        .push(facemimic::find::landmark_error(points, other)),
+                    (true, true) => {}
+                    _ => self.only_one += 1,
                 }
             }
-            errors.sort_by(f32::total_cmp);
-            let p95_error = p95(&errors);
+            self.extra += faces.len().saturating_sub(1);
+            match faces
+                .first()
+                .map(|f| facemimic::find::landmark_error(&f.landmarks, &truth))
+            {
+                Some(e) if e < 0.25 => {
+                    if std::env::var_os("FIND_EVAL_BOXES").is_some() {
+                        print_box(&faces[0], &truth);
+                    }
+                    self.found += 1;
+                    self.pairs.push((faces[0].landmarks.clone(), truth.clone()));
+                    self.errors.push(e);
+                    self.err_sum += e;
+                    self.worst = self.worst.max(e);
+                }
+                _ => self
+                    .missed
+                    .push(p.file_name().unwrap().to_string_lossy().to_string()),
+            }
+        }
+
+        /// Prints the set's figures: the detection rate and errors, the convention-free error
+        /// and, with `against`, the errors against `FIND_EVAL_AGAINST`'s points.
+        fn report(mut self, set: &str, against: bool) {
+            let (n, found) = (self.n, self.found);
+            self.errors.sort_by(f32::total_cmp);
+            let p95_error = p95(&self.errors);
             println!(
-                "{set}: {found}/{n} found ({:.2}%), mean error {:.5}, p95 {p95_error:.4}, worst {:.4}, extra faces {extra}, {:.1} ms/frame; missed {:?}",
+                "{set}: {found}/{n} found ({:.2}%), mean error {:.5}, p95 {p95_error:.4}, worst {:.4}, extra faces {}, {:.1} ms/frame; missed {:?}",
                 100.0 * found as f64 / n as f64,
-                err_sum / found.max(1) as f32,
-                worst,
-                1000.0 * secs / n as f64,
-                &missed[..missed.len().min(8)]
+                self.err_sum / found.max(1) as f32,
+                self.worst,
+                self.extra,
+                1000.0 * self.secs / n as f64,
+                &self.missed[..self.missed.len().min(8)]
             );
             // Each point's mean offset from dlib's over the set removed (one person a set but
             // GRID's ten: a per-person convention counted there).
-            let refs: Vec<(&[f32], &[f32])> = pairs
+            let refs: Vec<(&[f32], &[f32])> = self
+                .pairs
                 .iter()
                 .map(|(a, b)| (a.as_slice(), b.as_slice()))
                 .collect();
@@ -159,16 +193,32 @@ mod native {
                 "{set}: convention-free mean error {:.5}",
                 cf.iter().sum::<f32>() / cf.len().max(1) as f32
             );
-            if against.is_some() {
+            if against {
+                let versus = &mut self.versus;
                 versus.sort_by(f32::total_cmp);
                 println!(
-                    "{set} against FIND_EVAL_AGAINST: {} frames, mean error {:.5}, p95 {:.5}, worst {:.5}; found by only one {only_one}",
+                    "{set} against FIND_EVAL_AGAINST: {} frames, mean error {:.5}, p95 {:.5}, worst {:.5}; found by only one {}",
                     versus.len(),
                     versus.iter().sum::<f32>() / versus.len().max(1) as f32,
-                    p95(&versus),
-                    versus.last().copied().unwrap_or(f32::NAN)
+                    p95(versus),
+                    versus.last().copied().unwrap_or(f32::NAN),
+                    self.only_one
                 );
             }
         }
+    }
+
+    /// Prints where the finder's box lies against the dlib points' box (`FIND_EVAL_BOXES`):
+    /// the centre's offset and the size, in units of the points' box, and the score.
+    fn print_box(f: &facemimic::Face, truth: &[f32]) {
+        let lb = facemimic::BBox::of_points(truth);
+        println!(
+            "box {:.3} {:.3} {:.3} {:.3} score {:.3}",
+            (f.bbox.x + 0.5 * f.bbox.width - lb.x - 0.5 * lb.width) / lb.width,
+            (f.bbox.y + 0.5 * f.bbox.height - lb.y - 0.5 * lb.height) / lb.height,
+            f.bbox.width / lb.width,
+            f.bbox.height / lb.height,
+            f.score
+        );
     }
 }

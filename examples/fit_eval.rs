@@ -7,17 +7,17 @@
 //!   frame's landmarks; `franck2-auto`: the same started (and re-acquired) by the face finder;
 //! - `webcam`: from webcam-dev frames 0, 30, ..., 570, frames 600-1336 from frame 600's
 //!   landmarks; `webcam-auto`: the same started (and re-acquired) by the face finder;
-//! - `webcam-fps`: the reference model of `tests/enrol_webcam.rs`: the dlib landmarks of every
+//! - `webcam-fps`: the reference model of `tests/integration/enrol_webcam.rs`: the dlib landmarks of every
 //!   5th frame of webcam-dev 0-599, 20 chosen by farthest-point sampling (`select_varied`),
 //!   tracked over 600-1336 from the face finder's landmarks on frame 600 (the 1200-1299
 //!   stretch, a hand over the chin, reported apart); `enrol`: the same with the enrolment
-//!   finder's landmarks (`EnrolFinder`, as `tests/enrol_webcam.rs`);
+//!   finder's landmarks (`EnrolFinder`, as `tests/integration/enrol_webcam.rs`);
 //! - `control`: the control row of `examples/enrol_eval.rs`: the dlib landmarks of the frames
 //!   of webcam-dev 0-599 (every 5th) the face finder scores >= 0.5, 20 chosen by
 //!   farthest-point sampling, tracked over 600-1336 from the finder's frame-600 landmarks
 //!   (1190-1289, the hand, reported apart); prints the left-out frames' shapes in the model's
 //!   standard deviations; `CONTROL_KEEP=490,495,...` keeps those frames whatever their score;
-//! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/fit.rs`);
+//! - `grid-basin`, `franck-basin`: cold fits from perturbed landmarks (as `tests/integration/fit.rs`);
 //! - `franck2-floor`: the shape model's floor (dlib landmarks projected onto it) and fits
 //!   started from each frame's dlib landmarks;
 //! - `dump-franck2`: writes the franck model and franck-dev2 frames 3800-4099 as raw RGBA into
@@ -148,7 +148,7 @@ mod native {
         .unwrap()
     }
 
-    /// 20 of `images` chosen by farthest-point sampling, in the order `tests/enrol_webcam.rs`
+    /// 20 of `images` chosen by farthest-point sampling, in the order `tests/integration/enrol_webcam.rs`
     /// builds them, and the model built from them.
     fn build_varied(mut images: Vec<TrainingImage>) -> Model {
         let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
@@ -180,59 +180,15 @@ mod native {
                     let (at, variants) = probe.split_once(':').unwrap();
                     if i == at.parse::<usize>().unwrap() {
                         let prev = t.last().unwrap().landmarks.clone();
-                        for v in variants.split(';') {
-                            let mut o = serde_json::to_value(options()).unwrap();
-                            let x: serde_json::Value = serde_json::from_str(v).unwrap();
-                            for (k, x) in x.as_object().unwrap() {
-                                o[k] = x.clone();
-                            }
-                            let o: FitOptions = serde_json::from_value(o).unwrap();
-                            let mut pf = Fitter::new(model, o).unwrap();
-                            let r = pf.fit(&f.image.view().unwrap(), &prev).unwrap();
-                            println!(
-                                "  probe {i} {v}: {:.4} residual {:.4} iterations {}",
-                                landmark_error(&r.landmarks, &f.landmarks),
-                                r.error,
-                                r.iterations
-                            );
-                        }
+                        probe_variants(model, f, i, &prev, variants);
                     }
                 }
-                let r = t.track(&f.image.view().unwrap()).unwrap();
+                let r = t
+                    .track(&f.image.view().unwrap(), facemimic::fit::DEFAULT_TIME_STEP)
+                    .unwrap();
                 let e = landmark_error(&r.landmarks, &f.landmarks);
                 if std::env::var_os("FIT_EVAL_FRAMES").is_some() {
-                    // The fit's shape parameters and the truth's (its projection onto the
-                    // model), in standard deviations, and the projection's own error.
-                    let v = &model.shape().variances;
-                    let sig = |p: &[f32]| {
-                        p.iter()
-                            .zip(v)
-                            .map(|(x, s)| format!("{:+.1}", x / s.sqrt()))
-                            .collect::<Vec<_>>()
-                            .join(" ")
-                    };
-                    let mut p = vec![0f32; v.len()];
-                    let mut inst = vec![0f32; model.shape().base.len()];
-                    let pose = model
-                        .shape()
-                        .project_image_shape(&f.landmarks, &mut p)
-                        .unwrap();
-                    model.shape().instance(&p, &mut inst).unwrap();
-                    pose.apply_in_place(&mut inst);
-                    // A cold fit started from the truth: is the tracked fit in the cost's
-                    // minimum near the truth, or in another one?
-                    let c = cold.fit(&f.image.view().unwrap(), &f.landmarks).unwrap();
-                    println!(
-                        "  {i} {e:.4} residual {:.4} iterations {} from truth {:.4} residual {:.4} \
-                         floor {:.4} fit [{}] truth [{}]",
-                        r.error,
-                        r.iterations,
-                        landmark_error(&c.landmarks, &f.landmarks),
-                        c.error,
-                        landmark_error(&inst, &f.landmarks),
-                        sig(&r.params.shape),
-                        sig(&p)
-                    );
+                    print_frame(model, &mut cold, f, i, r);
                 }
                 e
             })
@@ -262,6 +218,73 @@ mod native {
         println!("  shape variances / the first: {}", rel.join(" "));
     }
 
+    /// `FIT_EVAL_PROBE`: fits frame `f` (number `i`) from `prev` with each of `variants`
+    /// (`;`-separated JSON objects of `FitOptions` fields over [`options`]) and prints the
+    /// error, the residual and the iterations.
+    fn probe_variants(model: &Model, f: &TrainingImage, i: usize, prev: &[f32], variants: &str) {
+        for v in variants.split(';') {
+            let mut o = serde_json::to_value(options()).unwrap();
+            let x: serde_json::Value = serde_json::from_str(v).unwrap();
+            for (k, x) in x.as_object().unwrap() {
+                o[k] = x.clone();
+            }
+            let o: FitOptions = serde_json::from_value(o).unwrap();
+            let mut pf = Fitter::new(model, o).unwrap();
+            let r = pf.fit(&f.image.view().unwrap(), prev).unwrap();
+            println!(
+                "  probe {i} {v}: {:.4} residual {:.4} iterations {}",
+                landmark_error(&r.landmarks, &f.landmarks),
+                r.error,
+                r.iterations
+            );
+        }
+    }
+
+    /// `FIT_EVAL_FRAMES`: prints frame `f` (number `i`) tracked as `r`: its error, residual and
+    /// iterations, a cold fit's (`cold`) from the truth, the truth's projection's own error,
+    /// and the fit's and the truth's shape parameters in standard deviations.
+    fn print_frame(
+        model: &Model,
+        cold: &mut Fitter,
+        f: &TrainingImage,
+        i: usize,
+        r: &facemimic::fit::FitResult,
+    ) {
+        let e = landmark_error(&r.landmarks, &f.landmarks);
+        // The fit's shape parameters and the truth's (its projection onto the
+        // model), in standard deviations, and the projection's own error.
+        let v = &model.shape().variances;
+        let sig = |p: &[f32]| {
+            p.iter()
+                .zip(v)
+                .map(|(x, s)| format!("{:+.1}", x / s.sqrt()))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let mut p = vec![0f32; v.len()];
+        let mut inst = vec![0f32; model.shape().base.len()];
+        let pose = model
+            .shape()
+            .project_image_shape(&f.landmarks, &mut p)
+            .unwrap();
+        model.shape().instance(&p, &mut inst).unwrap();
+        pose.apply_in_place(&mut inst);
+        // A cold fit started from the truth: is the tracked fit in the cost's
+        // minimum near the truth, or in another one?
+        let c = cold.fit(&f.image.view().unwrap(), &f.landmarks).unwrap();
+        println!(
+            "  {i} {e:.4} residual {:.4} iterations {} from truth {:.4} residual {:.4} \
+             floor {:.4} fit [{}] truth [{}]",
+            r.error,
+            r.iterations,
+            landmark_error(&c.landmarks, &f.landmarks),
+            c.error,
+            landmark_error(&inst, &f.landmarks),
+            sig(&r.params.shape),
+            sig(&p)
+        );
+    }
+
     fn numbered(dir: &Path, range: impl Iterator<Item = usize>) -> Vec<PathBuf> {
         range.map(|i| dir.join(format!("{i:06}.jpg"))).collect()
     }
@@ -283,7 +306,9 @@ mod native {
         let t0 = Instant::now();
         let c0 = cpu_seconds();
         for f in seq {
-            let r = t.track(&f.image.view().unwrap()).unwrap();
+            let r = t
+                .track(&f.image.view().unwrap(), facemimic::fit::DEFAULT_TIME_STEP)
+                .unwrap();
             iters += r.iterations as u64;
             let tr = &f.landmarks;
             let iod = ((tr[90] - tr[72]).powi(2) + (tr[91] - tr[73]).powi(2)).sqrt();

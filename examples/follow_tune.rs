@@ -1,5 +1,5 @@
 //! Chooses the person-independent follower's smoothing and neutral rate on webcam-dev frames
-//! 0-599 only (the frames `tests/follow.rs` measures, 600-1336, stay unseen): prints each
+//! 0-599 only (the frames `tests/integration/follow.rs` measures, 600-1336, stay unseen): prints each
 //! setting's convention-free error, frames over 0.1, raw error, the cloned mouth's correlation
 //! with the person's and the frames lost. Research data read from `../shared` (never committed).
 //!

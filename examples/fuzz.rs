@@ -3,7 +3,7 @@
 //! Mutates models, landmark files and parameter JSON (see `fuzz/engine.rs`), checks that
 //! nothing panics, every `Ok` output is finite and every model load stays within its memory
 //! budget (counting global allocator), prints executions per second, saves each input whose
-//! outcome class is new into `fuzz/corpus/` (replayed by `tests/fuzz.rs`), and exits non-zero
+//! outcome class is new into `fuzz/corpus/` (replayed by `tests/integration/fuzz.rs`), and exits non-zero
 //! on the first failure (saved as `fuzz/failures/<target>-<n>`).
 
 use facemimic_testkit::fuzz as engine;

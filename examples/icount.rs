@@ -123,7 +123,10 @@ mod native {
                     .map(|f| f.image.view().expect("view"))
                     .collect();
                 for i in 0..n {
-                    sink += tracker.track(&views[i % views.len()]).expect("track").error as f64;
+                    sink += tracker
+                        .track(&views[i % views.len()], facemimic::fit::DEFAULT_TIME_STEP)
+                        .expect("track")
+                        .error as f64;
                 }
             }
             "find" => {

@@ -6,7 +6,7 @@
 //! `../shared` (never committed).
 //!
 //! `cargo run --release --example mouth_probe -- [CLIP FIRST LAST] [--windows]` (default
-//! franck-dev 0 999; `tests/follow.rs` measures franck-dev2 3800 4799 and webcam-dev 600 1336,
+//! franck-dev 0 999; `tests/integration/follow.rs` measures franck-dev2 3800 4799 and webcam-dev 600 1336,
 //! so choose other frames to tune on).
 #![cfg_attr(target_arch = "wasm32", no_main)]
 

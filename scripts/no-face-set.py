@@ -308,7 +308,7 @@ def main():
             "# The hard no-face set\n\n"
             "Title cards, printed text, logos and patterned fabric (640x480 JPEG), drawn by\n"
             "`scripts/no-face-set.py` from fixed seeds: the project's own pictures, no face in any\n"
-            "of them. `tests/no_face.rs` asserts that the face finder reports no face on any.\n\n"
+            "of them. `tests/integration/no_face.rs` asserts that the face finder reports no face on any.\n\n"
             "| kind | files |\n|---|---|\n"
         )
         for name, _, n in kinds:

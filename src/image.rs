@@ -111,3 +111,14 @@ impl Image {
         ImageRef::new(self.width, self.height, &self.data)
     }
 }
+
+/// One training example: an image and its landmarks (0-based image coordinates).
+#[derive(Clone, Debug)]
+pub struct TrainingImage {
+    /// A name for it (the file stem), used to name a reference image.
+    pub name: String,
+    /// The RGBA image.
+    pub image: Image,
+    /// Its landmarks, interleaved.
+    pub landmarks: Vec<f32>,
+}

@@ -3,9 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::image::{Image, MAX_IMAGE_SIDE};
+use crate::image::{Image, TrainingImage, MAX_IMAGE_SIDE};
 use crate::landmarks::{parse_asf, parse_pts};
-use crate::train::TrainingImage;
 
 /// Decodes a PNG or JPEG file into RGBA8.
 pub fn read_image(path: &Path) -> Result<Image> {

@@ -15,6 +15,9 @@
 //!   into a tiny-skia pixmap with the chosen backend: [`Renderer`] (tiny-skia pattern fills, the
 //!   default) or [`Scanline`] ([`Rasterizer::Scanline`], an opt-in faster fixed-point warp);
 //!   [`fit_view`] lays a face out in a canvas.
+//! - [`Stage`] is the whole pipeline of a front end: a source (parameters, or video through a
+//!   [`fit::FaceTracker`]) cloned onto every target and drawn, composited, into
+//!   [`Picture`]s it owns, with the compare view and the timings.
 //! - [`fit`] tracks a face in video ([`fit::Tracker`]), [`clone`] maps one face's parameters
 //!   onto other models ([`clone::Cloner`]), [`find`] finds faces and their landmarks
 //!   ([`FaceFinder`]).
@@ -44,6 +47,7 @@ pub mod numerics;
 mod pca;
 mod render;
 mod similarity;
+mod stage;
 mod train;
 
 pub use error::{Error, FormatError, Result};
@@ -60,19 +64,25 @@ pub use model::shape::ShapeModel;
 pub use model::{bounds, format};
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
 pub use render::{
-    base_box, canvas_view, demultiply, demultiply_into, fit_view, hull_loop, mean_value_weights,
-    picture_view, Compositor, DrawOptions, ExtendedMesh, FaceDrawer, Rasterizer, Renderer,
-    Scanline, ScanlineStore, SkiaStore, Store, Warp,
+    base_box, canvas_view, demultiply, demultiply_into, fit_view, picture_view, Compositor,
+    DrawOptions, FaceDrawer, Rasterizer, Renderer, Scanline,
 };
 pub use similarity::{PoseJson, Similarity};
+pub use stage::{
+    check_picture_size, default_clock, Clock, CompareView, Framing, Picture, PictureOptions, Stage,
+    Timings, DEFAULT_BACKGROUND, MAX_PICTURE_PIXELS,
+};
 pub use tiny_skia;
 pub use train::canonical;
 pub use train::canonical::{canonical_frame, CANONICAL_FINGERPRINT};
 pub use train::enrol::{EnrolFace, EnrolFinder};
-pub use train::photo::{closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE};
+pub use train::photo::{
+    closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE, PHOTO_FIT_PASSES,
+    PHOTO_MAX_SIDE,
+};
 pub use train::pipeline::{
-    enrol, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, Enrolment, DEFAULT_MIN_SCORE,
-    ENROL_BOXES, MAX_REFINE_ROUNDS,
+    enrol, EnrolFrame, EnrolOptions, EnrolProgress, EnrolSampling, EnrolStage, Enrolment,
+    DEFAULT_MIN_SCORE, ENROL_BOXES, MAX_REFINE_ROUNDS,
 };
 pub use train::refine::refine_landmarks;
 pub use train::select::{coverage, select_varied};

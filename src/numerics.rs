@@ -7,10 +7,13 @@
 //!   shape model (Eq. 1) and the appearance model (Eq. 2);
 //! - [`triangulate`] meshes a base shape (Delaunay);
 //! - [`sample_rgb`] samples an image at its landmarks into a reference frame;
-//! - [`synthesise`] computes an appearance instance `A0 + sum lambda_i A_i` (Eq. 2).
+//! - [`synthesise`] computes an appearance instance `A0 + sum lambda_i A_i` (Eq. 2);
+//! - [`hull_loop`] and [`mean_value_weights`] are the compositor's border and its mean-value
+//!   interpolation of the offsets along it.
 
 pub use crate::model::appearance::synthesise;
 pub use crate::model::frame::triangulate;
 pub use crate::model::shape::generalised_procrustes;
 pub use crate::model::warp::sample_rgb;
 pub use crate::pca::{pca, Pca};
+pub use crate::render::{hull_loop, mean_value_weights};

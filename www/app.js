@@ -1,9 +1,10 @@
 // facemimic demo page: one source face (spk07) drives every target face live.
 //
-// Data flow per animation frame: active source -> Params -> cloner.setSourceParams -> update()
-// (map + synthesise every target) -> render the source, every target and, when open, the
-// compare view (one target with every method of the package's methods()) into their canvases at
-// device-pixel size.
+// Data flow per animation frame: active source -> Params (cloner.setSourceParams, or for a
+// tracked source cloner.sourceFromTracker: the parameters stay in wasm) -> cloner.drawFrame():
+// map + synthesise every target, then draw the source, every target and, when open, the compare
+// view (one target with every method of the package's methods()) into the canvases registered
+// with the cloner (at device-pixel size).
 // Nothing is rendered when nothing changed (paused and idle), except the inspector's animation
 // (the Inspector panel's, or while "Create a face" is open, its preview's).
 
@@ -185,37 +186,62 @@ function frame(now) {
   readouts(now);
 }
 
+// The canvases the cloner draws every frame, registered with it once (and again when a canvas,
+// a drawing option or the compare view changes): a frame is then one drawFrame call.
+const registered = { cloner: null, key: '', canvases: [] };
+
+/** Registers the faces' canvases with the cloner when they changed; returns them in drawFrame's
+ *  order (source, targets, compare views) with how many are compare views. */
+function registerCanvases(c, opts, targetOpts) {
+  const compareOn = !$('compare').hidden && app.targets.length > 0;
+  const ci = compareOn ? Math.min(app.compareIndex, app.targets.length - 1) : null;
+  const compare = compareOn ? app.compareViews : [];
+  const canvases = [app.source.canvas, ...app.targets.map((e) => e.canvas), ...compare.map((v) => v.canvas)];
+  const key = [opts.background, opts.raster, opts.mesh, targetOpts.composite, ci, ...compare.map((v) => v.method)].join('|');
+  const same =
+    registered.cloner === c &&
+    registered.key === key &&
+    canvases.length === registered.canvases.length &&
+    canvases.every((x, k) => x === registered.canvases[k]);
+  if (!same) {
+    c.setSourceCanvas(ctx2d(app.source.canvas), opts);
+    app.targets.forEach((e, i) => c.setTargetCanvas(i, ctx2d(e.canvas), targetOpts));
+    for (const { method, canvas } of app.compareViews) c.setCompareCanvas(method, compareOn ? ctx2d(canvas) : null, opts);
+    c.setCompareTarget(ci);
+    Object.assign(registered, { cloner: c, key, canvases });
+  }
+  return { canvases, compared: compare.length, ci };
+}
+
 function render(t) {
   const t0 = performance.now();
   const p = app.active.paramsAt(t);
   app.params = p;
   const c = app.cloner;
-  c.setSourceParams(p);
-  c.update();
+  // A tracked source's parameters stay in wasm: the cloner reads the tracker's last good fit
+  // (the same parameters as `p`); otherwise (sliders, the track, no good fit yet) they are set.
+  const tracker = app.active.tracker;
+  if (!(tracker && c.sourceFromTracker(tracker))) c.setSourceParams(p);
   // "Fast raster" (on by default) rasterises with the package's fixed-point scanline warp into
   // the same tiny-skia pixmap (~3x faster, within ~1.5 levels); off, tiny-skia's pattern fills
   // (the reference renderer of the CLI and the npm package) draw every triangle.
   // Targets are composited into their pictures unless "Face only" is on. The compare view shows
-  // the face alone, where the methods differ (renderTargetWithMethod could composite too).
+  // the face alone, where the methods differ.
   const { face: opts, target: targetOpts } = renderOptions();
+  const { canvases, compared, ci } = registerCanvases(c, opts, targetOpts);
   // Faces scrolled out of view are skipped (redrawn when they come back), except while
   // recording, which copies every face canvas into the video.
   const all = !!app.recorder;
-  const seen = (canvas) => all || app.hidpi.visible(canvas);
-  if (seen(app.source.canvas)) c.renderSource(ctx2d(app.source.canvas), opts);
-  for (let i = 0; i < app.targets.length; i++) {
-    if (seen(app.targets[i].canvas)) c.renderTarget(i, ctx2d(app.targets[i].canvas), targetOpts);
-  }
-  if (!$('compare').hidden && app.targets.length) {
-    const i = Math.min(app.compareIndex, app.targets.length - 1);
-    if ($('compare-name').textContent !== app.targets[i].name) $('compare-name').textContent = app.targets[i].name;
+  const faces = canvases.length - compared;
+  const shown = Uint8Array.from(canvases, (canvas, k) => ((all && k < faces) || app.hidpi.visible(canvas) ? 1 : 0));
+  // One call: update() (map + synthesise every target), then every canvas drawn and blitted.
+  c.drawFrame(shown);
+  if (ci !== null) {
+    if ($('compare-name').textContent !== app.targets[ci].name) $('compare-name').textContent = app.targets[ci].name;
     const note = $('compare-note');
-    if (note.hidden === !!app.targets[i].info.isPhoto) note.hidden = !app.targets[i].info.isPhoto;
-    for (const { method, canvas } of app.compareViews) {
-      if (app.hidpi.visible(canvas)) c.renderTargetWithMethod(i, method, ctx2d(canvas), opts);
-    }
+    if (note.hidden === !!app.targets[ci].info.isPhoto) note.hidden = !app.targets[ci].info.isPhoto;
   }
-  // The stage timings accumulate from update() over every render call of this frame.
+  // The stage timings of this frame (drawFrame's update() reset them).
   const tm = c.timings();
   const { mapMs: map, synthMs: synth, rasterMs: raster, blitMs: blit } = tm;
   recordFrame();

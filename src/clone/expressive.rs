@@ -315,7 +315,7 @@ impl SourceSide {
         let edge = |at: [f32; 2], r: std::ops::Range<usize>| {
             (distance_to_polygon(at, frame.vertices(), r) / FEATHER).min(1.0)
         };
-        let a0 = &source.appearance().base;
+        let a0 = source.appearance().base();
         let y0: Vec<f32> = a0.chunks_exact(3).map(luma).collect();
         let mut skin_pixels = Vec::new();
         let mut inner = vec![0u8; frame.n_pixels()];
@@ -397,7 +397,7 @@ impl SourceSide {
     pub fn frame_buffer(&self, source: &Model) -> SourceFrame {
         SourceFrame {
             d: vec![0.0; source.shape().base.len()],
-            app: vec![0.0; source.appearance().base.len()],
+            app: vec![0.0; source.appearance().len()],
             ratio: vec![1.0; self.y0.len()],
             grid: vec![0.0; 2 * self.grid.len()],
             tmp: vec![0.0; 2 * self.grid.len()],
@@ -437,7 +437,7 @@ impl SourceFrame {
             }
         }
         let app = source.appearance();
-        crate::model::appearance::synthesise(&app.base, &app.modes, lambda, &mut self.app);
+        app.instance_unchecked(lambda, &mut self.app);
         // The exposure of the source's frame against its neutral (a light switched on, a camera
         // adapting) is not expression: the ratio is taken against it.
         let (mut ys, mut y0s) = (0f64, 0f64);
@@ -551,7 +551,7 @@ impl ExpressiveTarget {
         let frame = target.frame();
         let base = &target.shape().base;
         let l = transfer_operator(&source.shape().base, base, frame.triangles())?;
-        let a0 = &target.appearance().base;
+        let a0 = target.appearance().base();
         let tris = frame.triangles();
         let pixels = frame.pixels();
         let in_tri = |k: usize, f: &dyn Fn(u32) -> bool| {
@@ -756,7 +756,7 @@ pub fn expressive_appearance(
     style: f32,
     out: &mut [f32],
 ) {
-    let a0 = &target.appearance().base;
+    let a0 = target.appearance().base();
     let keep = 1.0 - style;
     let blend = style < 1.0;
     for ((o, a), &r) in out

@@ -29,6 +29,8 @@
 //! express), so it has no target parameter to clamp; it grows linearly with the (gained)
 //! source parameters. Nor does it bound the pose.
 
+use crate::model::linear::dot64;
+pub use crate::model::linear::inner_products;
 use std::fmt;
 use std::str::FromStr;
 
@@ -253,23 +255,6 @@ pub fn apply_gains(p: &[f32], gain: f32, per_mode: &[f32], out: &mut [f32]) {
     }
 }
 
-/// The inner-product matrix of section 3.1, `R = T^T S` (rows = target modes, columns =
-/// source modes, row-major `q x r`): `R[j][i] = <t_j, s_i>`. Used for shape (`R = S*^T S`) and
-/// appearance (`Ra = A*^T A`). Accumulates in f64. `target` and `source` are row-major mode
-/// matrices whose rows are `dim` long.
-pub fn inner_products(target: &[f32], source: &[f32], dim: usize) -> Vec<f32> {
-    if dim == 0 {
-        return Vec::new();
-    }
-    let mut r = Vec::with_capacity((target.len() / dim) * (source.len() / dim));
-    for t in target.chunks_exact(dim) {
-        for s in source.chunks_exact(dim) {
-            r.push(dot64(t, s) as f32);
-        }
-    }
-    r
-}
-
 /// The residual directions of section 3.2 (Eq. 4), per unit of source parameter:
 /// `delta_i = (I - S* S*^T) s_i = s_i - sum_j R[j][i] s*_j`, the part of source shape mode
 /// `i` the target's shape basis cannot express. (The paper perturbs by one sigma, `sqrt
@@ -396,23 +381,6 @@ fn linear_f64(base: &[f32], modes: &[f32], w: &[f32], acc: &mut [f64]) {
     add_residual(modes, w, acc);
 }
 
-fn dot64(a: &[f32], b: &[f32]) -> f64 {
-    let mut acc = [0f64; 4];
-    let n = a.len().min(b.len());
-    let chunks = n / 4;
-    for c in 0..chunks {
-        let o = c * 4;
-        for l in 0..4 {
-            acc[l] += a[o + l] as f64 * b[o + l] as f64;
-        }
-    }
-    let mut s = acc.iter().sum::<f64>();
-    for k in chunks * 4..n {
-        s += a[k] as f64 * b[k] as f64;
-    }
-    s
-}
-
 // ---------------------------------------------------------------------------------------
 // Per-pair precomputation.
 
@@ -445,14 +413,9 @@ impl Pair {
         }
         source.check_compatible(target)?;
         let d = source.shape().base.len();
-        let da = source.appearance().len();
         Ok(Pair {
             shape_map: inner_products(&target.shape().modes, &source.shape().modes, d),
-            appearance_map: inner_products(
-                &target.appearance().modes,
-                &source.appearance().modes,
-                da,
-            ),
+            appearance_map: target.appearance().mode_products(source.appearance()),
             residual: residual_directions(&target.shape().modes, &source.shape().modes, d),
             target_shape_sigmas: target.shape().sigmas(),
             target_appearance_sigmas: target.appearance().sigmas(),
@@ -511,7 +474,7 @@ impl TargetFrame {
         TargetFrame {
             params,
             shape,
-            appearance: model.appearance().base.clone(),
+            appearance: model.appearance().base().to_vec(),
         }
     }
 
@@ -608,38 +571,16 @@ impl<'a> Step<'a> {
         } else {
             (self.p, self.lambda)
         };
-        out.params.pose = target_pose(
-            self.source_mean_inverse,
-            self.source_pose,
-            &m.home_pose(),
-            options.follow_pose,
-        );
-        map_params(&pair.shape_map, p, &mut out.params.shape);
-        map_params(&pair.appearance_map, lambda, &mut out.params.appearance);
-        if method != Method::Substitute {
-            if let Some(k) = options.clamp {
-                constrain(
-                    &mut out.params.appearance,
-                    &pair.target_appearance_sigmas,
-                    k,
-                );
-            }
-        }
+        self.map_onto(m, pair, method, (p, lambda), out);
         // The target's own mapped appearance, `A0* + A* lambda*` (Eq. 3).
         let own_appearance = |params: &Params, out: &mut [f32]| {
-            crate::model::appearance::synthesise(
-                &m.appearance().base,
-                &m.appearance().modes,
-                &params.appearance,
-                out,
-            )
+            m.appearance().instance_unchecked(&params.appearance, out)
         };
         match method {
             Method::Substitute => {
                 substitute_shape(&m.shape().base, &self.source.shape().modes, p, acc);
-                crate::model::appearance::synthesise(
-                    &m.appearance().base,
-                    &self.source.appearance().modes,
+                self.source.appearance().instance_on(
+                    m.appearance().base(),
                     lambda,
                     &mut out.appearance,
                 );
@@ -688,22 +629,56 @@ impl<'a> Step<'a> {
             o[0] = x;
             o[1] = y;
         }
-        // The entry bounds keep these finite; checked so that no NaN can ever leave.
-        let name = &m.name();
-        crate::model::bounds::check_output(&format!("target '{name}' shape"), &out.shape)?;
-        crate::model::bounds::check_output(
-            &format!("target '{name}' appearance"),
-            &out.appearance,
-        )?;
-        crate::model::bounds::check_output(
-            &format!("target '{name}' shape parameters"),
-            &out.params.shape,
-        )?;
-        crate::model::bounds::check_output(
-            &format!("target '{name}' appearance parameters"),
-            &out.params.appearance,
-        )
+        check_outputs(m, out)
     }
+
+    /// The target's pose and mapped parameters for the step: the pose from the source's
+    /// (see [`CloneOptions::follow_pose`]), the source's `p` and `lambda` through the pair's
+    /// maps, the appearance limited to the clamp unless `method` substitutes.
+    fn map_onto(
+        &self,
+        m: &Model,
+        pair: &Pair,
+        method: Method,
+        (p, lambda): (&[f32], &[f32]),
+        out: &mut TargetFrame,
+    ) {
+        let options = self.options;
+        out.params.pose = target_pose(
+            self.source_mean_inverse,
+            self.source_pose,
+            &m.home_pose(),
+            options.follow_pose,
+        );
+        map_params(&pair.shape_map, p, &mut out.params.shape);
+        map_params(&pair.appearance_map, lambda, &mut out.params.appearance);
+        if method != Method::Substitute {
+            if let Some(k) = options.clamp {
+                constrain(
+                    &mut out.params.appearance,
+                    &pair.target_appearance_sigmas,
+                    k,
+                );
+            }
+        }
+    }
+}
+
+/// Checks that a cloned frame of target `m` is finite: the entry bounds keep it so; checked so
+/// that no NaN can ever leave. Fails with [`Error::Overflow`] naming the first output that is
+/// not.
+fn check_outputs(m: &Model, out: &TargetFrame) -> Result<()> {
+    let name = &m.name();
+    crate::model::bounds::check_output(&format!("target '{name}' shape"), &out.shape)?;
+    crate::model::bounds::check_output(&format!("target '{name}' appearance"), &out.appearance)?;
+    crate::model::bounds::check_output(
+        &format!("target '{name}' shape parameters"),
+        &out.params.shape,
+    )?;
+    crate::model::bounds::check_output(
+        &format!("target '{name}' appearance parameters"),
+        &out.params.appearance,
+    )
 }
 
 /// One source model cloned onto any number of target models.

@@ -44,6 +44,27 @@ pub fn transfer_operator(
             target.len()
         )));
     }
+    let (mut h, used) = mesh_system(source, target, triangles)?;
+    let mu = add_anchor(&mut h);
+    let chol = h
+        .cholesky()
+        .ok_or_else(|| Error::Incompatible("deformation transfer: singular mesh system".into()))?;
+    Ok(operator_columns(&chol, &used, &mu))
+}
+
+/// A usable triangle of [`transfer_operator`]'s mesh term: its vertices `(a, b, c)`, its weight
+/// (the target triangle's area) and `K_t = V_t^-1 E_t`.
+type MeshTerm = ([usize; 3], f64, [[f64; 2]; 2]);
+
+/// The mesh term of [`transfer_operator`]: the `n x n` normal matrix of
+/// `sum_t area_t |E_t(u)|^2` (the same for either coordinate) and the usable triangles, those
+/// thick enough in both bases. Fails with [`Error::Incompatible`] on a triangle index `>= n`.
+fn mesh_system(
+    source: &[f32],
+    target: &[f32],
+    triangles: &[[u32; 3]],
+) -> Result<(DMatrix<f64>, Vec<MeshTerm>)> {
+    let n = source.len() / 2;
     let mut h = DMatrix::<f64>::zeros(n, n);
     // Per usable triangle: its vertices, weight and K = V^-1 E.
     let mut used = Vec::with_capacity(triangles.len());
@@ -78,6 +99,14 @@ pub fn transfer_operator(
         }
         used.push(([a, b, c], w, k));
     }
+    Ok((h, used))
+}
+
+/// Adds the anchor term of [`transfer_operator`] to the mesh term's normal matrix `h` and
+/// returns its weights `mu_i`: [`ANCHOR`], or [`JAW_ANCHOR`] on a jaw, times `h`'s mean
+/// diagonal.
+fn add_anchor(h: &mut DMatrix<f64>) -> Vec<f64> {
+    let n = h.nrows();
     let scale = h.trace() / n as f64;
     // 68 points: the jaw's outline (0-16) follows the target's proportions more freely.
     let mu: Vec<f64> = (0..n)
@@ -93,9 +122,18 @@ pub fn transfer_operator(
     for (i, m) in mu.iter().enumerate() {
         h[(i, i)] += m;
     }
-    let chol = h
-        .cholesky()
-        .ok_or_else(|| Error::Incompatible("deformation transfer: singular mesh system".into()))?;
+    mu
+}
+
+/// The operator `L` of [`transfer_operator`] (row-major `2n x 2n`), column by column: column
+/// `k` is the solution (through `chol`, the factored system) for a unit displacement of
+/// coordinate `k`.
+fn operator_columns(
+    chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    used: &[MeshTerm],
+    mu: &[f64],
+) -> Vec<f32> {
+    let n = mu.len();
     // Column k of L: the response to a unit displacement of coordinate k.
     let mut l = vec![0f32; 4 * n * n];
     let mut rhs = [DVector::<f64>::zeros(n), DVector::<f64>::zeros(n)];
@@ -104,7 +142,7 @@ pub fn transfer_operator(
         rhs.iter_mut().for_each(|r| r.fill(0.0));
         // The anchor: each vertex pulled towards the source's own displacement.
         rhs[ck][vk] += mu[vk];
-        for &([a, b, c], w, kt) in &used {
+        for &([a, b, c], w, kt) in used {
             // dV = [d_b - d_a, d_c - d_a] restricted to coordinate ck of vertex vk.
             let de = [
                 (vk == b) as i32 as f64 - (vk == a) as i32 as f64,
@@ -130,7 +168,7 @@ pub fn transfer_operator(
             }
         }
     }
-    Ok(l)
+    l
 }
 
 /// The weight of the anchor term of [`transfer_operator`], relative to the mesh term's mean

@@ -324,7 +324,8 @@ mod tests {
         let mut tracked = Vec::new();
         for f in 0..4 {
             let (scale, angle) = (1.0 + 0.2 * f as f32, 0.3 * f as f32 - 0.4);
-            let sim = crate::Similarity::from_parts(scale, angle, 100.0 + f as f32, 80.0);
+            let sim =
+                crate::similarity::Similarity::from_parts(scale, angle, 100.0 + f as f32, 80.0);
             let mut g = base.clone();
             sim.apply_in_place(&mut g);
             let [dx, dy] = crate::landmarks::eye_line(&g).unwrap();

@@ -1083,7 +1083,7 @@ mod wasm_speed {
             })
             .collect();
         let image = crate::image::ImageRef::new(w, h, &data).unwrap();
-        let mut finder = crate::FaceFinder::new().unwrap();
+        let mut finder = crate::find::FaceFinder::new().unwrap();
         let (fast, median) = time(50, || {
             finder.find(&image);
         });

@@ -7,9 +7,9 @@ use super::local::{
     check_stage, local_descriptor, LocalCorrection, LocalScratch, Stage, DIM, MAX_STAGES,
 };
 use crate::error::{Error, Result};
+use crate::find::FaceFinder;
 use crate::image::ImageRef;
 use crate::landmarks::mirror_points;
-use crate::FaceFinder;
 use nalgebra::{DMatrix, DVector};
 
 /// One landmarked image to learn from.

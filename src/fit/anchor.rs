@@ -1,6 +1,6 @@
 //! The head placement a followed face drives: its pose re-centred on the model's mean pose
 //! about an anchor that follows the head slowly, and what the [`crate::fit::Tracker`] and the
-//! [`crate::fit::Follower`] share (counters, the anchor).
+//! [`crate::fit::Follower`] share (counters, the anchor), and the running [`PoseAnchor`] itself.
 
 use crate::similarity::Similarity;
 
@@ -20,9 +20,7 @@ use crate::similarity::Similarity;
 pub struct Sequence {
     /// The model's mean pose (where the anchor's face is placed).
     target: Similarity,
-    anchor: Option<Similarity>,
-    /// Seconds since the anchor last moved (lost frames included).
-    since: f32,
+    anchor: PoseAnchor,
     placed: Similarity,
     lost_count: u32,
     reacquisitions: u32,
@@ -34,8 +32,7 @@ impl Sequence {
     pub fn new(target: Similarity) -> Sequence {
         Sequence {
             target,
-            anchor: None,
-            since: 0.0,
+            anchor: PoseAnchor::new(),
             placed: target,
             lost_count: 0,
             reacquisitions: 0,
@@ -46,8 +43,7 @@ impl Sequence {
     /// Forgets the anchor (a new sequence: the next good pose becomes it). The counters and
     /// the last placement stay.
     pub fn restart(&mut self) {
-        self.anchor = None;
-        self.since = 0.0;
+        self.anchor.reset();
     }
 
     /// Counts a frame `dt` seconds after the previous one: `pose` is its good fit's pose, or
@@ -58,19 +54,11 @@ impl Sequence {
         if reacquired {
             self.reacquisitions += 1;
         }
-        let dt = if dt.is_finite() { dt.max(0.0) } else { 0.0 };
-        self.since += dt;
-        let Some(pose) = pose.filter(|p| p.is_valid()) else {
+        self.anchor.wait(dt);
+        let Some((pose, anchor)) = pose.and_then(|p| Some((p, self.anchor.follow(p, tau)?))) else {
             self.lost_count += 1;
             return;
         };
-        let anchor = match self.anchor {
-            None => *pose,
-            Some(a) if tau > 0.0 => a.lerp(pose, 1.0 - (-self.since / tau).exp()),
-            Some(a) => a,
-        };
-        self.anchor = Some(anchor);
-        self.since = 0.0;
         if let Some(p) = pose.recentred(&anchor, &self.target) {
             self.placed = p;
         }
@@ -84,7 +72,7 @@ impl Sequence {
 
     /// The anchor (frame pixels), `None` before the sequence's first good frame.
     pub fn anchor(&self) -> Option<Similarity> {
-        self.anchor
+        self.anchor.get()
     }
 
     /// The model's mean pose, where the anchor's face is placed.
@@ -105,6 +93,72 @@ impl Sequence {
     /// Frames followed since the tracker or follower was made.
     pub fn frames(&self) -> u32 {
         self.frames
+    }
+}
+
+/// A pose that follows a head slowly: the core's one running pose anchor, used by the
+/// [`Sequence`] (the placement about it) and, through the package's `PoseDamper`, by the call
+/// page's head-motion damping ([`PoseAnchor::damped`]).
+///
+/// Represents the anchor (none before the first pose) and the seconds since it last moved.
+/// Ensures: the first pose given is the anchor; each later pose moves it by
+/// [`Similarity::lerp`] `1 - exp(-since / tau)` of the way (`since`: the seconds since the
+/// anchor last moved, time with no pose included), so with a time constant `tau > 0` it is an
+/// exponential running mean of the poses (geometric in scale, the short way round in angle,
+/// arithmetic in translation) and with `tau = 0` it stays at the first pose. Allocates nothing.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PoseAnchor {
+    anchor: Option<Similarity>,
+    /// Seconds since the anchor last moved.
+    since: f32,
+}
+
+impl PoseAnchor {
+    /// No anchor yet: the next pose becomes it.
+    pub fn new() -> PoseAnchor {
+        PoseAnchor::default()
+    }
+
+    /// Forgets the anchor (the next pose becomes it).
+    pub fn reset(&mut self) {
+        *self = PoseAnchor::default();
+    }
+
+    /// The anchor, `None` before the first pose.
+    pub fn get(&self) -> Option<Similarity> {
+        self.anchor
+    }
+
+    /// Counts `dt` seconds (a non-finite or negative `dt` counts as 0).
+    pub fn wait(&mut self, dt: f32) {
+        self.since += if dt.is_finite() { dt.max(0.0) } else { 0.0 };
+    }
+
+    /// Moves the anchor towards `pose` for the time counted since it last moved
+    /// ([`PoseAnchor::wait`]; time constant `tau` seconds, 0: fixed) and returns it; an
+    /// invalid pose ([`Similarity::is_valid`]) changes nothing and gives `None`.
+    pub fn follow(&mut self, pose: &Similarity, tau: f32) -> Option<Similarity> {
+        if !pose.is_valid() {
+            return None;
+        }
+        let anchor = match self.anchor {
+            None => *pose,
+            Some(a) if tau > 0.0 => a.lerp(pose, 1.0 - (-self.since / tau).exp()),
+            Some(a) => a,
+        };
+        self.anchor = Some(anchor);
+        self.since = 0.0;
+        Some(anchor)
+    }
+
+    /// Head-motion damping: `pose`'s deviation from the anchor scaled by `factor`, i.e.
+    /// `anchor.lerp(pose, factor)` (0: the anchor, 1: `pose` itself, over 1: the motion
+    /// exaggerated); `pose` itself without an anchor, for a `factor` of 1, or a non-finite one.
+    pub fn damped(&self, pose: &Similarity, factor: f32) -> Similarity {
+        match self.anchor {
+            Some(a) if factor != 1.0 && factor.is_finite() => a.lerp(pose, factor),
+            _ => *pose,
+        }
     }
 }
 
@@ -141,5 +195,39 @@ mod tests {
         f.restart();
         f.frame(Some(&p1), 0.04, 0.0, false);
         assert_eq!(f.anchor(), Some(p1));
+    }
+
+    #[test]
+    fn damping_scales_the_deviation_from_the_running_anchor() {
+        let still = Similarity::from_parts(2.0, 0.1, 100.0, 50.0);
+        let mut a = PoseAnchor::new();
+        assert_eq!(a.damped(&still, 0.3), still, "no anchor yet: the pose");
+        for _ in 0..300 {
+            a.wait(0.033);
+            a.follow(&still, 2.0);
+        }
+        let moved = Similarity::from_parts(2.0, 0.1, 120.0, 50.0);
+        a.wait(0.033);
+        a.follow(&moved, 2.0);
+        // Factor 0 keeps the head near the anchor, 0.5 goes half way, 1 is the pose.
+        assert!((a.damped(&moved, 0.0).tx - 100.0).abs() < 0.5);
+        assert!((a.damped(&moved, 0.5).tx - 110.0).abs() < 0.5);
+        assert_eq!(a.damped(&moved, 1.0), moved);
+        // Scale is damped in log space: positive at any factor.
+        assert!(
+            a.damped(&Similarity::from_parts(0.1, 0.1, 0.0, 0.0), 1.5)
+                .scale()
+                > 0.0
+        );
+        // An invalid pose moves nothing.
+        let before = a;
+        let bad = Similarity {
+            a: f32::NAN,
+            ..still
+        };
+        assert_eq!(a.follow(&bad, 2.0), None);
+        assert_eq!(a, before);
+        a.reset();
+        assert_eq!(a.get(), None);
     }
 }

@@ -221,71 +221,94 @@ impl Fitter {
             refine_override.unwrap_or((self.options.max_iters, self.options.refine_iters));
         let mut iterations = 0;
         let mut converged = false;
+        for li in 0..self.levels.len() {
+            converged = self.fit_level(li, starts, (max_iters, refine), &mut iterations);
+        }
+        self.finish(image, converged, iterations)?;
+        Ok(&self.result)
+    }
+
+    /// Fits pyramid level `li` from the current state: the level check on the second level
+    /// (see [`FitOptions::level_check`]), `starts` starts on the coarsest (`max_iters`
+    /// project-out iterations each), and `refine` simultaneous iterations after the finest.
+    /// Counts the iterations in `iterations`; returns whether the last fit converged.
+    fn fit_level(
+        &mut self,
+        li: usize,
+        starts: u32,
+        (max_iters, refine): (u32, u32),
+        iterations: &mut u32,
+    ) -> bool {
         let nl = self.levels.len();
-        for li in 0..nl {
-            let sigma = self.levels[li].sigma;
-            let view = if sigma > 0.0 {
-                self.grey
-                    .smooth(&self.work.cur, sigma * self.work.pose.scale())
-            } else {
-                self.grey.full()
-            };
-            let ctx = Ctx {
-                level: &self.levels[li],
-                geom: &self.geom,
-                basis: &self.basis,
-                img: view,
-            };
-            let w = &mut self.work;
-            if li == 1 && self.options.level_check {
-                // Undo the previous level if this finer level judges its start better: a
-                // heavily smoothed level can be pulled off by what its smoothing spreads over
-                // the face (a hand under the chin).
-                let after = level_cost(&ctx, w);
+        let sigma = self.levels[li].sigma;
+        let view = if sigma > 0.0 {
+            self.grey
+                .smooth(&self.work.cur, sigma * self.work.pose.scale())
+        } else {
+            self.grey.full()
+        };
+        let ctx = Ctx {
+            level: &self.levels[li],
+            geom: &self.geom,
+            basis: &self.basis,
+            img: view,
+        };
+        let w = &mut self.work;
+        if li == 1 && self.options.level_check {
+            // Undo the previous level if this finer level judges its start better: a
+            // heavily smoothed level can be pulled off by what its smoothing spreads over
+            // the face (a hand under the chin).
+            let after = level_cost(&ctx, w);
+            w.swap_before();
+            let before = level_cost(&ctx, w);
+            if !(before < after) {
                 w.swap_before();
-                let before = level_cost(&ctx, w);
-                if !(before < after) {
-                    w.swap_before();
-                }
-            }
-            if li == 0 && self.options.level_check {
-                // The state the first level starts from, for the check above.
-                w.before.save(&w.cur, &w.p, w.pose);
-            }
-            let starts = if li == 0 { starts } else { 1 };
-            if starts <= 1 {
-                converged = run(
-                    &ProjectOut,
-                    &ctx,
-                    &mut self.work,
-                    max_iters,
-                    self.options.tolerance,
-                    &mut iterations,
-                );
-            } else {
-                converged = multi_start(
-                    &ctx,
-                    &mut self.work,
-                    starts,
-                    self.options.start_offset,
-                    self.face_width,
-                    (max_iters, self.options.tolerance),
-                    &mut iterations,
-                );
-            }
-            if li + 1 == nl && refine > 0 {
-                converged = run(
-                    &Simultaneous,
-                    &ctx,
-                    &mut self.work,
-                    refine,
-                    self.options.tolerance,
-                    &mut iterations,
-                );
             }
         }
+        if li == 0 && self.options.level_check {
+            // The state the first level starts from, for the check above.
+            w.before.save(&w.cur, &w.p, w.pose);
+        }
+        let starts = if li == 0 { starts } else { 1 };
+        let mut converged = if starts <= 1 {
+            run(
+                &ProjectOut,
+                &ctx,
+                &mut self.work,
+                max_iters,
+                self.options.tolerance,
+                iterations,
+            )
+        } else {
+            multi_start(
+                &ctx,
+                &mut self.work,
+                starts,
+                self.options.start_offset,
+                self.face_width,
+                (max_iters, self.options.tolerance),
+                iterations,
+            )
+        };
+        if li + 1 == nl && refine > 0 {
+            converged = run(
+                &Simultaneous,
+                &ctx,
+                &mut self.work,
+                refine,
+                self.options.tolerance,
+                iterations,
+            );
+        }
+        converged
+    }
+
+    /// Writes the fit's result from the final state: the error and contrast on the finest
+    /// level, the landmarks and parameters, and the appearance projected from `image` when
+    /// [`FitOptions::appearance`] asks for it.
+    fn finish(&mut self, image: &ImageRef<'_>, converged: bool, iterations: u32) -> Result<()> {
         // Final error on the finest level.
-        let level = &self.levels[nl - 1];
+        let level = &self.levels[self.levels.len() - 1];
         let w = &mut self.work;
         let err = residual(level, self.grey.full(), w);
         self.contrast = contrast(&w.w[..level.n]) / level.a0_std.max(1e-6);
@@ -305,7 +328,7 @@ impl Fitter {
         r.converged = converged && err.is_finite();
         r.lost = false;
         r.reacquired = false;
-        Ok(&self.result)
+        Ok(())
     }
 }
 

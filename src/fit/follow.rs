@@ -68,7 +68,7 @@ impl Default for FollowOptions {
             neutral_step: 0.05,
             mouth_margin: 0.02,
             max_sigmas: 3.0,
-            min_face_score: crate::FindOptions::default().min_face_score,
+            min_face_score: crate::find::FindOptions::default().min_face_score,
             min_inside: 0.5,
             split_head_turns: true,
         }
@@ -293,11 +293,15 @@ impl Follower {
         Ok(())
     }
 
-    /// Whether a search runs the finder on the frame (the default) or only uses faces offered
-    /// by [`Follower::offer_faces`] (a finder on another thread; until they come, frames are
-    /// lost).
-    pub fn set_search(&mut self, yes: bool) {
-        self.search = yes;
+    /// Whether faces will be offered from elsewhere ([`Follower::offer_faces`]: a finder on
+    /// another thread): then a search only uses them (until they come, frames are lost);
+    /// else (the default) a search runs the follower's own finder on the whole frame and the
+    /// faces offered are dropped. [`super::FaceTracker::expect_offers`].
+    pub fn expect_offers(&mut self, yes: bool) {
+        self.search = !yes;
+        if !yes {
+            self.offered = None;
+        }
     }
 
     /// Whether the follower is searching for a face and has none offered: the moment to run a
@@ -318,9 +322,10 @@ impl Follower {
         Ok(())
     }
 
-    /// Forgets the person: the next frame searches for a face, and the neutral shape is
-    /// estimated again from the first frames.
-    pub fn restart(&mut self) {
+    /// Starts a new sequence with no face: forgets the person; the next frame searches for a
+    /// face (the faces offered, or its finder: [`Follower::expect_offers`]), and the neutral
+    /// shape is estimated again from the first frames.
+    pub fn start_searching(&mut self) {
         self.following = false;
         self.meshed = false;
         self.seen = false;
@@ -332,28 +337,37 @@ impl Follower {
     }
 
     /// Starts a new person from their face's 68 landmarks on the next frame (image
-    /// coordinates): [`Follower::restart`], then the landmarks offered as the face. Fails with
+    /// coordinates): [`Follower::start_searching`], then the landmarks offered as the face. Fails with
     /// [`Error::Params`] (changing nothing) for another length or non-finite values.
     pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
         check_landmarks_len("landmarks", landmarks, 136)?;
-        self.restart();
+        self.start_searching();
         self.offered = Some(vec![landmarks.to_vec()]);
         Ok(())
     }
 
     /// Starts a new person from a face box on the next frame (image coordinates: left, top,
-    /// width, height): [`Follower::restart`], then the mesh in the box; if it holds no face,
+    /// width, height): [`Follower::start_searching`], then the mesh in the box; if it holds no face,
     /// the frame is searched as usual. Fails with [`Error::Params`] for a
     /// non-finite box or one under 4x4.
     pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
         check_face_box(x, y, w, h)?;
-        self.restart();
+        self.start_searching();
         self.start_box = Some(BBox {
             x,
             y,
             width: w,
             height: h,
         });
+        Ok(())
+    }
+
+    /// Starts a new sequence with no face, found by the follower's own finder on the whole
+    /// frame: [`Follower::start_searching`] with offers no longer expected
+    /// ([`Follower::expect_offers`]). Never fails (the trait's signature).
+    pub fn start_auto(&mut self) -> Result<()> {
+        self.expect_offers(false);
+        self.start_searching();
         Ok(())
     }
 
@@ -371,12 +385,14 @@ impl Follower {
     /// Follows the face in the next frame, `dt` seconds after the previous one (the One-Euro
     /// filter's step; `1/25` for a 25 fps clip).
     ///
-    /// Fails with [`Error::Params`] when `dt` is not a positive finite number; otherwise the
-    /// result (see the type's documentation) has `lost = true` when no face was found.
+    /// Fails with [`Error::Params`] when `dt` is not a finite non-negative number (0 restarts
+    /// the smoothing: a frame at the same instant); otherwise the result (see the type's
+    /// documentation) has `lost = true` when no face was found.
+    /// [`super::FaceTracker::track`].
     pub fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
-        if !(dt.is_finite() && dt > 0.0) {
+        if !(dt.is_finite() && dt >= 0.0) {
             return Err(Error::Params(format!(
-                "the time step is {dt} s: a positive number is needed"
+                "the time step is {dt} s: a finite non-negative number is needed"
             )));
         }
         self.step(frame, dt)?;
@@ -438,7 +454,7 @@ impl Follower {
     }
 
     /// Searches a lost or new face (the faces offered, else the finder on the whole frame when
-    /// [`Follower::set_search`] allows): the one nearest the last face, inside the frame, into
+    /// [`Follower::expect_offers`] allows): the one nearest the last face, inside the frame, into
     /// `self.points`. Returns whether there was one.
     fn search_face(&mut self, frame: &ImageRef<'_>) -> bool {
         let faces = match self.offered.take() {
@@ -572,9 +588,9 @@ impl Follower {
         Ok(())
     }
 
-    /// The last frame's result.
-    pub fn last(&self) -> &FitResult {
-        &self.result
+    /// The last frame's result, `None` before the follower's first frame.
+    pub fn last(&self) -> Option<&FitResult> {
+        (self.seq.frames() > 0).then_some(&self.result)
     }
 
     /// The person's neutral shape as estimated so far (model coordinates, aligned to the

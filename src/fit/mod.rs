@@ -20,6 +20,7 @@
 mod algorithm;
 mod anchor;
 mod driver;
+mod face_tracker;
 mod follow;
 mod geometry;
 mod grey;
@@ -28,13 +29,16 @@ mod options;
 mod precompute;
 mod resample;
 mod tracker;
+#[cfg(test)]
+mod tracking_tests;
 
 use serde::{Deserialize, Serialize};
 
 use crate::model::Params;
 
-pub use anchor::Sequence;
+pub use anchor::{PoseAnchor, Sequence};
 pub use driver::Fitter;
+pub use face_tracker::{tracker_for, tracker_of_kind, FaceTracker, TrackerKind, Whose, WORK_SIDE};
 pub use follow::{
     close_mouth, expression_params, mouth_opening, neutral_update, split_head_turn, FollowOptions,
     Follower,

@@ -294,7 +294,7 @@ impl Template {
             }
             out
         };
-        let a0_full = grey(&app.base);
+        let a0_full = grey(app.base());
         let mut raw: Vec<Vec<f64>> = Vec::new();
         if gain_bias {
             for c in 0..nc {

@@ -12,7 +12,8 @@ use super::anchor::Sequence;
 use super::resample::{from_scaled, pose_from_scaled, to_scaled, Resampler};
 use super::{FitOptions, FitResult, Fitter, TrackPolicy};
 
-/// The time step [`Tracker::track`] assumes (seconds): 30 frames a second.
+/// The time step of 30 frames a second (seconds): what a front end gives [`Tracker::track`]
+/// when it knows no better.
 pub const DEFAULT_TIME_STEP: f32 = 1.0 / 30.0;
 
 /// A fit whose image contrast under the mesh is below this fraction of the template's (or
@@ -336,13 +337,13 @@ impl Tracker {
     }
 
     /// Starts a new sequence with no landmarks: each frame asks the face source until a face
-    /// is found and fits; until then frames are reported lost. Fails with [`Error::Params`]
-    /// without a source ([`Tracker::set_face_source`]).
+    /// is found and fits; until then frames are reported lost. Without a source
+    /// ([`Tracker::set_face_source`]) the shipped face finder becomes it for a 68-landmark
+    /// model; fails with [`Error::Params`] for another model without one.
     pub fn start_auto(&mut self) -> Result<()> {
         if self.source.is_none() {
-            return Err(Error::Params(
-                "the tracker has no face source to start from: set one first".into(),
-            ));
+            let finder = super::face_tracker::shipped_finder(self.fitter.landmarks())?;
+            self.source = Some(Box::new(finder));
         }
         self.begin(false);
         self.searching = true;
@@ -474,23 +475,16 @@ impl Tracker {
         Ok(())
     }
 
-    /// Fits the next frame (at its own size; everything in its pixels), starting from the
-    /// previous result (or the sequence's start), [`DEFAULT_TIME_STEP`] after the previous
-    /// one: [`Tracker::track_timed`].
-    pub fn track(&mut self, frame: &ImageRef<'_>) -> Result<&FitResult> {
-        self.track_timed(frame, DEFAULT_TIME_STEP)
-    }
-
-    /// Fits the next frame, `dt` seconds after the previous one (the pose anchor's time step,
-    /// as [`crate::fit::Follower::track`] takes it), starting from the previous result (or the
-    /// sequence's start). The frame comes at its own size: the tracker fits a resampled copy
-    /// when the face is far from the model's size, and the result's landmarks and pose are in
-    /// the frame's pixels (see the type's documentation).
+    /// Fits the next frame, `dt` seconds after the previous one (the pose anchor's time step;
+    /// [`DEFAULT_TIME_STEP`] for 30 frames a second), starting from the previous result (or
+    /// the sequence's start): [`super::FaceTracker::track`]. The frame comes at its own size:
+    /// the tracker fits a resampled copy when the face is far from the model's size, and the
+    /// result's landmarks and pose are in the frame's pixels (see the type's documentation).
     ///
     /// Fails with [`Error::Params`] if no sequence was started or `dt` is not a finite
     /// non-negative number. The result's `lost` flag says whether the face was lost on this
     /// frame (then the result is the last good fit).
-    pub fn track_timed(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
+    pub fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
         if !self.started {
             return Err(Error::Params(
                 "the tracker has no start: call start_from_landmarks or start_from_box".into(),
@@ -568,30 +562,36 @@ impl Tracker {
             store(&mut self.last, &r);
             self.fitted = r;
         } else {
-            self.seq.frame(None, dt, tau, false);
-            self.searching = self.source.is_some() || self.offers;
-            match &self.last_good {
-                Some(g) => {
-                    self.start.copy_from_slice(&g.landmarks);
-                    store(&mut self.last, g);
-                    let last = self.last.as_mut().expect("just stored");
-                    last.lost = true;
-                    last.converged = false;
-                    last.reacquired = false;
-                }
-                None => {
-                    // Nothing good yet (a bad box, or no face found): report the attempt.
-                    let mut r = std::mem::replace(&mut self.fitted, empty_result());
-                    r.lost = true;
-                    r.reacquired = false;
-                    self.bound_appearance(&mut r);
-                    store(&mut self.last, &r);
-                    self.fitted = r;
-                }
-            }
+            self.lost_frame(dt, tau);
         }
         self.was_lost = !ok;
         Ok(self.last.as_ref().expect("just set"))
+    }
+
+    /// A lost frame, `dt` seconds after the previous one: counted, searched for from the next
+    /// frame when faces can come, and reported as the last good fit (or the failed attempt).
+    fn lost_frame(&mut self, dt: f32, tau: f32) {
+        self.seq.frame(None, dt, tau, false);
+        self.searching = self.source.is_some() || self.offers;
+        match &self.last_good {
+            Some(g) => {
+                self.start.copy_from_slice(&g.landmarks);
+                store(&mut self.last, g);
+                let last = self.last.as_mut().expect("just stored");
+                last.lost = true;
+                last.converged = false;
+                last.reacquired = false;
+            }
+            None => {
+                // Nothing good yet (a bad box, or no face found): report the attempt.
+                let mut r = std::mem::replace(&mut self.fitted, empty_result());
+                r.lost = true;
+                r.reacquired = false;
+                self.bound_appearance(&mut r);
+                store(&mut self.last, &r);
+                self.fitted = r;
+            }
+        }
     }
 
     /// Clamps a result's appearance parameters to the policy's `+-appearance_limit` sigmas.

@@ -61,9 +61,9 @@ pub fn model_bytes(model: &Model) -> u64 {
         + model.shape().variances.len()
         + model.frame().vertices().len()
         + 3 * model.frame().triangles().len()
-        + model.appearance().base.len()
-        + model.appearance().modes.len()
-        + model.appearance().variances.len();
+        + model.appearance().len()
+        + model.appearance().len() * model.appearance().n_modes()
+        + model.appearance().n_modes();
     let names = model.name().len()
         + match &model.reference() {
             Reference::Mean => 0,
@@ -78,14 +78,25 @@ pub fn model_bytes(model: &Model) -> u64 {
 /// (shape: `2n (2 MAX_SHAPE_COORD)^2`; appearance: `3N (MAX_APPEARANCE - MIN_APPEARANCE)^2`),
 /// image size within `1..=MAX_IMAGE_SIDE`, the names within the format's limits.
 pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError> {
+    check_name_lengths(model)?;
+    check_image_size(model)?;
+    check_mean_pose(model)?;
+    check_arrays(model)
+}
+
+/// The error of an out-of-range `value` at `index` of `array`, `range` saying what is allowed.
+fn out_of_range(array: &'static str, index: usize, value: f32, range: String) -> FormatError {
+    FormatError::OutOfRange {
+        array,
+        index: index as u64,
+        value,
+        range,
+    }
+}
+
+/// [`check_model_values`]: the model's and the reference's names within the format's limits.
+fn check_name_lengths(model: &Model) -> std::result::Result<(), FormatError> {
     let lim = &LIMITS;
-    let bad =
-        |array: &'static str, index: usize, value: f32, range: String| FormatError::OutOfRange {
-            array,
-            index: index as u64,
-            value,
-            range,
-        };
     for (name, bytes, max) in [
         ("model name length", model.name().len(), lim.max_name_bytes),
         (
@@ -105,6 +116,11 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
             });
         }
     }
+    Ok(())
+}
+
+/// [`check_model_values`]: the image size within `1..=MAX_IMAGE_SIDE`.
+fn check_image_size(model: &Model) -> std::result::Result<(), FormatError> {
     for (i, &v) in model.image_size().iter().enumerate() {
         if v == 0 || v > MAX_IMAGE_SIDE {
             return Err(FormatError::LimitExceeded {
@@ -118,6 +134,12 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
             });
         }
     }
+    Ok(())
+}
+
+/// [`check_model_values`]: the mean pose finite, its scale within
+/// `MIN_POSE_SCALE..=MAX_POSE_SCALE` and its translation within `+-MAX_POSE_SHIFT`.
+fn check_mean_pose(model: &Model) -> std::result::Result<(), FormatError> {
     let p = &model.mean_pose();
     for (i, v) in [p.a, p.b, p.tx, p.ty].into_iter().enumerate() {
         if !v.is_finite() {
@@ -129,7 +151,7 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
     }
     let s = p.scale();
     if !(MIN_POSE_SCALE..=MAX_POSE_SCALE).contains(&s) {
-        return Err(bad(
+        return Err(out_of_range(
             "mean pose scale",
             0,
             s,
@@ -138,7 +160,7 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
     }
     for (i, v) in [p.tx, p.ty].into_iter().enumerate() {
         if !(v.abs() <= MAX_POSE_SHIFT) {
-            return Err(bad(
+            return Err(out_of_range(
                 "mean pose translation",
                 i,
                 v,
@@ -146,52 +168,65 @@ pub fn check_model_values(model: &Model) -> std::result::Result<(), FormatError>
             ));
         }
     }
-    let in_range = |array: &'static str, v: &[f32], lo: f32, hi: f32| match v
-        .iter()
-        .position(|x| !(*x >= lo && *x <= hi))
-    {
+    Ok(())
+}
+
+/// Every value of `array` (`v`) within `lo..=hi`: the first that is not, as
+/// [`FormatError::NonFinite`] or [`FormatError::OutOfRange`].
+fn check_in_range(
+    array: &'static str,
+    v: &[f32],
+    lo: f32,
+    hi: f32,
+) -> std::result::Result<(), FormatError> {
+    match v.iter().position(|x| !(*x >= lo && *x <= hi)) {
         None => Ok(()),
         Some(i) if !v[i].is_finite() => Err(FormatError::NonFinite {
             array,
             index: i as u64,
         }),
-        Some(i) => Err(bad(array, i, v[i], format!("{lo}..={hi}"))),
-    };
-    in_range(
+        Some(i) => Err(out_of_range(array, i, v[i], format!("{lo}..={hi}"))),
+    }
+}
+
+/// [`check_model_values`]: the base shape and frame origin within `+-MAX_SHAPE_COORD`, the
+/// base appearance within `MIN_APPEARANCE..=MAX_APPEARANCE`, and the variances no larger than
+/// the base's own range allows.
+fn check_arrays(model: &Model) -> std::result::Result<(), FormatError> {
+    check_in_range(
         "shape base",
         &model.shape().base,
         -MAX_SHAPE_COORD,
         MAX_SHAPE_COORD,
     )?;
-    in_range(
+    check_in_range(
         "frame origin",
         &model.frame().origin(),
         -MAX_SHAPE_COORD,
         MAX_SHAPE_COORD,
     )?;
-    in_range(
+    check_in_range(
         "appearance base",
-        &model.appearance().base,
+        model.appearance().base(),
         MIN_APPEARANCE,
         MAX_APPEARANCE,
     )?;
     let n2 = model.shape().base.len() as f32;
     let max_shape_var = n2 * (2.0 * MAX_SHAPE_COORD).powi(2);
-    in_range(
+    check_in_range(
         "shape variances",
         &model.shape().variances,
         0.0,
         max_shape_var,
     )?;
     let span = MAX_APPEARANCE - MIN_APPEARANCE;
-    let max_app_var = model.appearance().base.len() as f32 * span * span;
-    in_range(
+    let max_app_var = model.appearance().len() as f32 * span * span;
+    check_in_range(
         "appearance variances",
-        &model.appearance().variances,
+        model.appearance().variances(),
         0.0,
         max_app_var,
-    )?;
-    Ok(())
+    )
 }
 
 /// Bytes the fitter's precomputation needs for `model` with `levels` pyramid levels and

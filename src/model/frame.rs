@@ -92,6 +92,115 @@ fn tri_area(v: &[f32], t: &[u32; 3]) -> f32 {
     0.5 * ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1))
 }
 
+/// Rasterises the mesh (shifted by `origin`) onto the `width x height` grid: per grid cell,
+/// the first non-degenerate triangle whose closure holds the cell's centre (`u32::MAX` for
+/// none) and the centre's barycentric coordinates in it.
+fn rasterise(
+    vertices: &[f32],
+    triangles: &[[u32; 3]],
+    width: u32,
+    height: u32,
+    origin: [f32; 2],
+) -> (Vec<u32>, Vec<[f32; 3]>) {
+    let mut owner = vec![u32::MAX; (width * height) as usize];
+    let mut bary = vec![[0f32; 3]; (width * height) as usize];
+    for (ti, t) in triangles.iter().enumerate() {
+        let p = |i: u32| {
+            (
+                vertices[2 * i as usize] + origin[0],
+                vertices[2 * i as usize + 1] + origin[1],
+            )
+        };
+        let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+        let det = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
+        if det.abs() < 1e-9 {
+            continue;
+        }
+        let x0 = a.0.min(b.0).min(c.0).floor().max(0.0) as u32;
+        let x1 = (a.0.max(b.0).max(c.0).ceil() as u32).min(width - 1);
+        let y0 = a.1.min(b.1).min(c.1).floor().max(0.0) as u32;
+        let y1 = (a.1.max(b.1).max(c.1).ceil() as u32).min(height - 1);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let (px, py) = (x as f32, y as f32);
+                let l1 = ((px - a.0) * (c.1 - a.1) - (c.0 - a.0) * (py - a.1)) / det;
+                let l2 = ((b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1)) / det;
+                let l0 = 1.0 - l1 - l2;
+                let eps = -1e-4;
+                let k = (y * width + x) as usize;
+                if l0 >= eps && l1 >= eps && l2 >= eps && owner[k] == u32::MAX {
+                    owner[k] = ti as u32;
+                    bary[k] = [l0, l1, l2];
+                }
+            }
+        }
+    }
+    (owner, bary)
+}
+
+/// The frame pixels of a rasterised grid ([`rasterise`]) in row-major order, and the grid's
+/// index into them (`u32::MAX` outside the mesh).
+fn collect_pixels(
+    owner: &[u32],
+    bary: &[[f32; 3]],
+    width: u32,
+    height: u32,
+) -> (Vec<FramePixel>, Vec<u32>) {
+    let mut pixels = Vec::new();
+    let mut index = vec![u32::MAX; (width * height) as usize];
+    for y in 0..height {
+        for x in 0..width {
+            let k = (y * width + x) as usize;
+            if owner[k] != u32::MAX {
+                index[k] = pixels.len() as u32;
+                pixels.push(FramePixel {
+                    x: x as u16,
+                    y: y as u16,
+                    triangle: owner[k],
+                    bary: bary[k],
+                });
+            }
+        }
+    }
+    (pixels, index)
+}
+
+/// Two rings of padding around the frame pixels, each cell taking the colour of an
+/// already-covered 8-neighbour: `(grid index, frame pixel to copy)`. Marks the padded cells in
+/// `index` as it goes.
+fn padding_rings(index: &mut [u32], width: u32, height: u32) -> Vec<(u32, u32)> {
+    let mut padding = Vec::new();
+    for _ in 0..2 {
+        let mut ring = Vec::new();
+        for y in 0..height as i64 {
+            for x in 0..width as i64 {
+                let k = (y * width as i64 + x) as usize;
+                if index[k] != u32::MAX {
+                    continue;
+                }
+                'n: for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let (nx, ny) = (x + dx, y + dy);
+                        if nx < 0 || ny < 0 || nx >= width as i64 || ny >= height as i64 {
+                            continue;
+                        }
+                        let nk = (ny * width as i64 + nx) as usize;
+                        if index[nk] != u32::MAX {
+                            ring.push((k as u32, index[nk]));
+                            break 'n;
+                        }
+                    }
+                }
+            }
+        }
+        for &(k, src) in &ring {
+            index[k as usize] = src;
+        }
+        padding.extend(ring);
+    }
+    padding
+}
+
 impl ReferenceFrame {
     /// Builds the frame for a base shape: triangulates it and sizes the grid to its bounding
     /// box plus a margin of `FRAME_MARGIN` (3) pixels.
@@ -133,88 +242,12 @@ impl ReferenceFrame {
         if triangles.is_empty() || triangles.iter().flatten().any(|&i| i >= n) {
             return bad("frame triangles are empty or index a missing vertex".into());
         }
-        let mut owner = vec![u32::MAX; (width * height) as usize];
-        let mut bary = vec![[0f32; 3]; (width * height) as usize];
-        for (ti, t) in triangles.iter().enumerate() {
-            let p = |i: u32| {
-                (
-                    vertices[2 * i as usize] + origin[0],
-                    vertices[2 * i as usize + 1] + origin[1],
-                )
-            };
-            let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
-            let det = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
-            if det.abs() < 1e-9 {
-                continue;
-            }
-            let x0 = a.0.min(b.0).min(c.0).floor().max(0.0) as u32;
-            let x1 = (a.0.max(b.0).max(c.0).ceil() as u32).min(width - 1);
-            let y0 = a.1.min(b.1).min(c.1).floor().max(0.0) as u32;
-            let y1 = (a.1.max(b.1).max(c.1).ceil() as u32).min(height - 1);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let (px, py) = (x as f32, y as f32);
-                    let l1 = ((px - a.0) * (c.1 - a.1) - (c.0 - a.0) * (py - a.1)) / det;
-                    let l2 = ((b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1)) / det;
-                    let l0 = 1.0 - l1 - l2;
-                    let eps = -1e-4;
-                    let k = (y * width + x) as usize;
-                    if l0 >= eps && l1 >= eps && l2 >= eps && owner[k] == u32::MAX {
-                        owner[k] = ti as u32;
-                        bary[k] = [l0, l1, l2];
-                    }
-                }
-            }
-        }
-        let mut pixels = Vec::new();
-        let mut index = vec![u32::MAX; (width * height) as usize];
-        for y in 0..height {
-            for x in 0..width {
-                let k = (y * width + x) as usize;
-                if owner[k] != u32::MAX {
-                    index[k] = pixels.len() as u32;
-                    pixels.push(FramePixel {
-                        x: x as u16,
-                        y: y as u16,
-                        triangle: owner[k],
-                        bary: bary[k],
-                    });
-                }
-            }
-        }
+        let (owner, bary) = rasterise(&vertices, &triangles, width, height, origin);
+        let (pixels, mut index) = collect_pixels(&owner, &bary, width, height);
         if pixels.is_empty() {
             return bad("no frame pixel lies inside the mesh".into());
         }
-        // Two rings of padding, each taking the colour of an already-covered 8-neighbour.
-        let mut padding = Vec::new();
-        for _ in 0..2 {
-            let mut ring = Vec::new();
-            for y in 0..height as i64 {
-                for x in 0..width as i64 {
-                    let k = (y * width as i64 + x) as usize;
-                    if index[k] != u32::MAX {
-                        continue;
-                    }
-                    'n: for dy in -1i64..=1 {
-                        for dx in -1i64..=1 {
-                            let (nx, ny) = (x + dx, y + dy);
-                            if nx < 0 || ny < 0 || nx >= width as i64 || ny >= height as i64 {
-                                continue;
-                            }
-                            let nk = (ny * width as i64 + nx) as usize;
-                            if index[nk] != u32::MAX {
-                                ring.push((k as u32, index[nk]));
-                                break 'n;
-                            }
-                        }
-                    }
-                }
-            }
-            for &(k, src) in &ring {
-                index[k as usize] = src;
-            }
-            padding.extend(ring);
-        }
+        let padding = padding_rings(&mut index, width, height);
         let fingerprint = fingerprint(width, height, origin, &vertices, &triangles);
         Ok(ReferenceFrame {
             width,

@@ -164,3 +164,38 @@ pub fn dot_diff(a: &[f32], g: &[f32], b: &[f32]) -> f32 {
     }
     s
 }
+
+/// The inner-product matrix of section 3.1, `R = T^T S` (rows = target modes, columns =
+/// source modes, row-major `q x r`): `R[j][i] = <t_j, s_i>`. Used for shape (`R = S*^T S`) and
+/// appearance (`Ra = A*^T A`). Accumulates in f64. `target` and `source` are row-major mode
+/// matrices whose rows are `dim` long.
+pub fn inner_products(target: &[f32], source: &[f32], dim: usize) -> Vec<f32> {
+    if dim == 0 {
+        return Vec::new();
+    }
+    let mut r = Vec::with_capacity((target.len() / dim) * (source.len() / dim));
+    for t in target.chunks_exact(dim) {
+        for s in source.chunks_exact(dim) {
+            r.push(dot64(t, s) as f32);
+        }
+    }
+    r
+}
+
+/// The dot product of `a` and `b` (their common length), accumulated in f64 over four lanes.
+pub fn dot64(a: &[f32], b: &[f32]) -> f64 {
+    let mut acc = [0f64; 4];
+    let n = a.len().min(b.len());
+    let chunks = n / 4;
+    for c in 0..chunks {
+        let o = c * 4;
+        for l in 0..4 {
+            acc[l] += a[o + l] as f64 * b[o + l] as f64;
+        }
+    }
+    let mut s = acc.iter().sum::<f64>();
+    for k in chunks * 4..n {
+        s += a[k] as f64 * b[k] as f64;
+    }
+    s
+}

@@ -360,7 +360,7 @@ impl Model {
 /// What [`Model::new`] checks, as a message naming the first problem.
 fn check_parts(m: &ModelParts) -> std::result::Result<(), String> {
     let d = m.shape.base.len();
-    let da = m.appearance.base.len();
+    let da = m.appearance.linear().base.len();
     if d == 0 || d != 2 * m.frame.landmarks() || d != 2 * m.scheme.count() {
         return Err(format!(
             "{} shape values for {} frame landmarks ({:?})",
@@ -382,19 +382,21 @@ fn check_parts(m: &ModelParts) -> std::result::Result<(), String> {
             m.shape.variances.len()
         ));
     }
-    if Some(m.appearance.modes.len()) != da.checked_mul(m.appearance.variances.len()) {
+    if Some(m.appearance.linear().modes.len())
+        != da.checked_mul(m.appearance.linear().variances.len())
+    {
         return Err(format!(
             "{} appearance mode values for {} modes",
-            m.appearance.modes.len(),
-            m.appearance.variances.len()
+            m.appearance.linear().modes.len(),
+            m.appearance.linear().variances.len()
         ));
     }
     let pose = [m.mean_pose.a, m.mean_pose.b, m.mean_pose.tx, m.mean_pose.ty];
     for (what, values) in [
         ("shape base", &m.shape.base[..]),
         ("shape modes", &m.shape.modes[..]),
-        ("appearance base", &m.appearance.base[..]),
-        ("appearance modes", &m.appearance.modes[..]),
+        ("appearance base", &m.appearance.linear().base[..]),
+        ("appearance modes", &m.appearance.linear().modes[..]),
         ("mean pose", &pose[..]),
     ] {
         crate::error::check_finite(what, values).map_err(|e| e.to_string())?;
@@ -402,7 +404,7 @@ fn check_parts(m: &ModelParts) -> std::result::Result<(), String> {
     if m.shape
         .variances
         .iter()
-        .chain(&m.appearance.variances)
+        .chain(m.appearance.variances())
         .any(|v| !(v.is_finite() && *v >= 0.0))
     {
         return Err("a variance is negative or not finite".into());

@@ -22,8 +22,8 @@ use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
 // The constants below were chosen by the webcam-dev self-reenactment measure
-// (tests/composite_measure.rs, docs/compositing.md), within the folding bounds of
-// tests/composite.rs.
+// (tests/integration/composite_measure.rs, docs/compositing.md), within the folding bounds of
+// tests/integration/composite.rs.
 
 /// Distance of the inner ring (moving with the head) outside the face's hull, in eye
 /// distances, at the sides and below; above the brows it is pushed further by

@@ -25,11 +25,11 @@ mod skia;
 mod texture;
 mod view;
 
-pub use composite::{hull_loop, mean_value_weights, Compositor, ExtendedMesh};
+pub use composite::{hull_loop, mean_value_weights, Compositor};
 pub use overlay::MeshOverlay;
-pub use scanline::{Scanline, ScanlineStore};
-pub use skia::{Renderer, SkiaStore};
-pub use texture::{Store, Warp};
+pub use scanline::Scanline;
+pub use skia::Renderer;
+pub use texture::Store;
 pub use view::{base_box, canvas_view, fit_view, picture_view};
 
 /// Which rasteriser warps the triangles of a piecewise-affine warp into a tiny-skia pixmap.

@@ -225,7 +225,14 @@ pub(crate) fn warp_mesh(
 ) {
     let (cw, ch) = (target.width() as i32, target.height() as i32);
     let out = target.data_mut();
-    let (umax, vmax) = (((tw - 1) << 16) as f32, ((th - 1) << 16) as f32);
+    let texture = Texture {
+        words: tex,
+        tw,
+        th,
+        umax: ((tw - 1) << 16) as f32,
+        vmax: ((th - 1) << 16) as f32,
+    };
+    let (umax, vmax) = (texture.umax, texture.vmax);
     for t in triangles {
         let d = t.map(|i| dst.get(i as usize).copied().unwrap_or(Vec2::ZERO));
         let s = t.map(|i| src(i as usize));
@@ -246,23 +253,8 @@ pub(crate) fn warp_mesh(
         );
         for j in j0..j1 {
             let y = j as f32;
-            // The two edges whose half-open y-range [top, bottom) holds the row.
-            let mut xs = [0f32; 2];
-            let mut n = 0;
-            for &(p, q) in &edges {
-                let (top, bottom) = if p.y <= q.y { (p.y, q.y) } else { (q.y, p.y) };
-                if top <= y && y < bottom && n < 2 {
-                    xs[n] = edge_x(p, q, y);
-                    n += 1;
-                }
-            }
-            if n < 2 {
+            let Some((xl, xr)) = row_crossing(&edges, y) else {
                 continue;
-            }
-            let (xl, xr) = if xs[0] <= xs[1] {
-                (xs[0], xs[1])
-            } else {
-                (xs[1], xs[0])
             };
             let i0 = (xl.ceil() as i32).max(0);
             let i1 = (xr.ceil() as i32).min(cw); // exclusive
@@ -272,56 +264,114 @@ pub(crate) fn warp_mesh(
             let x0 = i0 as f32;
             let u0 = m.matrix2.x_axis.x * x0 + m.matrix2.y_axis.x * y + m.translation.x;
             let v0 = m.matrix2.x_axis.y * x0 + m.matrix2.y_axis.y * y + m.translation.y;
-            let mut u = (u0 * ONE).clamp(-umax, 2.0 * umax) as i32;
-            let mut w = (v0 * ONE).clamp(-vmax, 2.0 * vmax) as i32;
+            let u = (u0 * ONE).clamp(-umax, 2.0 * umax) as i32;
+            let w = (v0 * ONE).clamp(-vmax, 2.0 * vmax) as i32;
             let row = (j * cw) as usize;
             let Some(span) = out.get_mut((row + i0 as usize) * 4..(row + i1 as usize) * 4) else {
                 continue;
             };
-            // Fast path: the whole span samples inside the texture (the lookups affine along
-            // it, so its ends decide), every 2x2 neighbourhood exists: no clamping, no edge
-            // cases.
-            let n = (i1 - i0) as i64;
-            let (ue, ve) = (
-                u as i64 + du as i64 * (n - 1),
-                w as i64 + dv as i64 * (n - 1),
-            );
-            let inside = |a: i64, b: i64, max: f32| a.min(b) >= 0 && (a.max(b) as f32) < max;
-            if inside(u as i64, ue, umax) && inside(w as i64, ve, vmax) {
-                let stride = tw as usize;
-                for px in span.chunks_exact_mut(4) {
-                    let (xi, yi) = ((u >> 16) as usize, (w >> 16) as usize);
-                    let (wx, wy) = (((u >> 8) & 0xff) as u32, ((w >> 8) & 0xff) as u32);
-                    let k = yi * stride + xi;
-                    let (top, bottom) = (&tex[k..k + 2], &tex[k + stride..k + stride + 2]);
-                    let c = bilerp(top[0], top[1], bottom[0], bottom[1], wx, wy);
-                    put(px, c);
-                    u = u.wrapping_add(du);
-                    w = w.wrapping_add(dv);
-                }
-                continue;
-            }
-            for px in span.chunks_exact_mut(4) {
-                let uc = u.clamp(0, umax as i32);
-                let vc = w.clamp(0, vmax as i32);
-                let (xi, yi) = ((uc >> 16) as usize, (vc >> 16) as usize);
-                let (wx, wy) = (((uc >> 8) & 0xff) as u32, ((vc >> 8) & 0xff) as u32);
-                let k = yi * tw as usize + xi;
-                let dx = usize::from((xi as i32) < tw - 1);
-                let dy = if (yi as i32) < th - 1 { tw as usize } else { 0 };
-                let c = match (
-                    tex.get(k),
-                    tex.get(k + dx),
-                    tex.get(k + dy),
-                    tex.get(k + dy + dx),
-                ) {
-                    (Some(&a), Some(&b), Some(&c), Some(&d)) => bilerp(a, b, c, d, wx, wy),
-                    _ => 0,
-                };
-                put(px, c);
-                u = u.wrapping_add(du);
-                w = w.wrapping_add(dv);
-            }
+            texture.paint_span(span, (u, w), (du, dv));
+        }
+    }
+}
+
+/// Where row `y` crosses a triangle given by its `edges`: `(left, right)` from the two edges
+/// whose half-open y-range `[top, bottom)` holds the row, `None` when fewer than two do.
+#[inline(always)]
+fn row_crossing(edges: &[(Vec2, Vec2); 3], y: f32) -> Option<(f32, f32)> {
+    let mut xs = [0f32; 2];
+    let mut n = 0;
+    for &(p, q) in edges {
+        let (top, bottom) = if p.y <= q.y { (p.y, q.y) } else { (q.y, p.y) };
+        if top <= y && y < bottom && n < 2 {
+            xs[n] = edge_x(p, q, y);
+            n += 1;
+        }
+    }
+    if n < 2 {
+        return None;
+    }
+    Some(if xs[0] <= xs[1] {
+        (xs[0], xs[1])
+    } else {
+        (xs[1], xs[0])
+    })
+}
+
+/// The texture [`warp_mesh`] reads: `tw x th` packed premultiplied RGBA8 words, and the
+/// largest 16.16 coordinates of a texel centre (`umax`, `vmax`).
+struct Texture<'a> {
+    words: &'a [u32],
+    tw: i32,
+    th: i32,
+    umax: f32,
+    vmax: f32,
+}
+
+impl Texture<'_> {
+    /// Paints one span of target pixels (RGBA8 bytes), reading the texture bilinearly from the
+    /// 16.16 coordinates `(u, w)` on, stepping `(du, dv)` per pixel.
+    #[inline(always)]
+    fn paint_span(&self, span: &mut [u8], (u, w): (i32, i32), (du, dv): (i32, i32)) {
+        // Fast path: the whole span samples inside the texture (the lookups affine along
+        // it, so its ends decide), every 2x2 neighbourhood exists: no clamping, no edge
+        // cases.
+        let n = (span.len() / 4) as i64;
+        let (ue, ve) = (
+            u as i64 + du as i64 * (n - 1),
+            w as i64 + dv as i64 * (n - 1),
+        );
+        let inside = |a: i64, b: i64, max: f32| a.min(b) >= 0 && (a.max(b) as f32) < max;
+        if inside(u as i64, ue, self.umax) && inside(w as i64, ve, self.vmax) {
+            self.paint_inside(span, (u, w), (du, dv));
+        } else {
+            self.paint_clamped(span, (u, w), (du, dv));
+        }
+    }
+
+    /// [`Texture::paint_span`] where every lookup and its 2x2 neighbourhood lie inside the
+    /// texture.
+    #[inline(always)]
+    fn paint_inside(&self, span: &mut [u8], (mut u, mut w): (i32, i32), (du, dv): (i32, i32)) {
+        let tex = self.words;
+        let stride = self.tw as usize;
+        for px in span.chunks_exact_mut(4) {
+            let (xi, yi) = ((u >> 16) as usize, (w >> 16) as usize);
+            let (wx, wy) = (((u >> 8) & 0xff) as u32, ((w >> 8) & 0xff) as u32);
+            let k = yi * stride + xi;
+            let (top, bottom) = (&tex[k..k + 2], &tex[k + stride..k + stride + 2]);
+            let c = bilerp(top[0], top[1], bottom[0], bottom[1], wx, wy);
+            put(px, c);
+            u = u.wrapping_add(du);
+            w = w.wrapping_add(dv);
+        }
+    }
+
+    /// [`Texture::paint_span`] anywhere: lookups clamped to the texture, neighbourhoods to its
+    /// last column and row.
+    #[inline(always)]
+    fn paint_clamped(&self, span: &mut [u8], (mut u, mut w): (i32, i32), (du, dv): (i32, i32)) {
+        let (tex, tw, th) = (self.words, self.tw, self.th);
+        for px in span.chunks_exact_mut(4) {
+            let uc = u.clamp(0, self.umax as i32);
+            let vc = w.clamp(0, self.vmax as i32);
+            let (xi, yi) = ((uc >> 16) as usize, (vc >> 16) as usize);
+            let (wx, wy) = (((uc >> 8) & 0xff) as u32, ((vc >> 8) & 0xff) as u32);
+            let k = yi * tw as usize + xi;
+            let dx = usize::from((xi as i32) < tw - 1);
+            let dy = if (yi as i32) < th - 1 { tw as usize } else { 0 };
+            let c = match (
+                tex.get(k),
+                tex.get(k + dx),
+                tex.get(k + dy),
+                tex.get(k + dy + dx),
+            ) {
+                (Some(&a), Some(&b), Some(&c), Some(&d)) => bilerp(a, b, c, d, wx, wy),
+                _ => 0,
+            };
+            put(px, c);
+            u = u.wrapping_add(du);
+            w = w.wrapping_add(dv);
         }
     }
 }

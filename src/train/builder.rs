@@ -1,7 +1,7 @@
 //! Building a person-specific AAM from landmarked images.
 
 use crate::error::{Error, Result};
-use crate::image::Image;
+pub use crate::image::TrainingImage;
 use crate::model::appearance::AppearanceModel;
 use crate::model::frame::ReferenceFrame;
 use crate::model::shape::{generalised_procrustes, ShapeModel};
@@ -9,17 +9,6 @@ use crate::model::{LandmarkScheme, Model, ModelParts, Reference};
 use crate::pca::{mean, pca};
 use crate::similarity::{CentredFit, Similarity};
 use crate::train::canonical::{canonical_frame, CANONICAL_LANDMARKS};
-
-/// One training example: an image and its landmarks (0-based image coordinates).
-#[derive(Clone, Debug)]
-pub struct TrainingImage {
-    /// A name for it (the file stem), used to name a reference image.
-    pub name: String,
-    /// The RGBA image.
-    pub image: Image,
-    /// Its landmarks, interleaved.
-    pub landmarks: Vec<f32>,
-}
 
 /// Which face the bases `s0`, `A0` show, and so what the modes are computed about.
 #[derive(Clone, Debug, PartialEq, Eq, Default)]
@@ -400,11 +389,11 @@ fn appearance_model(
         o.appearance_variance,
         o.max_appearance_modes,
     )?;
-    Ok(AppearanceModel(crate::model::linear::LinearModel {
-        base: app_centre.iter().map(|&v| v as f32).collect(),
-        modes: ap.modes,
-        variances: ap.variances,
-    }))
+    Ok(AppearanceModel::new(
+        app_centre.iter().map(|&v| v as f32).collect(),
+        ap.modes,
+        ap.variances,
+    ))
 }
 
 /// Symmetric shape samples: each aligned shape's deviation from `centre` mirrored, added back

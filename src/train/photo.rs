@@ -15,6 +15,15 @@ use crate::train::TrainingImage;
 /// pixels wide (smaller faces have too little appearance to show on a canvas).
 pub const MIN_PHOTO_FACE: f32 = 64.0;
 
+/// The longer side (pixels) a photo target's picture is kept at: a larger photo is scaled down
+/// to it before its model is made (its backdrop stays sharp on a large canvas without costing a
+/// camera-sized picture's memory per target).
+pub const PHOTO_MAX_SIDE: u32 = 1024;
+
+/// Fitting passes on a still photo used as a source: the AAM fit of one picture, refined from
+/// its own result, settles within a few.
+pub const PHOTO_FIT_PASSES: u32 = 3;
+
 /// A target model made from one photo and its landmarks (the paper's substitution, Fig. 4 A,
 /// taken to a single picture).
 ///
@@ -67,11 +76,7 @@ pub fn photo_model(
             modes: Vec::new(),
             variances: Vec::new(),
         }),
-        appearance: AppearanceModel(crate::model::linear::LinearModel {
-            base: a0,
-            modes: Vec::new(),
-            variances: Vec::new(),
-        }),
+        appearance: AppearanceModel::new(a0, Vec::new(), Vec::new()),
         frame: frame.clone(),
         reference: Reference::Training(name.to_string()),
         mean_pose: pose,

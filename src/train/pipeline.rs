@@ -61,6 +61,41 @@ pub struct EnrolOptions {
     pub backdrop: bool,
 }
 
+/// How a front end samples frames for enrolment (the page's "Create a face" and the CLI's
+/// `build --find-faces` from a video): how many it keeps and searches, and how often.
+///
+/// Represents policy, not limits: [`enrol`] accepts any number of frames within the bounds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EnrolSampling {
+    /// Frames a model is built from (the most varied are selected).
+    pub want: usize,
+    /// Fewer usable frames than this is an error worth telling the person.
+    pub min_frames: usize,
+    /// Sampled frames kept in memory (pruned to the most varied beyond it).
+    pub max_candidates: usize,
+    /// Live sampling: the next frame is taken this long (ms) after a search ends.
+    pub sample_ms: u32,
+    /// Frames searched in a dropped video, evenly spaced.
+    pub video_samples: usize,
+}
+
+impl EnrolSampling {
+    /// The sampling the page and the CLI use.
+    pub const DEFAULT: EnrolSampling = EnrolSampling {
+        want: 20,
+        min_frames: 8,
+        max_candidates: 60,
+        sample_ms: 100,
+        video_samples: 120,
+    };
+}
+
+impl Default for EnrolSampling {
+    fn default() -> Self {
+        EnrolSampling::DEFAULT
+    }
+}
+
 impl Default for EnrolOptions {
     fn default() -> Self {
         EnrolOptions {

@@ -136,6 +136,9 @@ test('two pages connect; each sees the other\'s avatar (frames, not black) and h
     const cam = await p.evaluate(() => window.facemimicTracking?.stream?.getVideoTracks().map((t) => t.id) ?? []);
     assert.equal(cam.length, 1);
     assert.ok(!video.some((t) => t.id === cam[0]));
+    // The bundled source model is not the caller's own face: the core's policy follows them by
+    // their landmarks (as the main page does), not by fitting another person's AAM.
+    assert.equal(await p.evaluate(() => window.facemimicTracking?.tracker?.path), 'landmarks');
   }
   // The status object is read-only.
   const kept = await a.evaluate(() => {

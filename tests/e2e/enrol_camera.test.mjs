@@ -15,7 +15,7 @@
 //   for a second opinion every `recheckFrames` tracked frames), against the dlib landmarks;
 //   beside it a model built in the page with `buildModel` from 20 frames of 0-599 with their dlib
 //   landmarks (farthest-point sampling, `selectVaried`, of the dlib shapes of every 5th frame, as
-//   tests/enrol_webcam.rs does natively), tracked the same way. The enrolled model must track at
+//   tests/integration/enrol_webcam.rs does natively), tracked the same way. The enrolled model must track at
 //   MAX_ENROLLED_ERROR or better; the ratio to the reference is printed, and asserted (at most
 //   MAX_RATIO) only when ASSERT_RATIO is on;
 // - bad input: no face in the frames (Chromium's own fake picture), too few usable frames, the
@@ -43,7 +43,7 @@ const MAX_RATIO = 1.3;
 /** Whether the ratio is asserted (it is printed either way). Off: measured 1.78-1.86 here and
  *  1.89 natively. The gap is the face finder's own convention on this face: with this person's
  *  mean offset from dlib removed (an oracle), the native enrolment is within 1.21x
- *  (tests/enrol_webcam.rs; docs/experiments/fitting-notebook.md, "Enrolment with the face finder's landmarks"). */
+ *  (tests/integration/enrol_webcam.rs; docs/experiments/fitting-notebook.md, "Enrolment with the face finder's landmarks"). */
 const ASSERT_RATIO = false;
 /** Seconds the camera plays the 600 frames (Chromium plays an MJPEG file at 30 fps): sampling
  *  lasts at least this long so the enrolled frames come from all of 0-599. */
@@ -144,7 +144,7 @@ async function measureUnseen({ base, name, first, last, trainEnd, step, select }
   const jpeg = async (i) => createImageBitmap(await (await get(file(i, 'jpg'))).blob());
   const canvas = new OffscreenCanvas(1, 1);
   const g = canvas.getContext('2d', { willReadFrequently: true });
-  /** A frame's RGBA at `k` fitted px per frame px (as media.js fitImage resamples). */
+  /** A frame's RGBA at `k` fitted px per frame px (drawn scaled, as the page draws its work canvas). */
   const pixels = (bmp, k) => {
     const w = Math.max(1, Math.round(bmp.width * k));
     const h = Math.max(1, Math.round(bmp.height * k));

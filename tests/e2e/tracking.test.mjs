@@ -423,7 +423,7 @@ test('the webcam auto-starts on a face in the guide and tracks it live', async (
   assert.equal(lost, 0, 'frames lost tracking the face camera');
   // The page gives the follower the work canvas as it is (640x480 here): its landmark passes cost
   // the same at any face size, so it does not resample (the AAM tracker's own choice of scale is
-  // checked in tests/track_policy.rs and tests/cli.rs).
+  // checked in tests/integration/track_policy.rs and crates/cli/tests/integration/cli.rs).
   const scale = await tracking(page, () => window.facemimicTracking.tracker.scale);
   assert.equal(scale, 1, 'the follower resampled the frame');
   assert.ok(meanErr < 0.06, `fit error mean ${meanErr}`);
@@ -435,7 +435,7 @@ test('the webcam auto-starts on a face in the guide and tracks it live', async (
   const on = await overlayDiff(page, true);
   assert.ok(on.differ > 300 && on.greenish > 200, `no mesh over the webcam picture: ${JSON.stringify(on)}`);
   // The bundled source model is not this person's own: the face is followed by its landmarks
-  // (the package's Follower), and the panel says so and offers "Create a face".
+  // (the package's Tracker.follower, the core's policy), and the panel says so and offers "Create a face".
   assert.equal(await page.$eval('.trk-path', (e) => e.dataset.path), 'landmarks');
   assert.match(await page.$eval('.trk-path', (e) => e.textContent), /Following landmarks/);
   assert.equal(await page.$eval('.trk-path button', (e) => e.textContent), 'Create a face');

@@ -3,15 +3,19 @@
 // (the package's Cloner) and drawn, composited, into one 640x480 canvas. That canvas is what the
 // call sends (`canvas.captureStream()`); the webcam's own picture stays in this page.
 //
+// The webcam is followed as on the main page, by the core's policy (the package's
+// `Tracker.kindFor`): a bundled source model is someone else's face, so anyone is followed by
+// their landmarks mapped onto it; a model of one's own ("Your models") has its AAM fitted.
+//
 // Per fit: the tracker's parameters (pose re-centred as on the main page) -> head-motion damping
-// (PoseDamper) -> Cloner (the core's default method from the package's `methods()`; gain and
+// (the package's PoseDamper: the core's pose anchor) -> Cloner (the core's default method from the package's `methods()`; gain and
 // region gains, set when they change) -> the avatar drawn into the canvas -> a row of the frame log.
 // A lost face draws nothing new: the avatar holds its last frame (and the other side is told).
 // Changing the avatar replaces the Cloner's target: the same canvas, the same track, no
 // renegotiation.
 
 import { createSource } from './sources.js';
-import { PoseDamper, FrameLog, clampSettings, REGIONS } from './call-controls.js';
+import { makePoseDamper, FrameLog, clampSettings, REGIONS } from './call-controls.js';
 import './tracking.js'; // registers the webcam source
 
 export const WIDTH = 640;
@@ -61,7 +65,7 @@ export class Avatar {
     // The cloning method: the core's default (the package's one list, `methods()`).
     const methods = fm.methods();
     this.method = (methods.find((m) => m.isDefault) ?? methods[0]).name;
-    this.damper = new PoseDamper();
+    this.damper = makePoseDamper(fm); // the core's pose anchor
     this.log = null;
     this.frames = 0; // avatar frames drawn
     this.fits = 0;
@@ -84,7 +88,7 @@ export class Avatar {
     return this.drawTimes.length;
   }
 
-  /** Source model (whose AAM tracks the webcam) and avatar (target) model. */
+  /** Source model (whose face drives the avatar: www/js/follow-path.js) and avatar (target) model. */
   setModels(source, target) {
     const oldCloner = this.cloner;
     this.cloner = new this.fm.Cloner(source.model);
@@ -138,6 +142,8 @@ export class Avatar {
       wasm: this.fm,
       sourceModel: () => this.source.model,
       sourceInfo: () => this.source.info,
+      // Whose face the source model is: the tracking policy's input (www/js/follow-path.js).
+      sourceIsOwn: () => !this.source.bundled,
       currentParams: () => null,
       invalidate: () => {},
       onFit: (r, params) => this.onFit(r, params),

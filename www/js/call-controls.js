@@ -1,6 +1,7 @@
 // The call's experimenter controls, without DOM: head-motion damping (the pose's deviation from
-// its running mean, scaled), the checks on every message that arrives over the data channel, and
-// the per-frame log (a fixed-size ring of numbers, written out as CSV).
+// its running mean, scaled: the package's PoseDamper, the core's pose anchor), the checks on
+// every message that arrives over the data channel, and the per-frame log (a fixed-size ring of
+// numbers, written out as CSV).
 //
 // Everything received from the other page is untrusted: `parseControl` returns a clean message
 // or null (and why), so garbage over the data channel is counted and ignored, never thrown.
@@ -22,41 +23,15 @@ export const HEAD_TAU = 2;
 export const MAX_CONTROL_BYTES = 4096;
 
 const clamp = (x, [lo, hi]) => Math.min(hi, Math.max(lo, x));
-const wrap = (a) => Math.atan2(Math.sin(a), Math.cos(a));
 
 /**
- * Head-motion damping: keeps a running mean of the pose (log-scale, angle, translation;
- * exponential, time constant HEAD_TAU) and returns mean + factor * (pose - mean).
+ * Head-motion damping: the package's `PoseDamper` (`fm`: the package), the core's one running
+ * pose anchor (an exponential running mean of the pose, geometric in scale, the short way round
+ * in angle; time constant `tau` seconds, HEAD_TAU). `apply(pose, nowMs, factor)` returns
+ * anchor + factor * (pose - anchor); `reset()` forgets the anchor.
  */
-export class PoseDamper {
-  constructor(tau = HEAD_TAU) {
-    this.tau = tau;
-    this.mean = null;
-  }
-
-  reset() {
-    this.mean = null;
-  }
-
-  /** `pose` {scale, rotation, tx, ty}; `now` in ms; `factor` in HEAD_RANGE. */
-  apply(pose, now, factor) {
-    const ls = Math.log(pose.scale);
-    if (!this.mean) this.mean = { ls, rotation: pose.rotation, tx: pose.tx, ty: pose.ty, at: now };
-    const m = this.mean;
-    const u = 1 - Math.exp(-Math.max(0, now - m.at) / 1000 / this.tau);
-    m.ls += (ls - m.ls) * u;
-    m.rotation = wrap(m.rotation + wrap(pose.rotation - m.rotation) * u);
-    m.tx += (pose.tx - m.tx) * u;
-    m.ty += (pose.ty - m.ty) * u;
-    m.at = now;
-    if (factor === 1) return { ...pose };
-    return {
-      scale: Math.exp(m.ls + (ls - m.ls) * factor),
-      rotation: m.rotation + wrap(pose.rotation - m.rotation) * factor,
-      tx: m.tx + (pose.tx - m.tx) * factor,
-      ty: m.ty + (pose.ty - m.ty) * factor,
-    };
-  }
+export function makePoseDamper(fm, tau = HEAD_TAU) {
+  return new fm.PoseDamper(tau);
 }
 
 const finite = (x) => typeof x === 'number' && Number.isFinite(x);

@@ -7,26 +7,25 @@
 // are chosen (farthest-point sampling of the aligned shapes, `selectVaried`; the coverage of the
 // expression space is shown while sampling), the model is built in a Web Worker
 // (build-client.js) with a progress bar and a Cancel button, kept in this browser (store.js) and
-// shown in the page's inspector and, in the dialog itself, in a preview (a second `Inspector`:
+// shown in the page's inspector and, in the dialog itself (its view: enrol-dialog.js), in a
+// preview (a second `Inspector`:
 // the mean face and one mode animated, shape or appearance, picked from the bars; drawn by the
 // page's frame loop only while the dialog is open); then "Use as source", "Add as target" and
 // "Download .fmm".
 // Nothing is stored until the build has finished: a cancelled or failed build leaves nothing.
 
-import { parsePts as parsePtsFile } from '../pkg/facemimic.js';
+import { parsePts as parsePtsFile, policy } from '../pkg/facemimic.js';
 import { buildInWorker } from './build-client.js';
-import { Inspector } from './inspector.js';
 import { enrolFace } from './finder-client.js';
-import { download, safeName } from './store.js';
+import { enrolDialog, enrolPreview, faceThumbs } from './enrol-dialog.js';
 import { openCamera, looksLikeImage, looksLikeVideo } from './media.js';
 
-const WANT = 20; // frames a model is built from
-const MIN_FRAMES = 8; // fewer usable frames than this is an error
-const MAX_CANDIDATES = 60; // sampled frames kept in memory (pruned to the most varied)
-const MAX_SIDE = 640; // frames are scaled down to this longer side
+// How frames are sampled (frames built from, fewest usable, kept in memory, frame side, ms
+// between live samples, frames searched in a video): the core's policy, read once the package
+// is initialised.
+let sampling = null;
+const enrolPolicy = () => (sampling ??= policy().enrol);
 const MIN_SCORE = 0; // finder score to keep a face: any face it accepts (see buildModel's minScore)
-const SAMPLE_MS = 100; // live sampling: the next frame is taken this long after a search ends
-const VIDEO_SAMPLES = 120; // frames searched in a dropped video (evenly spaced)
 const GUIDE = 'Talk, smile, open your mouth wide, raise your eyebrows, look a little left and right.';
 const PROMPTS = ['Talk', 'Smile', 'Open your mouth wide', 'Raise your eyebrows', 'Look a little left', 'Look a little right', 'Frown', 'Talk again'];
 
@@ -38,9 +37,9 @@ export function parsePts(text) {
   return v;
 }
 
-/** Draws a bitmap or video frame scaled to at most MAX_SIDE; returns { rgba, width, height, scale }. */
+/** Draws a bitmap or video frame scaled to at most the policy's maxSide; returns { rgba, width, height, scale }. */
 function grab(source, w, h) {
-  const scale = Math.min(1, MAX_SIDE / Math.max(w, h));
+  const scale = Math.min(1, enrolPolicy().maxSide / Math.max(w, h));
   const width = Math.max(1, Math.round(w * scale));
   const height = Math.max(1, Math.round(h * scale));
   const c = new OffscreenCanvas(width, height);
@@ -62,136 +61,23 @@ export class Enrolment {
     this.timer = null;
     this.abort = null;
     this.result = null;
-    this.dialog = this.buildDialog();
-    this.preview = this.buildPreview();
-    window.facemimicEnrol = this; // for the console and the end-to-end tests
-  }
-
-  el(tag, props = {}, ...children) {
-    const e = document.createElement(tag);
-    Object.assign(e, props);
-    e.append(...children);
-    return e;
-  }
-
-  buildDialog() {
-    const d = this.el('dialog', { id: 'enrol', className: 'enrol' });
-    d.setAttribute('aria-labelledby', 'enrol-title');
-    const $ = (tag, props, ...c) => this.el(tag, props, ...c);
-    this.els = {
-      webcam: $('button', { type: 'button', className: 'btn', textContent: 'Webcam' }),
-      photos: $('button', { type: 'button', className: 'btn', textContent: 'Photos or video…' }),
-      file: $('input', { type: 'file', multiple: true, accept: 'image/*,video/*,.pts', hidden: true }),
-      guide: $('p', { className: 'hint enrol-guide' }),
-      video: $('video', { muted: true, playsInline: true, className: 'enrol-video', hidden: true }),
-      status: $('p', { className: 'enrol-status', role: 'status' }),
-      coverage: $('meter', { min: 0, max: 1, value: 0, className: 'enrol-coverage' }),
-      name: $('input', { type: 'text', value: 'My face', maxLength: 80, className: 'enrol-name' }),
-      refine: $('input', { type: 'checkbox', className: 'enrol-refine' }),
-      build: $('button', { type: 'button', className: 'btn primary', textContent: 'Build', disabled: true }),
-      cancel: $('button', { type: 'button', className: 'btn', textContent: 'Cancel' }),
-      progress: $('progress', { max: 1, value: 0, hidden: true, className: 'enrol-progress' }),
-      done: $('div', { className: 'enrol-done', hidden: true }),
-      preview: $('section', { className: 'enrol-preview', hidden: true }),
-      strip: $('div', { className: 'enrol-strip' }),
-    };
-    const e = this.els;
-    e.strip.setAttribute('aria-label', 'The frames the model will be built from, with their landmarks');
-    e.coverage.setAttribute('aria-label', 'Expression coverage');
-    e.name.setAttribute('aria-label', 'Name of the new face');
-    e.webcam.addEventListener('click', () => this.startWebcam());
-    e.photos.addEventListener('click', () => {
-      e.file.value = '';
-      e.file.click();
+    const { dialog, els } = enrolDialog({
+      webcam: () => this.startWebcam(),
+      addFiles: (files) => this.addFiles(files),
+      build: () => this.build(),
+      cancel: () => this.cancel(),
+      // Closing ends the capture; a search under way finishes in the worker and is dropped
+      // (sampleFrom checks the session).
+      closed: () => this.stopCapture(),
+      result: () => this.result,
+      useAsSource: (r) => this.page.useAsSource(r.bytes, r.name),
+      addAsTarget: (r) => this.page.addAsTarget(r.bytes, r.name),
     });
-    e.file.addEventListener('change', () => this.addFiles([...e.file.files]));
-    e.build.addEventListener('click', () => this.build());
-    e.cancel.addEventListener('click', () => this.cancel());
-    // Closing ends the capture; a search under way finishes in the worker and is dropped
-    // (sampleFrom checks the session).
-    d.addEventListener('close', () => this.stopCapture());
-    d.addEventListener('dragover', (ev) => {
-      ev.preventDefault();
-      ev.stopPropagation();
-    });
-    d.addEventListener('drop', (ev) => {
-      ev.preventDefault();
-      ev.stopPropagation();
-      if (ev.dataTransfer?.files?.length) this.addFiles([...ev.dataTransfer.files]);
-    });
-    const use = (label, fn) => {
-      const b = $('button', { type: 'button', className: 'btn', textContent: label });
-      b.addEventListener('click', () => this.result && fn(this.result));
-      return b;
-    };
-    e.done.append(
-      use('Use as source', (r) => { this.page.useAsSource(r.bytes, r.name); d.close(); }),
-      use('Add as target', (r) => { this.page.addAsTarget(r.bytes, r.name); d.close(); }),
-      use('Download .fmm', (r) => download(r.bytes, `${safeName(r.name)}.fmm`)),
-    );
-    d.append(
-      $('h2', { id: 'enrol-title', textContent: 'Create a face' }),
-      $('p', {
-        className: 'hint',
-        // Touch screens cannot drop files: say how to choose them there.
-        textContent: matchMedia('(pointer: coarse)').matches
-          ? 'Use the camera, a video, or about 20 photos of one person (choose them with "Photos or video…"; a .pts landmark file chosen with a photo is used). Everything stays on this device.'
-          : 'Use the webcam, a video, or about 20 photos of one person (drop them here; a .pts landmark file beside a photo is used when given). Everything stays in this browser.',
-      }),
-      $('div', { className: 'row buttons' }, e.webcam, e.photos, e.file),
-      e.guide,
-      e.video,
-      $('div', { className: 'row' }, $('span', { textContent: 'Coverage' }), e.coverage),
-      e.strip,
-      e.status,
-      e.preview,
-      e.done,
-      $('div', { className: 'row' }, $('label', { textContent: 'Name' }), e.name),
-      $('label', { className: 'row hint', title: 'Fits the new model to its own frames and rebuilds it from the fitted landmarks. Measured on a webcam clip, it tracks unseen frames worse, so it is off by default.' }, e.refine, ' Refine (slower; measured to track worse)'),
-      e.progress,
-      $('div', { className: 'row buttons' }, e.build, e.cancel),
-    );
-    document.body.append(d);
+    this.dialog = dialog;
+    this.els = els;
+    this.preview = enrolPreview(els.preview, page); // an Inspector
     this.update();
-    return d;
-  }
-
-  /** The preview of a built model (the Inspector's look, paper Fig. 1): mean face, one mode
-   *  animated as base + k sigma sin(t), shape or appearance, a mode picked from the bars. */
-  buildPreview() {
-    const $ = (tag, props, ...c) => this.el(tag, props, ...c);
-    const host = this.els.preview;
-    host.setAttribute('aria-labelledby', 'enrol-preview-title');
-    const canvas = (label) => {
-      const c = $('canvas', { className: 'face small' });
-      c.setAttribute('role', 'img');
-      c.setAttribute('aria-label', label);
-      return c;
-    };
-    const els = {
-      mean: canvas('Mean face of the new model'),
-      mode: canvas('The chosen mode of the new model, animated'),
-      caption: $('figcaption'),
-      bars: $('div', { className: 'bars' }),
-      kind: $('fieldset', { className: 'segmented small' }),
-    };
-    els.bars.setAttribute('role', 'radiogroup');
-    els.bars.setAttribute('aria-label', 'Modes of the new model by share of variance');
-    const radio = (value, label, checked) => $('label', {}, $('input', { type: 'radio', name: 'enrol-kind', value, checked }), $('span', { textContent: label }));
-    els.kind.append($('legend', { className: 'visually-hidden', textContent: 'Mode kind' }), radio('shape', 'Shape', true), radio('appearance', 'Appearance', false));
-    host.append(
-      $('h3', { id: 'enrol-preview-title', textContent: 'Preview' }),
-      $('div', { className: 'enrol-preview-body' },
-        $('div', { className: 'inspect-views' },
-          $('figure', {}, els.mean, $('figcaption', { textContent: 'Mean' })),
-          $('figure', {}, els.mode, els.caption)),
-        $('div', { className: 'enrol-preview-modes' },
-          els.kind,
-          els.bars,
-          $('p', { className: 'hint bars-caption', textContent: 'Each mode\'s share of the variance; pick one to animate it.' }))),
-    );
-    for (const c of [els.mean, els.mode]) this.page.hidpi?.watch(c);
-    return new Inspector(this.page.fm, els, this.page.faceOptions ?? {});
+    window.facemimicEnrol = this; // for the console and the end-to-end tests
   }
 
   /** Called by the page's frame loop (t in seconds): draws the preview while it can be seen. */
@@ -247,8 +133,8 @@ export class Enrolment {
   addCandidate(frame) {
     frame.id = this.nextId = (this.nextId || 0) + 1;
     this.candidates.push(frame);
-    if (this.candidates.length > MAX_CANDIDATES) {
-      const keep = this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.round(MAX_CANDIDATES * 0.75));
+    if (this.candidates.length > enrolPolicy().maxCandidates) {
+      const keep = this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.round(enrolPolicy().maxCandidates * 0.75));
       this.candidates = [...keep].sort((a, b) => a - b).map((i) => this.candidates[i]);
     }
   }
@@ -260,14 +146,14 @@ export class Enrolment {
     let pick = [];
     if (n >= 2) {
       const shapes = this.candidates.map((c) => c.landmarks);
-      pick = this.page.fm.selectVaried(shapes, Math.min(WANT, n));
+      pick = this.page.fm.selectVaried(shapes, Math.min(enrolPolicy().want, n));
       cover = this.page.fm.shapeCoverage(shapes, pick);
     }
     this.drawStrip([...pick].sort((a, b) => a - b));
     this.els.coverage.value = cover;
-    this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(WANT, n)} frames that would be used`;
-    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < MIN_FRAMES ? ` (at least ${MIN_FRAMES} are needed)` : ''}.`;
-    this.els.build.disabled = n < MIN_FRAMES || this.abort !== null || this.intake > 0;
+    this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(enrolPolicy().want, n)} frames that would be used`;
+    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < enrolPolicy().minFrames ? ` (at least ${enrolPolicy().minFrames} are needed)` : ''}.`;
+    this.els.build.disabled = n < enrolPolicy().minFrames || this.abort !== null || this.intake > 0;
     this.els.cancel.textContent = this.abort ? 'Cancel' : 'Close';
   }
 
@@ -276,36 +162,7 @@ export class Enrolment {
     const key = pick.map((i) => this.candidates[i].id).join(',');
     if (key === this.stripKey) return;
     this.stripKey = key;
-    const H = 56;
-    const thumbs = pick.map((i) => {
-      const c = this.candidates[i];
-      // Crop around the face (landmark box + 30%), scaled to H pixels high.
-      let [x0, y0, x1, y1] = [Infinity, Infinity, -Infinity, -Infinity];
-      for (let k = 0; k < c.landmarks.length; k += 2) {
-        x0 = Math.min(x0, c.landmarks[k]); x1 = Math.max(x1, c.landmarks[k]);
-        y0 = Math.min(y0, c.landmarks[k + 1]); y1 = Math.max(y1, c.landmarks[k + 1]);
-      }
-      const side = Math.max(x1 - x0, y1 - y0) * 1.3;
-      const [cx, cy] = [(x0 + x1) / 2, (y0 + y1) / 2];
-      const k = H / side;
-      const canvas = document.createElement('canvas');
-      canvas.width = H;
-      canvas.height = H;
-      const g = canvas.getContext('2d');
-      if (!c.thumb) {
-        // The frame once as a canvas (drawn again only if the crop changes: never).
-        const img = new ImageData(new Uint8ClampedArray(c.rgba.buffer, c.rgba.byteOffset, c.rgba.length), c.width, c.height);
-        c.thumb = new OffscreenCanvas(c.width, c.height);
-        c.thumb.getContext('2d').putImageData(img, 0, 0);
-      }
-      g.drawImage(c.thumb, cx - side / 2, cy - side / 2, side, side, 0, 0, H, H);
-      g.fillStyle = '#7cc4ff';
-      for (let j = 0; j < c.landmarks.length; j += 2) {
-        g.fillRect((c.landmarks[j] - cx + side / 2) * k - 0.5, (c.landmarks[j + 1] - cy + side / 2) * k - 0.5, 1.2, 1.2);
-      }
-      return canvas;
-    });
-    this.els.strip.replaceChildren(...thumbs);
+    this.els.strip.replaceChildren(...faceThumbs(this.candidates, pick));
   }
 
   /** Photos (with or without .pts files) and videos: faces found in the worker, one at a time;
@@ -355,7 +212,7 @@ export class Enrolment {
     this.update();
   }
 
-  /** Searches VIDEO_SAMPLES evenly spaced frames of a video file (seeking, so the whole video
+  /** Searches the policy's videoSamples evenly spaced frames of a video file (seeking, so the whole video
    *  is covered whatever the finder's speed). */
   async sampleVideoFile(file) {
     const url = URL.createObjectURL(file);
@@ -376,7 +233,7 @@ export class Enrolment {
       }
       const duration = Number.isFinite(v.duration) ? v.duration : 0;
       if (!(duration > 0)) throw new Error('the video has no length');
-      const n = Math.max(1, Math.min(VIDEO_SAMPLES, Math.round(duration * 10)));
+      const n = Math.max(1, Math.min(enrolPolicy().videoSamples, Math.round(duration * 10)));
       for (let k = 0; k < n && this.dialog.open && this.session === session; k++) {
         v.currentTime = ((k + 0.5) / n) * duration;
         await new Promise((resolve) => { v.onseeked = resolve; });
@@ -417,9 +274,9 @@ export class Enrolment {
     const step = async () => {
       if (!this.stream || this.session !== session) return;
       await this.sampleFrom(video);
-      if (this.stream && this.session === session) this.timer = setTimeout(step, SAMPLE_MS);
+      if (this.stream && this.session === session) this.timer = setTimeout(step, enrolPolicy().sampleMs);
     };
-    this.timer = setTimeout(step, SAMPLE_MS);
+    this.timer = setTimeout(step, enrolPolicy().sampleMs);
     let k = 0;
     const prompt = () => {
       this.els.guide.textContent = `${GUIDE} Now: ${PROMPTS[k++ % PROMPTS.length].toLowerCase()}.`;
@@ -446,7 +303,7 @@ export class Enrolment {
       track.addEventListener('ended', () => {
         if (this.stream) {
           this.stopCapture();
-          this.update(`The camera stopped. ${this.candidates.length} usable face(s) were kept${this.candidates.length >= MIN_FRAMES ? '; you can build from them' : ''}.`);
+          this.update(`The camera stopped. ${this.candidates.length} usable face(s) were kept${this.candidates.length >= enrolPolicy().minFrames ? '; you can build from them' : ''}.`);
         }
       });
     }
@@ -469,13 +326,13 @@ export class Enrolment {
 
   async build() {
     const n = this.candidates.length;
-    if (n < MIN_FRAMES) {
-      this.update(`Too few usable faces: ${n} (at least ${MIN_FRAMES}).`);
+    if (n < enrolPolicy().minFrames) {
+      this.update(`Too few usable faces: ${n} (at least ${enrolPolicy().minFrames}).`);
       return;
     }
     this.stopCapture();
     const name = this.els.name.value.trim() || 'My face';
-    const pick = [...this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.min(WANT, n))].sort((a, b) => a - b);
+    const pick = [...this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.min(enrolPolicy().want, n))].sort((a, b) => a - b);
     const frames = pick.map((i) => {
       const c = this.candidates[i];
       return { rgba: c.rgba.slice(), width: c.width, height: c.height, landmarks: c.landmarks };
@@ -490,7 +347,7 @@ export class Enrolment {
     const t0 = performance.now();
     const refine = this.els.refine.checked ? 1 : 0;
     try {
-      const r = await buildInWorker({ frames, name, refine, minFrames: Math.min(MIN_FRAMES, frames.length) }, {
+      const r = await buildInWorker({ frames, name, refine, minFrames: Math.min(enrolPolicy().minFrames, frames.length) }, {
         signal: this.abort.signal,
         onProgress: (done, total, stage) => {
           p.value = done / total;
@@ -498,7 +355,8 @@ export class Enrolment {
         },
       });
       this.result = { bytes: r.bytes, name };
-      await this.page.shelf.keep(r.bytes, name, 'built');
+      // The worker parsed the model it built: its info stands for the file (not parsed again).
+      await this.page.shelf.keep(r.bytes, name, 'built', { info: r.info });
       // Ask the browser not to evict the store under storage pressure (it may say no).
       navigator.storage?.persist?.().catch(() => {});
       const model = this.page.fm.Model.fromBytes(r.bytes);
@@ -513,7 +371,7 @@ export class Enrolment {
       this.abort = null;
       this.els.cancel.textContent = 'Close';
       p.hidden = true;
-      this.els.build.disabled = this.candidates.length < MIN_FRAMES;
+      this.els.build.disabled = this.candidates.length < enrolPolicy().minFrames;
     }
   }
 

@@ -1,32 +1,40 @@
 // Which path follows a live face (issue 20, item 6), and the line that says so in the tracking
-// panel.
+// panel. The choice is the core's tracking policy (the package's `Tracker.kindFor`,
+// `facemimic::fit::tracker_for`); the page only says whose face the source model is.
 //
-//   "aam"        the source model's AAM is fitted to every frame (the package's `Tracker`): for a
-//                person's own model (Create a face, Your models, a model file dropped on the
-//                source) and for the bundled clip, which shows the bundled person
-//   "landmarks"  anyone is followed at once with the bundled source model (the package's
-//                `Follower`): the face finder's landmarks, smoothed, read as expression relative
-//                to the person's own neutral face and mapped onto the model's shape modes; the
-//                appearance stays the model's. The panel says so and offers "Create a face".
+//   "aam"        the source model's AAM is fitted to every frame: for a person's own model
+//                (Create a face, Your models, a model file dropped on the source) and for the
+//                bundled clip, which shows the bundled person
+//   "landmarks"  anyone is followed at once with the bundled source model: the face finder's
+//                landmarks, smoothed, read as expression relative to the person's own neutral
+//                face and mapped onto the model's shape modes; the appearance stays the model's.
+//                The panel says so and offers "Create a face".
 //
-// The `Follower` has the `Tracker`'s calls and convention (start, offerFaces, wantsFaces,
-// `track(data, width, height, dt)` on the frame at its own size returning landmarks and poses in
-// its pixels with `placed`, the head re-centred about the same kind of anchor, the counters), so
-// tracking.js drives either the same way.
+// Both are the package's one `Tracker` class (`Tracker.fromModel` / `Tracker.follower`), with
+// the same calls and convention (start, offerFaces, wantsFaces, `track(data, width, height, dt)`
+// on the frame at its own size returning landmarks and poses in its pixels with `placed`, the
+// head re-centred about the core's pose anchor, the counters), so tracking.js drives either the
+// same way.
 
-/** "landmarks" when a live source (webcam, video file) drives a bundled source model. */
-export function followPath(ctx, mode) {
-  if (mode === 'clip') return 'aam';
-  if (typeof ctx.wasm?.Follower !== 'function') return 'aam';
-  const own = typeof ctx.sourceIsOwn === 'function' ? ctx.sourceIsOwn() : true;
-  return own ? 'aam' : 'landmarks';
+/**
+ * The path the core's policy chooses for the source model: "landmarks" when a live source
+ * (webcam, video file) drives someone else's (a bundled) model, else "aam". `model`: the source
+ * model (default: the context's).
+ */
+export function followPath(ctx, mode, model = ctx.sourceModel?.() ?? ctx.source?.model) {
+  // The bundled clip shows the bundled person: the model is theirs.
+  const own = mode === 'clip' || (typeof ctx.sourceIsOwn === 'function' ? ctx.sourceIsOwn() : true);
+  const T = ctx.wasm?.Tracker;
+  if (typeof T?.kindFor !== 'function' || !model) return 'aam';
+  return T.kindFor(model, own);
 }
 
-/** A `Follower` for `model`, with faces offered from the page's finder worker. */
-export function makeFollower(wasm, model) {
-  const follower = wasm.Follower.fromModel(model);
-  follower.expectOffers(true);
-  return follower;
+/** The package's `Tracker` of `path` for `model`, with faces offered from the page's finder worker. */
+export function makeTracker(wasm, model, path) {
+  const T = wasm.Tracker;
+  const tracker = path === 'landmarks' ? T.follower(model) : T.fromModel(model);
+  tracker.expectOffers(true);
+  return tracker;
 }
 
 /**

@@ -6,7 +6,11 @@
 import { message } from './toasts.js';
 import { setCanvasSize } from './canvas.js';
 
-/** The frame shown (and placed on, and searched for faces) is at most this big (longer side, px). */
+/**
+ * The frame shown (and placed on, and searched for faces) is at most this big (longer side, px):
+ * the core's tracking policy (`WORK_SIDE`, the package's `workSide()`), which a `MediaFeed` is
+ * given; this is its value for a page without the package.
+ */
 export const MAX_WORK_SIDE = 640;
 
 /** Image types a dropped file may be (beside videos). */
@@ -74,6 +78,23 @@ export async function openCamera({ width = 640, height = 480 } = {}) {
 const CLIP_JSON = 'media/spk07-clip.json';
 let clipInfo = null;
 
+/**
+ * Points in the video's pixels in the work canvas's, drawn `k` times the video's size (pixel
+ * centres on integers, the canvas covering the same picture: the core's convention).
+ */
+export function videoToWork(pts, k) {
+  const out = new Float32Array(pts.length);
+  for (let i = 0; i < pts.length; i++) out[i] = (pts[i] + 0.5) * k - 0.5;
+  return out;
+}
+
+/** Points in the work canvas's pixels back in the video's (`videoToWork`'s inverse). */
+export function workToVideo(pts, k) {
+  const out = new Array(pts.length);
+  for (let i = 0; i < pts.length; i++) out[i] = (pts[i] + 0.5) / k - 0.5;
+  return out;
+}
+
 /** The bundled clip's description `{ video, url, fps, frames, initLandmarks }` (fetched once). */
 export function loadClipInfo() {
   if (!clipInfo) {
@@ -96,11 +117,13 @@ export { CLIP_JSON };
 
 /**
  * One picture source for a panel: a <video> element (a file, the clip or a camera stream) or a
- * still image, and the "work" canvas holding the current frame at most MAX_WORK_SIDE px on its
- * longer side. `k` is work pixels per source pixel.
+ * still image, and the "work" canvas holding the current frame at most `workSide` px on its
+ * longer side (the package's `workSide()`; MAX_WORK_SIDE when not given). `k` is work pixels per
+ * source pixel.
  */
 export class MediaFeed {
-  constructor() {
+  constructor(workSide = MAX_WORK_SIDE) {
+    this.workSide = workSide > 0 ? workSide : MAX_WORK_SIDE;
     this.video = document.createElement('video');
     this.video.muted = true;
     this.video.defaultMuted = true;
@@ -112,8 +135,6 @@ export class MediaFeed {
     this.stream = null;
     this.work = document.createElement('canvas');
     this.workCtx = this.work.getContext('2d', { willReadFrequently: true });
-    this.fitCanvas = document.createElement('canvas');
-    this.fitCtx = this.fitCanvas.getContext('2d', { willReadFrequently: true });
     this.k = 1;
     this.haveFrame = false;
     this.frameHandle = null;
@@ -247,7 +268,7 @@ export class MediaFeed {
     const vw = this.width;
     const vh = this.height;
     if (!vw || !vh) return this.k;
-    const k = Math.min(1, MAX_WORK_SIDE / Math.max(vw, vh));
+    const k = Math.min(1, this.workSide / Math.max(vw, vh));
     const w = Math.max(1, Math.round(vw * k));
     const h = Math.max(1, Math.round(vh * k));
     setCanvasSize(this.work, w, h);
@@ -260,16 +281,5 @@ export class MediaFeed {
   /** The current work frame's RGBA (`ImageData`). */
   workImage() {
     return this.workCtx.getImageData(0, 0, this.work.width, this.work.height);
-  }
-
-  /** The current frame's RGBA at `kFit` fitted px per source px (`ImageData`). */
-  fitImage(kFit) {
-    if (Math.abs(kFit - this.k) < 1e-9) return this.workImage();
-    const w = Math.max(1, Math.round(this.width * kFit));
-    const h = Math.max(1, Math.round(this.height * kFit));
-    setCanvasSize(this.fitCanvas, w, h);
-    this.fitCtx.imageSmoothingQuality = 'medium';
-    this.fitCtx.drawImage(this.still || this.video, 0, 0, w, h);
-    return this.fitCtx.getImageData(0, 0, w, h);
   }
 }

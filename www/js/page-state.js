@@ -11,8 +11,9 @@ export { fm };
 export const notVideos = (files) => !files.every(looksLikeVideo);
 
 export const MODELS = 'models/';
-// method: the core's default, the entry of the package's `methods()` with `isDefault` (set by
-// loadMethods once the package is loaded). mouth, eyes, brows: the expressive method's region
+// The cloning settings (method, gain, clamp and k, followPose, the region gains, style) are the
+// core's defaults, set by loadMethods from the package's `policy()` once it is loaded; the values
+// here only stand before that. mouth, eyes, brows: the expressive method's region
 // gains; style: 0 the target's own range .. 1 the source's full motion. faceOnly: targets drawn
 // as the face alone (the paper's view) instead of composited into their picture (the model's
 // backdrop; models without one are drawn face only either way).
@@ -54,12 +55,20 @@ export const app = {
   stats: { fps: 0, map: 0, synth: 0, raster: 0, blit: 0, frameMs: 0, last: 0, shown: 0 },
 };
 
-/** The cloning methods from the package (the core's one list) and the default method from it. */
+/**
+ * The cloning methods from the package (the core's one list), and the cloning defaults from the
+ * core's policy (`policy().clone`: method, gain, clamp, head pose, region gains, style), so the
+ * page starts where a new `Cloner` does.
+ */
 export function loadMethods() {
   app.methods = fm.methods();
   if (!app.methods.length) throw new Error('the package lists no cloning method');
-  DEFAULTS.method = (app.methods.find((m) => m.isDefault) ?? app.methods[0]).name;
-  app.settings.method = DEFAULTS.method;
+  const c = fm.policy().clone;
+  Object.assign(DEFAULTS, {
+    method: c.method, gain: c.gain, clamp: c.clamp !== null, k: c.clamp ?? DEFAULTS.k,
+    followPose: c.followPose, mouth: c.mouth, eyes: c.eyes, brows: c.brows, style: c.style,
+  });
+  app.settings = { ...app.settings, ...DEFAULTS };
 }
 
 /** A cheap identity for a model file's bytes (FNV-1a over a sample + the length). */

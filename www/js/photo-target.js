@@ -15,10 +15,6 @@ import { drawFrame } from './face-draw.js';
 import { parsePts } from './enrol.js';
 import { looksLikeImage } from './media.js';
 
-/** The picture a photo target keeps: at most this many pixels on its longer side. */
-export const PHOTO_MAX_SIDE = 1024;
-/** Faces are searched in a copy at most this big (as the tracking panel's work frame). */
-const FIND_MAX_SIDE = 640;
 
 /** Whether a file is a landmark file (`.pts`). */
 export function isPts(file) {
@@ -76,6 +72,9 @@ function rescale(pts, k) {
  */
 export async function photoTarget(fm, file, ptsFile, { choose, onStatus = () => {} } = {}) {
   if (typeof fm.Model?.fromPhoto !== 'function') throw new Error('this build of the package cannot make photo targets');
+  // The core's policy: the picture kept at most maxSide on its longer side, faces searched in a
+  // copy at most findSide (the tracking panel's work frame).
+  const { maxSide, findSide } = fm.policy().photo;
   let bmp;
   try {
     bmp = await createImageBitmap(file);
@@ -84,7 +83,7 @@ export async function photoTarget(fm, file, ptsFile, { choose, onStatus = () => 
   }
   try {
     if (!bmp.width || !bmp.height) throw new Error('the image is empty');
-    const full = drawn(bmp, Math.min(1, PHOTO_MAX_SIDE / Math.max(bmp.width, bmp.height)));
+    const full = drawn(bmp, Math.min(1, maxSide / Math.max(bmp.width, bmp.height)));
     let landmarks;
     let faces = 1;
     if (ptsFile) {
@@ -97,7 +96,7 @@ export async function photoTarget(fm, file, ptsFile, { choose, onStatus = () => 
       landmarks = rescale(pts, full.scale);
     } else {
       onStatus(`Looking for the face in ${file.name}…`);
-      const find = drawn(bmp, Math.min(1, FIND_MAX_SIDE / Math.max(bmp.width, bmp.height)));
+      const find = drawn(bmp, Math.min(1, findSide / Math.max(bmp.width, bmp.height)));
       const found = (await findFaces(find.g.getImageData(0, 0, find.width, find.height))).faces;
       faces = found.length;
       if (!found.length) throw new Error('no face was found in it (a photo target needs one face seen from the front)');

@@ -4,10 +4,13 @@
 //
 // Records: { id, name, bytes: ArrayBuffer (the .fmm file), origin: "built" | "dropped" | "photo", created,
 // size, fingerprint, hash }. A record is written in one transaction with the complete, validated
-// file, so a half-made model is never stored (a cancelled or failed build writes nothing). On
-// load every record is validated with Model.fromBytes: a damaged one is listed as damaged with
-// the reason (and can be deleted); the others load as usual. The .fmm reader keeps reading older
-// format versions, so stored models stay loadable by later versions of the page.
+// file, so a half-made model is never stored (a cancelled or failed build writes nothing). Each
+// record is checked once per page load (the first listing) from its header, length and checksum
+// (the package's modelSummary: no model is built): a damaged one is listed as damaged with the
+// reason (and can be deleted); the others load as usual, and what
+// the list shows of them is kept by the file's hash, so keeping a model the page has already
+// parsed (its `info` given) parses nothing again. The .fmm reader keeps reading older format
+// versions, so stored models stay loadable by later versions of the page.
 
 const DB_NAME = 'facemimic';
 const DB_VERSION = 1;
@@ -63,12 +66,12 @@ export class ModelStore {
     const copy = new Uint8Array(bytes).slice().buffer; // detached from any wasm memory
     const hash = hashBytes(new Uint8Array(copy));
     const same = (await this.list()).find((r) => r.hash === hash);
-    if (same) return { id: same.id, existed: true };
+    if (same) return { id: same.id, existed: true, hash };
     const tx = this.db.transaction(STORE, 'readwrite');
     const record = { name, bytes: copy, origin, created: Date.now(), size: copy.byteLength, fingerprint, hash };
     const id = await req(tx.objectStore(STORE).add(record));
     await done(tx);
-    return { id, existed: false };
+    return { id, existed: false, hash };
   }
 
   async get(id) {
@@ -102,6 +105,7 @@ export class ModelShelf {
     this.page = page;
     this.store = null;
     this.items = []; // { record, info | null, error | null }
+    this.summaries = new Map(); // file hash -> what the list shows of a valid model (see summary)
     this.ready = this.init();
     window.facemimicModels = this; // for the console and the end-to-end tests
   }
@@ -139,13 +143,10 @@ export class ModelShelf {
     const items = [];
     const damaged = [];
     for (const record of records) {
-      let info = null;
+      let info = (record.hash && this.summaries.get(record.hash)) || null;
       let error = null;
       try {
-        if (!(record.bytes instanceof ArrayBuffer)) throw new Error('the stored entry holds no model file');
-        const m = this.page.fm.Model.fromBytes(new Uint8Array(record.bytes));
-        info = m.info();
-        m.free();
+        if (!info) info = this.validate(record);
       } catch (e) {
         error = e.message || String(e);
         damaged.push(`${record.name || `#${record.id}`}: ${error}`);
@@ -161,21 +162,39 @@ export class ModelShelf {
     this.render();
   }
 
-  /** Keeps a model file (validated first). Returns the record id, or null if it was refused. */
-  async keep(bytes, name, origin, { quiet = false } = {}) {
+  /**
+   * A stored record's model file, checked from its header, length and checksum (the package's
+   * `modelSummary`, which builds no model): its summary (throws why not). The full read happens
+   * when the model is used.
+   */
+  validate(record) {
+    if (!(record.bytes instanceof ArrayBuffer)) throw new Error('the stored entry holds no model file');
+    const info = summary(this.page.fm.modelSummary(new Uint8Array(record.bytes)));
+    if (record.hash) this.summaries.set(record.hash, info);
+    return info;
+  }
+
+  /**
+   * Keeps a model file. `info`: the `Model.info()` of these very bytes when the caller has parsed
+   * them already (a dropped, built or photo model); without it the file is parsed to validate it.
+   * Returns the record id, or null if it was refused.
+   */
+  async keep(bytes, name, origin, { quiet = false, info = null } = {}) {
     await this.ready;
     if (!this.store) return null;
-    let info;
-    try {
-      const m = this.page.fm.Model.fromBytes(bytes);
-      info = m.info();
-      m.free();
-    } catch (e) {
-      if (!quiet) this.page.notify('error', `Not kept: ${name}`, e.message || String(e));
-      return null;
+    if (!info) {
+      try {
+        const m = this.page.fm.Model.fromBytes(bytes);
+        info = m.info();
+        m.free();
+      } catch (e) {
+        if (!quiet) this.page.notify('error', `Not kept: ${name}`, e.message || String(e));
+        return null;
+      }
     }
     try {
-      const { id, existed } = await this.store.add({ name, bytes, origin, fingerprint: info.fingerprint });
+      const { id, existed, hash } = await this.store.add({ name, bytes, origin, fingerprint: info.fingerprint });
+      this.summaries.set(hash, summary(info));
       await this.refresh();
       if (!existed && origin === 'built') this.page.notify('info', `Kept ${name}`, 'in this browser; find it under Your models');
       return id;
@@ -241,6 +260,12 @@ export class ModelShelf {
     li.append(text, buttons);
     return li;
   }
+}
+
+/** What the list shows of a model (from its `Model.info()` or `modelSummary()`: both have these). */
+function summary(info) {
+  const { isPhoto, shapeModes, appearanceModes, fingerprint } = info;
+  return { isPhoto, shapeModes, appearanceModes, fingerprint };
 }
 
 export function safeName(name) {

@@ -133,10 +133,14 @@ async function loadFiles(files, slot) {
       fileError(file.name, e);
       continue;
     }
-    if (slot.kind === 'add') addTargetFromBytes(bytes, file.name);
-    else if (slot.kind === 'replace') replaceTargetFromBytes(slot.entry, bytes, file.name);
-    else if (slot.kind === 'source') setSourceFromBytes(bytes, file.name);
-    app.shelf?.keep(bytes, file.name.replace(/\.fmm$/i, ''), 'dropped', { quiet: true });
+    // Parsed once: the one Model goes on the stage, its info to the shelf (which keeps the file).
+    const model = parseModel(bytes, file.name);
+    if (!model) continue;
+    const info = model.info();
+    if (slot.kind === 'add') addTargetModel(model, file.name, info);
+    else if (slot.kind === 'replace') replaceTargetModel(slot.entry, model, file.name, info);
+    else if (slot.kind === 'source') setSourceModel(model, bytes, file.name, info);
+    app.shelf?.keep(bytes, file.name.replace(/\.fmm$/i, ''), 'dropped', { quiet: true, info });
   }
 }
 
@@ -147,7 +151,8 @@ function openMediaSource(files) {
     return;
   }
   if (app.active?.kind !== 'video-file') activate('video-file');
-  window.facemimicTracking?.openFile(files[0]);
+  // The video source made active (www/js/tracking.js) opens it.
+  if (app.active?.kind === 'video-file') app.active.openFile(files[0]);
   if (files.length > 1) notify('info', `Used ${files[0].name}`, 'one file at a time; the other files were ignored');
 }
 
@@ -176,8 +181,11 @@ export function addTargetFromBytes(bytes, file) {
   return addTargetModel(model, file);
 }
 
-/** Adds a parsed model (owned from here on: kept, or freed when refused) as a target. */
-function addTargetModel(model, file) {
+/**
+ * Adds a parsed model (owned from here on: kept, or freed when refused) as a target; `info`: its
+ * `info()` when the caller has it.
+ */
+function addTargetModel(model, file, info = null) {
   try {
     app.cloner.addTarget(model);
   } catch (e) {
@@ -186,7 +194,7 @@ function addTargetModel(model, file) {
     return false;
   }
   const card = makeCard('target', cardActions);
-  const entry = { name: model.name, file, model, info: model.info(), card: card.el, canvas: card.canvas };
+  const entry = { name: model.name, file, model, info: info ?? model.info(), card: card.el, canvas: card.canvas };
   app.targets.push(entry);
   setCardName(entry);
   styleTarget(entry);
@@ -196,14 +204,12 @@ function addTargetModel(model, file) {
   return true;
 }
 
-function replaceTargetFromBytes(entry, bytes, file) {
-  if (!entry) return;
-  const model = parseModel(bytes, file);
-  if (!model) return;
-  replaceTargetModel(entry, model, file);
-}
-
-function replaceTargetModel(entry, model, file) {
+/** Replaces a target with a parsed model (owned from here on, as `addTargetModel`'s). */
+function replaceTargetModel(entry, model, file, info = null) {
+  if (!entry) {
+    model.free();
+    return false;
+  }
   const index = app.targets.indexOf(entry);
   try {
     app.cloner.replaceTarget(index, model);
@@ -213,7 +219,7 @@ function replaceTargetModel(entry, model, file) {
     return false;
   }
   const old = entry.model;
-  Object.assign(entry, { name: model.name, file, model, info: model.info() });
+  Object.assign(entry, { name: model.name, file, model, info: info ?? model.info() });
   setCardName(entry);
   styleTarget(entry);
   if (app.inspector.model === old) app.inspector.show(model, entry.info, 'target');
@@ -259,7 +265,8 @@ async function photoTargetFrom({ file, pts }, entry) {
   if (!ok || !app.shelf) return ok;
   // Kept in "Your models" like a dropped model, so it comes back after a reload.
   try {
-    app.shelf.keep(made.model.toBytes(), made.name, 'photo', { quiet: true });
+    const entryInfo = app.targets.find((t) => t.model === made.model)?.info;
+    app.shelf.keep(made.model.toBytes(), made.name, 'photo', { quiet: true, info: entryInfo });
   } catch (e) {
     console.warn(`facemimic: ${file.name} not kept: ${message(e)}`);
   }
@@ -269,7 +276,11 @@ async function photoTargetFrom({ file, pts }, entry) {
 
 export function setSourceFromBytes(bytes, file) {
   const model = parseModel(bytes, file);
-  if (!model) return;
+  if (model) setSourceModel(model, bytes, file);
+}
+
+/** Makes a parsed model (owned from here on) the source; `bytes`: its file (the track's key). */
+function setSourceModel(model, bytes, file, info = null) {
   try {
     app.cloner.setSource(model);
   } catch (e) {
@@ -279,7 +290,7 @@ export function setSourceFromBytes(bytes, file) {
   }
   const old = app.source.model;
   const key = bytesKey(bytes);
-  Object.assign(app.source, { name: model.name, file, model, info: model.info(), bytesKey: key, bundled: key === app.trackKey });
+  Object.assign(app.source, { name: model.name, file, model, info: info ?? model.info(), bytesKey: key, bundled: key === app.trackKey });
   setCardName(app.source);
   if (app.inspector.model === old) app.inspector.show(model, app.source.info, 'source');
   old.free();

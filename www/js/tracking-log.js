@@ -1,46 +1,59 @@
 // What a video source (www/js/tracking.js) keeps of its fits and finder runs, for the readout,
-// the console and the end-to-end tests: `log` (one entry a fit, landmarks in the video's
-// pixels), `findLog` (one entry a finder run), and the timing the readout shows (`fits`,
-// `msPerFit` smoothed, `fitTimes` of the last second). Methods of `VideoSource`, mixed into it
-// by tracking.js.
+// the console and the end-to-end tests: `entries` (one a fit, landmarks in the video's pixels),
+// `finds` (one a finder run), and the timing the readout shows (`fits`, `msPerFit` smoothed,
+// `fitTimes` of the last second). The source owns one; nothing here reads the source.
 
-import { workToVideo } from './tracking-open.js';
+import { workToVideo } from './media.js';
 
 /** Fit log kept for inspection (entries). */
 export const LOG_MAX = 3000;
 
-/** The logging methods (`this` is the `VideoSource`). */
-export const logMethods = {
+/** A source's fit and finder log, at most `max` entries of each. */
+export class FitLog {
+  constructor(max = LOG_MAX) {
+    this.max = max;
+    this.entries = [];
+    this.finds = []; // { ms, faces, wall?, placing? } per finder request
+    this.fitTimes = []; // performance.now() of the fits of the last second
+    this.msPerFit = 0;
+    this.fits = 0;
+    this.frameNo = 0; // frames seen (the frame number of a log entry without a frame rate)
+  }
+
   /** Counts a fit that took `ms` and ended at `t1` (performance.now()). */
-  timeFit(ms, t1) {
+  time(ms, t1) {
     this.fits++;
     this.msPerFit = this.fits === 1 ? ms : this.msPerFit + (ms - this.msPerFit) * 0.1;
     this.fitTimes.push(t1);
     while (this.fitTimes.length && t1 - this.fitTimes[0] > 1000) this.fitTimes.shift();
-  },
+  }
 
-  /** Logs a fit `r` (work pixels) of the frame at `mediaTime` that took `ms`. */
-  logFit(r, mediaTime, ms) {
-    const frame = this.fps ? Math.round(mediaTime * this.fps) : this.frameNo;
+  /**
+   * Logs a fit `r` (work pixels, `k` work px per video px) of the frame at `time` (seconds; with
+   * `fps`, the frame number is the time's, else the count of frames seen) that took `ms`, in
+   * loop `loop` of the video.
+   */
+  fit(r, { time, fps, k, ms, loop }) {
+    const frame = fps ? Math.round(time * fps) : this.frameNo;
     this.frameNo++;
-    this.log.push({
-      loop: this.loops,
+    this.entries.push({
+      loop,
       frame,
-      time: mediaTime,
+      time,
       error: r.error,
       iterations: r.iterations,
       converged: r.converged,
       lost: r.lost,
       reacquired: r.reacquired,
       ms,
-      landmarks: workToVideo(r.landmarks, this.k), // video pixels
+      landmarks: workToVideo(r.landmarks, k), // video pixels
     });
-    if (this.log.length > this.logMax) this.log.splice(0, this.log.length - this.logMax);
-  },
+    if (this.entries.length > this.max) this.entries.splice(0, this.entries.length - this.max);
+  }
 
   /** Logs a finder run. */
-  logFind(entry) {
-    this.findLog.push(entry);
-    if (this.findLog.length > this.logMax) this.findLog.shift();
-  },
-};
+  find(entry) {
+    this.finds.push(entry);
+    if (this.finds.length > this.max) this.finds.shift();
+  }
+}

@@ -9,8 +9,8 @@
 //                           oval guide and Start are optional)
 //
 // Every new video frame is drawn into the work canvas (www/js/media.js), read as RGBA and given,
-// at that size, to the package's `Tracker` (the loaded source model's AAM) or `Follower` (anyone,
-// www/js/follow-path.js). What the tracker decides is the core's: the scale it fits at for the
+// at that size, to the package's `Tracker`: the loaded source model's AAM, or anyone's landmarks
+// followed with it (the core's policy, www/js/follow-path.js). What the tracker decides is the core's: the scale it fits at for the
 // face's size (it resamples the frame itself), the bounds of the reported appearance, when a fit
 // is a lost face, which found face to (re-)acquire, and the head placement: each result carries
 // `placed`, its pose re-centred on the model's mean pose about an anchor that follows the head
@@ -20,24 +20,28 @@
 // "face lost" while it is, and recovers without a click. Everything the tracker is given
 // and returns is in the work canvas's pixels: one call a frame, no conversion.
 //
-// This module is the source and its frame loop; tracking-open.js opens the media and starts
-// sequences (placement, acquisition), tracking-panel.js is the panel (DOM, phases, the mesh and
-// the readout), tracking-log.js keeps the fit log; media.js reads the media, placement.js is
-// the placement step, face-draw.js draws, finder-client.js finds faces.
+// This module is the source, its frame loop and its registration; its collaborators, each its
+// own class owned by the source: tracking-sequence.js (`Sequencer`: opening the media through
+// tracking-open.js's `MediaOpener`, and the sequences: placement, acquisition, looping),
+// tracking-panel.js (`TrackingPanel`: DOM, phases, the mesh and the readout), tracking-log.js
+// (`FitLog`); media.js reads the media, placement.js is the placement step, face-draw.js draws,
+// finder-client.js finds faces.
 //
 // Registered with `available: (wasm) => typeof wasm.Tracker === 'function'`, so the menu offers
-// these sources only with a package that can track. The active source is also reachable as
-// `window.facemimicTracking` (for the console and the end-to-end tests).
+// these sources only with a package that can track. The running source is also readable as
+// `window.facemimicTracking` (a read-only handle for the console and the end-to-end tests; the
+// page never reads it: whoever needs the source is given it, e.g. the page's `app.active`).
 
 import { registerSource } from './sources.js';
 import { notify, message } from './toasts.js';
 import { MediaFeed, looksLikeImage, looksLikeVideo } from './media.js';
 import { Placement } from './placement.js';
 import { CONTOURS_68 } from './face-draw.js';
-import { followPath, makeFollower } from './follow-path.js';
-import { panelMethods } from './tracking-panel.js';
-import { openMethods } from './tracking-open.js';
-import { LOG_MAX, logMethods } from './tracking-log.js';
+import { findFaces } from './finder-client.js';
+import { followPath, makeTracker } from './follow-path.js';
+import { TrackingPanel } from './tracking-panel.js';
+import { Sequencer } from './tracking-sequence.js';
+import { FitLog, LOG_MAX } from './tracking-log.js';
 
 // ---------------------------------------------------------------------------------------------
 // One tracker per source model (the fitter's precomputation is done once per model).
@@ -45,7 +49,7 @@ import { LOG_MAX, logMethods } from './tracking-log.js';
 let cachedTracker = null; // { model, path, tracker, tau }
 
 /**
- * The model's `Tracker` ("aam") or a `Follower` ("landmarks", www/js/follow-path.js), its pose
+ * The model's `Tracker`, "aam" or "landmarks" (the core's policy, www/js/follow-path.js), its pose
  * anchor fixed for the bundled clip (`recentreTau` 0) and following the head otherwise (the
  * package's default).
  */
@@ -58,14 +62,8 @@ function trackerFor(wasm, model, path, mode) {
         // already freed
       }
     }
-    let tracker;
-    if (path === 'landmarks') tracker = makeFollower(wasm, model);
-    else {
-      const T = wasm.Tracker;
-      tracker = typeof T.fromModel === 'function' ? T.fromModel(model) : new T(model.toBytes());
-      // Faces are found in a worker and offered: a lost face is searched for in every sequence.
-      tracker.expectOffers(true);
-    }
+    // Faces are found in a worker and offered: a lost face is searched for in every sequence.
+    const tracker = makeTracker(wasm, model, path);
     cachedTracker = { model, path, tracker, tau: tracker.policy?.recentreTau };
   }
   const { tracker, tau } = cachedTracker;
@@ -80,6 +78,10 @@ function trackerFor(wasm, model, path, mode) {
 
 const TITLES = { clip: 'Bundled clip', file: 'Video file', webcam: 'Webcam' };
 
+/** The source being shown, for the console and the end-to-end tests (the page never reads it). */
+let shown = null;
+Object.defineProperty(window, 'facemimicTracking', { get: () => shown, configurable: true });
+
 /**
  * A source driven by tracking a video. `mode`: "clip" | "file" | "webcam".
  *
@@ -87,6 +89,11 @@ const TITLES = { clip: 'Bundled clip', file: 'Video file', webcam: 'Webcam' };
  * paused frame, or a box; webcam: the guide while a face is looked for) -> "tracking" <->
  * "paused"; "error" when the video or camera fails. While tracking, `state` is "tracking",
  * "reinit", "lost" (a face was tracked and is lost) or "searching" (none found yet).
+ *
+ * Its collaborators, each owned: `media` (the picture, www/js/media.js), `placement` (the
+ * placement step, www/js/placement.js), `sequencer` (opens the media and runs the sequences,
+ * www/js/tracking-sequence.js), `fitLog` (www/js/tracking-log.js) and, while it runs, `panel`
+ * (www/js/tracking-panel.js). The source keeps the state they share and the frame loop.
  */
 class VideoSource {
   constructor(mode, ctx) {
@@ -101,28 +108,27 @@ class VideoSource {
     this.running = false;
     this.tracker = null;
     this.params = this.initialParams();
-    this.media = new MediaFeed();
+    this.media = new MediaFeed(this.wasm.workSide?.());
     this.video = this.media.video;
     this.placement = new Placement(this.model.landmarks(this.model.baseParams()));
+    this.sequencer = new Sequencer(this);
+    // The call page keeps its own log (www/js/call-controls.js): it asks for a short one.
+    this.fitLog = new FitLog(ctx.logMax ?? LOG_MAX);
+    this.panel = null;
     this.last = null; // last fit result (work coordinates)
     this.lastGood = null; // last fit that was not lost, this sequence
     this.state = 'idle'; // tracking | lost | searching | reinit | idle
-    this.log = [];
-    this.logMax = ctx.logMax ?? LOG_MAX; // the call page keeps its own log (www/js/call-controls.js)
-    this.fitTimes = [];
-    this.msPerFit = 0;
-    this.fits = 0;
     this.loops = 0;
     this.autoStart = true;
-    this.frameNo = 0;
-    this.fileName = '';
+    this.fps = 0;
     this.lastFitAt = null; // performance.now() of the last fit (the tracker's time step)
-    this.shownAt = 0;
     this.lastResets = 0;
+    this.sequenceStart = { lost: 0, resets: 0 }; // the tracker's counts when the sequence began
     this.seqId = 0; // bumped by every new sequence / placement (stale finder results are dropped)
     this.finding = false; // the placement step waits for the finder
     this.findBusy = false; // a finder request is under way
-    this.findLog = []; // { ms, faces } per finder request
+    this.findError = null;
+    this.streamEnded = false;
     this.reacquired = 0;
   }
 
@@ -139,6 +145,9 @@ class VideoSource {
   get stream() {
     return this.media.stream;
   }
+  get fileName() {
+    return this.sequencer.opener.name;
+  }
   get box() {
     return this.placement.box;
   }
@@ -153,11 +162,21 @@ class VideoSource {
   get faces() {
     return this.placement.faces;
   }
-
-  /** The tracker's fit scale in fitted pixels per video pixel (the work canvas's scale times the
-   *  tracker's own; 0 before a sequence's first frame). */
-  get kFit() {
-    return (this.tracker?.scale ?? 1) * this.k;
+  /** The fit log's entries (landmarks in the video's pixels), finder runs and counts. */
+  get log() {
+    return this.fitLog.entries;
+  }
+  get findLog() {
+    return this.fitLog.finds;
+  }
+  get fits() {
+    return this.fitLog.fits;
+  }
+  get frameNo() {
+    return this.fitLog.frameNo;
+  }
+  get canvas() {
+    return this.panel?.canvas ?? null;
   }
 
   initialParams() {
@@ -178,18 +197,19 @@ class VideoSource {
   start() {
     if (this.running) return;
     this.running = true;
-    window.facemimicTracking = this;
-    this.path = followPath(this.ctx, this.mode);
-    this.buildPanel();
+    shown = this;
+    this.path = followPath(this.ctx, this.mode, this.model);
+    this.panel = new TrackingPanel(this);
+    this.setPhase('loading');
     try {
       this.tracker = trackerFor(this.wasm, this.model, this.path, this.mode);
     } catch (e) {
       this.fail('The tracker could not be made for this source model', e);
       return;
     }
-    if (this.mode === 'clip') this.openClip();
+    if (this.mode === 'clip') this.sequencer.openClip();
     else if (this.mode === 'file') this.setPhase('empty');
-    else this.openWebcam();
+    else this.sequencer.openWebcam();
   }
 
   stop() {
@@ -197,13 +217,9 @@ class VideoSource {
     this.running = false;
     this.seqId++;
     this.media.close();
-    if (this.objectUrl) URL.revokeObjectURL(this.objectUrl);
-    this.objectUrl = null;
-    this.resizeObserver?.disconnect();
-    document.removeEventListener('visibilitychange', this.onVisibility);
-    window.removeEventListener('keydown', this.onSpace, true);
+    this.sequencer.opener.close();
     this.panel?.remove();
-    if (window.facemimicTracking === this) window.facemimicTracking = null;
+    if (shown === this) shown = null;
   }
 
   paramsAt() {
@@ -223,6 +239,55 @@ class VideoSource {
     });
   }
 
+  // --- what the panel shows ---------------------------------------------------------------------
+
+  setPhase(phase, msg) {
+    this.phase = phase;
+    this.panel?.show(phase, msg);
+  }
+
+  say(text) {
+    this.panel?.say(text);
+  }
+
+  draw() {
+    this.panel?.draw();
+  }
+
+  fail(what, e) {
+    const reason = e === undefined ? '' : message(e);
+    this.cancelFrames();
+    this.setPhase('error', reason ? `${what}: ${reason}` : what);
+    this.panel?.showError();
+  }
+
+  // --- the actions (the panel's buttons, the page's drops; www/js/tracking-sequence.js) -----------
+
+  /** A dropped or picked file: a video (tracked) or a photo (one face fitted). */
+  openFile(file) {
+    return this.sequencer.openFile(file);
+  }
+  /** Start tracking from the selected face found, the placement box, or given landmarks (work px). */
+  startTracking(landmarks = null) {
+    return this.sequencer.startTracking(landmarks);
+  }
+  /** A new sequence: the clip from its start; a file or the webcam placed again. */
+  restart() {
+    return this.sequencer.restart();
+  }
+  togglePlay() {
+    this.sequencer.togglePlay();
+  }
+  /** After an error: open the clip or the camera again. */
+  retry() {
+    this.sequencer.retry();
+  }
+  /** The panel's Auto-start box: start by itself when a face is found. */
+  setAutoStart(on) {
+    this.autoStart = on;
+    if (this.phase === 'placing') this.restart();
+  }
+
   // --- the frame loop -------------------------------------------------------------------------------
 
   onVideoFrame(mediaTime) {
@@ -230,19 +295,14 @@ class VideoSource {
     this.lastMediaTime = mediaTime;
     this.grab();
     if (this.phase === 'tracking') this.fitCurrent(mediaTime);
-    else if (this.phase === 'placing' && this.mode === 'webcam') this.searchGuide(mediaTime);
+    else if (this.phase === 'placing' && this.mode === 'webcam') this.sequencer.searchGuide(mediaTime);
     this.draw();
   }
 
   /** Draw the current frame into the work canvas; returns k (work px per video px). */
   grab() {
     const k = this.media.grab();
-    const { width: w, height: h } = this.work;
-    if (this.canvas && this.arW !== w + h * 1e5) {
-      this.arW = w + h * 1e5;
-      this.canvas.style.aspectRatio = `${w} / ${h}`;
-      this.canvas.style.setProperty('--ar', String(w / h));
-    }
+    this.panel?.fitAspect(this.work.width, this.work.height);
     return k;
   }
 
@@ -253,8 +313,7 @@ class VideoSource {
     this.lastFitAt = null;
     this.searchStart = searching;
     this.state = searching ? 'searching' : 'tracking';
-    this.seqStartLost = this.tracker.lostCount;
-    this.seqStartResets = this.tracker.resets;
+    this.sequenceStart = { lost: this.tracker.lostCount, resets: this.tracker.resets };
     this.lastResets = this.tracker.resets;
   }
 
@@ -278,7 +337,7 @@ class VideoSource {
     const t1 = performance.now();
     this.lastFitAt = t0;
     const ms = t1 - t0;
-    this.timeFit(ms, t1);
+    this.fitLog.time(ms, t1);
 
     const resets = this.tracker.resets;
     const wasLost = this.last?.lost;
@@ -291,24 +350,49 @@ class VideoSource {
       this.params = { pose: r.placed, shape: r.shape, appearance: r.appearance };
       this.invalidate();
     }
-    this.logFit(r, mediaTime, ms);
+    this.fitLog.fit(r, { time: mediaTime, fps: this.fps, k: this.k, ms, loop: this.loops });
     // Looking for the face (none yet, or lost) or a second opinion due: the worker finds faces.
     if (this.tracker.wantsFaces && !this.media.still) this.feedFinder();
     // The call page renders and logs every fit, lost or not (www/js/call-avatar.js).
     if (typeof this.ctx.onFit === 'function') this.ctx.onFit(r, this.params);
 
-    if (this.phase === 'tracking' && !this.media.still) {
+    if (this.phase === 'tracking' && !this.media.still && this.panel) {
       if (r.lost && this.lastGood === null && this.searchStart) this.say('Looking for a face…');
       else if (r.lost) this.say('Face lost: looking for it again (it is tracked again as soon as it is found).');
       else if (r.reacquired) this.say(wasLost && this.log.length > 1 ? 'Face found again: tracking.' : 'Face found: tracking.');
-      else if (/^(Face lost|Looking for a face|Face found)/.test(this.msgEl.textContent)) this.say('Tracking.');
+      else if (/^(Face lost|Looking for a face|Face found)/.test(this.panel.message)) this.say('Tracking.');
     }
-    this.showStats(t1);
+    this.panel?.showStats(t1);
+  }
+
+  /**
+   * When the tracker wants faces (a search, or a lost face), find them in the current frame in
+   * the worker and offer them (work pixels, as the frames the tracker is given).
+   */
+  feedFinder() {
+    if (this.findBusy || !this.tracker.wantsFaces) return;
+    this.findBusy = true;
+    const seq = this.seqId;
+    const t0 = performance.now();
+    findFaces(this.media.workImage()).then(
+      ({ faces, ms }) => {
+        this.findBusy = false;
+        this.fitLog.find({ ms, faces: faces.length, wall: performance.now() - t0 });
+        if (seq !== this.seqId || !this.running || !faces.length || !this.tracker.wantsFaces) return;
+        try {
+          this.tracker.offerFaces(faces);
+        } catch (e) {
+          this.say(`The faces found could not be used: ${message(e)}`);
+        }
+      },
+      (e) => {
+        this.findBusy = false;
+        if (this.running && seq === this.seqId) this.say(`The face finder failed: ${message(e)}`);
+      },
+    );
   }
 }
 
-// The jobs split out of the class (see the header).
-Object.assign(VideoSource.prototype, openMethods, panelMethods, logMethods);
 
 // ---------------------------------------------------------------------------------------------
 // Registration

@@ -129,73 +129,15 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(photo) = &a.photo {
         return build_photo(&a, photo);
     }
-    let mut paths = a.images.clone();
-    if let Some(list) = &a.list {
-        paths.extend(io::read_list(list)?);
-    }
-    if paths.is_empty() {
-        return Err(facemimic::Error::Training(
-            "no training images given (IMAGE... or --list)".into(),
-        ));
-    }
+    let paths = training_paths(&a)?;
     // Every frame read first (a missing or unreadable file fails before any work), with its
     // landmark file unless the finder is to place them.
     let frames = paths
         .iter()
-        .map(|p| {
-            let name = p
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            if a.find_faces {
-                let image = io::read_image(p)?;
-                Ok(EnrolFrame {
-                    name,
-                    image,
-                    landmarks: None,
-                })
-            } else {
-                let t = io::read_training_image(p)?;
-                Ok(EnrolFrame {
-                    name: t.name,
-                    image: t.image,
-                    landmarks: Some(t.landmarks),
-                })
-            }
-        })
+        .map(|p| read_frame(p, a.find_faces))
         .collect::<Result<Vec<_>>>()?;
-    if let Some(n) = a.select {
-        if n < 2 {
-            return Err(facemimic::Error::Training(format!(
-                "--select {n}: at least 2 frames are needed"
-            )));
-        }
-    }
+    let options = enrol_options(&a)?;
     let frame_model = a.frame.as_deref().map(io::read_model_file).transpose()?;
-    let reference = match a.reference.as_str() {
-        "mean" => ReferenceChoice::Mean,
-        "closest" => ReferenceChoice::ClosestToFrame,
-        name => ReferenceChoice::Named(name.to_string()),
-    };
-    let options = EnrolOptions {
-        build: BuildOptions {
-            name: model_name(&a),
-            shape_variance: a.shape_variance,
-            appearance_variance: a.appearance_variance,
-            face_width: a.face_width,
-            reference,
-            frame: if a.own_frame {
-                FrameChoice::Own
-            } else {
-                FrameChoice::Canonical
-            },
-            ..BuildOptions::default()
-        },
-        select: a.select,
-        // The default backdrop is the core's; a chosen one is put in below.
-        backdrop: !a.no_backdrop && a.backdrop.is_none(),
-        ..EnrolOptions::default()
-    };
     let mut noted = 0;
     let made = facemimic::enrol(frames, &options, frame_model.as_ref(), None, &mut |p| {
         for &i in &p.skipped[noted..] {
@@ -231,4 +173,77 @@ pub fn run(a: Args) -> Result<()> {
         a.out.display()
     );
     Ok(())
+}
+
+/// The training images: `IMAGE...` then the `--list`'s; fails when there are none.
+fn training_paths(a: &Args) -> Result<Vec<PathBuf>> {
+    let mut paths = a.images.clone();
+    if let Some(list) = &a.list {
+        paths.extend(io::read_list(list)?);
+    }
+    if paths.is_empty() {
+        return Err(facemimic::Error::Training(
+            "no training images given (IMAGE... or --list)".into(),
+        ));
+    }
+    Ok(paths)
+}
+
+/// One training frame read from `p`: with its landmark file, or without landmarks (for the
+/// finder to place) when `find_faces`.
+fn read_frame(p: &std::path::Path, find_faces: bool) -> Result<EnrolFrame> {
+    let name = p
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if find_faces {
+        let image = io::read_image(p)?;
+        Ok(EnrolFrame {
+            name,
+            image,
+            landmarks: None,
+        })
+    } else {
+        let t = io::read_training_image(p)?;
+        Ok(EnrolFrame {
+            name: t.name,
+            image: t.image,
+            landmarks: Some(t.landmarks),
+        })
+    }
+}
+
+/// The enrolment's options from the arguments; fails on a `--select` below 2.
+fn enrol_options(a: &Args) -> Result<EnrolOptions> {
+    if let Some(n) = a.select {
+        if n < 2 {
+            return Err(facemimic::Error::Training(format!(
+                "--select {n}: at least 2 frames are needed"
+            )));
+        }
+    }
+    let reference = match a.reference.as_str() {
+        "mean" => ReferenceChoice::Mean,
+        "closest" => ReferenceChoice::ClosestToFrame,
+        name => ReferenceChoice::Named(name.to_string()),
+    };
+    Ok(EnrolOptions {
+        build: BuildOptions {
+            name: model_name(a),
+            shape_variance: a.shape_variance,
+            appearance_variance: a.appearance_variance,
+            face_width: a.face_width,
+            reference,
+            frame: if a.own_frame {
+                FrameChoice::Own
+            } else {
+                FrameChoice::Canonical
+            },
+            ..BuildOptions::default()
+        },
+        select: a.select,
+        // The default backdrop is the core's; a chosen one is put in below.
+        backdrop: !a.no_backdrop && a.backdrop.is_none(),
+        ..EnrolOptions::default()
+    })
 }

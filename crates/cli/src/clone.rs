@@ -2,8 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
-use facemimic::clone::{CloneOptions, Cloner, Method};
-use facemimic::{io, Error, Result};
+use facemimic::clone::{CloneOptions, Method};
+use facemimic::{io, Error, Result, Stage};
 
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["params", "image"])))]
@@ -143,22 +143,19 @@ pub fn run(a: Args) -> Result<()> {
         style: a.style,
         ..CloneOptions::default()
     };
-    let mut cloner = Cloner::new(source)?;
-    cloner.add_target(target)?;
-    cloner.clone_frame(&params, &options)?;
-
+    let mut stage = Stage::new(source)?;
+    stage.add_target(target)?;
+    stage.set_source_params(&params)?;
+    stage.set_options(options)?;
+    stage.update()?;
     if let Some(out) = &a.out {
-        let mut pixmap = super::render::canvas(width, height)?;
-        super::render::draw_face(
-            cloner.target(0),
-            cloner.target_appearance(0),
-            cloner.target_shape(0),
-            a.draw.options(),
-            composite,
-            &mut pixmap,
-        )?;
-        io::write_pixmap(out, &pixmap)?;
+        let picture = stage.target_picture_mut(0)?;
+        picture.set_size(width, height)?;
+        picture.set_options(super::render::picture_options(a.draw.options(), composite));
+        stage.draw_target(0)?;
+        super::render::write_picture(out, stage.target_picture_mut(0)?)?;
     }
+    let cloner = stage.cloner();
     if let Some(p) = &a.out_pts {
         write(p, &facemimic::landmarks::write_pts(cloner.target_shape(0)))?;
     }

@@ -112,7 +112,7 @@ pub fn run(a: Args) -> Result<()> {
     let t0 = Instant::now();
     for (img, path) in images.iter().zip(&a.frames) {
         let context = |e: Error| e.with_context(&path.display().to_string());
-        let r = tracker.track_timed(&img.view()?, dt).map_err(context)?;
+        let r = tracker.track(&img.view()?, dt).map_err(context)?;
         results.push((r.clone(), tracker.sequence().placed()));
     }
     let secs = t0.elapsed().as_secs_f64();

@@ -2,8 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
-use facemimic::tiny_skia::{Color, Pixmap};
-use facemimic::{io, DrawOptions, Error, FaceDrawer, Params, Rasterizer, Result, Similarity};
+use facemimic::{
+    io, DrawOptions, Error, Framing, Params, Picture, PictureOptions, Rasterizer, Result, Stage,
+};
 
 /// How faces are drawn (shared by `render` and `clone`).
 #[derive(clap::Args)]
@@ -51,13 +52,23 @@ pub fn check_canvas(width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
-/// A `width x height` canvas filled with the dark grey background.
-pub fn canvas(width: u32, height: u32) -> Result<Pixmap> {
-    check_canvas(width, height)?;
-    let mut pixmap = Pixmap::new(width, height)
-        .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
-    pixmap.fill(Color::from_rgba8(32, 32, 36, 255));
-    Ok(pixmap)
+/// The options of a picture the CLI writes: the dark grey background, the face alone at the
+/// identity view (the canvas is in the image's pixels) or composited into the backdrop.
+pub fn picture_options(draw: DrawOptions, composite: bool) -> PictureOptions {
+    PictureOptions {
+        draw,
+        composite,
+        framing: Framing::Image,
+        ..PictureOptions::default()
+    }
+}
+
+/// Writes a drawn picture as PNG.
+pub fn write_picture(path: &Path, picture: &Picture) -> Result<()> {
+    let pixmap = picture
+        .pixmap()
+        .ok_or_else(|| Error::Image("internal error: the picture was not drawn".into()))?;
+    io::write_pixmap(path, pixmap)
 }
 
 #[derive(clap::Args)]
@@ -122,55 +133,27 @@ pub fn canvas_size(
     })
 }
 
-/// Draws a face (appearance on the frame, landmarks in image pixels) of `model` into `pixmap`:
-/// composited into the backdrop (scaled to the canvas) or alone at the identity view.
-pub fn draw_face(
-    model: &facemimic::Model,
-    appearance: &[f32],
-    shape: &[f32],
-    draw: DrawOptions,
-    composite: bool,
-    pixmap: &mut Pixmap,
-) -> Result<()> {
-    if composite {
-        let mut c = facemimic::Compositor::new(model, draw)?;
-        let (bw, bh) = c.size();
-        let view = facemimic::picture_view(bw, bh, pixmap.width(), pixmap.height());
-        c.draw(model, appearance, shape, &view, &mut pixmap.as_mut())
-    } else {
-        let mut drawer = FaceDrawer::new(model.frame(), draw)?;
-        drawer.draw(
-            model.frame(),
-            appearance,
-            shape,
-            &Similarity::IDENTITY,
-            &mut pixmap.as_mut(),
-        )
-    }
-}
-
 /// Renders `params` of `model` on a `width x height` canvas (dark grey background, or the
-/// backdrop when compositing) and writes the PNG and optionally the landmarks (`(png, pts)`).
+/// backdrop when compositing) with a [`Stage`] driven by the model, and writes the PNG and
+/// optionally the landmarks (`(png, pts)`).
 pub fn render_to_files(
-    model: &facemimic::Model,
+    model: facemimic::Model,
     params: &Params,
     (width, height): (u32, u32),
     (draw, composite): (DrawOptions, bool),
     (out, out_pts): (&Path, Option<&Path>),
 ) -> Result<()> {
-    let mut pixmap = canvas(width, height)?;
-    let mut shape = vec![0.0; model.landmarks() * 2];
-    model.image_shape(params, &mut shape)?;
-    let mut appearance = vec![0.0; model.appearance().len()];
-    model
-        .appearance()
-        .instance(&params.appearance, &mut appearance)?;
-    draw_face(model, &appearance, &shape, draw, composite, &mut pixmap)?;
-    io::write_pixmap(out, &pixmap)?;
+    check_canvas(width, height)?;
+    let mut stage = Stage::new(model)?;
+    stage.set_source_params(params)?;
+    let picture = stage.source_picture_mut();
+    picture.set_size(width, height)?;
+    picture.set_options(picture_options(draw, composite));
+    stage.draw_source()?;
+    write_picture(out, stage.source_picture())?;
     if let Some(p) = out_pts {
-        let mut shape = vec![0.0; model.landmarks() * 2];
-        model.image_shape(params, &mut shape)?;
-        std::fs::write(p, facemimic::landmarks::write_pts(&shape))
+        let shape = stage.source_landmarks()?;
+        std::fs::write(p, facemimic::landmarks::write_pts(shape))
             .map_err(|e| Error::Io(format!("{}: {e}", p.display())))?;
     }
     Ok(())
@@ -191,5 +174,5 @@ pub fn run(a: Args) -> Result<()> {
     // A size the model declares is only a default, bounded; a larger canvas must be asked for.
     let size = canvas_size(&model, a.width, a.height, composite)?;
     let files = (a.out.as_path(), a.out_pts.as_deref());
-    render_to_files(&model, &params, size, (a.draw.options(), composite), files)
+    render_to_files(model, &params, size, (a.draw.options(), composite), files)
 }

@@ -1,5 +1,5 @@
 //! Following a clip with the person-independent path ([`Follower`]) and scoring it: what
-//! `tests/follow.rs` measures and `examples/follow_tune.rs` tunes with.
+//! `tests/integration/follow.rs` measures and `examples/follow_tune.rs` tunes with.
 
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::find::{convention_free_errors, landmark_error};

@@ -1,4 +1,4 @@
-//! The mutation fuzzing engine behind `examples/fuzz.rs` (long runs) and `tests/fuzz.rs` (a
+//! The mutation fuzzing engine behind `examples/fuzz.rs` (long runs) and `tests/integration/fuzz.rs` (a
 //! short deterministic run in the test suite). Stable Rust, no dependency: the tests' xorshift64*
 //! generator and synthetic training set (`tests/common`, which the including crate declares as
 //! `mod common`), byte-level mutations (flips, interesting numbers, splices,
@@ -451,7 +451,44 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
     let n2 = m.landmarks() * 2;
     let mut shape = vec![0.0; n2];
     let base = m.base_params();
-    // Parameters: the base, then random ones from the interesting floats scaled by sigmas.
+    let params = random_params(m, &base, rng);
+    for p in [&base, &params] {
+        if m.image_shape(p, &mut shape).is_ok() && !finite(&shape) {
+            return Err(format!("image_shape gave non-finite landmarks for {p:?}"));
+        }
+    }
+    // Render into a small canvas.
+    let mut pixmap = facemimic::tiny_skia::Pixmap::new(48, 40).unwrap();
+    if let Ok(mut r) = FaceDrawer::new(m.frame(), DrawOptions::default()) {
+        let _ = r.render(m, &params, &Similarity::IDENTITY, &mut pixmap.as_mut());
+        let _ = r.render(m, &base, &Similarity::IDENTITY, &mut pixmap.as_mut());
+    }
+    // Project the test image at the base instance's landmarks.
+    if m.image_shape(&base, &mut shape).is_ok() {
+        let view = seeds.image.view().map_err(|e| e.to_string())?;
+        if let Ok(p) = m.project(&view, &shape) {
+            if !params_finite(&p) {
+                return Err(format!("project gave non-finite parameters {p:?}"));
+            }
+        }
+    }
+    exercise_clone(m, rng, [&base, &params])?;
+    // The constraint itself with hostile k and sigmas.
+    let mut v: Vec<f32> = (0..4).map(|_| float(rng)).collect();
+    let sig: Vec<f32> = (0..4).map(|_| float(rng)).collect();
+    facemimic::clone::constrain(&mut v, &sig, float(rng));
+    if !finite(&v) {
+        return Err(format!("constrain gave {v:?}"));
+    }
+    if track {
+        exercise_track(m, seeds, &base, &mut shape)?;
+    }
+    Ok(())
+}
+
+/// Parameters for [`exercise`]: `base` with random shape and appearance parameters (the
+/// interesting floats, or up to 3 sigmas) and, one time in four, an interesting pose.
+fn random_params(m: &Model, base: &Params, rng: &mut Rng) -> Params {
     let mut params = base.clone();
     let sig = m.shape().sigmas();
     for (p, s) in params.shape.iter_mut().zip(&sig) {
@@ -477,48 +514,39 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
             ty: float(rng),
         };
     }
-    for p in [&base, &params] {
-        if m.image_shape(p, &mut shape).is_ok() && !finite(&shape) {
-            return Err(format!("image_shape gave non-finite landmarks for {p:?}"));
-        }
+    params
+}
+
+/// Clone options for [`exercise`]: a random method, and random (often interesting) gains,
+/// clamp, pose following, region gains and style.
+fn random_clone_options(rng: &mut Rng) -> CloneOptions {
+    CloneOptions {
+        method: Method::ALL[rng.below(Method::ALL.len())],
+        gain: if rng.chance(2) { float(rng) } else { 1.0 },
+        shape_gains: (0..rng.below(3)).map(|_| float(rng)).collect(),
+        appearance_gains: Vec::new(),
+        clamp: match rng.below(3) {
+            0 => None,
+            1 => Some(float(rng)),
+            _ => Some(3.0),
+        },
+        follow_pose: rng.chance(2),
+        regions: facemimic::clone::RegionGains {
+            mouth: if rng.chance(2) { float(rng) } else { 1.0 },
+            eyes: if rng.chance(2) { float(rng) } else { 1.0 },
+            brows: 1.0,
+        },
+        style: if rng.chance(2) { float(rng) } else { 1.0 },
     }
-    // Render into a small canvas.
-    let mut pixmap = facemimic::tiny_skia::Pixmap::new(48, 40).unwrap();
-    if let Ok(mut r) = FaceDrawer::new(m.frame(), DrawOptions::default()) {
-        let _ = r.render(m, &params, &Similarity::IDENTITY, &mut pixmap.as_mut());
-        let _ = r.render(m, &base, &Similarity::IDENTITY, &mut pixmap.as_mut());
-    }
-    // Project the test image at the base instance's landmarks.
-    if m.image_shape(&base, &mut shape).is_ok() {
-        let view = seeds.image.view().map_err(|e| e.to_string())?;
-        if let Ok(p) = m.project(&view, &shape) {
-            if !params_finite(&p) {
-                return Err(format!("project gave non-finite parameters {p:?}"));
-            }
-        }
-    }
-    // Clone onto itself with random options.
+}
+
+/// [`exercise`]: clones the model onto itself from each of `params` with random options; the
+/// outputs of an accepted frame must be finite.
+fn exercise_clone(m: &Model, rng: &mut Rng, params: [&Params; 2]) -> Result<(), String> {
     if let Ok(mut c) = Cloner::new(m.clone()) {
         if c.add_target(m.clone()).is_ok() {
-            let opts = CloneOptions {
-                method: Method::ALL[rng.below(Method::ALL.len())],
-                gain: if rng.chance(2) { float(rng) } else { 1.0 },
-                shape_gains: (0..rng.below(3)).map(|_| float(rng)).collect(),
-                appearance_gains: Vec::new(),
-                clamp: match rng.below(3) {
-                    0 => None,
-                    1 => Some(float(rng)),
-                    _ => Some(3.0),
-                },
-                follow_pose: rng.chance(2),
-                regions: facemimic::clone::RegionGains {
-                    mouth: if rng.chance(2) { float(rng) } else { 1.0 },
-                    eyes: if rng.chance(2) { float(rng) } else { 1.0 },
-                    brows: 1.0,
-                },
-                style: if rng.chance(2) { float(rng) } else { 1.0 },
-            };
-            for p in [&base, &params] {
+            let opts = random_clone_options(rng);
+            for p in params {
                 if c.clone_frame(p, &opts).is_ok()
                     && !(finite(c.target_shape(0))
                         && finite(c.target_appearance(0))
@@ -529,21 +557,23 @@ fn exercise(m: &Model, rng: &mut Rng, seeds: &Seeds, track: bool) -> Result<(), 
             }
         }
     }
-    // The constraint itself with hostile k and sigmas.
-    let mut v: Vec<f32> = (0..4).map(|_| float(rng)).collect();
-    let sig: Vec<f32> = (0..4).map(|_| float(rng)).collect();
-    facemimic::clone::constrain(&mut v, &sig, float(rng));
-    if !finite(&v) {
-        return Err(format!("constrain gave {v:?}"));
-    }
-    if track {
-        if let Ok(mut t) = Tracker::new(m, FitOptions::default()) {
-            if m.image_shape(&base, &mut shape).is_ok() && t.start_from_landmarks(&shape).is_ok() {
-                let view = seeds.image.view().map_err(|e| e.to_string())?;
-                if let Ok(r) = t.track(&view) {
-                    if !(finite(&r.landmarks) && params_finite(&r.params) && r.error.is_finite()) {
-                        return Err("track gave a non-finite result".into());
-                    }
+    Ok(())
+}
+
+/// [`exercise`]: tracks the test image from the base instance's landmarks (`shape` is
+/// scratch); an accepted result must be finite.
+fn exercise_track(
+    m: &Model,
+    seeds: &Seeds,
+    base: &Params,
+    shape: &mut [f32],
+) -> Result<(), String> {
+    if let Ok(mut t) = Tracker::new(m, FitOptions::default()) {
+        if m.image_shape(base, shape).is_ok() && t.start_from_landmarks(shape).is_ok() {
+            let view = seeds.image.view().map_err(|e| e.to_string())?;
+            if let Ok(r) = t.track(&view, facemimic::fit::DEFAULT_TIME_STEP) {
+                if !(finite(&r.landmarks) && params_finite(&r.params) && r.error.is_finite()) {
+                    return Err("track gave a non-finite result".into());
                 }
             }
         }
@@ -653,87 +683,9 @@ impl Fuzzer {
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(
             || -> Result<String, String> {
                 match target {
-                    "model" => {
-                        let (r, peak) = measured(|| read_model(input));
-                        let budget = load_budget(input.len());
-                        stats.worst_load_ratio =
-                            stats.worst_load_ratio.max(peak as f64 / budget as f64);
-                        if peak > budget {
-                            return Err(format!(
-                                "loading {} bytes allocated {peak} bytes, budget {budget}",
-                                input.len()
-                            ));
-                        }
-                        let c = class(target, &r.as_ref().map(|_| ()));
-                        if let Ok(m) = r {
-                            stats.accepted_models += 1;
-                            let budget = facemimic::bounds::model_budget(input.len() as u64);
-                            let (r, peak) = measured(|| exercise(&m, rng, seeds, track));
-                            r?;
-                            if peak > budget {
-                                return Err(format!(
-                                "operations on a {}-byte model allocated {peak} bytes, budget {budget}",
-                                input.len()
-                            ));
-                            }
-                        }
-                        Ok(c)
-                    }
-                    "pts" | "asf" => {
-                        let text = String::from_utf8_lossy(input);
-                        let r = if target == "pts" {
-                            parse_pts(&text)
-                        } else {
-                            parse_asf(&text, 640, 480)
-                        };
-                        if let Ok(v) = &r {
-                            if !finite(v) {
-                                return Err(format!("{target} parser gave non-finite {v:?}"));
-                            }
-                            // Downstream: project the parsed landmarks.
-                            let m = &seeds.models[0];
-                            if v.len() == m.landmarks() * 2 {
-                                let view = seeds.image.view().map_err(|e| e.to_string())?;
-                                if let Ok(p) = m.project(&view, v) {
-                                    if !params_finite(&p) {
-                                        return Err(format!("project gave non-finite {p:?}"));
-                                    }
-                                }
-                            }
-                        }
-                        Ok(class(target, &r.map(|_| ())))
-                    }
-                    _ => {
-                        let text = String::from_utf8_lossy(input);
-                        let r: Result<Params, _> = serde_json::from_str(&text);
-                        let m = &seeds.models[0];
-                        let r = r
-                            .map_err(|e| facemimic::Error::Params(e.to_string()))
-                            .and_then(|p| m.check_params(&p).map(|()| p));
-                        if let Ok(p) = &r {
-                            let mut shape = vec![0.0; m.landmarks() * 2];
-                            if m.image_shape(p, &mut shape).is_ok() && !finite(&shape) {
-                                return Err("image_shape gave non-finite landmarks".into());
-                            }
-                            let mut pixmap = facemimic::tiny_skia::Pixmap::new(32, 32).unwrap();
-                            let mut ren = FaceDrawer::new(m.frame(), DrawOptions::default())
-                                .map_err(|e| e.to_string())?;
-                            let _ = ren.render(m, p, &Similarity::IDENTITY, &mut pixmap.as_mut());
-                            let mut c = Cloner::new(m.clone()).map_err(|e| e.to_string())?;
-                            c.add_target(seeds.models[1].clone())
-                                .map_err(|e| e.to_string())?;
-                            let opts = CloneOptions {
-                                clamp: None,
-                                ..CloneOptions::default()
-                            };
-                            if c.clone_frame(p, &opts).is_ok()
-                                && !(finite(c.target_shape(0)) && finite(c.target_appearance(0)))
-                            {
-                                return Err("clone_frame gave non-finite output".into());
-                            }
-                        }
-                        Ok(class(target, &r.map(|_| ())))
-                    }
+                    "model" => run_model(input, rng, seeds, stats, track),
+                    "pts" | "asf" => run_landmarks(target, input, seeds),
+                    _ => run_params(target, input, seeds),
                 }
             },
         ));
@@ -750,6 +702,102 @@ impl Fuzzer {
             }
         }
     }
+}
+
+/// [`Fuzzer::run`] on a model file: the load within its memory budget, then, when accepted,
+/// [`exercise`] within the model's budget. Returns the outcome class.
+fn run_model(
+    input: &[u8],
+    rng: &mut Rng,
+    seeds: &Seeds,
+    stats: &mut Stats,
+    track: bool,
+) -> Result<String, String> {
+    let target = "model";
+    let (r, peak) = measured(|| read_model(input));
+    let budget = load_budget(input.len());
+    stats.worst_load_ratio = stats.worst_load_ratio.max(peak as f64 / budget as f64);
+    if peak > budget {
+        return Err(format!(
+            "loading {} bytes allocated {peak} bytes, budget {budget}",
+            input.len()
+        ));
+    }
+    let c = class(target, &r.as_ref().map(|_| ()));
+    if let Ok(m) = r {
+        stats.accepted_models += 1;
+        let budget = facemimic::bounds::model_budget(input.len() as u64);
+        let (r, peak) = measured(|| exercise(&m, rng, seeds, track));
+        r?;
+        if peak > budget {
+            return Err(format!(
+                "operations on a {}-byte model allocated {peak} bytes, budget {budget}",
+                input.len()
+            ));
+        }
+    }
+    Ok(c)
+}
+
+/// [`Fuzzer::run`] on a landmark file (`target` "pts" or "asf"): parsed landmarks must be
+/// finite, and are projected when they fit the first seed model. Returns the outcome class.
+fn run_landmarks(target: &'static str, input: &[u8], seeds: &Seeds) -> Result<String, String> {
+    let text = String::from_utf8_lossy(input);
+    let r = if target == "pts" {
+        parse_pts(&text)
+    } else {
+        parse_asf(&text, 640, 480)
+    };
+    if let Ok(v) = &r {
+        if !finite(v) {
+            return Err(format!("{target} parser gave non-finite {v:?}"));
+        }
+        // Downstream: project the parsed landmarks.
+        let m = &seeds.models[0];
+        if v.len() == m.landmarks() * 2 {
+            let view = seeds.image.view().map_err(|e| e.to_string())?;
+            if let Ok(p) = m.project(&view, v) {
+                if !params_finite(&p) {
+                    return Err(format!("project gave non-finite {p:?}"));
+                }
+            }
+        }
+    }
+    Ok(class(target, &r.map(|_| ())))
+}
+
+/// [`Fuzzer::run`] on parameters (JSON; `target` "params"): accepted ones are posed, rendered and cloned, with
+/// finite results. Returns the outcome class.
+fn run_params(target: &'static str, input: &[u8], seeds: &Seeds) -> Result<String, String> {
+    let text = String::from_utf8_lossy(input);
+    let r: Result<Params, _> = serde_json::from_str(&text);
+    let m = &seeds.models[0];
+    let r = r
+        .map_err(|e| facemimic::Error::Params(e.to_string()))
+        .and_then(|p| m.check_params(&p).map(|()| p));
+    if let Ok(p) = &r {
+        let mut shape = vec![0.0; m.landmarks() * 2];
+        if m.image_shape(p, &mut shape).is_ok() && !finite(&shape) {
+            return Err("image_shape gave non-finite landmarks".into());
+        }
+        let mut pixmap = facemimic::tiny_skia::Pixmap::new(32, 32).unwrap();
+        let mut ren =
+            FaceDrawer::new(m.frame(), DrawOptions::default()).map_err(|e| e.to_string())?;
+        let _ = ren.render(m, p, &Similarity::IDENTITY, &mut pixmap.as_mut());
+        let mut c = Cloner::new(m.clone()).map_err(|e| e.to_string())?;
+        c.add_target(seeds.models[1].clone())
+            .map_err(|e| e.to_string())?;
+        let opts = CloneOptions {
+            clamp: None,
+            ..CloneOptions::default()
+        };
+        if c.clone_frame(p, &opts).is_ok()
+            && !(finite(c.target_shape(0)) && finite(c.target_appearance(0)))
+        {
+            return Err("clone_frame gave non-finite output".into());
+        }
+    }
+    Ok(class(target, &r.map(|_| ())))
 }
 
 /// The target a corpus file belongs to, from its name's prefix (`model-`, `pts-`, `asf-`,

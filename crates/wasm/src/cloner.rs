@@ -1,4 +1,5 @@
-//! `Cloner` for JavaScript: one source driving many targets, rendered into canvases.
+//! `Cloner` for JavaScript: one source driving many targets, drawn into canvases. A thin shell
+//! over [`facemimic::Stage`]: it parses, passes and blits.
 
 use std::str::FromStr;
 
@@ -6,223 +7,153 @@ use wasm_bindgen::prelude::*;
 use web_sys::ImageData;
 
 use super::model::{model_info, JsModel};
-use super::surface::{now_ms, paint, params_into, Ctx, RenderOptions, Sink, Stages};
+use super::surface::{now_ms, paint_whole, params_into, put_rgba, Ctx, RenderOptions, Sink};
+use super::tracker::WasmTracker;
 use super::{install_panic_hook, js_err, params_to_js, Context2dArg, RenderOptionsArg};
-use facemimic::clone::{CloneOptions, Cloner, Method, TargetFrame};
-use facemimic::ReferenceFrame;
-use facemimic::{base_box, fit_view, picture_view, Compositor, FaceDrawer};
-use facemimic::{Model, Params};
+use facemimic::clone::{CloneOptions, Method};
+use facemimic::{Model, Params, Picture, PictureOptions, Stage};
 
-/// Stage timings accumulated since the last `update()`.
-#[derive(Clone, Copy, Debug, Default)]
-struct Timings {
-    map: f64,
-    synth: f64,
-    raster: f64,
-    blit: f64,
+fn parse_method(method: &str) -> Result<Method, JsError> {
+    Method::from_str(method).map_err(js_err)
 }
 
-/// The compare view's output: one target cloned with another method than the main one,
-/// into its own buffers (made again when the targets change).
-struct Compare {
-    /// Which target of the main cloner it mirrors, and the main cloner's generation then.
-    index: usize,
-    generation: u64,
-    out: TargetFrame,
+/// Render options read from JS as the core's picture options.
+fn picture_options(options: Option<RenderOptionsArg>) -> Result<PictureOptions, JsError> {
+    Ok(RenderOptions::from_js(&options.map(JsValue::from))?.picture())
 }
 
-/// One face to draw: an appearance on the frame, a shape in image coordinates, and the box
-/// the canvas view is fitted to.
-struct Face<'a> {
-    frame: &'a ReferenceFrame,
-    appearance: &'a [f32],
-    shape: &'a [f32],
-    bbox: [f32; 4],
+/// The source is drawn face only, whatever the options say (`composite` is for targets).
+fn source_options(options: Option<RenderOptionsArg>) -> Result<PictureOptions, JsError> {
+    let mut o = picture_options(options)?;
+    o.composite = false;
+    Ok(o)
+}
+
+/// The canvases registered for [`JsCloner::draw_frame`]: the source's, one slot per target
+/// (kept in step with the targets) and one per compare view of the stage.
+#[derive(Default)]
+struct Canvases {
+    source: Option<Ctx>,
+    targets: Vec<Option<Ctx>>,
+    compare: Vec<Ctx>,
 }
 
 /// One source model cloned onto any number of targets (the paper's section 3), with rendering
 /// into canvases. Models are copied in; the cloner owns its copies.
 #[wasm_bindgen(js_name = Cloner)]
 pub struct JsCloner {
-    cloner: Cloner,
-    options: CloneOptions,
-    source_params: Params,
-    /// Scratch for `setSourceParams` (same lengths as `source_params`).
+    stage: Stage,
+    /// Scratch for `setSourceParams` (sized like the source's parameters).
     pending: Params,
-    drawer: FaceDrawer,
-    /// Scratch: source appearance (3N) and source landmarks (2n).
-    appearance: Vec<f32>,
-    shape: Vec<f32>,
-    /// Bounding boxes of the mean placements: source, then one per target.
-    source_box: [f32; 4],
-    target_boxes: Vec<[f32; 4]>,
-    timings: Timings,
-    compare: Option<Compare>,
-    /// Per target, its compositor (made on its first composited render; cleared when the
-    /// targets change).
-    compositors: Vec<Option<Compositor>>,
-    /// Bumped whenever the source or the targets change.
-    generation: u64,
-}
-
-/// The box target `index`'s view is fitted to (its mean placement).
-fn target_box(boxes: &[[f32; 4]], index: usize, model: &Model) -> [f32; 4] {
-    boxes.get(index).copied().unwrap_or_else(|| base_box(model))
-}
-
-fn parse_method(method: &str) -> Result<Method, JsError> {
-    Method::from_str(method).map_err(js_err)
+    canvases: Canvases,
 }
 
 impl JsCloner {
-    /// The Rust cloner.
-    pub fn cloner(&self) -> &Cloner {
-        &self.cloner
+    /// The core stage.
+    pub fn stage(&self) -> &Stage {
+        &self.stage
+    }
+
+    /// The Rust cloner (the stage's).
+    pub fn cloner(&self) -> &facemimic::clone::Cloner {
+        self.stage.cloner()
     }
 
     /// The options used by `update()`.
     pub fn options(&self) -> &CloneOptions {
-        &self.options
+        self.stage.options()
     }
 
     fn check_index(&self, index: u32) -> Result<usize, JsError> {
         let i = index as usize;
-        if i < self.cloner.n_targets() {
+        if i < self.stage.n_targets() {
             Ok(i)
         } else {
             Err(JsError::new(&format!(
                 "target index {index} out of range ({} target(s))",
-                self.cloner.n_targets()
+                self.stage.n_targets()
             )))
         }
     }
 
-    fn set_options(&mut self, options: CloneOptions) -> Result<(), JsError> {
-        options.validate(self.cloner.source()).map_err(js_err)?;
-        self.options = options;
+    /// The current options changed by `change`, checked and set (the old ones stay on error).
+    fn change_options(&mut self, change: impl FnOnce(&mut CloneOptions)) -> Result<(), JsError> {
+        let mut o = self.stage.options().clone();
+        change(&mut o);
+        self.stage.set_options(o).map_err(js_err)
+    }
+
+    /// Draws with `draw` into the sink through the shared pixmap of its size, adding the blit
+    /// time to the stage's timings.
+    fn paint_into(
+        &mut self,
+        sink: Sink<'_>,
+        opaque: bool,
+        draw: impl FnOnce(&mut Stage, &mut facemimic::tiny_skia::PixmapMut<'_>) -> facemimic::Result<()>,
+    ) -> Result<(), JsError> {
+        let stage = &mut self.stage;
+        let stages = paint_whole(sink, opaque, |pixmap, _, _| {
+            draw(stage, pixmap).map_err(js_err)
+        })?;
+        self.stage.add_blit_ms(stages.blit);
         Ok(())
     }
 
-    /// Uploads the face's appearance and warps its shape into the sink with the drawer,
-    /// adding the stage times.
-    fn draw(
-        drawer: &mut FaceDrawer,
-        timings: &mut Timings,
-        face: Face<'_>,
-        sink: Sink<'_>,
-        options: &RenderOptions,
-    ) -> Result<(), JsError> {
-        let t0 = now_ms();
-        drawer.set_options(options.draw);
-        drawer.upload(face.frame, face.appearance).map_err(js_err)?;
-        timings.synth += now_ms() - t0;
-        let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
-            let view = fit_view(face.bbox, w, h);
-            drawer
-                .warp(face.frame, face.shape, &view, pixmap)
-                .map_err(js_err)
-        })?;
-        timings.raster += stages.raster;
-        timings.blit += stages.blit;
+    /// Sizes a picture to its canvas (none: unsized) and shows it as `shown` says.
+    fn fit_picture(picture: &mut Picture, ctx: Option<&Ctx>, shown: bool) -> Result<(), JsError> {
+        let (w, h) = match ctx {
+            Some(c) => c.size()?,
+            None => (0, 0),
+        };
+        let (w, h) = if w == 0 || h == 0 { (0, 0) } else { (w, h) };
+        picture.set_size(w, h).map_err(js_err)?;
+        picture.set_shown(shown);
         Ok(())
     }
 
-    fn render_source_into(
-        &mut self,
-        sink: Sink<'_>,
-        options: &RenderOptions,
-    ) -> Result<(), JsError> {
-        let model = self.cloner.source();
+    /// Sizes every registered picture to its canvas and applies the `shown` flags (source,
+    /// targets, compare views; missing flags show).
+    fn fit_pictures(&mut self, shown: &[u8]) -> Result<(), JsError> {
+        let flag = |k: usize| shown.get(k).is_none_or(|&v| v != 0);
+        let c = &self.canvases;
+        Self::fit_picture(self.stage.source_picture_mut(), c.source.as_ref(), flag(0))?;
+        for i in 0..self.stage.n_targets() {
+            let ctx = c.targets.get(i).and_then(Option::as_ref);
+            let picture = self.stage.target_picture_mut(i).map_err(js_err)?;
+            Self::fit_picture(picture, ctx, flag(1 + i))?;
+        }
+        let base = 1 + self.stage.n_targets();
+        for (k, ctx) in c.compare.iter().enumerate() {
+            if let Some(view) = self.stage.compare_view_mut(k) {
+                Self::fit_picture(view.picture_mut(), Some(ctx), flag(base + k))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Blits every registered, shown and drawn picture into its canvas.
+    fn blit_pictures(&mut self) -> Result<(), JsError> {
         let t0 = now_ms();
-        model
-            .image_shape(&self.source_params, &mut self.shape)
-            .map_err(js_err)?;
-        // Eq. 2 for the source, cache-blocked (bit-identical to `instance_unchecked`).
-        facemimic::numerics::synthesise(
-            &model.appearance().base,
-            &model.appearance().modes,
-            &self.source_params.appearance,
-            &mut self.appearance,
-        );
-        self.timings.synth += now_ms() - t0;
-        let face = Face {
-            frame: model.frame(),
-            appearance: &self.appearance,
-            shape: &self.shape,
-            bbox: self.source_box,
-        };
-        Self::draw(&mut self.drawer, &mut self.timings, face, sink, options)
-    }
-
-    fn render_target_into(
-        &mut self,
-        index: usize,
-        sink: Sink<'_>,
-        options: &RenderOptions,
-    ) -> Result<(), JsError> {
-        let Some(model) = self.cloner.get_target(index) else {
-            return Err(JsError::new(&format!("target index {index} out of range")));
-        };
-        if options.composite && model.backdrop().is_some() {
-            let face = (
-                self.cloner.target_appearance(index),
-                self.cloner.target_shape(index),
-            );
-            return Self::composite(
-                &mut self.compositors,
-                &mut self.timings,
-                (index, model),
-                face,
-                sink,
-                options,
-            );
+        let c = &self.canvases;
+        let s = &self.stage;
+        let targets = (0..s.n_targets()).filter_map(|i| {
+            let ctx = c.targets.get(i).and_then(Option::as_ref)?;
+            Some((ctx, s.target_picture(i)?))
+        });
+        let compare = c
+            .compare
+            .iter()
+            .zip(s.compare_views())
+            .filter(|_| s.compare_target().is_some())
+            .map(|(ctx, v)| (ctx, v.picture()));
+        let source = c.source.as_ref().map(|ctx| (ctx, s.source_picture()));
+        for (ctx, picture) in source.into_iter().chain(targets).chain(compare) {
+            if picture.shown() && picture.drawn() {
+                let (w, h) = picture.size();
+                put_rgba(ctx, picture.rgba(), w, h)?;
+            }
         }
-        let face = Face {
-            frame: model.frame(),
-            appearance: self.cloner.target_appearance(index),
-            shape: self.cloner.target_shape(index),
-            bbox: target_box(&self.target_boxes, index, model),
-        };
-        Self::draw(&mut self.drawer, &mut self.timings, face, sink, options)
-    }
-
-    fn changed(&mut self) {
-        self.generation += 1;
-        self.compare = None;
-        self.compositors.clear();
-    }
-
-    /// Composites a face of target `index` (`model`), its appearance and its landmarks in
-    /// the backdrop's pixels, into the target's backdrop letterboxed to the sink, with the
-    /// target's compositor (made on first use).
-    fn composite(
-        compositors: &mut Vec<Option<Compositor>>,
-        timings: &mut Timings,
-        (index, model): (usize, &Model),
-        (appearance, shape): (&[f32], &[f32]),
-        sink: Sink<'_>,
-        options: &RenderOptions,
-    ) -> Result<(), JsError> {
-        if compositors.len() <= index {
-            compositors.resize_with(index + 1, || None);
-        }
-        if compositors[index].is_none() {
-            let t0 = now_ms();
-            compositors[index] = Some(Compositor::new(model, options.draw).map_err(js_err)?);
-            timings.synth += now_ms() - t0;
-        }
-        let Some(c) = compositors[index].as_mut() else {
-            return Err(JsError::new("internal error: compositor"));
-        };
-        c.set_options(options.draw);
-        let (bw, bh) = c.size();
-        let stages: Stages = paint(sink, options.background, |pixmap, w, h| {
-            let view = picture_view(bw, bh, w, h);
-            c.draw(model, appearance, shape, &view, pixmap)
-                .map_err(js_err)
-        })?;
-        timings.raster += stages.raster;
-        timings.blit += stages.blit;
+        self.stage.add_blit_ms(now_ms() - t0);
         Ok(())
     }
 }
@@ -234,26 +165,13 @@ impl JsCloner {
     pub fn new(source: &JsModel) -> Result<JsCloner, JsError> {
         install_panic_hook();
         let model: Model = source.model().clone();
-        let drawer = FaceDrawer::new(model.frame(), Default::default()).map_err(js_err)?;
-        let source_params = model.base_params();
-        let appearance = vec![0.0; model.appearance().len()];
-        let shape = vec![0.0; model.shape().base.len()];
-        let source_box = base_box(&model);
-        let cloner = Cloner::new(model).map_err(js_err)?;
+        let pending = model.base_params();
+        let mut stage = Stage::new(model).map_err(js_err)?;
+        stage.set_clock(now_ms);
         Ok(JsCloner {
-            cloner,
-            options: CloneOptions::default(),
-            pending: source_params.clone(),
-            source_params,
-            drawer,
-            appearance,
-            shape,
-            source_box,
-            target_boxes: Vec::new(),
-            timings: Timings::default(),
-            compare: None,
-            compositors: Vec::new(),
-            generation: 0,
+            stage,
+            pending,
+            canvases: Canvases::default(),
         })
     }
 
@@ -263,21 +181,9 @@ impl JsCloner {
     #[wasm_bindgen(js_name = setSource)]
     pub fn set_source(&mut self, source: &JsModel) -> Result<(), JsError> {
         let model = source.model().clone();
-        let drawer = FaceDrawer::new(model.frame(), Default::default()).map_err(js_err)?;
-        let params = model.base_params();
-        let source_box = base_box(&model);
-        let (m, l) = (model.shape().n_modes(), model.appearance().n_modes());
-        let (n2, d) = (model.shape().base.len(), model.appearance().len());
-        self.cloner.set_source(model).map_err(js_err)?;
-        self.drawer = drawer;
-        self.pending = params.clone();
-        self.source_params = params;
-        self.source_box = source_box;
-        self.appearance = vec![0.0; d];
-        self.shape = vec![0.0; n2];
-        self.options.shape_gains.truncate(m);
-        self.options.appearance_gains.truncate(l);
-        self.changed();
+        let pending = model.base_params();
+        self.stage.set_source(model).map_err(js_err)?;
+        self.pending = pending;
         Ok(())
     }
 
@@ -285,57 +191,52 @@ impl JsCloner {
     /// what differs when it is not built in the source's reference frame.
     #[wasm_bindgen(js_name = addTarget)]
     pub fn add_target(&mut self, target: &JsModel) -> Result<u32, JsError> {
-        let model = target.model().clone();
-        let bbox = base_box(&model);
-        let i = self.cloner.add_target(model).map_err(js_err)?;
-        self.target_boxes.push(bbox);
-        self.changed();
+        let i = self
+            .stage
+            .add_target(target.model().clone())
+            .map_err(js_err)?;
+        self.canvases.targets.resize_with(i + 1, || None);
         Ok(i as u32)
     }
 
-    /// Removes target `index`; later targets move down by one.
+    /// Removes target `index`; later targets (and their registered canvases) move down by one.
     #[wasm_bindgen(js_name = removeTarget)]
     pub fn remove_target(&mut self, index: u32) -> Result<(), JsError> {
         let i = self.check_index(index)?;
-        self.cloner.remove_target(i).map_err(js_err)?;
-        if i < self.target_boxes.len() {
-            self.target_boxes.remove(i);
+        self.stage.remove_target(i).map_err(js_err)?;
+        if i < self.canvases.targets.len() {
+            self.canvases.targets.remove(i);
         }
-        self.changed();
         Ok(())
     }
 
-    /// Replaces target `index` with `target` (copied); on error nothing changes.
+    /// Replaces target `index` with `target` (copied); on error nothing changes. Its
+    /// registered canvas stays.
     #[wasm_bindgen(js_name = replaceTarget)]
     pub fn replace_target(&mut self, index: u32, target: &JsModel) -> Result<(), JsError> {
         let i = self.check_index(index)?;
-        let model = target.model().clone();
-        let bbox = base_box(&model);
-        self.cloner.replace_target(i, model).map_err(js_err)?;
-        if let Some(b) = self.target_boxes.get_mut(i) {
-            *b = bbox;
-        }
-        self.changed();
-        Ok(())
+        self.stage
+            .replace_target(i, target.model().clone())
+            .map_err(js_err)
     }
 
     /// Number of targets.
     #[wasm_bindgen(getter, js_name = targetCount)]
     pub fn target_count(&self) -> u32 {
-        self.cloner.n_targets() as u32
+        self.stage.n_targets() as u32
     }
 
     /// The source model's info (see `Model.info()`).
     #[wasm_bindgen(js_name = sourceInfo, unchecked_return_type = "ModelInfo")]
     pub fn source_info(&self) -> Result<JsValue, JsError> {
-        model_info(self.cloner.source())
+        model_info(self.stage.source())
     }
 
     /// Target `index`'s model info.
     #[wasm_bindgen(js_name = targetInfo, unchecked_return_type = "ModelInfo")]
     pub fn target_info(&self, index: u32) -> Result<JsValue, JsError> {
         let i = self.check_index(index)?;
-        match self.cloner.get_target(i) {
+        match self.stage.cloner().get_target(i) {
             Some(m) => model_info(m),
             None => Err(JsError::new("target index out of range")),
         }
@@ -348,31 +249,35 @@ impl JsCloner {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "ParamsInput")] params: JsValue,
     ) -> Result<(), JsError> {
-        // Read into the scratch copy (sized like the source's parameters), validate, swap:
-        // no allocation, and the old parameters stay on error.
+        // Read into the scratch copy (sized like the source's parameters), then the stage
+        // validates and takes it: no allocation, and the old parameters stay on error.
         params_into(&params, &mut self.pending)?;
-        self.cloner
-            .source()
-            .check_params(&self.pending)
-            .map_err(js_err)?;
-        std::mem::swap(&mut self.pending, &mut self.source_params);
-        Ok(())
+        self.stage.set_source_params(&self.pending).map_err(js_err)
+    }
+
+    /// Takes the source parameters from a `Tracker`'s last frame (either path), inside wasm
+    /// (no parameters object crosses to JS and back): its shape and appearance and its
+    /// `placed` pose. A lost
+    /// frame, or none yet, is not taken (the parameters stay the last good ones). Returns
+    /// whether the fit was taken. Throws when the tracker's model does not fit the source.
+    #[wasm_bindgen(js_name = sourceFromTracker)]
+    pub fn source_from_tracker(&mut self, tracker: &WasmTracker) -> Result<bool, JsError> {
+        self.stage
+            .source_from_tracker(tracker.face_tracker())
+            .map_err(js_err)
     }
 
     /// The current source parameters.
     #[wasm_bindgen(js_name = sourceParams, unchecked_return_type = "Params")]
     pub fn source_params(&self) -> Result<JsValue, JsError> {
-        params_to_js(&self.source_params)
+        params_to_js(self.stage.source_params())
     }
 
     /// The source's landmarks for the current parameters (image coordinates, `2n` values).
     #[wasm_bindgen(js_name = sourceLandmarks)]
     pub fn source_landmarks(&mut self) -> Result<js_sys::Float32Array, JsError> {
-        let model = self.cloner.source();
-        model
-            .image_shape(&self.source_params, &mut self.shape)
-            .map_err(js_err)?;
-        Ok(js_sys::Float32Array::from(&self.shape[..]))
+        let shape = self.stage.source_landmarks().map_err(js_err)?;
+        Ok(js_sys::Float32Array::from(shape))
     }
 
     /// The cloning method, one of `methods()`' names: `"substitute"` (Fig. 4 A), `"map"`
@@ -382,61 +287,53 @@ impl JsCloner {
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "Method")] method: &str,
     ) -> Result<(), JsError> {
-        self.options.method = parse_method(method)?;
-        Ok(())
+        let method = parse_method(method)?;
+        self.change_options(|o| o.method = method)
     }
 
     /// The current method.
     #[wasm_bindgen(getter, unchecked_return_type = "Method")]
     pub fn method(&self) -> String {
-        self.options.method.name().to_string()
+        self.stage.options().method.name().to_string()
     }
 
     /// Global gain on the source parameters (0 = the target's reference face, 1 = faithful,
     /// >1 exaggerated). Must be finite.
     #[wasm_bindgen(js_name = setGain)]
     pub fn set_gain(&mut self, gain: f32) -> Result<(), JsError> {
-        let mut o = self.options.clone();
-        o.gain = gain;
-        self.set_options(o)
+        self.change_options(|o| o.gain = gain)
     }
 
     /// The global gain.
     #[wasm_bindgen(getter)]
     pub fn gain(&self) -> f32 {
-        self.options.gain
+        self.stage.options().gain
     }
 
     /// Per source shape mode gains, multiplied with the global gain (empty = all 1; a shorter
     /// array leaves the remaining modes at 1).
     #[wasm_bindgen(js_name = setShapeGains)]
     pub fn set_shape_gains(&mut self, gains: &[f32]) -> Result<(), JsError> {
-        let mut o = self.options.clone();
-        o.shape_gains = gains.to_vec();
-        self.set_options(o)
+        self.change_options(|o| o.shape_gains = gains.to_vec())
     }
 
     /// Per source appearance mode gains (same rules as `setShapeGains`).
     #[wasm_bindgen(js_name = setAppearanceGains)]
     pub fn set_appearance_gains(&mut self, gains: &[f32]) -> Result<(), JsError> {
-        let mut o = self.options.clone();
-        o.appearance_gains = gains.to_vec();
-        self.set_options(o)
+        self.change_options(|o| o.appearance_gains = gains.to_vec())
     }
 
     /// The constraint: mapped target parameters limited to `+-k` standard deviations of the
     /// target's modes; `null` turns it off. Default 3.
     #[wasm_bindgen(js_name = setClamp)]
     pub fn set_clamp(&mut self, k: Option<f32>) -> Result<(), JsError> {
-        let mut o = self.options.clone();
-        o.clamp = k;
-        self.set_options(o)
+        self.change_options(|o| o.clamp = k)
     }
 
     /// The constraint's `k`, or `undefined` when off.
     #[wasm_bindgen(getter)]
     pub fn clamp(&self) -> Option<f32> {
-        self.options.clamp
+        self.stage.options().clamp
     }
 
     /// The expressive method's gains per region (each multiplied with the global gain):
@@ -444,15 +341,13 @@ impl JsCloner {
     /// the source does. Must be finite.
     #[wasm_bindgen(js_name = setRegionGains)]
     pub fn set_region_gains(&mut self, mouth: f32, eyes: f32, brows: f32) -> Result<(), JsError> {
-        let mut o = self.options.clone();
-        o.regions = facemimic::clone::RegionGains { mouth, eyes, brows };
-        self.set_options(o)
+        self.change_options(|o| o.regions = facemimic::clone::RegionGains { mouth, eyes, brows })
     }
 
     /// The region gains, `[mouth, eyes, brows]`.
     #[wasm_bindgen(getter, js_name = regionGains)]
     pub fn region_gains(&self) -> Vec<f32> {
-        let r = self.options.regions;
+        let r = self.stage.options().regions;
         vec![r.mouth, r.eyes, r.brows]
     }
 
@@ -460,56 +355,54 @@ impl JsCloner {
     /// default) = the source's full motion; in between, a blend.
     #[wasm_bindgen(js_name = setStyle)]
     pub fn set_style(&mut self, style: f32) -> Result<(), JsError> {
-        let mut o = self.options.clone();
-        o.style = style;
-        self.set_options(o)
+        self.change_options(|o| o.style = style)
     }
 
     /// The style (see `setStyle`).
     #[wasm_bindgen(getter)]
     pub fn style(&self) -> f32 {
-        self.options.style
+        self.stage.options().style
     }
 
     /// `true`: targets follow the source's head motion relative to its mean pose; `false`
     /// (default): each target stays at its own mean pose.
     #[wasm_bindgen(js_name = setFollowPose)]
     pub fn set_follow_pose(&mut self, on: bool) {
-        self.options.follow_pose = on;
+        // The current options are valid and the flag has no range: this cannot fail.
+        let _ = self.change_options(|o| o.follow_pose = on);
     }
 
     /// Whether targets follow the source's pose.
     #[wasm_bindgen(getter, js_name = followPose)]
     pub fn follow_pose(&self) -> bool {
-        self.options.follow_pose
+        self.stage.options().follow_pose
     }
 
     /// Maps the current source parameters onto every target and synthesises their shapes and
     /// appearances (one call per frame). Resets the stage timings. Allocates nothing.
     pub fn update(&mut self) -> Result<(), JsError> {
-        self.timings = Timings::default();
-        let t0 = now_ms();
-        self.cloner
-            .clone_frame(&self.source_params, &self.options)
-            .map_err(js_err)?;
-        self.timings.map = now_ms() - t0;
-        Ok(())
+        self.stage.update().map_err(js_err)
     }
 
     /// Target `index`'s parameters of the last `update()` (pose, `p*`, `lambda*`).
     #[wasm_bindgen(js_name = targetParams, unchecked_return_type = "Params")]
     pub fn target_params(&self, index: u32) -> Result<JsValue, JsError> {
         let i = self.check_index(index)?;
-        params_to_js(self.cloner.target_params(i))
+        params_to_js(self.stage.cloner().target_params(i))
     }
 
     /// Target `index`'s landmarks of the last `update()` (image coordinates, `2n` values).
     #[wasm_bindgen(js_name = targetLandmarks)]
     pub fn target_landmarks(&self, index: u32) -> Result<js_sys::Float32Array, JsError> {
         let i = self.check_index(index)?;
-        Ok(js_sys::Float32Array::from(self.cloner.target_shape(i)))
+        Ok(js_sys::Float32Array::from(
+            self.stage.cloner().target_shape(i),
+        ))
     }
+}
 
+#[wasm_bindgen(js_class = Cloner)]
+impl JsCloner {
     /// Renders the source face (current parameters) into a 2D canvas context at the canvas's
     /// own pixel size, centred and scaled (a view fitted to the model's mean placement).
     #[wasm_bindgen(js_name = renderSource)]
@@ -519,8 +412,10 @@ impl JsCloner {
         options: Option<RenderOptionsArg>,
     ) -> Result<(), JsError> {
         let ctx = Ctx::from_js(&ctx)?;
-        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
-        self.render_source_into(Sink::Canvas(&ctx), &options)
+        let o = source_options(options)?;
+        self.paint_into(Sink::Canvas(&ctx), o.background.is_opaque(), |s, p| {
+            s.draw_source_into(&o, p)
+        })
     }
 
     /// Renders target `index` as of the last `update()` into a 2D canvas context.
@@ -533,8 +428,10 @@ impl JsCloner {
     ) -> Result<(), JsError> {
         let i = self.check_index(index)?;
         let ctx = Ctx::from_js(&ctx)?;
-        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
-        self.render_target_into(i, Sink::Canvas(&ctx), &options)
+        let o = picture_options(options)?;
+        self.paint_into(Sink::Canvas(&ctx), o.background.is_opaque(), |s, p| {
+            s.draw_target_into(i, &o, p)
+        })
     }
 
     /// Renders target `index` as of the last `update()` into a new `ImageData` of the given
@@ -548,9 +445,11 @@ impl JsCloner {
         options: Option<RenderOptionsArg>,
     ) -> Result<ImageData, JsError> {
         let i = self.check_index(index)?;
-        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
+        let o = picture_options(options)?;
         image_data(width, height, |sink| {
-            self.render_target_into(i, sink, &options)
+            self.paint_into(sink, o.background.is_opaque(), |s, p| {
+                s.draw_target_into(i, &o, p)
+            })
         })
     }
 
@@ -562,9 +461,11 @@ impl JsCloner {
         height: u32,
         options: Option<RenderOptionsArg>,
     ) -> Result<ImageData, JsError> {
-        let options = RenderOptions::from_js(&options.map(JsValue::from))?;
+        let o = source_options(options)?;
         image_data(width, height, |sink| {
-            self.render_source_into(sink, &options)
+            self.paint_into(sink, o.background.is_opaque(), |s, p| {
+                s.draw_source_into(&o, p)
+            })
         })
     }
 
@@ -583,56 +484,119 @@ impl JsCloner {
         let i = self.check_index(index)?;
         let method = parse_method(method)?;
         let ctx = Ctx::from_js(&ctx)?;
-        let render_options = RenderOptions::from_js(&options.map(JsValue::from))?;
-        let fresh =
-            matches!(&self.compare, Some(c) if c.index == i && c.generation == self.generation);
-        if !fresh {
-            let Some(out) = self.cloner.target_frame(i) else {
-                return Err(JsError::new("target index out of range"));
-            };
-            self.compare = Some(Compare {
-                index: i,
-                generation: self.generation,
-                out,
-            });
+        let o = picture_options(options)?;
+        self.paint_into(Sink::Canvas(&ctx), o.background.is_opaque(), |s, p| {
+            s.draw_compare_into(i, method, &o, p)
+        })
+    }
+
+    /// Registers the canvas `drawFrame` draws the source face into (face only, as
+    /// `renderSource`), with its options; `null` unregisters it.
+    #[wasm_bindgen(js_name = setSourceCanvas)]
+    pub fn set_source_canvas(
+        &mut self,
+        ctx: Option<Context2dArg>,
+        options: Option<RenderOptionsArg>,
+    ) -> Result<(), JsError> {
+        let ctx = ctx.map(|c| Ctx::from_js(&c)).transpose()?;
+        let o = source_options(options)?;
+        if ctx.is_none() {
+            self.stage
+                .source_picture_mut()
+                .set_size(0, 0)
+                .map_err(js_err)?;
         }
-        let Some(compare) = self.compare.as_mut() else {
-            return Err(JsError::new("internal error: compare output"));
-        };
-        let t0 = now_ms();
-        // Only the method differs; the options were validated when set.
-        let saved = self.options.method;
-        self.options.method = method;
-        let r = self
-            .cloner
-            .clone_target(i, &self.source_params, &self.options, &mut compare.out);
-        self.options.method = saved;
-        r.map_err(js_err)?;
-        self.timings.map += now_ms() - t0;
-        let model = self.cloner.target(i);
-        if render_options.composite && model.backdrop().is_some() {
-            return Self::composite(
-                &mut self.compositors,
-                &mut self.timings,
-                (i, model),
-                (compare.out.appearance(), compare.out.shape()),
-                Sink::Canvas(&ctx),
-                &render_options,
-            );
+        self.stage.source_picture_mut().set_options(o);
+        self.canvases.source = ctx;
+        Ok(())
+    }
+
+    /// Registers the canvas `drawFrame` draws target `index` into (as `renderTarget`), with
+    /// its options; `null` unregisters it. The registration follows the target:
+    /// `removeTarget` moves later ones down, `replaceTarget` keeps it.
+    #[wasm_bindgen(js_name = setTargetCanvas)]
+    pub fn set_target_canvas(
+        &mut self,
+        index: u32,
+        ctx: Option<Context2dArg>,
+        options: Option<RenderOptionsArg>,
+    ) -> Result<(), JsError> {
+        let i = self.check_index(index)?;
+        let ctx = ctx.map(|c| Ctx::from_js(&c)).transpose()?;
+        let o = picture_options(options)?;
+        let picture = self.stage.target_picture_mut(i).map_err(js_err)?;
+        if ctx.is_none() {
+            picture.set_size(0, 0).map_err(js_err)?;
         }
-        let face = Face {
-            frame: model.frame(),
-            appearance: compare.out.appearance(),
-            shape: compare.out.shape(),
-            bbox: target_box(&self.target_boxes, i, model),
-        };
-        Self::draw(
-            &mut self.drawer,
-            &mut self.timings,
-            face,
-            Sink::Canvas(&ctx),
-            &render_options,
-        )
+        picture.set_options(o);
+        self.canvases
+            .targets
+            .resize_with(self.stage.n_targets(), || None);
+        self.canvases.targets[i] = ctx;
+        Ok(())
+    }
+
+    /// Registers the compare view of `method`: `drawFrame` draws the compared target
+    /// (`setCompareTarget`) cloned with `method` into this canvas (as
+    /// `renderTargetWithMethod`); `null` removes the view. One canvas per method.
+    #[wasm_bindgen(js_name = setCompareCanvas)]
+    pub fn set_compare_canvas(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "Method")] method: &str,
+        ctx: Option<Context2dArg>,
+        options: Option<RenderOptionsArg>,
+    ) -> Result<(), JsError> {
+        let method = parse_method(method)?;
+        let ctx = ctx.map(|c| Ctx::from_js(&c)).transpose()?;
+        let o = picture_options(options)?;
+        let found = self
+            .stage
+            .compare_views()
+            .iter()
+            .position(|v| v.method() == method);
+        match (found, ctx) {
+            (Some(k), None) => {
+                self.stage.remove_compare_view(k).map_err(js_err)?;
+                self.canvases.compare.remove(k);
+            }
+            (Some(k), Some(ctx)) => {
+                if let Some(v) = self.stage.compare_view_mut(k) {
+                    v.picture_mut().set_options(o);
+                }
+                self.canvases.compare[k] = ctx;
+            }
+            (None, Some(ctx)) => {
+                self.stage.add_compare_view(method, o);
+                self.canvases.compare.push(ctx);
+            }
+            (None, None) => {}
+        }
+        Ok(())
+    }
+
+    /// The target the compare view shows (`null` or `undefined`: none, the compare canvases
+    /// are not drawn).
+    #[wasm_bindgen(js_name = setCompareTarget)]
+    pub fn set_compare_target(&mut self, index: Option<u32>) -> Result<(), JsError> {
+        let i = index.map(|i| self.check_index(i)).transpose()?;
+        self.stage.set_compare_target(i).map_err(js_err)
+    }
+
+    /// One frame in one call: `update()`, then every registered canvas drawn at its own size
+    /// (`setSourceCanvas`, `setTargetCanvas`, `setCompareCanvas`) and blitted. `shown`
+    /// (optional): a flag per canvas, in the order source, targets, compare views (as
+    /// registered); a `0` skips that canvas this frame (it keeps its last picture), missing
+    /// flags draw.
+    #[wasm_bindgen(js_name = drawFrame)]
+    pub fn draw_frame(
+        &mut self,
+        #[wasm_bindgen(unchecked_optional_param_type = "Uint8Array | ArrayLike<number> | null")]
+        shown: Option<Box<[u8]>>,
+    ) -> Result<(), JsError> {
+        self.stage.update().map_err(js_err)?;
+        self.fit_pictures(shown.as_deref().unwrap_or(&[]))?;
+        self.stage.draw().map_err(js_err)?;
+        self.blit_pictures()
     }
 
     /// Milliseconds per stage since the last `update()`: `mapMs` (mapping and target synthesis
@@ -640,12 +604,13 @@ impl JsCloner {
     /// uploads), `rasterMs` (clearing and warping into the pixmaps), `blitMs` (into canvases).
     #[wasm_bindgen(unchecked_return_type = "Timings")]
     pub fn timings(&self) -> Result<JsValue, JsError> {
+        let t = self.stage.timings();
         let o = js_sys::Object::new();
         for (k, v) in [
-            ("mapMs", self.timings.map),
-            ("synthMs", self.timings.synth),
-            ("rasterMs", self.timings.raster),
-            ("blitMs", self.timings.blit),
+            ("mapMs", t.map),
+            ("synthMs", t.synth),
+            ("rasterMs", t.raster),
+            ("blitMs", t.blit),
         ] {
             js_sys::Reflect::set(&o, &JsValue::from_str(k), &JsValue::from_f64(v))
                 .map_err(|_| JsError::new("timings: cannot build the result"))?;
@@ -657,8 +622,8 @@ impl JsCloner {
 impl std::fmt::Debug for JsCloner {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("JsCloner")
-            .field("source", &self.cloner.source().name())
-            .field("targets", &self.cloner.n_targets())
+            .field("source", &self.stage.source().name())
+            .field("targets", &self.stage.n_targets())
             .finish_non_exhaustive()
     }
 }

@@ -1,9 +1,9 @@
 //! The wasm-bindgen glue (wasm32 only): the JavaScript API of the npm package `facemimic`.
 //!
 //! A thin layer over the core: [`JsModel`] (`Model` in JS) wraps [`facemimic::Model`] and
-//! [`facemimic::format`], [`JsCloner`] (`Cloner`) wraps [`facemimic::clone::Cloner`], and rendering goes
-//! through [`facemimic::FaceDrawer`] into a reusable tiny-skia pixmap per canvas size, then into the
-//! canvas with `putImageData`. The contract is `npm/README.md`.
+//! [`facemimic::format`], [`JsCloner`] (`Cloner`) wraps [`facemimic::Stage`] (the cloner, the
+//! compositors, the views, the compare view and the timings), whose pictures go into the
+//! canvases with `putImageData`. The contract is `npm/README.md`.
 //!
 //! Every entry point validates its input and returns `Result<_, JsError>`: a bad model file,
 //! mismatched models, NaN parameters or a wrong argument throw a JS `Error` whose message
@@ -21,6 +21,7 @@ mod cloner;
 mod finder;
 mod landmarks;
 mod model;
+mod policy;
 mod pose;
 mod surface;
 mod tracker;
@@ -29,9 +30,10 @@ pub use build::{build_model, enrol_face};
 pub use cloner::JsCloner;
 pub use finder::JsFaceFinder;
 pub use landmarks::{landmark_error, parse_pts};
-pub use model::{render_mode, JsModel};
-pub use pose::{lerp_pose, mean_pose, recentre_pose};
-pub use tracker::{WasmFollower, WasmTracker};
+pub use model::{model_summary, render_mode, JsModel};
+pub use policy::policy;
+pub use pose::{lerp_pose, mean_pose, recentre_pose, JsPoseDamper};
+pub use tracker::{work_side, WasmTracker};
 
 /// Converts a library error into a JS `Error` (its message names the problem).
 pub(crate) fn js_err(e: facemimic::Error) -> JsError {
@@ -138,6 +140,29 @@ export interface ModelInfo {
    *  the method (Fig. 4 A). */
   isPhoto: boolean;
 }
+/** The core's front-end policy (`policy()`): what the page, the call page and a package user
+ *  take from the core instead of deciding themselves. */
+export interface Policy {
+  /** Longer side (px) video frames are scaled down to before tracking and finding. */
+  workSide: number;
+  /** Photo targets: picture kept at `maxSide`, searched at `findSide`; a still source fitted in
+   *  `fitPasses` passes. */
+  photo: { maxSide: number; findSide: number; fitPasses: number };
+  /** Enrolment sampling: frames built from, fewest usable, kept in memory, frame side, ms
+   *  between live samples, frames searched in a dropped video. */
+  enrol: { want: number; minFrames: number; maxCandidates: number; maxSide: number; sampleMs: number; videoSamples: number };
+  /** The cloning defaults a new `Cloner` starts with (`clamp`: k, or null for no clamp). */
+  clone: { method: Method; gain: number; clamp: number | null; followPose: boolean; mouth: number; eyes: number; brows: number; style: number };
+}
+/** What `modelSummary(bytes)` reads of a model file without building the model (its header,
+ *  length and checksum): enough to list kept models. */
+export interface ModelSummary {
+  name: string; version: number; landmarks: number; shapeModes: number; appearanceModes: number;
+  framePixels: number;
+  /** The reference frame's fingerprint, hex (as `ModelInfo.fingerprint`). */
+  fingerprint: string;
+  imageWidth: number; imageHeight: number; isPhoto: boolean; fileBytes: number;
+}
 /** Cloning method: the paper's Fig. 4 A, B, C and the expressive method (`methods()` lists
  *  them with labels and descriptions). */
 export type Method = "substitute" | "map" | "map-residual" | "expressive";
@@ -158,6 +183,7 @@ export interface RenderOptions {
    *  the paper's view). A model without a backdrop is drawn face only. */
   composite?: boolean;
 }
-/** Milliseconds spent per stage since the last `update()` (mapping, synthesis, rasterising, blitting). */
+/** Milliseconds spent per stage since the last `update()` or `drawFrame()` (mapping, synthesis,
+ *  rasterising, blitting). */
 export interface Timings { mapMs: number; synthMs: number; rasterMs: number; blitMs: number }
 "##;

@@ -89,6 +89,48 @@ pub(crate) fn model_info_with(m: &Model, notice: Option<&str>) -> Result<JsValue
         .map_err(|e| JsError::new(&format!("model info: {e}")))
 }
 
+/// The plain object `modelSummary()` returns (see the TypeScript `ModelSummary`).
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct SummaryJs {
+    name: String,
+    version: u32,
+    landmarks: usize,
+    shape_modes: usize,
+    appearance_modes: usize,
+    frame_pixels: usize,
+    fingerprint: String,
+    image_width: u32,
+    image_height: u32,
+    is_photo: bool,
+    file_bytes: usize,
+}
+
+/// What a model file says of itself (header, names, length and checksum checked) without
+/// building the model: lists kept models cheaply. Throws a JS `Error` naming what is wrong with
+/// a file that is not a model (`fromBytes` may still refuse one this accepts, for what only a
+/// full read sees).
+#[wasm_bindgen(js_name = modelSummary, unchecked_return_type = "ModelSummary")]
+pub fn model_summary(
+    #[wasm_bindgen(unchecked_param_type = "Uint8Array")] bytes: &[u8],
+) -> Result<JsValue, JsError> {
+    let s = facemimic::format::read_summary(bytes).map_err(|e| js_err(e.into()))?;
+    let js = SummaryJs {
+        name: s.name,
+        version: s.version,
+        landmarks: s.landmarks,
+        shape_modes: s.shape_modes,
+        appearance_modes: s.appearance_modes,
+        frame_pixels: s.frame_pixels,
+        fingerprint: format!("{:016x}", s.fingerprint),
+        image_width: s.image_size[0],
+        image_height: s.image_size[1],
+        is_photo: s.is_photo,
+        file_bytes: s.file_bytes,
+    };
+    serde_wasm_bindgen::to_value(&js).map_err(|e| JsError::new(&format!("model summary: {e}")))
+}
+
 /// Per-model rendering scratch (created on the first render, reused afterwards).
 pub(crate) struct ModelScratch {
     drawer: FaceDrawer,
@@ -331,9 +373,9 @@ pub fn render_mode(
     }
     let m = &model.model;
     let (count, variances) = if shape {
-        (m.shape().n_modes(), &m.shape().variances)
+        (m.shape().n_modes(), &m.shape().variances[..])
     } else {
-        (m.appearance().n_modes(), &m.appearance().variances)
+        (m.appearance().n_modes(), m.appearance().variances())
     };
     let i = mode as usize;
     let Some(var) = variances.get(i) else {

@@ -66,3 +66,68 @@ pub fn lerp_pose(
     }
     pose_to_js(from.lerp(&to, u))
 }
+
+/// Head-motion damping (the call page's): a running pose anchor, the core's one
+/// (`PoseAnchor`: an exponential running mean of the poses, geometric in scale, the short way
+/// round in angle, time constant `tau` seconds), and each pose's deviation from it scaled.
+#[wasm_bindgen(js_name = PoseDamper)]
+#[derive(Debug)]
+pub struct JsPoseDamper {
+    anchor: facemimic::fit::PoseAnchor,
+    tau: f32,
+    /// The clock (ms) of the last `apply`, `None` before it or after `reset`.
+    at: Option<f64>,
+}
+
+#[wasm_bindgen(js_class = PoseDamper)]
+impl JsPoseDamper {
+    /// A damper whose anchor follows the head with time constant `tau` seconds (default 2; 0:
+    /// it stays at the first pose). Throws for a `tau` that is not a finite non-negative number.
+    #[wasm_bindgen(constructor)]
+    pub fn new(tau: Option<f32>) -> Result<JsPoseDamper, JsError> {
+        super::install_panic_hook();
+        let tau = tau.unwrap_or(2.0);
+        if !(tau.is_finite() && tau >= 0.0) {
+            return Err(JsError::new(&format!(
+                "PoseDamper: tau is {tau}, not a finite non-negative number of seconds"
+            )));
+        }
+        Ok(JsPoseDamper {
+            anchor: facemimic::fit::PoseAnchor::new(),
+            tau,
+            at: None,
+        })
+    }
+
+    /// Forgets the anchor: the next pose becomes it.
+    pub fn reset(&mut self) {
+        self.anchor.reset();
+        self.at = None;
+    }
+
+    /// Moves the anchor towards `pose` for the time since the last call (`now`, a clock in
+    /// milliseconds, e.g. `performance.now()`; a clock going back counts as no time) and
+    /// returns `anchor + factor * (pose - anchor)` (`lerpPose(anchor, pose, factor)`: 0 holds
+    /// the head at the anchor, 1 gives `pose`, above 1 exaggerates). Throws for a pose that is
+    /// not `{ scale > 0, rotation, tx, ty }` with finite values, or a `now` or `factor` that is
+    /// not finite.
+    #[wasm_bindgen(unchecked_return_type = "Pose")]
+    pub fn apply(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "Pose")] pose: JsValue,
+        now: f64,
+        factor: f32,
+    ) -> Result<JsValue, JsError> {
+        let pose = pose_from_js("PoseDamper: pose", pose)?;
+        if !(now.is_finite() && factor.is_finite() && pose.is_valid()) {
+            return Err(JsError::new(&format!(
+                "PoseDamper: a valid pose and a finite now ({now}) and factor ({factor}) are needed"
+            )));
+        }
+        let dt = self.at.map_or(0.0, |at| ((now - at) / 1000.0) as f32);
+        self.at = Some(now);
+        self.anchor.wait(dt);
+        self.anchor.follow(&pose, self.tau);
+        pose_to_js(self.anchor.damped(&pose, factor))
+    }
+}

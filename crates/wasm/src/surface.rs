@@ -12,7 +12,7 @@ use web_sys::{CanvasRenderingContext2d, ImageData, OffscreenCanvasRenderingConte
 
 use facemimic::Similarity;
 use facemimic::MAX_IMAGE_SIDE;
-use facemimic::{DrawOptions, Rasterizer};
+use facemimic::{DrawOptions, Framing, PictureOptions, Rasterizer};
 
 #[wasm_bindgen]
 extern "C" {
@@ -81,7 +81,7 @@ impl Ctx {
 
 /// Most pixels one render target may have (64 MB of RGBA): a larger pixmap could exhaust wasm
 /// memory, which aborts instead of failing.
-pub(crate) const MAX_RENDER_PIXELS: u64 = 1 << 24;
+pub(crate) const MAX_RENDER_PIXELS: u64 = facemimic::MAX_PICTURE_PIXELS;
 
 fn check_area(w: u32, h: u32) -> Result<(), JsError> {
     if w as u64 * h as u64 > MAX_RENDER_PIXELS {
@@ -131,7 +131,7 @@ pub(crate) struct RenderOptions {
 }
 
 /// The default background, `#202024`.
-pub(crate) const DEFAULT_BACKGROUND: [u8; 4] = [0x20, 0x20, 0x24, 0xff];
+pub(crate) const DEFAULT_BACKGROUND: [u8; 4] = facemimic::DEFAULT_BACKGROUND;
 
 impl Default for RenderOptions {
     fn default() -> Self {
@@ -151,6 +151,16 @@ thread_local! {
 }
 
 impl RenderOptions {
+    /// The core's options of a picture drawn with these (the face fitted to the canvas).
+    pub(crate) fn picture(&self) -> PictureOptions {
+        PictureOptions {
+            background: self.background,
+            draw: self.draw,
+            composite: self.composite,
+            framing: Framing::Fitted,
+        }
+    }
+
     /// Reads `{ background?, mesh? }` from JS (`undefined`/`null` = defaults).
     pub(crate) fn from_js(value: &Option<JsValue>) -> Result<RenderOptions, JsError> {
         let mut o = RenderOptions::default();
@@ -282,11 +292,9 @@ thread_local! {
     static SURFACES: RefCell<Surfaces> = const { RefCell::new(Surfaces { list: Vec::new(), clock: 0 }) };
 }
 
-/// Stage timings of one render (milliseconds).
+/// Timings of one render (milliseconds; the drawing's own are the stage's).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Stages {
-    /// Rasterising (triangle warp and overlay).
-    pub raster: f64,
     /// Copying into the canvas.
     pub blit: f64,
 }
@@ -328,9 +336,22 @@ impl Sink<'_> {
 }
 
 /// Runs `draw` on a pixmap the size of the sink filled with `background`, then blits the
-/// result into the canvas (or copies it into a new `ImageData`). Returns the raster and blit
-/// times. A zero-sized canvas is skipped.
+/// result into the canvas (or copies it into a new `ImageData`). Returns the blit time. A
+/// zero-sized canvas is skipped.
 pub(crate) fn paint<F>(sink: Sink<'_>, background: Color, draw: F) -> Result<Stages, JsError>
+where
+    F: FnOnce(&mut PixmapMut<'_>, u32, u32) -> Result<(), JsError>,
+{
+    paint_whole(sink, background.is_opaque(), |pixmap, w, h| {
+        pixmap.fill(background);
+        draw(pixmap, w, h)
+    })
+}
+
+/// [`paint`] for a `draw` that paints every pixel itself (its background too: a
+/// [`facemimic::Stage`] picture): the shared pixmap of the sink's size is not cleared first.
+/// `opaque`: the drawing's background is opaque, so its premultiplied pixels are straight.
+pub(crate) fn paint_whole<F>(sink: Sink<'_>, opaque: bool, draw: F) -> Result<Stages, JsError>
 where
     F: FnOnce(&mut PixmapMut<'_>, u32, u32) -> Result<(), JsError>,
 {
@@ -342,60 +363,19 @@ where
         let Ok(mut surfaces) = cell.try_borrow_mut() else {
             return Err(JsError::new("render called re-entrantly"));
         };
-        let surfaces = &mut *surfaces;
-        surfaces.clock += 1;
-        let clock = surfaces.clock;
-        let idx = match surfaces
-            .list
-            .iter()
-            .position(|s| s.pixmap.width() == w && s.pixmap.height() == h)
-        {
-            Some(i) => i,
-            None => {
-                let pixmap = Pixmap::new(w, h)
-                    .ok_or_else(|| JsError::new(&format!("cannot allocate a {w}x{h} pixmap")))?;
-                if surfaces.list.len() >= MAX_SURFACES {
-                    if let Some(oldest) = surfaces
-                        .list
-                        .iter()
-                        .enumerate()
-                        .min_by_key(|(_, s)| s.last_use)
-                        .map(|(i, _)| i)
-                    {
-                        surfaces.list.swap_remove(oldest);
-                    }
-                }
-                surfaces.list.push(Surface {
-                    pixmap,
-                    straight: Vec::new(),
-                    last_use: clock,
-                });
-                surfaces.list.len() - 1
-            }
-        };
-        let Some(surface) = surfaces.list.get_mut(idx) else {
-            return Err(JsError::new("internal error: surface cache"));
-        };
-        surface.last_use = clock;
-        let t0 = now_ms();
-        surface.pixmap.fill(background);
+        let surface = surfaces.get(w, h)?;
         draw(&mut surface.pixmap.as_mut(), w, h)?;
         let t1 = now_ms();
         // An opaque background stays opaque under opaque fills and source-over strokes, so the
         // premultiplied pixels are already straight: blit them as they are.
-        let bytes: &[u8] = if background.is_opaque() {
+        let bytes: &[u8] = if opaque {
             surface.pixmap.data()
         } else {
             facemimic::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
             &surface.straight
         };
         match sink {
-            Sink::Canvas(ctx) => {
-                // A view on wasm memory, consumed at once by putImageData.
-                let image = ImageData::new_with_u8_clamped_array_and_sh(Clamped(bytes), w, h)
-                    .map_err(|e| JsError::new(&format!("ImageData: {}", describe(&e))))?;
-                ctx.put(&image)?;
-            }
+            Sink::Canvas(ctx) => put_rgba(ctx, bytes, w, h)?,
             Sink::Image { out, .. } => {
                 let array = js_sys::Uint8ClampedArray::new_with_length(bytes.len() as u32);
                 array.copy_from(bytes);
@@ -405,11 +385,58 @@ where
             }
         }
         let t2 = now_ms();
-        Ok(Stages {
-            raster: t1 - t0,
-            blit: t2 - t1,
-        })
+        Ok(Stages { blit: t2 - t1 })
     })
+}
+
+impl Surfaces {
+    /// The surface of size `w x h`, made (evicting the least recently used beyond
+    /// `MAX_SURFACES`) when there is none.
+    fn get(&mut self, w: u32, h: u32) -> Result<&mut Surface, JsError> {
+        self.clock += 1;
+        let clock = self.clock;
+        let idx = match self
+            .list
+            .iter()
+            .position(|s| s.pixmap.width() == w && s.pixmap.height() == h)
+        {
+            Some(i) => i,
+            None => {
+                let pixmap = Pixmap::new(w, h)
+                    .ok_or_else(|| JsError::new(&format!("cannot allocate a {w}x{h} pixmap")))?;
+                if self.list.len() >= MAX_SURFACES {
+                    if let Some(oldest) = self
+                        .list
+                        .iter()
+                        .enumerate()
+                        .min_by_key(|(_, s)| s.last_use)
+                        .map(|(i, _)| i)
+                    {
+                        self.list.swap_remove(oldest);
+                    }
+                }
+                self.list.push(Surface {
+                    pixmap,
+                    straight: Vec::new(),
+                    last_use: clock,
+                });
+                self.list.len() - 1
+            }
+        };
+        let Some(surface) = self.list.get_mut(idx) else {
+            return Err(JsError::new("internal error: surface cache"));
+        };
+        surface.last_use = clock;
+        Ok(surface)
+    }
+}
+
+/// Puts straight RGBA pixels (`4 * w * h` bytes) into the context's canvas at its origin,
+/// through a view on wasm memory consumed at once by `putImageData`.
+pub(crate) fn put_rgba(ctx: &Ctx, rgba: &[u8], w: u32, h: u32) -> Result<(), JsError> {
+    let image = ImageData::new_with_u8_clamped_array_and_sh(Clamped(rgba), w, h)
+        .map_err(|e| JsError::new(&format!("ImageData: {}", describe(&e))))?;
+    ctx.put(&image)
 }
 
 /// Reads a JS property, naming it in the error.

@@ -1,4 +1,7 @@
-//! `Tracker` in JS: real-time AAM tracking of RGBA frames (wraps [`facemimic::fit::Tracker`]).
+//! `Tracker` in JS: real-time tracking of RGBA frames, one class over the core's one tracking
+//! interface ([`facemimic::fit::FaceTracker`]): the AAM [`facemimic::fit::Tracker`] or the
+//! landmark [`facemimic::fit::Follower`], chosen by the core's policy
+//! ([`facemimic::fit::tracker_for`]).
 //!
 //! Every entry point validates its input and returns `Result<_, JsError>`; nothing panics
 //! across the boundary.
@@ -10,8 +13,8 @@ use js_sys::{Array, Float32Array, Reflect};
 use wasm_bindgen::JsCast;
 
 use facemimic::fit::{
-    FitOptions, FitResult, FollowOptions, Follower, Sequence, TrackPolicy, Tracker,
-    DEFAULT_TIME_STEP,
+    tracker_for, tracker_of_kind, FaceTracker, FitResult, Sequence, TrackPolicy, TrackerKind,
+    Whose, DEFAULT_TIME_STEP, WORK_SIDE,
 };
 use facemimic::ImageRef;
 use facemimic::PoseJson;
@@ -28,7 +31,7 @@ struct TrackJs<'a> {
     /// The last good pose re-centred on the model's mean pose about the sequence's anchor
     /// (`Sequence::placed`): the head placement to drive the source face with.
     placed: PoseJson,
-    /// The fit scale in use (fitted pixels per frame pixel; 1 for a follower).
+    /// The fit scale in use (fitted pixels per frame pixel; 1 for the landmark path).
     scale: f32,
     shape: &'a [f32],
     appearance: &'a [f32],
@@ -103,6 +106,11 @@ struct PolicyPatch {
 
 #[wasm_bindgen(typescript_custom_section)]
 const TS_POLICY: &'static str = r##"
+/** Which way a `Tracker` follows a face (`Tracker.path`, `Tracker.kindFor`): "aam" fits the
+ *  model's active appearance model to every frame (for the person the model was built from);
+ *  "landmarks" reads the face finder's landmarks as expression and maps them onto the model's
+ *  shape modes (anyone, with a model that is not theirs). */
+export type TrackerKind = "aam" | "landmarks";
 /** How a `Tracker` resamples frames and bounds what it reports (`Tracker.policy`). */
 export interface TrackPolicy {
   /** Reported appearance parameters are clamped to +- this many standard deviations (0: off). */
@@ -155,32 +163,114 @@ fn faces_from_js(faces: &JsValue, who: &str) -> Result<Vec<Vec<f32>>, JsError> {
     Ok(out)
 }
 
-/// Tracks one face through video frames with a model's AAM (inverse compositional fitting,
-/// see `docs/fitting.md`). Start a sequence with `startFromLandmarks` or `startFromBox`, then
-/// call `track` once per frame.
+/// Follows one face through video frames, one frame at a time: the package's one tracking
+/// class, over the core's one interface (`FaceTracker`). Two kinds (`path`):
+///
+/// - `"aam"` (`new Tracker(bytes)`, `Tracker.fromModel(model)`): the model's AAM is fitted to
+///   every frame (inverse compositional fitting, see `docs/fitting.md`): for the person the
+///   model was built from.
+/// - `"landmarks"` (`Tracker.follower(model)`): anyone is followed with a model that is not
+///   theirs (a bundled person's): the face finder's landmarks near the last face, smoothed, read
+///   as expression relative to the person's own running neutral face and mapped onto the
+///   model's shape modes; the appearance stays the model's mean (docs/fitting.md, "Following
+///   anyone"). Needs a 68-landmark model.
+///
+/// `Tracker.forModel(model, own)` chooses by the core's policy (`Tracker.kindFor`). Both kinds
+/// take the same calls and return the same results: start a sequence (`startFromLandmarks`,
+/// `startFromBox`, `startSearching`, `startAuto`), then `track` once per frame; faces found in
+/// a worker are given with `offerFaces` when `wantsFaces` (after `expectOffers(true)`).
+/// Calls that mean nothing for the landmark path answer neutrally: `resets`, `rechecks` and
+/// `rechecksKept` are 0, `scale` and `fitScale` are 1 (it reads frames at their own size), and
+/// of `policy` only `recentreTau` is used.
 #[wasm_bindgen(js_name = Tracker)]
 #[derive(Debug)]
 pub struct WasmTracker {
-    inner: Tracker,
+    inner: Box<dyn FaceTracker>,
 }
 
 #[wasm_bindgen(js_class = Tracker)]
 impl WasmTracker {
-    /// A tracker for a model given as `.fmm` bytes. Throws if the bytes are not a valid model.
+    /// An AAM tracker (`path` "aam") for a model given as `.fmm` bytes. Throws if the bytes are
+    /// not a valid model.
     #[wasm_bindgen(constructor)]
     pub fn new(model_bytes: &[u8]) -> Result<WasmTracker, JsError> {
         super::install_panic_hook();
         let model = facemimic::format::read_model(model_bytes).map_err(|e| err(e.into()))?;
-        let inner = Tracker::new(&model, FitOptions::default()).map_err(err)?;
-        Ok(WasmTracker { inner })
+        Self::of_kind(&model, TrackerKind::Aam)
     }
 
-    /// A tracker for a loaded `Model`.
+    /// An AAM tracker (`path` "aam") for a loaded `Model`.
     #[wasm_bindgen(js_name = fromModel)]
     pub fn from_model(model: &JsModel) -> Result<WasmTracker, JsError> {
         super::install_panic_hook();
-        let inner = Tracker::new(model.model(), FitOptions::default()).map_err(err)?;
+        Self::of_kind(model.model(), TrackerKind::Aam)
+    }
+
+    /// A landmark follower (`path` "landmarks") driving a loaded `Model`'s shape modes: anyone
+    /// followed with a model that is not theirs. Throws for a model without the face finder's
+    /// 68 landmarks. Like every new tracker it searches with its own finder until
+    /// `expectOffers(true)`.
+    pub fn follower(model: &JsModel) -> Result<WasmTracker, JsError> {
+        super::install_panic_hook();
+        Self::of_kind(model.model(), TrackerKind::Landmarks)
+    }
+
+    /// The tracker the core's policy chooses for following a face with `model` (`kindFor`):
+    /// `own` true when the model was built from the person followed (their own model, or the
+    /// bundled clip of the bundled person).
+    #[wasm_bindgen(js_name = forModel)]
+    pub fn for_model(model: &JsModel, own: bool) -> Result<WasmTracker, JsError> {
+        super::install_panic_hook();
+        let inner = tracker_for(model.model(), whose(own)).map_err(err)?;
         Ok(WasmTracker { inner })
+    }
+
+    /// The core's tracking policy without building a tracker: `"aam"` for the person's own
+    /// model, `"landmarks"` for anyone else's (a model with the finder's 68 landmarks; `"aam"`
+    /// otherwise, the only way it can follow a face).
+    #[wasm_bindgen(js_name = kindFor, unchecked_return_type = "TrackerKind")]
+    pub fn kind_for(model: &JsModel, own: bool) -> String {
+        TrackerKind::for_source(whose(own), model.model().landmarks())
+            .name()
+            .into()
+    }
+
+    /// Which way this tracker follows a face: `"aam"` or `"landmarks"`.
+    #[wasm_bindgen(getter, unchecked_return_type = "TrackerKind")]
+    pub fn path(&self) -> String {
+        self.inner.kind().name().into()
+    }
+
+    /// Fits or follows the next frame (RGBA bytes at the frame's own size, e.g.
+    /// `ImageData.data`, `width * height * 4`), `dt` seconds after the previous one (default
+    /// 1/30; the pose anchor's time step, and the landmark smoothing's). Returns `{ landmarks,
+    /// pose, placed, scale, shape, appearance, error, iterations, converged, lost, reacquired }`,
+    /// landmarks and poses in the frame's pixels; `placed` is the pose re-centred on the
+    /// model's mean pose (what to drive the source face with). `error`: the AAM's RMS grey
+    /// residual, or for the landmark path 1 minus the mesh's face score; `iterations`: the
+    /// fit's iterations, or the mesh passes. Throws for a bad image, a `dt` that is not a
+    /// finite non-negative number, or an AAM tracker with no sequence started.
+    pub fn track(
+        &mut self,
+        data: &[u8],
+        width: u32,
+        height: u32,
+        dt: Option<f32>,
+    ) -> Result<JsValue, JsError> {
+        let image = ImageRef::new(width, height, data).map_err(err)?;
+        self.inner
+            .track(&image, dt.unwrap_or(DEFAULT_TIME_STEP))
+            .map_err(err)?;
+        self.last()
+    }
+
+    /// The last frame's result (same shape as `track`'s), or `null` before the first frame
+    /// (for an AAM tracker: of the sequence).
+    pub fn last(&self) -> Result<JsValue, JsError> {
+        match self.inner.last() {
+            Some(r) => to_js(r, self.inner.sequence(), self.inner.scale()),
+            None => Ok(JsValue::NULL),
+        }
     }
 
     /// Starts a sequence from landmarks on the next frame (`[x0, y0, ...]`, image pixels).
@@ -195,67 +285,76 @@ impl WasmTracker {
         self.inner.start_from_box(x, y, w, h).map_err(err)
     }
 
-    /// The scale at which the tracker fits a `width x height` frame with a face `faceHeight`
-    /// pixels tall (the policy's rule; `track` applies it itself). `current` (0 for none) is
-    /// kept unless the wanted scale differs by more than the policy's `rescaleChange`.
-    #[wasm_bindgen(js_name = fitScale)]
-    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
-        self.inner.fit_scale(face_height, width, height, current)
-    }
-
-    /// Starts a sequence with no landmarks: the face finder (built in, loaded on the first
-    /// call) finds the face; until it does, frames are reported `lost`. From then on a lost
-    /// face is looked for again on every frame, and the frame it is found on reports
-    /// `reacquired`. Throws for a model without the finder's 68 landmarks.
+    /// Starts a sequence with no landmarks, found by the tracker's own face finder (built in,
+    /// loaded on the first call for an AAM tracker); until it is found, frames are reported
+    /// `lost`. From then on a lost face is looked for again on every frame, and the frame it is
+    /// found on reports `reacquired`. The landmark path stops expecting offers. Throws for an
+    /// AAM tracker of a model without the finder's 68 landmarks.
     #[wasm_bindgen(js_name = startAuto)]
     pub fn start_auto(&mut self) -> Result<(), JsError> {
-        if !self.inner.has_face_source() {
-            let n = self.inner.fitter().landmarks();
-            if n != 68 {
-                return Err(JsError::new(&format!(
-                    "tracker: startAuto needs a 68-landmark model (the face finder's layout); this one has {n}"
-                )));
-            }
-            let finder = facemimic::find::FaceFinder::new().map_err(err)?;
-            self.inner.set_face_source(Box::new(finder));
-        }
         self.inner.start_auto().map_err(err)
-    }
-
-    /// The last frame's result (same shape as `track`'s), or `null` before the first frame.
-    pub fn last(&self) -> Result<JsValue, JsError> {
-        match self.inner.last() {
-            Some(r) => to_js(r, self.inner.sequence(), self.inner.scale()),
-            None => Ok(JsValue::NULL),
-        }
-    }
-
-    /// The fit scale in use (fitted pixels per frame pixel; 0 before a sequence's first frame).
-    #[wasm_bindgen(getter)]
-    pub fn scale(&self) -> f32 {
-        self.inner.scale()
     }
 
     /// Starts a sequence with no landmarks, with faces given by `offerFaces` (e.g. from a
     /// `FaceFinder` running in a worker, so finding never stalls the page): frames are reported
-    /// `lost` until a face is acquired; from then on a lost face is first refitted from the last
-    /// good fit and acquired again from the next faces offered (`wantsFaces` says when).
+    /// `lost` until a face is acquired (`wantsFaces` says when to offer). The AAM tracker turns
+    /// `expectOffers` on, and from then on refits a lost face from the last good fit until the
+    /// next faces offered; the landmark path forgets the person (their neutral face is
+    /// estimated again) and searches with its own finder unless `expectOffers(true)`.
     #[wasm_bindgen(js_name = startSearching)]
     pub fn start_searching(&mut self) {
         self.inner.start_searching();
     }
 
     /// Whether faces will be offered (`offerFaces`) in every sequence, however it was started:
-    /// then a lost face is searched for (`wantsFaces` turns true), and until faces are offered
-    /// each frame gets one ordinary fit from the last good fit (no harder retry).
-    /// `startSearching` turns it on.
+    /// then a lost face is searched for with them (`wantsFaces` turns true); the landmark path
+    /// no longer runs its own finder on the whole frame, the AAM tracker's frames get one
+    /// ordinary fit from the last good fit until they come. Off for a new tracker.
     #[wasm_bindgen(js_name = expectOffers)]
     pub fn expect_offers(&mut self, yes: bool) {
         self.inner.expect_offers(yes);
     }
 
+    /// Faces found in a recent frame, in the frame's pixels, most confident first:
+    /// `FaceFinder.find`'s result (objects with `landmarks`) or arrays of `2n` values. The next
+    /// acquisition (or an AAM tracker's second opinion) takes the one nearest the last face.
+    /// Throws for a wrong number of points or non-finite ones (nothing is kept then).
+    #[wasm_bindgen(js_name = offerFaces)]
+    pub fn offer_faces(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>")]
+        faces: JsValue,
+    ) -> Result<(), JsError> {
+        let out = faces_from_js(&faces, "tracker")?;
+        self.inner.offer_faces(out).map_err(err)
+    }
+
+    /// True while a face is looked for (a search, or a lost face with offers expected), or an
+    /// AAM tracker's second opinion on a tracked face is due (`policy.recheckFrames`), and no
+    /// offered faces are left to try: the moment to run a finder and `offerFaces`.
+    #[wasm_bindgen(getter, js_name = wantsFaces)]
+    pub fn wants_faces(&self) -> bool {
+        self.inner.wants_faces()
+    }
+
+    /// The fit scale in use (fitted pixels per frame pixel; 0 before an AAM sequence's first
+    /// frame; always 1 for the landmark path).
+    #[wasm_bindgen(getter)]
+    pub fn scale(&self) -> f32 {
+        self.inner.scale()
+    }
+
+    /// The scale at which the tracker fits a `width x height` frame with a face `faceHeight`
+    /// pixels tall (the policy's rule; `track` applies it itself). `current` (0 for none) is
+    /// kept unless the wanted scale differs by more than the policy's `rescaleChange`. Always
+    /// 1 for the landmark path.
+    #[wasm_bindgen(js_name = fitScale)]
+    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
+        self.inner.fit_scale(face_height, width, height, current)
+    }
+
     /// The tracking policy (`{ appearanceLimit, maxFitSide, minFitSide, maxUpscale, nativeBand,
-    /// rescaleChange }`).
+    /// rescaleChange, recentreTau, recheckFrames }`).
     #[wasm_bindgen(getter, unchecked_return_type = "TrackPolicy")]
     pub fn policy(&self) -> Result<JsValue, JsError> {
         serde_wasm_bindgen::to_value(&PolicyJs::from(self.inner.policy()))
@@ -263,267 +362,119 @@ impl WasmTracker {
     }
 
     /// Changes some of the tracking policy's values (the others keep theirs). Throws, changing
-    /// nothing, for a value out of range.
+    /// nothing, for a value out of range or an unknown name.
     #[wasm_bindgen(js_name = setPolicy)]
     pub fn set_policy(
         &mut self,
         #[wasm_bindgen(unchecked_param_type = "Partial<TrackPolicy>")] policy: JsValue,
     ) -> Result<(), JsError> {
-        const KEYS: [&str; 8] = [
-            "appearanceLimit",
-            "maxFitSide",
-            "minFitSide",
-            "maxUpscale",
-            "nativeBand",
-            "rescaleChange",
-            "recentreTau",
-            "recheckFrames",
-        ];
-        if !policy.is_object() {
-            return Err(JsError::new("tracker: setPolicy expects an object"));
-        }
-        for k in js_sys::Object::keys(policy.unchecked_ref::<js_sys::Object>()).iter() {
-            let k = k.as_string().unwrap_or_default();
-            if !KEYS.contains(&k.as_str()) {
-                return Err(JsError::new(&format!(
-                    "tracker: setPolicy: unknown value \"{k}\" (known: {})",
-                    KEYS.join(", ")
-                )));
-            }
-        }
-        let base = PolicyJs::from(self.inner.policy());
-        let patch: PolicyPatch = serde_wasm_bindgen::from_value(policy)
-            .map_err(|e| JsError::new(&format!("tracker: setPolicy: {e}")))?;
-        let p = TrackPolicy {
-            appearance_limit: patch.appearance_limit.unwrap_or(base.appearance_limit),
-            max_fit_side: patch.max_fit_side.unwrap_or(base.max_fit_side),
-            min_fit_side: patch.min_fit_side.unwrap_or(base.min_fit_side),
-            max_upscale: patch.max_upscale.unwrap_or(base.max_upscale),
-            native_band: patch.native_band.unwrap_or(base.native_band),
-            rescale_change: patch.rescale_change.unwrap_or(base.rescale_change),
-            recentre_tau: patch.recentre_tau.unwrap_or(base.recentre_tau),
-            recheck_frames: patch.recheck_frames.unwrap_or(base.recheck_frames),
-        };
+        let p = patched_policy(self.inner.policy(), policy)?;
         self.inner.set_policy(p).map_err(err)
     }
 
-    /// Re-initialisations so far (fits judged implausible, refitted from the last good one).
+    /// Re-initialisations so far (fits judged implausible, refitted from the last good one);
+    /// always 0 for the landmark path (it does not refit).
     #[wasm_bindgen(getter)]
     pub fn resets(&self) -> u32 {
         self.inner.resets()
     }
 
-    /// Second opinions taken while tracking (`policy.recheckFrames`).
+    /// Second opinions taken while tracking (`policy.recheckFrames`); 0 for the landmark path.
     #[wasm_bindgen(getter)]
     pub fn rechecks(&self) -> u32 {
         self.inner.rechecks().0
     }
 
-    /// Second opinions kept (they fitted lower than the tracked fit).
+    /// Second opinions kept (they fitted lower than the tracked fit); 0 for the landmark path.
     #[wasm_bindgen(getter, js_name = rechecksKept)]
     pub fn rechecks_kept(&self) -> u32 {
         self.inner.rechecks().1
     }
+
+    /// Frames reported lost so far.
+    #[wasm_bindgen(getter, js_name = lostCount)]
+    pub fn lost_count(&self) -> u32 {
+        self.inner.sequence().lost_count()
+    }
+
+    /// Faces acquired so far (the first face of a search, then each face found again).
+    #[wasm_bindgen(getter)]
+    pub fn reacquisitions(&self) -> u32 {
+        self.inner.sequence().reacquisitions()
+    }
+
+    /// Frames tracked so far.
+    #[wasm_bindgen(getter)]
+    pub fn frames(&self) -> u32 {
+        self.inner.sequence().frames()
+    }
 }
 
 impl WasmTracker {
-    /// `track`'s step: the core's, `dt` defaulting to [`DEFAULT_TIME_STEP`].
-    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> facemimic::Result<()> {
-        self.inner
-            .track_timed(image, dt.unwrap_or(DEFAULT_TIME_STEP))
-            .map(drop)
+    fn of_kind(model: &facemimic::Model, kind: TrackerKind) -> Result<WasmTracker, JsError> {
+        let inner = tracker_of_kind(model, kind).map_err(err)?;
+        Ok(WasmTracker { inner })
     }
 }
 
-fn follow_err(e: facemimic::Error) -> JsError {
-    JsError::new(&format!("follower: {e}"))
-}
-
-/// Follows anyone's face with a model that is not theirs (a bundled person's): the
-/// person-independent path ([`facemimic::fit::Follower`]; docs/fitting.md, "Following anyone").
-/// Each frame, the face finder's landmarks near the last face, smoothed, read as expression
-/// relative to the person's own running neutral shape and mapped onto the model's shape modes;
-/// the appearance stays at the model's mean. Same calls and results as `Tracker`, so a page
-/// drives either: `track` returns `{ landmarks, pose, shape, appearance, error, iterations,
-/// converged, lost, reacquired }` (`error`: the disagreement of the frame's two landmark
-/// passes, in eye distances; `iterations`: the passes run). Faces to start from come from
-/// `offerFaces` (a finder in a worker) unless `expectOffers(false)`, when the follower runs
-/// its own finder on the frame.
-#[wasm_bindgen(js_name = Follower)]
-pub struct WasmFollower {
-    inner: Follower,
-    /// Seconds between frames when `track` is given none.
-    dt: f32,
-}
-
-#[wasm_bindgen(js_class = Follower)]
-impl WasmFollower {
-    /// A follower driving a loaded `Model`'s shape modes. Throws for a model without the
-    /// finder's 68 landmarks.
-    #[wasm_bindgen(js_name = fromModel)]
-    pub fn from_model(model: &JsModel) -> Result<WasmFollower, JsError> {
-        super::install_panic_hook();
-        let mut inner =
-            Follower::new(model.model(), FollowOptions::default()).map_err(follow_err)?;
-        inner.set_search(false);
-        Ok(WasmFollower {
-            inner,
-            dt: 1.0 / 30.0,
-        })
-    }
-
-    /// The last frame's result (same shape as `track`'s).
-    pub fn last(&self) -> Result<JsValue, JsError> {
-        to_js(self.inner.last(), self.inner.sequence(), 1.0)
-    }
-
-    /// Always 1: a follower reads the frame at its own size.
-    #[wasm_bindgen(getter)]
-    pub fn scale(&self) -> f32 {
-        1.0
-    }
-
-    /// Starts a new person from their face's 68 landmarks on the next frame.
-    #[wasm_bindgen(js_name = startFromLandmarks)]
-    pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<(), JsError> {
-        self.inner
-            .start_from_landmarks(landmarks)
-            .map_err(follow_err)
-    }
-
-    /// Starts a new person from a face box (left, top, width, height) on the next frame.
-    #[wasm_bindgen(js_name = startFromBox)]
-    pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<(), JsError> {
-        self.inner.start_from_box(x, y, w, h).map_err(follow_err)
-    }
-
-    /// Starts a new person with no face yet: frames are `lost` until faces are offered.
-    #[wasm_bindgen(js_name = startSearching)]
-    pub fn start_searching(&mut self) {
-        self.inner.restart();
-    }
-
-    /// `true` (the default): faces to start from come from `offerFaces`; `false`: the
-    /// follower searches the frame itself (a finder on the main thread: tens of ms a search).
-    #[wasm_bindgen(js_name = expectOffers)]
-    pub fn expect_offers(&mut self, yes: bool) {
-        self.inner.set_search(!yes);
-    }
-
-    /// Always 0 (a follower does not refit; kept so a page drives it as a `Tracker`).
-    #[wasm_bindgen(getter)]
-    pub fn resets(&self) -> u32 {
-        0
-    }
-
-    /// Which path this is: `"landmarks"` (a `Tracker` has none).
-    #[wasm_bindgen(getter)]
-    pub fn path(&self) -> String {
-        "landmarks".into()
+/// `own` as the core's [`Whose`].
+fn whose(own: bool) -> Whose {
+    if own {
+        Whose::Own
+    } else {
+        Whose::Other
     }
 }
 
-impl WasmFollower {
-    /// `track`'s step: the core's, `dt` defaulting to the follower's.
-    fn step(&mut self, image: &ImageRef<'_>, dt: Option<f32>) -> facemimic::Result<()> {
-        self.inner.track(image, dt.unwrap_or(self.dt)).map(drop)
+/// `setPolicy`'s argument over `base`: any subset of the policy's values, by their JS names.
+fn patched_policy(base: &TrackPolicy, policy: JsValue) -> Result<TrackPolicy, JsError> {
+    const KEYS: [&str; 8] = [
+        "appearanceLimit",
+        "maxFitSide",
+        "minFitSide",
+        "maxUpscale",
+        "nativeBand",
+        "rescaleChange",
+        "recentreTau",
+        "recheckFrames",
+    ];
+    if !policy.is_object() {
+        return Err(JsError::new("tracker: setPolicy expects an object"));
     }
-}
-
-impl std::fmt::Debug for WasmFollower {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("WasmFollower")
-            .field("inner", &self.inner)
-            .finish()
-    }
-}
-
-/// The calls a `Tracker` and a `Follower` share, read from their core's `Sequence` and policy
-/// (one definition for both classes); `track` runs the class's own `step` and is documented by
-/// the doc comment given last.
-macro_rules! shared_calls {
-    ($class:ident, $js:ident, $err:ident, $who:literal, $(#[$track_doc:meta])*) => {
-        #[wasm_bindgen(js_class = $js)]
-        impl $class {
-            $(#[$track_doc])*
-            pub fn track(
-                &mut self,
-                data: &[u8],
-                width: u32,
-                height: u32,
-                dt: Option<f32>,
-            ) -> Result<JsValue, JsError> {
-                let image = ImageRef::new(width, height, data).map_err($err)?;
-                self.step(&image, dt).map_err($err)?;
-                self.last()
-            }
-
-            /// Faces found in a recent frame, in the frame's pixels, most confident first:
-            /// `FaceFinder.find`'s result (objects with `landmarks`) or arrays of `2n` values.
-            /// The next acquisition (or a `Tracker`'s second opinion) takes the one nearest
-            /// the last face. Throws for a wrong
-            /// number of points or non-finite ones (nothing is kept then).
-            #[wasm_bindgen(js_name = offerFaces)]
-            pub fn offer_faces(
-                &mut self,
-                #[wasm_bindgen(
-                    unchecked_param_type = "ReadonlyArray<FoundFace | ArrayLike<number>>"
-                )]
-                faces: JsValue,
-            ) -> Result<(), JsError> {
-                let out = faces_from_js(&faces, $who)?;
-                self.inner.offer_faces(out).map_err($err)
-            }
-
-            /// True while a face is looked for (a search, or a lost face with offers
-            /// expected), or a `Tracker`'s second opinion on a tracked face is due
-            /// (`policy.recheckFrames`), and no offered faces are left to try: the moment to
-            /// run a finder and `offerFaces`.
-            #[wasm_bindgen(getter, js_name = wantsFaces)]
-            pub fn wants_faces(&self) -> bool {
-                self.inner.wants_faces()
-            }
-
-            /// Frames reported lost so far.
-            #[wasm_bindgen(getter, js_name = lostCount)]
-            pub fn lost_count(&self) -> u32 {
-                self.inner.sequence().lost_count()
-            }
-
-            /// Faces acquired so far (the first face of a search, then each face found again).
-            #[wasm_bindgen(getter)]
-            pub fn reacquisitions(&self) -> u32 {
-                self.inner.sequence().reacquisitions()
-            }
-
-            /// Frames followed so far.
-            #[wasm_bindgen(getter)]
-            pub fn frames(&self) -> u32 {
-                self.inner.sequence().frames()
-            }
+    for k in js_sys::Object::keys(policy.unchecked_ref::<js_sys::Object>()).iter() {
+        let k = k.as_string().unwrap_or_default();
+        if !KEYS.contains(&k.as_str()) {
+            return Err(JsError::new(&format!(
+                "tracker: setPolicy: unknown value \"{k}\" (known: {})",
+                KEYS.join(", ")
+            )));
         }
-    };
+    }
+    let base = PolicyJs::from(base);
+    let patch: PolicyPatch = serde_wasm_bindgen::from_value(policy)
+        .map_err(|e| JsError::new(&format!("tracker: setPolicy: {e}")))?;
+    Ok(TrackPolicy {
+        appearance_limit: patch.appearance_limit.unwrap_or(base.appearance_limit),
+        max_fit_side: patch.max_fit_side.unwrap_or(base.max_fit_side),
+        min_fit_side: patch.min_fit_side.unwrap_or(base.min_fit_side),
+        max_upscale: patch.max_upscale.unwrap_or(base.max_upscale),
+        native_band: patch.native_band.unwrap_or(base.native_band),
+        rescale_change: patch.rescale_change.unwrap_or(base.rescale_change),
+        recentre_tau: patch.recentre_tau.unwrap_or(base.recentre_tau),
+        recheck_frames: patch.recheck_frames.unwrap_or(base.recheck_frames),
+    })
 }
 
-shared_calls!(
-    WasmTracker,
-    Tracker,
-    err,
-    "tracker",
-    /// Fits the next frame (RGBA bytes at the frame's own size, e.g. `ImageData.data`,
-    /// `width * height * 4`), `dt` seconds after the previous one (default 1/30; the pose
-    /// anchor's time step). The tracker chooses the fit scale and resamples the frame itself.
-    /// Returns `{ landmarks, pose, placed, scale, shape, appearance, error, iterations,
-    /// converged, lost, reacquired }`, landmarks and poses in the frame's pixels; `placed` is
-    /// the pose re-centred on the model's mean pose (what to drive the source face with).
-    /// Throws for a bad image or a `dt` that is not a finite non-negative number.
-);
-shared_calls!(
-    WasmFollower,
-    Follower,
-    follow_err,
-    "follower",
-    /// Follows the face in the next frame (RGBA bytes, `width * height * 4`), `dt` seconds
-    /// after the previous one (default 1/30). Throws for a bad image or a `dt` that is not a
-    /// positive number.
-);
+/// The longer side (pixels) of the work frame the page tracks and finds faces on (the core's
+/// `WORK_SIDE`): a larger camera or video frame is scaled down to it first.
+#[wasm_bindgen(js_name = workSide)]
+pub fn work_side() -> u32 {
+    WORK_SIDE
+}
+
+impl WasmTracker {
+    /// The core tracker, for a `Cloner` that reads its fit inside wasm (`sourceFromTracker`).
+    pub(crate) fn face_tracker(&self) -> &dyn FaceTracker {
+        &*self.inner
+    }
+}

@@ -141,6 +141,7 @@ pub(super) fn quantise_mode(mode: &[f32], bits: u32, q: &mut Vec<i8>) -> f32 {
 pub(super) fn write_appearance(out: &mut Vec<u8>, a: &AppearanceModel, storage: Storage) {
     let f32le = |out: &mut Vec<u8>, v: f32| out.extend_from_slice(&v.to_le_bytes());
     let start = out.len();
+    let a = a.linear();
     match storage {
         Storage::F32 => {
             for &v in a.base.iter().chain(&a.modes) {
@@ -241,11 +242,7 @@ pub(super) fn read_appearance(
         }
     };
     let variances = c.f32s(l, "appearance variances")?;
-    Ok(AppearanceModel(crate::model::linear::LinearModel {
-        base,
-        modes,
-        variances,
-    }))
+    Ok(AppearanceModel::new(base, modes, variances))
 }
 
 /// Consumes the zero padding after `len` bytes of 1- or 2-byte values.

@@ -29,5 +29,5 @@ pub use layout::{
     REFERENCE_MEAN, REFERENCE_TRAINING, SCHEME_GENERIC, SCHEME_IBUG68, SECTION_BACKDROP,
 };
 use reader::*;
-pub use reader::{read_model, read_model_info, FileInfo};
+pub use reader::{read_model, read_model_info, read_summary, FileInfo, ModelSummary};
 pub use writer::{write_model, write_model_as, write_model_checked, write_model_checked_as};

@@ -406,14 +406,74 @@ pub fn read_model(bytes: &[u8]) -> Result<Model, FormatError> {
     read_model_info(bytes).map(|(model, _)| model)
 }
 
-/// [`read_model`], also returning the file's version and appearance storage.
-pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
+/// What a model file says of itself in its header and names, read without expanding the
+/// model: enough to list kept models (name, sizes, frame, whether it is a photo) at the cost of
+/// the header's checks, the length and the CRC-32.
+///
+/// Requires nothing of `bytes`. Ensures: a file this accepts has a valid header, the length its
+/// dimensions imply and an intact checksum; [`read_model`] may still refuse it for what only a
+/// full read sees (non-orthonormal modes, a bad frame, values out of range).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelSummary {
+    /// The model's name.
+    pub name: String,
+    /// Its format version (1 to 3).
+    pub version: u32,
+    /// How it stores the appearance.
+    pub storage: Storage,
+    /// Number of landmarks.
+    pub landmarks: usize,
+    /// Number of shape modes.
+    pub shape_modes: usize,
+    /// Number of appearance modes.
+    pub appearance_modes: usize,
+    /// Pixels of the reference frame.
+    pub frame_pixels: usize,
+    /// The reference frame's fingerprint (models clone between each other when equal).
+    pub fingerprint: u64,
+    /// The image size the model was built at.
+    pub image_size: [u32; 2],
+    /// True for a photo target (no modes of its own).
+    pub is_photo: bool,
+    /// The file's length in bytes.
+    pub file_bytes: usize,
+}
+
+/// The checked header and a cursor over the body (the bytes before the checksum), just past
+/// the header: what every read of a model file starts with.
+fn open(bytes: &[u8]) -> Result<(Header, Cursor<'_>), FormatError> {
     let h = Header::parse(bytes)?;
     let body = check_length_and_checksum(&h, bytes)?;
-    let mut c = Cursor {
+    let c = Cursor {
         bytes: &bytes[..body],
         pos: HEADER_LEN,
     };
+    Ok((h, c))
+}
+
+/// Reads a model file's [`ModelSummary`]: the header and names only (no model is built).
+pub fn read_summary(bytes: &[u8]) -> Result<ModelSummary, FormatError> {
+    let (h, mut c) = open(bytes)?;
+    let (name, _) = read_names(&mut c, &h)?;
+    Ok(ModelSummary {
+        name,
+        version: h.version,
+        storage: h.storage,
+        landmarks: h.n as usize,
+        shape_modes: h.m as usize,
+        appearance_modes: h.l as usize,
+        frame_pixels: h.pixels as usize,
+        fingerprint: h.fingerprint,
+        image_size: h.image_size,
+        is_photo: h.m == 0 && h.l == 0,
+        file_bytes: bytes.len(),
+    })
+}
+
+/// [`read_model`], also returning the file's version and appearance storage.
+pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
+    let (h, mut c) = open(bytes)?;
+    let body = c.bytes.len();
     let (name, ref_name) = read_names(&mut c, &h)?;
     let [n2, m, t, px3, l] = h.counts().map(|v| v as usize);
     let shape_base = c.f32s(n2, "shape base")?;
@@ -426,9 +486,9 @@ pub fn read_model_info(bytes: &[u8]) -> Result<(Model, FileInfo), FormatError> {
     debug_assert_eq!(c.pos, body);
 
     check_variances("shape variances", &shape_variances)?;
-    check_variances("appearance variances", &appearance.variances)?;
+    check_variances("appearance variances", appearance.variances())?;
     check_orthonormal("shape modes", &shape_modes, n2, true)?;
-    check_orthonormal("appearance modes", &appearance.modes, px3, false)?;
+    check_orthonormal("appearance modes", &appearance.linear().modes, px3, false)?;
     let frame = checked_frame(&h, vertices, triangles)?;
 
     let mut info = FileInfo {

@@ -22,7 +22,7 @@ pub fn write_model(model: &Model) -> Vec<u8> {
 pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
     let n2 = model.shape().base.len();
     let m = model.shape().variances.len();
-    let l = model.appearance().variances.len();
+    let l = model.appearance().n_modes();
     let frame = &model.frame();
     let name = model.name().as_bytes();
     let (ref_tag, ref_name): (u32, &[u8]) = match &model.reference() {
@@ -38,8 +38,8 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
         + 3 * frame.triangles().len();
     let appearance = appearance_bytes(
         storage,
-        model.appearance().base.len() as u64,
-        model.appearance().modes.len() as u64 / model.appearance().base.len().max(1) as u64,
+        model.appearance().len() as u64,
+        model.appearance().n_modes() as u64,
     )
     .unwrap_or(0) as usize;
     let sections = sections_of(model);
@@ -60,7 +60,7 @@ pub fn write_model_as(model: &Model, storage: Storage) -> Vec<u8> {
     u32le(&mut out, frame.height());
     f32le(&mut out, frame.origin()[0]);
     f32le(&mut out, frame.origin()[1]);
-    u32le(&mut out, as_u32(model.appearance().base.len() / 3));
+    u32le(&mut out, as_u32(model.appearance().len() / 3));
     u32le(&mut out, 3);
     u32le(&mut out, as_u32(m));
     u32le(&mut out, as_u32(l));

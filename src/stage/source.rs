@@ -1,0 +1,131 @@
+//! The source's parameters: given, read from a fit, or tracked from pixels by the stage's own
+//! [`FaceTracker`].
+
+use crate::error::{check_len, Error, Result};
+use crate::fit::{FaceTracker, FitResult};
+use crate::image::ImageRef;
+use crate::model::{Model, Params};
+use crate::similarity::Similarity;
+
+impl super::Stage {
+    /// The current source parameters.
+    pub fn source_params(&self) -> &Params {
+        &self.params
+    }
+
+    /// Sets the source parameters for the next [`super::Stage::update`]. Requires lengths that
+    /// match the source model and finite values within its bounds
+    /// ([`Model::check_params`]); on error the old ones stay. Allocates nothing.
+    pub fn set_source_params(&mut self, params: &Params) -> Result<()> {
+        take_params(
+            self.cloner.source(),
+            (params.pose, &params.shape, &params.appearance),
+            &mut self.pending,
+            &mut self.params,
+        )
+    }
+
+    /// Takes the source parameters from a tracker's fit: its shape and appearance parameters
+    /// and `placed`, the head placement to draw the source with
+    /// ([`crate::fit::Sequence::placed`]). A lost fit is not taken (the parameters stay the last
+    /// good ones). Returns whether the fit was taken; fails (changing nothing) when the fit
+    /// does not fit the source model.
+    pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
+        if fit.lost {
+            return Ok(false);
+        }
+        take_params(
+            self.cloner.source(),
+            (placed, &fit.params.shape, &fit.params.appearance),
+            &mut self.pending,
+            &mut self.params,
+        )?;
+        Ok(true)
+    }
+
+    /// Takes the source parameters from `tracker`'s last frame ([`super::Stage::source_from_fit`]
+    /// with its [`crate::fit::Sequence::placed`] pose); `false` before its first frame.
+    pub fn source_from_tracker(&mut self, tracker: &dyn FaceTracker) -> Result<bool> {
+        match tracker.last() {
+            Some(fit) => self.source_from_fit(fit, tracker.sequence().placed()),
+            None => Ok(false),
+        }
+    }
+
+    /// The tracker that reads the source from video, if any.
+    pub fn tracker(&self) -> Option<&dyn FaceTracker> {
+        self.tracker.as_deref()
+    }
+
+    /// The tracker, to start a sequence or offer faces.
+    pub fn tracker_mut(&mut self) -> Option<&mut (dyn FaceTracker + 'static)> {
+        self.tracker.as_deref_mut()
+    }
+
+    /// Gives the stage a tracker of the source model (e.g. [`crate::fit::tracker_for`]), or
+    /// none; returns the previous one. [`super::Stage::set_source`] drops it.
+    pub fn set_tracker(
+        &mut self,
+        tracker: Option<Box<dyn FaceTracker>>,
+    ) -> Option<Box<dyn FaceTracker>> {
+        std::mem::replace(&mut self.tracker, tracker)
+    }
+
+    /// Tracks the source in the next video frame, `dt` seconds after the previous one, and
+    /// takes the fit as the source parameters unless the face is lost
+    /// ([`super::Stage::source_from_fit`]). Returns whether it was taken. Fails with
+    /// [`Error::Params`] when the stage has no tracker, or as the tracker does.
+    pub fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<bool> {
+        let Some(tracker) = self.tracker.as_mut() else {
+            return Err(Error::Params(
+                "the stage has no tracker: give one with set_tracker".into(),
+            ));
+        };
+        tracker.track(frame, dt)?;
+        let tracker: &dyn FaceTracker = &**tracker;
+        let Some(fit) = tracker.last().filter(|f| !f.lost) else {
+            return Ok(false);
+        };
+        let placed = tracker.sequence().placed();
+        take_params(
+            self.cloner.source(),
+            (placed, &fit.params.shape, &fit.params.appearance),
+            &mut self.pending,
+            &mut self.params,
+        )?;
+        Ok(true)
+    }
+
+    /// One frame from pixels: [`super::Stage::track`], [`super::Stage::update`],
+    /// [`super::Stage::draw`]. Returns whether the frame's fit was taken (a lost face keeps the
+    /// last good parameters, and the frame is drawn with them).
+    pub fn frame_from_pixels(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<bool> {
+        let taken = self.track(frame, dt)?;
+        self.update()?;
+        self.draw()?;
+        Ok(taken)
+    }
+}
+
+/// Copies `(pose, shape, appearance)` into `pending` (sized like the model's parameters),
+/// checks it against `model` and swaps it into `current`: no allocation, and `current` is
+/// unchanged on error.
+fn take_params(
+    model: &Model,
+    (pose, shape, appearance): (Similarity, &[f32], &[f32]),
+    pending: &mut Params,
+    current: &mut Params,
+) -> Result<()> {
+    check_len("shape parameters", shape, pending.shape.len())?;
+    check_len(
+        "appearance parameters",
+        appearance,
+        pending.appearance.len(),
+    )?;
+    pending.pose = pose;
+    pending.shape.copy_from_slice(shape);
+    pending.appearance.copy_from_slice(appearance);
+    model.check_params(pending)?;
+    std::mem::swap(pending, current);
+    Ok(())
+}

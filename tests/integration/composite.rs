@@ -1,0 +1,515 @@
+//! Compositing a face into its model's backdrop: the blending (mean-value colour offsets, the
+//! feathered edge), the extended mesh (no folding for the head motions of a conversation, the
+//! room untouched), backdrops in model files, photo targets and their bad input.
+
+use facemimic_testkit as common;
+
+use std::path::Path;
+
+use common::pixels::pixel_diff;
+use facemimic::clone::{effective_method, CloneOptions, Cloner, Method};
+use facemimic::format::{read_model_info, write_model, SECTION_BACKDROP};
+use facemimic::glam::Vec2;
+use facemimic::numerics::mean_value_weights;
+use facemimic::tiny_skia::Pixmap;
+use facemimic::{
+    io, photo_model, Backdrop, Compositor, DrawOptions, Model, Rasterizer, Similarity,
+};
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// GRID speaker 2's model with its default backdrop.
+fn spk02() -> &'static Model {
+    common::list_model("data/grid/spk02_brbk7n/train20.txt", "spk02", true)
+}
+
+/// GRID speaker 7's model with its default backdrop.
+fn spk07() -> &'static Model {
+    common::list_model("data/grid/spk07_pwij3p/train20.txt", "spk07", true)
+}
+
+#[test]
+fn mean_value_weights_reproduce_constants_and_linear_functions() {
+    let poly: Vec<Vec2> = (0..40)
+        .map(|k| {
+            let t = k as f32 / 40.0 * std::f32::consts::TAU;
+            Vec2::new(50.0 * t.cos() + 3.0 * (3.0 * t).sin(), 40.0 * t.sin())
+        })
+        .collect();
+    let mut w = vec![0.0; poly.len()];
+    for x in [Vec2::ZERO, Vec2::new(20.0, -10.0), Vec2::new(-35.0, 25.0)] {
+        mean_value_weights(x, &poly, &mut w);
+        let sum: f32 = w.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-5, "weights sum to {sum}");
+        let p: Vec2 = w.iter().zip(&poly).map(|(w, q)| *w * *q).sum();
+        assert!((p - x).length() < 1e-3, "linear precision: {p} for {x}");
+        assert!(
+            w.iter().all(|w| *w > 0.0),
+            "positive inside a star-shaped polygon"
+        );
+    }
+    // On a vertex: that vertex alone.
+    mean_value_weights(poly[7], &poly, &mut w);
+    assert_eq!(w[7], 1.0);
+}
+
+/// The face's appearance as the backdrop shows it, on the frame's pixels.
+fn backdrop_in_frame(model: &Model) -> Vec<f32> {
+    let b = model.backdrop().unwrap();
+    let mut a = vec![0.0; model.appearance().len()];
+    facemimic::numerics::sample_rgb(model.frame(), &b.image(), b.landmarks(), &mut a).unwrap();
+    a
+}
+
+/// A compositor that drew `face` (frame pixels) at the backdrop's own pose, at its size.
+fn composite_at_backdrop_pose(model: &Model, face: &[f32]) -> Compositor {
+    let b = model.backdrop().unwrap();
+    let mut c = Compositor::new(model, DrawOptions::default()).unwrap();
+    let mut pixmap = Pixmap::new(b.width(), b.height()).unwrap();
+    c.draw(
+        model,
+        face,
+        b.landmarks(),
+        &Similarity::IDENTITY,
+        &mut pixmap.as_mut(),
+    )
+    .unwrap();
+    c
+}
+
+#[test]
+fn a_constant_offset_across_the_border_is_removed_exactly() {
+    let model = spk02();
+    let backdrop = backdrop_in_frame(model);
+    let offset = [0.12f32, -0.08, 0.05];
+    // The backdrop's own face, darkened/tinted by a constant: every border difference is the
+    // same, so every vertex's offset is that constant (mean-value coordinates reproduce
+    // constants) and the border pixels come back to the backdrop's colours.
+    let face: Vec<f32> = backdrop
+        .chunks_exact(3)
+        .flat_map(|c| [c[0] - offset[0], c[1] - offset[1], c[2] - offset[2]])
+        .collect();
+    let c = composite_at_backdrop_pose(model, &face);
+    for v in c.vertex_offsets().chunks_exact(3) {
+        for k in 0..3 {
+            assert!((v[k] - offset[k]).abs() < 1e-4, "{v:?} against {offset:?}");
+        }
+    }
+    // At the border the matched face is the backdrop (unless clamped at 0 or 1).
+    let frame = model.frame();
+    let (w, h) = (frame.width() as i64, frame.height() as i64);
+    let mut inside = vec![false; (w * h) as usize];
+    for p in frame.pixels() {
+        inside[(p.y as i64 * w + p.x as i64) as usize] = true;
+    }
+    let is_in = |x: i64, y: i64| x >= 0 && y >= 0 && x < w && y < h && inside[(y * w + x) as usize];
+    let mut checked = 0;
+    for (i, p) in frame.pixels().iter().enumerate() {
+        let (x, y) = (p.x as i64, p.y as i64);
+        if is_in(x - 1, y) && is_in(x + 1, y) && is_in(x, y - 1) && is_in(x, y + 1) {
+            continue;
+        }
+        // The offset is whole on the boundary line; border pixel centres lie up to a pixel
+        // inside it, where the fade towards the inside has taken at most 2% of it.
+        for k in 0..3 {
+            let want = backdrop[3 * i + k];
+            if want > 0.13 && want < 0.87 {
+                let got = c.matched_appearance()[3 * i + k];
+                assert!(
+                    (got - want).abs() <= 0.02 * offset[k].abs() + 1e-5,
+                    "border pixel {i}: {got} against {want}"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 300, "{checked} border values checked");
+}
+
+#[test]
+fn the_composite_of_the_backdrop_pose_is_seamless_and_the_room_untouched() {
+    let model = spk02();
+    let b = model.backdrop().unwrap();
+    let mut c = Compositor::new(model, DrawOptions::default()).unwrap();
+    let mut pixmap = Pixmap::new(b.width(), b.height()).unwrap();
+    // The base face at a pose moved 8 px right and rolled 5 degrees about the face.
+    let mut params = model.base_params();
+    let home = model.home_pose();
+    let (cx, cy) = home.apply_point(0.0, 0.0);
+    let turn = Similarity::from_parts(1.0, 5f32.to_radians(), 0.0, 0.0);
+    let about = Similarity::from_parts(1.0, 0.0, cx + 8.0, cy)
+        .compose(&turn)
+        .compose(&Similarity::from_parts(1.0, 0.0, -cx, -cy));
+    params.pose = about.compose(&home);
+    c.render(model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut())
+        .unwrap();
+    let out = facemimic::demultiply(&pixmap);
+    // Outside the outer ring (every point of the mesh beyond it) the picture is the backdrop's,
+    // byte for byte.
+    let pts = c.mesh().points();
+    let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+    for p in pts.chunks_exact(2) {
+        x0 = x0.min(p[0]);
+        y0 = y0.min(p[1]);
+        x1 = x1.max(p[0]);
+        y1 = y1.max(p[1]);
+    }
+    let mut same = 0;
+    let mut outside = 0;
+    for y in 0..b.height() {
+        for x in 0..b.width() {
+            let (fx, fy) = (x as f32, y as f32);
+            if fx >= x0 - 1.0 && fx <= x1 + 1.0 && fy >= y0 - 1.0 && fy <= y1 + 1.0 {
+                continue;
+            }
+            outside += 1;
+            let k = ((y * b.width() + x) * 4) as usize;
+            if out[k..k + 3] == b.rgba()[k..k + 3] {
+                same += 1;
+            }
+        }
+    }
+    assert!(outside > 1000, "{outside} pixels outside the mesh");
+    assert_eq!(same, outside, "the room moved");
+    // Inside, the picture changed (the head moved).
+    let changed = out
+        .chunks_exact(4)
+        .zip(b.rgba().chunks_exact(4))
+        .filter(|(a, b)| a[..3] != b[..3])
+        .count();
+    assert!(changed > 5000, "{changed} pixels changed");
+    // Seamless: across the face's edge, the luma steps are no larger than the backdrop's own
+    // at the same place (within 6 levels on average).
+    let mut shape = vec![0.0; model.landmarks() * 2];
+    model.image_shape(&params, &mut shape).unwrap();
+    let hull = facemimic::numerics::hull_loop(model.frame().triangles(), model.frame().vertices())
+        .unwrap();
+    let luma = |img: &[u8], x: f32, y: f32| {
+        let k = ((y.round() as u32 * b.width() + x.round() as u32) * 4) as usize;
+        0.299 * img[k] as f32 + 0.587 * img[k + 1] as f32 + 0.114 * img[k + 2] as f32
+    };
+    let centre: Vec2 = hull
+        .iter()
+        .map(|&i| Vec2::new(shape[2 * i as usize], shape[2 * i as usize + 1]))
+        .sum::<Vec2>()
+        / hull.len() as f32;
+    let (mut ours, mut theirs, mut n) = (0.0, 0.0, 0);
+    for &i in &hull {
+        let p = Vec2::new(shape[2 * i as usize], shape[2 * i as usize + 1]);
+        let d = (p - centre).normalize();
+        let (a, o) = (p - 3.0 * d, p + 3.0 * d);
+        if o.x < 0.0 || o.y < 0.0 || o.x > b.width() as f32 - 1.0 || o.y > b.height() as f32 - 1.0 {
+            continue;
+        }
+        ours += (luma(&out, a.x, a.y) - luma(&out, o.x, o.y)).abs();
+        theirs += (luma(b.rgba(), a.x, a.y) - luma(b.rgba(), o.x, o.y)).abs();
+        n += 1;
+    }
+    let (ours, theirs) = (ours / n as f32, theirs / n as f32);
+    assert!(
+        ours <= theirs + 6.0,
+        "mean step across the edge {ours:.1} against the backdrop's {theirs:.1}"
+    );
+}
+
+/// Similarities about the face centre: the head motions a conversation has.
+fn motions(face_width: f32, centre: Vec2) -> Vec<Similarity> {
+    let mut out = Vec::new();
+    for roll in [-15.0f32, 0.0, 15.0] {
+        for scale in [0.8f32, 1.0, 1.2] {
+            for (tx, ty) in [
+                (-0.2, 0.0),
+                (0.2, 0.0),
+                (0.0, -0.2),
+                (0.0, 0.2),
+                (0.14, 0.14),
+            ] {
+                let m = Similarity::from_parts(scale, roll.to_radians(), 0.0, 0.0);
+                let (mx, my) = m.apply_point(centre.x, centre.y);
+                out.push(Similarity {
+                    tx: m.tx + centre.x - mx + tx * face_width,
+                    ty: m.ty + centre.y - my + ty * face_width,
+                    ..m
+                });
+            }
+        }
+    }
+    out
+}
+
+fn assert_no_folds(model: &Model) {
+    let b = model.backdrop().unwrap();
+    let c = Compositor::new(model, DrawOptions::default()).unwrap();
+    let lm = b.landmarks();
+    let (mut x0, mut x1) = (f32::MAX, f32::MIN);
+    let mut centre = Vec2::ZERO;
+    for p in lm.chunks_exact(2) {
+        x0 = x0.min(p[0]);
+        x1 = x1.max(p[0]);
+        centre += Vec2::new(p[0], p[1]);
+    }
+    centre /= (lm.len() / 2) as f32;
+    let mut placed = vec![0.0; c.mesh().points().len()];
+    for m in motions(x1 - x0, centre) {
+        let mut moved = lm.to_vec();
+        m.apply_in_place(&mut moved);
+        c.mesh().place(&moved, &mut placed);
+        assert_eq!(
+            c.mesh().folded(&placed),
+            0,
+            "{}: folded at roll {:.1} deg, scale {:.2}, shift ({:.1}, {:.1})",
+            model.name(),
+            m.rotation().to_degrees(),
+            m.scale(),
+            m.tx,
+            m.ty
+        );
+    }
+}
+
+#[test]
+fn the_extended_mesh_does_not_fold_for_conversational_head_motion() {
+    for dir in [
+        "spk01_bbaf2n",
+        "spk02_brbk7n",
+        "spk03_lbax4n",
+        "spk06_lwbsza",
+        "spk07_pwij3p",
+        "spk10_swiz3n",
+    ] {
+        let m = common::list_model(&format!("data/grid/{dir}/train20.txt"), dir, true);
+        assert_no_folds(m);
+    }
+}
+
+#[test]
+fn backdrops_round_trip_through_the_file_and_damage_is_a_notice() {
+    let model = spk02();
+    let bytes = write_model(model);
+    let (back, info) = read_model_info(&bytes).unwrap();
+    assert_eq!(info.version, 3);
+    let (a, b) = (model.backdrop().unwrap(), back.backdrop().unwrap());
+    assert_eq!(a, b, "the backdrop reads back byte for byte");
+    assert_eq!(info.backdrop_bytes, a.jpeg().len());
+    assert!(info.backdrop_notice.is_none());
+    assert!(
+        a.jpeg().len() <= facemimic::backdrop_budget(a.width(), a.height()),
+        "{} bytes",
+        a.jpeg().len()
+    );
+    // The section is at the end, before the checksum: find it, break its JPEG, fix the CRC.
+    let tag = SECTION_BACKDROP.to_le_bytes();
+    let at = bytes.windows(4).rposition(|w| w == tag).unwrap();
+    let jpeg_at = at + 8 + 12 + 8 * 68 + 4;
+    let mut broken = bytes.clone();
+    for v in &mut broken[jpeg_at..jpeg_at + 64] {
+        *v = 0;
+    }
+    let n = broken.len() - 4;
+    let crc = facemimic::format::crc32(&broken[..n]);
+    broken[n..].copy_from_slice(&crc.to_le_bytes());
+    let (m, info) = read_model_info(&broken).expect("a damaged backdrop still loads the model");
+    assert!(m.backdrop().is_none());
+    let notice = info.backdrop_notice.expect("a notice");
+    assert!(notice.contains("backdrop"), "{notice}");
+    // The model without its backdrop renders face only; compositing says why it cannot.
+    let e = Compositor::new(&m, DrawOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no backdrop"), "{e}");
+    // A section whose length runs past the end is a format error, not a panic.
+    let mut long = bytes.clone();
+    long[at + 4..at + 8].copy_from_slice(&u32::MAX.to_le_bytes());
+    let n = long.len() - 4;
+    let crc = facemimic::format::crc32(&long[..n]);
+    long[n..].copy_from_slice(&crc.to_le_bytes());
+    assert!(read_model_info(&long).is_err());
+    // Landmarks outside the picture: the backdrop is left out with a notice.
+    let mut outside = bytes.clone();
+    outside[at + 20..at + 24].copy_from_slice(&5000.0f32.to_le_bytes());
+    let n = outside.len() - 4;
+    let crc = facemimic::format::crc32(&outside[..n]);
+    outside[n..].copy_from_slice(&crc.to_le_bytes());
+    let (m, info) = read_model_info(&outside).unwrap();
+    assert!(m.backdrop().is_none());
+    assert!(info.backdrop_notice.unwrap().contains("outside"));
+}
+
+#[test]
+fn a_version_2_file_without_sections_still_reads() {
+    // Version 3 without sections is version 2's layout: a version-2 file is that with its
+    // version field set to 2.
+    let model = spk02().clone().without_backdrop();
+    let mut bytes = write_model(&model);
+    bytes[facemimic::format::offsets::VERSION..facemimic::format::offsets::VERSION + 4]
+        .copy_from_slice(&2u32.to_le_bytes());
+    let n = bytes.len() - 4;
+    let crc = facemimic::format::crc32(&bytes[..n]);
+    bytes[n..].copy_from_slice(&crc.to_le_bytes());
+    let (m, info) = read_model_info(&bytes).unwrap();
+    assert_eq!(info.version, 2);
+    assert!(m.backdrop().is_none());
+    // And a version-2 file may not carry sections.
+    let mut with = write_model(spk02());
+    with[8..12].copy_from_slice(&2u32.to_le_bytes());
+    let n = with.len() - 4;
+    let crc = facemimic::format::crc32(&with[..n]);
+    with[n..].copy_from_slice(&crc.to_le_bytes());
+    assert!(read_model_info(&with).is_err());
+}
+
+#[test]
+fn photo_targets_clone_by_substitution_and_reject_bad_photos() {
+    let t = common::list_images("data/grid/spk03_lbax4n/train20.txt").remove(0);
+    let frame = facemimic::canonical_frame();
+    let photo = photo_model("spk03-photo", &t.image.view().unwrap(), &t.landmarks, frame).unwrap();
+    assert!(photo.is_photo());
+    assert_eq!(photo.home_size(), [t.image.width, t.image.height]);
+    assert_eq!(effective_method(Method::Map, &photo), Method::Substitute);
+    assert_eq!(effective_method(Method::Map, spk02()), Method::Map);
+    // The file keeps it.
+    let back = facemimic::format::read_model(&write_model(&photo)).unwrap();
+    assert!(back.is_photo() && back.backdrop().is_some());
+    // Cloning onto it with `map` gives the substitution.
+    let source = spk07();
+    let f =
+        io::read_training_image(&root().join("data/grid/spk07_id2_vcd_swwp2s/000024.jpg")).unwrap();
+    let params = source
+        .project(&f.image.view().unwrap(), &f.landmarks)
+        .unwrap();
+    let mut cloner = Cloner::new(source.clone()).unwrap();
+    cloner.add_target(photo.clone()).unwrap();
+    let mut out = Vec::new();
+    for method in [Method::Map, Method::Substitute] {
+        let o = CloneOptions {
+            method,
+            ..CloneOptions::default()
+        };
+        cloner.clone_frame(&params, &o).unwrap();
+        out.push(cloner.target_shape(0).to_vec());
+    }
+    assert_eq!(out[0], out[1]);
+    // The source's mouth opening moves the photo's face.
+    assert_ne!(out[0], {
+        let mut base = vec![0.0; 136];
+        photo.image_shape(&photo.base_params(), &mut base).unwrap();
+        base
+    });
+
+    // Bad photos.
+    let view = t.image.view().unwrap();
+    let mut outside = t.landmarks.clone();
+    outside[0] = -40.0;
+    let e = photo_model("x", &view, &outside, frame)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("outside"), "{e}");
+    let small: Vec<f32> = t
+        .landmarks
+        .chunks_exact(2)
+        .flat_map(|p| [p[0] * 0.3, p[1] * 0.3])
+        .collect();
+    let e = photo_model("x", &view, &small, frame)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("64"), "{e}");
+    let e = photo_model("x", &view, &t.landmarks[..100], frame)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("points"), "{e}");
+    let mut nan = t.landmarks.clone();
+    nan[5] = f32::NAN;
+    assert!(photo_model("x", &view, &nan, frame).is_err());
+    // A picture beyond the backdrop limit.
+    let big = vec![128u8; 5000 * 10 * 4];
+    let big = facemimic::ImageRef::new(5000, 10, &big).unwrap();
+    let lm: Vec<f32> = (0..68).flat_map(|i| [100.0 + i as f32, 5.0]).collect();
+    assert!(Backdrop::encode(&big, &lm).is_err());
+}
+
+#[test]
+fn both_rasterisers_composite_alike() {
+    let model = spk02();
+    let b = model.backdrop().unwrap();
+    let params = facemimic::Params {
+        pose: model.home_pose(),
+        ..model.base_params()
+    };
+    let mut outs = Vec::new();
+    for r in [Rasterizer::TinySkia, Rasterizer::Scanline] {
+        let mut c = Compositor::new(
+            model,
+            DrawOptions {
+                rasterizer: r,
+                mesh: false,
+            },
+        )
+        .unwrap();
+        let mut pixmap = Pixmap::new(b.width(), b.height()).unwrap();
+        c.render(model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut())
+            .unwrap();
+        outs.push(facemimic::demultiply(&pixmap));
+    }
+    // Value by value (one channel at a time).
+    let diff = pixel_diff(&outs[0], &outs[1], 1, 3);
+    assert!(
+        diff.share() < 0.01,
+        "{:.2}% of the values differ by more than 3",
+        diff.share() * 100.0
+    );
+}
+
+/// Whether `p` lies inside the closed polygon `poly` (even-odd rule).
+fn inside_polygon(p: Vec2, poly: &[Vec2]) -> bool {
+    let mut inside = false;
+    for (i, a) in poly.iter().enumerate() {
+        let b = poly[(i + 1) % poly.len()];
+        if (a.y > p.y) != (b.y > p.y) && p.x < a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x) {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+#[test]
+fn the_inner_mouth_and_the_eyes_keep_the_models_own_colours() {
+    // The colour offset fades from the border to none inside: a face much darker than its
+    // picture is lifted at the border but its inner mouth (teeth, tongue: landmarks 60-67)
+    // and its eyes (36-41, 42-47) are drawn with the model's own colours, exactly.
+    let model = spk02();
+    let face: Vec<f32> = backdrop_in_frame(model).iter().map(|v| v * 0.6).collect();
+    let c = composite_at_backdrop_pose(model, &face);
+    let frame = model.frame();
+    let v = frame.vertices();
+    let polygon = |r: std::ops::Range<usize>| -> Vec<Vec2> {
+        r.map(|i| Vec2::new(v[2 * i], v[2 * i + 1])).collect()
+    };
+    let [ox, oy] = frame.origin();
+    let mut counted = [0usize; 3];
+    for (k, poly) in [polygon(60..68), polygon(36..42), polygon(42..48)]
+        .iter()
+        .enumerate()
+    {
+        for (i, px) in frame.pixels().iter().enumerate() {
+            let p = Vec2::new(px.x as f32 - ox, px.y as f32 - oy);
+            if inside_polygon(p, poly) {
+                counted[k] += 1;
+                for ch in 0..3 {
+                    assert_eq!(
+                        c.matched_appearance()[3 * i + ch],
+                        face[3 * i + ch],
+                        "region {k}, pixel {i}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(
+        counted.iter().all(|n| *n >= 20),
+        "pixels checked: {counted:?}"
+    );
+    // And the border was lifted towards the picture.
+    assert!(c.vertex_offsets().iter().all(|o| *o > 0.0));
+}
