@@ -15,7 +15,8 @@ step "format and lints"
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets -q -- -D warnings
 cargo clippy -p facemimic-wasm --all-targets --target wasm32-unknown-unknown -q -- -D warnings
-RUSTDOCFLAGS=-Dwarnings cargo doc --workspace --no-deps -q
+RUSTDOCFLAGS=-Dwarnings cargo doc --workspace --exclude facemimic-wasm --no-deps -q
+RUSTDOCFLAGS=-Dwarnings cargo doc -p facemimic-wasm --target wasm32-unknown-unknown --no-deps -q
 
 step "native tests"
 cargo test --workspace --all-targets

@@ -349,7 +349,7 @@ pub fn mean_value_weights(x: Vec2, poly: &[Vec2], out: &mut [f32]) {
 
 /// Composites one model's faces into its backdrop.
 ///
-/// Represents: for one model with a backdrop, the backdrop as textures, its [`ExtendedMesh`],
+/// Represents: for one model with a backdrop, the backdrop as textures, its `ExtendedMesh`,
 /// the frame's border pixels (in order around the face) with the backdrop's colours there, the
 /// mean-value weights of every frame vertex with respect to that border, the feathered edge
 /// (a coverage per frame pixel) and the scratch of one frame.

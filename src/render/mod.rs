@@ -35,11 +35,11 @@ pub use view::{base_box, canvas_view, fit_view, picture_view};
 /// Which rasteriser warps the triangles of a piecewise-affine warp into a tiny-skia pixmap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Rasterizer {
-    /// [`Renderer`] ([`Warp::warp`] with a [`SkiaStore`]): one tiny-skia pattern fill per
+    /// [`Renderer`] (`Warp::warp` with a `SkiaStore`): one tiny-skia pattern fill per
     /// triangle (the default).
     #[default]
     TinySkia,
-    /// [`Scanline`] ([`Warp::warp`] with a [`ScanlineStore`]): a faster fixed-point
+    /// [`Scanline`] (`Warp::warp` with a `ScanlineStore`): a faster fixed-point
     /// rasteriser that writes into the same tiny-skia pixmap; results agree within ~1.5
     /// levels.
     Scanline,

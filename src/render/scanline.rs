@@ -21,7 +21,7 @@ use crate::model::frame::ReferenceFrame;
 use glam::Vec2;
 
 /// The scanline backend of [`super::FaceDrawer`]: the same calls as [`super::Renderer`], the
-/// frame texture kept as packed RGBA8 words ([`ScanlineStore`]). Create once and reuse: after
+/// frame texture kept as packed RGBA8 words (`ScanlineStore`). Create once and reuse: after
 /// the first frame on a reference frame, uploading and warping allocate nothing.
 pub type Scanline = Warp<ScanlineStore>;
 

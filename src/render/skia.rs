@@ -16,7 +16,7 @@ use crate::model::frame::ReferenceFrame;
 /// the first call, it allocates nothing of its own per frame. To draw a model instance, use
 /// [`super::FaceDrawer::render`].
 ///
-/// Contract: [`Warp::warp`] paints exactly the pixels whose centres fall inside the warped
+/// Contract: `Warp::warp` paints exactly the pixels whose centres fall inside the warped
 /// mesh (non-anti-aliased fills share edges exactly, so there are no cracks and no
 /// double-painted seams); pixels outside are left untouched.
 pub type Renderer = Warp<SkiaStore>;
