@@ -29,7 +29,8 @@ mod options;
 mod precompute;
 mod resample;
 mod tracker;
-#[cfg(test)]
+// Native: they read the committed GRID frames from disk.
+#[cfg(all(test, not(target_arch = "wasm32")))]
 mod tracking_tests;
 
 use serde::{Deserialize, Serialize};

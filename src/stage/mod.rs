@@ -24,7 +24,8 @@ mod picture;
 mod source;
 mod timing;
 
-#[cfg(test)]
+// Native: they read the committed GRID frames from disk.
+#[cfg(all(test, not(target_arch = "wasm32")))]
 mod tests;
 
 pub use compare::CompareView;
