@@ -48,6 +48,7 @@ mod pca;
 mod render;
 mod similarity;
 mod stage;
+mod summary;
 mod train;
 
 pub use error::{Error, FormatError, Result};

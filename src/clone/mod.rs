@@ -33,6 +33,7 @@ use crate::model::linear::dot64;
 pub use crate::model::linear::inner_products;
 use std::fmt;
 use std::str::FromStr;
+use std::sync::Arc;
 
 mod expressive;
 mod prior;
@@ -497,14 +498,14 @@ impl TargetFrame {
 /// One target: its model, the pair's precomputation and the output of the last frame.
 #[derive(Clone, Debug)]
 struct Target {
-    model: Model,
+    model: Arc<Model>,
     pair: Pair,
     expressive: ExpressiveTarget,
     out: TargetFrame,
 }
 
 impl Target {
-    fn new(source: &Model, side: &SourceSide, model: Model) -> Result<Target> {
+    fn new(source: &Model, side: &SourceSide, model: Arc<Model>) -> Result<Target> {
         let pair = Pair::new(source, &model)?;
         let expressive = ExpressiveTarget::new(side, source, &model)?;
         let out = TargetFrame::reference(&model);
@@ -696,7 +697,7 @@ fn check_outputs(m: &Model, out: &TargetFrame) -> Result<()> {
 /// cloner.target_shape(i), &view, &mut pixmap)` with a [`crate::FaceDrawer`].
 #[derive(Clone, Debug)]
 pub struct Cloner {
-    source: Model,
+    source: Arc<Model>,
     source_shape_sigmas: Vec<f32>,
     source_appearance_sigmas: Vec<f32>,
     targets: Vec<Target>,
@@ -732,8 +733,10 @@ struct Prepared {
 }
 
 impl Cloner {
-    /// A cloner for `source`, with no targets yet.
-    pub fn new(source: Model) -> Result<Cloner> {
+    /// A cloner for `source`, with no targets yet. The model is shared, not copied: pass an
+    /// `Arc<Model>` to keep using it elsewhere (a `Model` is moved in).
+    pub fn new(source: impl Into<Arc<Model>>) -> Result<Cloner> {
+        let source: Arc<Model> = source.into();
         let inv = source
             .mean_pose()
             .inverse()
@@ -781,7 +784,7 @@ impl Cloner {
     /// Replaces the source model, recomputing every pair. On error (the new source is
     /// inconsistent or incompatible with a target, named in the message) the cloner keeps its
     /// old state untouched. Targets' outputs are reset to their reference faces.
-    pub fn set_source(&mut self, source: Model) -> Result<()> {
+    pub fn set_source(&mut self, source: impl Into<Arc<Model>>) -> Result<()> {
         let mut fresh = Cloner::new(source)?;
         fresh.scratch.prior = self.scratch.prior.clone();
         let mut targets = Vec::with_capacity(self.targets.len());
@@ -800,23 +803,23 @@ impl Cloner {
     /// Adds a target model (precomputing its pair) and returns its index. Fails with
     /// [`Error::Incompatible`] naming what differs (landmark count/scheme, frame
     /// fingerprint, size, pixel count) when it is not in the source's reference frame.
-    pub fn add_target(&mut self, target: Model) -> Result<usize> {
-        let t = Target::new(&self.source, &self.scratch.side, target)?;
+    pub fn add_target(&mut self, target: impl Into<Arc<Model>>) -> Result<usize> {
+        let t = Target::new(&self.source, &self.scratch.side, target.into())?;
         self.targets.push(t);
         Ok(self.targets.len() - 1)
     }
 
     /// Removes target `index` and returns its model; later targets move down by one.
-    pub fn remove_target(&mut self, index: usize) -> Result<Model> {
+    pub fn remove_target(&mut self, index: usize) -> Result<Arc<Model>> {
         self.check_index(index)?;
         Ok(self.targets.remove(index).model)
     }
 
     /// Replaces target `index` (same checks as [`Cloner::add_target`]; on error nothing
     /// changes).
-    pub fn replace_target(&mut self, index: usize, target: Model) -> Result<()> {
+    pub fn replace_target(&mut self, index: usize, target: impl Into<Arc<Model>>) -> Result<()> {
         self.check_index(index)?;
-        self.targets[index] = Target::new(&self.source, &self.scratch.side, target)?;
+        self.targets[index] = Target::new(&self.source, &self.scratch.side, target.into())?;
         Ok(())
     }
 
@@ -844,7 +847,7 @@ impl Cloner {
 
     /// Target model `index`, or `None` when out of range.
     pub fn get_target(&self, index: usize) -> Option<&Model> {
-        self.targets.get(index).map(|t| &t.model)
+        self.targets.get(index).map(|t| &*t.model)
     }
 
     /// The precomputation of the pair (source, target `index`), or `None`.

@@ -53,9 +53,7 @@ pub struct FaceFinder {
 
 impl std::fmt::Debug for FaceFinder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("FaceFinder")
-            .field("options", &self.options)
-            .finish_non_exhaustive()
+        crate::summary::summary(f, "FaceFinder", &[("options", &self.options)])
     }
 }
 

@@ -415,10 +415,14 @@ fn shape_width(shape: &[f32]) -> f32 {
 
 impl std::fmt::Debug for Fitter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Fitter")
-            .field("options", &self.options)
-            .field("landmarks", &self.landmarks())
-            .field("params", &self.n_params())
-            .finish_non_exhaustive()
+        crate::summary::summary(
+            f,
+            "Fitter",
+            &[
+                ("options", &self.options),
+                ("landmarks", &self.landmarks()),
+                ("params", &self.n_params()),
+            ],
+        )
     }
 }

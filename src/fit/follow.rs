@@ -209,11 +209,15 @@ pub struct Follower {
 
 impl std::fmt::Debug for Follower {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Follower")
-            .field("options", &self.options)
-            .field("following", &self.following)
-            .field("frames", &self.seq.frames())
-            .finish_non_exhaustive()
+        crate::summary::summary(
+            f,
+            "Follower",
+            &[
+                ("options", &self.options),
+                ("following", &self.following),
+                ("frames", &self.seq.frames()),
+            ],
+        )
     }
 }
 

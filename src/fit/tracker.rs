@@ -693,9 +693,7 @@ impl Tracker {
 
 impl std::fmt::Debug for Tracker {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Tracker")
-            .field("fitter", &self.fitter)
-            .finish_non_exhaustive()
+        crate::summary::summary(f, "Tracker", &[("fitter", &self.fitter)])
     }
 }
 

@@ -46,12 +46,16 @@ pub struct Backdrop {
 
 impl std::fmt::Debug for Backdrop {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Backdrop")
-            .field("width", &self.width)
-            .field("height", &self.height)
-            .field("landmarks", &(self.landmarks.len() / 2))
-            .field("jpeg_bytes", &self.jpeg.len())
-            .finish()
+        crate::summary::summary(
+            f,
+            "Backdrop",
+            &[
+                ("width", &self.width),
+                ("height", &self.height),
+                ("landmarks", &(self.landmarks.len() / 2)),
+                ("jpeg_bytes", &self.jpeg.len()),
+            ],
+        )
     }
 }
 

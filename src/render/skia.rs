@@ -32,10 +32,14 @@ pub struct SkiaStore {
 
 impl std::fmt::Debug for SkiaStore {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SkiaStore")
-            .field("texture", &(self.texture.width(), self.texture.height()))
-            .field("frame_fingerprint", &self.frame_fingerprint)
-            .finish()
+        crate::summary::summary(
+            f,
+            "SkiaStore",
+            &[
+                ("texture", &(self.texture.width(), self.texture.height())),
+                ("frame_fingerprint", &self.frame_fingerprint),
+            ],
+        )
     }
 }
 

@@ -6,7 +6,7 @@ use tiny_skia::PixmapMut;
 use crate::clone::{Method, TargetFrame};
 use crate::error::{Error, Result};
 
-use super::paint::Face;
+use super::paint_target;
 use super::picture::{Picture, PictureOptions};
 
 /// One picture of the compare view: the compared target cloned with `method`.
@@ -93,18 +93,10 @@ impl super::Stage {
             let Some(pixmap) = view.picture.target() else {
                 continue;
             };
-            let Some((_, out)) = &self.compare.out else {
-                return Err(Error::Params("internal error: no compare output".into()));
-            };
-            let face = Face {
-                model: self.cloner.target(index),
-                appearance: out.appearance(),
-                shape: out.shape(),
-                bbox: self.targets[index].bbox,
-            };
-            self.painter.paint(
-                face,
-                &mut self.targets[index].compositor,
+            paint_target(
+                (&mut self.painter, &mut self.targets),
+                (&self.cloner, Some(compare_output(&self.compare.out)?)),
+                index,
                 &options,
                 &mut pixmap.as_mut(),
             )?;
@@ -125,17 +117,13 @@ impl super::Stage {
     ) -> Result<()> {
         self.check_index(index)?;
         self.clone_compare(index, method)?;
-        let Some((_, out)) = &self.compare.out else {
-            return Err(Error::Params("internal error: no compare output".into()));
-        };
-        let face = Face {
-            model: self.cloner.target(index),
-            appearance: out.appearance(),
-            shape: out.shape(),
-            bbox: self.targets[index].bbox,
-        };
-        self.painter
-            .paint(face, &mut self.targets[index].compositor, options, pixmap)
+        paint_target(
+            (&mut self.painter, &mut self.targets),
+            (&self.cloner, Some(compare_output(&self.compare.out)?)),
+            index,
+            options,
+            pixmap,
+        )
     }
 
     /// Clones target `index` with `method` into the compare output (made for it first when
@@ -161,5 +149,13 @@ impl super::Stage {
         self.options.method = saved;
         self.painter.timings.map += self.painter.now() - t0;
         r
+    }
+}
+
+/// The compare view's output (made by `clone_compare` before every use).
+fn compare_output(out: &Option<(usize, TargetFrame)>) -> Result<&TargetFrame> {
+    match out {
+        Some((_, frame)) => Ok(frame),
+        None => Err(Error::Params("internal error: no compare output".into())),
     }
 }

@@ -10,9 +10,10 @@
 //! - `source.rs`: the source's parameters from a fit or a [`FaceTracker`].
 //! - `timing.rs`: [`Timings`], [`Clock`].
 
+use std::sync::Arc;
 use tiny_skia::PixmapMut;
 
-use crate::clone::{CloneOptions, Cloner, Method};
+use crate::clone::{CloneOptions, Cloner, Method, TargetFrame};
 use crate::error::{Error, Result};
 use crate::fit::FaceTracker;
 use crate::model::{Model, Params};
@@ -41,25 +42,23 @@ use paint::{Face, Painter};
 /// its instance is synthesised into, and the box its fitted view centres.
 #[derive(Debug)]
 struct SourceFace {
-    compositor: Option<Compositor>,
+    face: TargetFace,
     appearance: Vec<f32>,
     shape: Vec<f32>,
-    bbox: [f32; 4],
 }
 
 impl SourceFace {
     fn new(model: &Model) -> SourceFace {
         SourceFace {
-            compositor: None,
+            face: TargetFace::new(model),
             appearance: vec![0.0; model.appearance().len()],
             shape: vec![0.0; model.shape().base.len()],
-            bbox: base_box(model),
         }
     }
 }
 
-/// A target's drawing state: its compositor (made on first composited draw) and the box its
-/// fitted view centres (its mean placement).
+/// A face's drawing state (a target's, and the source's within [`SourceFace`]): its compositor
+/// (made on first composited draw) and the box its fitted view centres (its mean placement).
 #[derive(Debug)]
 struct TargetFace {
     compositor: Option<Compositor>,
@@ -116,8 +115,10 @@ pub struct Stage {
 
 impl Stage {
     /// A stage driven by `source` at its base face, with no targets, the default
-    /// [`CloneOptions`] and unsized pictures. Fails as [`Cloner::new`] does.
-    pub fn new(source: Model) -> Result<Stage> {
+    /// [`CloneOptions`] and unsized pictures. Models are shared, not copied (pass an `Arc<Model>`
+    /// to keep using one elsewhere). Fails as [`Cloner::new`] does.
+    pub fn new(source: impl Into<Arc<Model>>) -> Result<Stage> {
+        let source: Arc<Model> = source.into();
         let drawer = FaceDrawer::new(source.frame(), Default::default())?;
         let params = source.base_params();
         let face = SourceFace::new(&source);
@@ -167,7 +168,8 @@ impl Stage {
     /// with it) nothing changes. Ensures: the source parameters are its base face, per-mode
     /// gains longer than its mode counts are dropped, the tracker is dropped (it followed the
     /// old model), the pictures and their options are kept.
-    pub fn set_source(&mut self, source: Model) -> Result<()> {
+    pub fn set_source(&mut self, source: impl Into<Arc<Model>>) -> Result<()> {
+        let source: Arc<Model> = source.into();
         let drawer = FaceDrawer::new(source.frame(), Default::default())?;
         let params = source.base_params();
         let face = SourceFace::new(&source);
@@ -188,7 +190,8 @@ impl Stage {
     /// Adds a target and returns its index; its picture is unsized and drawn with the
     /// options of [`Stage::set_target_defaults`]. Fails with [`Error::Incompatible`] naming
     /// what differs when it is not in the source's reference frame (nothing changes then).
-    pub fn add_target(&mut self, target: Model) -> Result<usize> {
+    pub fn add_target(&mut self, target: impl Into<Arc<Model>>) -> Result<usize> {
+        let target: Arc<Model> = target.into();
         let face = TargetFace::new(&target);
         let i = self.cloner.add_target(target)?;
         self.targets.push(face);
@@ -200,7 +203,7 @@ impl Stage {
 
     /// Removes target `index` and returns its model; later targets (and their pictures) move
     /// down by one. The compare view follows its target (off when it was this one).
-    pub fn remove_target(&mut self, index: usize) -> Result<Model> {
+    pub fn remove_target(&mut self, index: usize) -> Result<Arc<Model>> {
         let model = self.cloner.remove_target(index)?;
         self.targets.remove(index);
         self.target_pictures.remove(index);
@@ -210,7 +213,8 @@ impl Stage {
 
     /// Replaces target `index` (same checks as [`Stage::add_target`]; on error nothing
     /// changes); its picture and options are kept.
-    pub fn replace_target(&mut self, index: usize, target: Model) -> Result<()> {
+    pub fn replace_target(&mut self, index: usize, target: impl Into<Arc<Model>>) -> Result<()> {
+        let target: Arc<Model> = target.into();
         let face = TargetFace::new(&target);
         self.cloner.replace_target(index, target)?;
         self.targets[index] = face;
@@ -374,10 +378,10 @@ impl Stage {
         let picture = &mut self.target_pictures[index];
         let options = *picture.options();
         if let Some(pixmap) = picture.target() {
-            let face = target_face(&self.cloner, &self.targets, index)?;
-            self.painter.paint(
-                face,
-                &mut self.targets[index].compositor,
+            paint_target(
+                (&mut self.painter, &mut self.targets),
+                (&self.cloner, None),
+                index,
                 &options,
                 &mut pixmap.as_mut(),
             )?;
@@ -408,9 +412,13 @@ impl Stage {
         pixmap: &mut PixmapMut<'_>,
     ) -> Result<()> {
         self.check_index(index)?;
-        let face = target_face(&self.cloner, &self.targets, index)?;
-        self.painter
-            .paint(face, &mut self.targets[index].compositor, options, pixmap)
+        paint_target(
+            (&mut self.painter, &mut self.targets),
+            (&self.cloner, None),
+            index,
+            options,
+            pixmap,
+        )
     }
 
     /// The source's landmarks for the current parameters (image coordinates, `2n` values).
@@ -436,16 +444,38 @@ fn out_of_range(index: usize, n: usize) -> Error {
 }
 
 /// Target `index`'s face as of the last update.
-fn target_face<'a>(cloner: &'a Cloner, targets: &[TargetFace], index: usize) -> Result<Face<'a>> {
+fn target_face<'a>(
+    cloner: &'a Cloner,
+    targets: &[TargetFace],
+    index: usize,
+    out: Option<&'a TargetFrame>,
+) -> Result<Face<'a>> {
     let (Some(model), Some(t)) = (cloner.get_target(index), targets.get(index)) else {
         return Err(out_of_range(index, cloner.n_targets()));
     };
+    let (appearance, shape) = match out {
+        Some(o) => (o.appearance(), o.shape()),
+        None => (cloner.target_appearance(index), cloner.target_shape(index)),
+    };
     Ok(Face {
         model,
-        appearance: cloner.target_appearance(index),
-        shape: cloner.target_shape(index),
+        appearance,
+        shape,
         bbox: t.bbox,
     })
+}
+
+/// Paints target `index` (the cloner's output for it, or `out`: the compare view's) with its
+/// compositor and view box into `pixmap`.
+fn paint_target(
+    (painter, targets): (&mut Painter, &mut [TargetFace]),
+    (cloner, out): (&Cloner, Option<&TargetFrame>),
+    index: usize,
+    options: &PictureOptions,
+    pixmap: &mut PixmapMut<'_>,
+) -> Result<()> {
+    let face = target_face(cloner, targets, index, out)?;
+    painter.paint(face, &mut targets[index].compositor, options, pixmap)
 }
 
 /// Synthesises the source instance of `params` (Eq. 1 posed, Eq. 2) into its scratch and
@@ -467,7 +497,7 @@ fn paint_source(
         model,
         appearance: &face.appearance,
         shape: &face.shape,
-        bbox: face.bbox,
+        bbox: face.face.bbox,
     };
-    painter.paint(f, &mut face.compositor, options, pixmap)
+    painter.paint(f, &mut face.face.compositor, options, pixmap)
 }

@@ -6,7 +6,7 @@ use tiny_skia::PixmapMut;
 
 use super::picture::{Framing, PictureOptions};
 use super::timing::{Clock, Timings};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::model::Model;
 use crate::render::{fit_view, picture_view, Compositor, FaceDrawer};
 use crate::similarity::Similarity;
@@ -49,48 +49,34 @@ impl Painter {
         options: &PictureOptions,
         pixmap: &mut PixmapMut<'_>,
     ) -> Result<()> {
-        if options.composite && face.model.backdrop().is_some() {
-            return self.composite(face, compositor, options, pixmap);
-        }
         let frame = face.model.frame();
         let t0 = self.now();
-        self.drawer.set_options(options.draw);
-        self.drawer.upload(frame, face.appearance)?;
+        let composite = options.composite && face.model.backdrop().is_some();
+        if !composite {
+            self.drawer.set_options(options.draw);
+            self.drawer.upload(frame, face.appearance)?;
+        } else if compositor.is_none() {
+            *compositor = Some(Compositor::new(face.model, options.draw)?);
+        }
         let t1 = self.now();
         self.timings.synth += t1 - t0;
         pixmap.fill(options.background);
-        let view = match options.framing {
-            Framing::Fitted => fit_view(face.bbox, pixmap.width(), pixmap.height()),
-            Framing::Image => Similarity::IDENTITY,
+        let r = match compositor.as_mut().filter(|_| composite) {
+            // The backdrop letterboxed to the pixmap ([`picture_view`]), the head and the face in it.
+            Some(c) => {
+                c.set_options(options.draw);
+                let (bw, bh) = c.size();
+                let view = picture_view(bw, bh, pixmap.width(), pixmap.height());
+                c.draw(face.model, face.appearance, face.shape, &view, pixmap)
+            }
+            None => {
+                let view = match options.framing {
+                    Framing::Fitted => fit_view(face.bbox, pixmap.width(), pixmap.height()),
+                    Framing::Image => Similarity::IDENTITY,
+                };
+                self.drawer.warp(frame, face.shape, &view, pixmap)
+            }
         };
-        let r = self.drawer.warp(frame, face.shape, &view, pixmap);
-        self.timings.raster += self.now() - t1;
-        r
-    }
-
-    /// The composited branch of [`Painter::paint`]: the backdrop letterboxed to the pixmap
-    /// ([`picture_view`]), the head and the face in it.
-    fn composite(
-        &mut self,
-        face: Face<'_>,
-        compositor: &mut Option<Compositor>,
-        options: &PictureOptions,
-        pixmap: &mut PixmapMut<'_>,
-    ) -> Result<()> {
-        if compositor.is_none() {
-            let t0 = self.now();
-            *compositor = Some(Compositor::new(face.model, options.draw)?);
-            self.timings.synth += self.now() - t0;
-        }
-        let Some(c) = compositor.as_mut() else {
-            return Err(Error::Params("internal error: no compositor".into()));
-        };
-        c.set_options(options.draw);
-        let t1 = self.now();
-        pixmap.fill(options.background);
-        let (bw, bh) = c.size();
-        let view = picture_view(bw, bh, pixmap.width(), pixmap.height());
-        let r = c.draw(face.model, face.appearance, face.shape, &view, pixmap);
         self.timings.raster += self.now() - t1;
         r
     }

@@ -31,16 +31,12 @@ impl super::Stage {
     /// good ones). Returns whether the fit was taken; fails (changing nothing) when the fit
     /// does not fit the source model.
     pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
-        if fit.lost {
-            return Ok(false);
-        }
-        take_params(
+        take_fit(
             self.cloner.source(),
-            (placed, &fit.params.shape, &fit.params.appearance),
+            (Some(fit), placed),
             &mut self.pending,
             &mut self.params,
-        )?;
-        Ok(true)
+        )
     }
 
     /// Takes the source parameters from `tracker`'s last frame ([`super::Stage::source_from_fit`]
@@ -83,17 +79,12 @@ impl super::Stage {
         };
         tracker.track(frame, dt)?;
         let tracker: &dyn FaceTracker = &**tracker;
-        let Some(fit) = tracker.last().filter(|f| !f.lost) else {
-            return Ok(false);
-        };
-        let placed = tracker.sequence().placed();
-        take_params(
+        take_fit(
             self.cloner.source(),
-            (placed, &fit.params.shape, &fit.params.appearance),
+            (tracker.last(), tracker.sequence().placed()),
             &mut self.pending,
             &mut self.params,
-        )?;
-        Ok(true)
+        )
     }
 
     /// One frame from pixels: [`super::Stage::track`], [`super::Stage::update`],
@@ -105,6 +96,26 @@ impl super::Stage {
         self.draw()?;
         Ok(taken)
     }
+}
+
+/// Takes a fit and its placed pose as the source parameters ([`take_params`]) unless there is
+/// none or its face is lost; returns whether it was taken.
+fn take_fit(
+    model: &Model,
+    (fit, placed): (Option<&FitResult>, Similarity),
+    pending: &mut Params,
+    current: &mut Params,
+) -> Result<bool> {
+    let Some(fit) = fit.filter(|f| !f.lost) else {
+        return Ok(false);
+    };
+    take_params(
+        model,
+        (placed, &fit.params.shape, &fit.params.appearance),
+        pending,
+        current,
+    )?;
+    Ok(true)
 }
 
 /// Copies `(pose, shape, appearance)` into `pending` (sized like the model's parameters),

@@ -425,3 +425,22 @@ fn image_framing_draws_at_the_identity_view() {
         .unwrap();
     assert_eq!(s.source_picture().rgba(), want.data());
 }
+
+/// Models are shared, not copied: a stage (and its cloner) holding an `Arc<Model>` holds the
+/// caller's model, and lets it go when the target is removed or the stage dropped.
+#[test]
+fn models_are_shared_not_copied() {
+    let [source, target, ..] = models();
+    let (source, target) = (Arc::new(source.clone()), Arc::new(target.clone()));
+    let mut s = Stage::new(Arc::clone(&source)).unwrap();
+    let i = s.add_target(Arc::clone(&target)).unwrap();
+    assert!(std::ptr::eq(s.source(), &*source));
+    assert!(std::ptr::eq(s.cloner().target(i), &*target));
+    assert_eq!(Arc::strong_count(&target), 2);
+    let back = s.remove_target(i).unwrap();
+    assert!(Arc::ptr_eq(&back, &target));
+    drop(back);
+    assert_eq!(Arc::strong_count(&target), 1);
+    drop(s);
+    assert_eq!(Arc::strong_count(&source), 1);
+}

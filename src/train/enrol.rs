@@ -47,10 +47,11 @@ pub struct EnrolFinder {
 
 impl std::fmt::Debug for EnrolFinder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("EnrolFinder")
-            .field("finder", &self.finder)
-            .field("boxes", &self.boxes)
-            .finish_non_exhaustive()
+        crate::summary::summary(
+            f,
+            "EnrolFinder",
+            &[("finder", &self.finder), ("boxes", &self.boxes)],
+        )
     }
 }
 

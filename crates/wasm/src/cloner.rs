@@ -11,7 +11,7 @@ use super::surface::{now_ms, paint_whole, params_into, put_rgba, Ctx, RenderOpti
 use super::tracker::WasmTracker;
 use super::{install_panic_hook, js_err, params_to_js, Context2dArg, RenderOptionsArg};
 use facemimic::clone::{CloneOptions, Method};
-use facemimic::{Model, Params, Picture, PictureOptions, Stage};
+use facemimic::{Params, Picture, PictureOptions, Stage};
 
 fn parse_method(method: &str) -> Result<Method, JsError> {
     Method::from_str(method).map_err(js_err)
@@ -164,7 +164,7 @@ impl JsCloner {
     #[wasm_bindgen(constructor)]
     pub fn new(source: &JsModel) -> Result<JsCloner, JsError> {
         install_panic_hook();
-        let model: Model = source.model().clone();
+        let model = source.shared();
         let pending = model.base_params();
         let mut stage = Stage::new(model).map_err(js_err)?;
         stage.set_clock(now_ms);
@@ -180,7 +180,7 @@ impl JsCloner {
     /// new source's base face, and per-mode gains longer than its mode counts are dropped.
     #[wasm_bindgen(js_name = setSource)]
     pub fn set_source(&mut self, source: &JsModel) -> Result<(), JsError> {
-        let model = source.model().clone();
+        let model = source.shared();
         let pending = model.base_params();
         self.stage.set_source(model).map_err(js_err)?;
         self.pending = pending;
@@ -191,10 +191,7 @@ impl JsCloner {
     /// what differs when it is not built in the source's reference frame.
     #[wasm_bindgen(js_name = addTarget)]
     pub fn add_target(&mut self, target: &JsModel) -> Result<u32, JsError> {
-        let i = self
-            .stage
-            .add_target(target.model().clone())
-            .map_err(js_err)?;
+        let i = self.stage.add_target(target.shared()).map_err(js_err)?;
         self.canvases.targets.resize_with(i + 1, || None);
         Ok(i as u32)
     }
@@ -216,7 +213,7 @@ impl JsCloner {
     pub fn replace_target(&mut self, index: u32, target: &JsModel) -> Result<(), JsError> {
         let i = self.check_index(index)?;
         self.stage
-            .replace_target(i, target.model().clone())
+            .replace_target(i, target.shared())
             .map_err(js_err)
     }
 

@@ -1,7 +1,7 @@
 //! `Model` for JavaScript: load, inspect, project, render, and the inspector's `renderMode`.
 
 use std::cell::RefCell;
-use std::rc::Rc;
+use std::sync::Arc;
 
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
@@ -165,7 +165,7 @@ impl ModelScratch {
 /// loaded from a `.fmm` file.
 #[wasm_bindgen(js_name = Model)]
 pub struct JsModel {
-    pub(crate) model: Rc<Model>,
+    pub(crate) model: Arc<Model>,
     scratch: RefCell<Option<Box<ModelScratch>>>,
     /// Why the file's backdrop was left out, if it was.
     notice: Option<String>,
@@ -175,7 +175,7 @@ impl From<Model> for JsModel {
     fn from(model: Model) -> Self {
         install_panic_hook();
         JsModel {
-            model: Rc::new(model),
+            model: Arc::new(model),
             scratch: RefCell::new(None),
             notice: None,
         }
@@ -186,6 +186,11 @@ impl JsModel {
     /// The Rust model.
     pub fn model(&self) -> &Model {
         &self.model
+    }
+
+    /// The Rust model, shared (a `Cloner` holds it without copying the expanded appearance).
+    pub fn shared(&self) -> Arc<Model> {
+        Arc::clone(&self.model)
     }
 
     fn with_scratch<T>(
