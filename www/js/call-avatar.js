@@ -93,6 +93,7 @@ export class Avatar {
     const oldCloner = this.cloner;
     this.cloner = new this.fm.Cloner(source.model);
     this.cloner.addTarget(target.model);
+    this.registerCanvas(target);
     this.cloner.setFollowPose(true);
     this.cloner.setMethod(this.method);
     this.applySettings();
@@ -108,9 +109,17 @@ export class Avatar {
   /** Change the avatar only (mid-call): the same canvas and track; nothing is renegotiated. */
   setTarget(target) {
     this.cloner.replaceTarget(0, target.model);
+    this.registerCanvas(target);
     this.target = target;
     this.resetLog();
     this.redraw();
+  }
+
+  /** The canvas the cloner draws the avatar into (once per avatar: composited into its picture
+   *  when it has one); a frame is then `setSourceParams` and `drawFrame`. */
+  registerCanvas(target) {
+    const composite = Boolean(target.info.backdrop);
+    this.cloner.setTargetCanvas(0, this.ctx, { raster: 'scanline', composite, background: '#1b1d22' });
   }
 
   resetLog() {
@@ -217,9 +226,7 @@ export class Avatar {
     const p = { pose: sent, shape: params.shape, appearance: params.appearance };
     this.params = params;
     this.cloner.setSourceParams(p);
-    this.cloner.update();
-    const composite = Boolean(this.target.info.backdrop);
-    this.cloner.renderTarget(0, this.ctx, { raster: 'scanline', composite, background: '#1b1d22' });
+    this.cloner.drawFrame();
     if (this.bench) this.stamp(captured);
     const drawn = performance.now();
     this.frames++;

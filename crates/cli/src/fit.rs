@@ -4,8 +4,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use facemimic::fit::{FitOptions, FitResult, FollowOptions, Follower, Tracker};
-use facemimic::{io, Error, FaceFinder, Image, Model, Result, Similarity};
+use facemimic::fit::{
+    FaceTracker, FitOptions, FitResult, FollowOptions, Follower, Tracker, TrackerKind,
+};
+use facemimic::{io, Error, Image, Model, Result, Similarity};
 
 /// How the source face is followed (`--follow`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -76,37 +78,15 @@ pub fn run(a: Args) -> Result<()> {
         .iter()
         .map(|p| io::read_image(p))
         .collect::<Result<Vec<_>>>()?;
-    if a.follow == Follow::Landmarks {
-        return follow_landmarks(&a, &model, &images);
-    }
-    let Some(init_arg) = a.init.as_ref() else {
-        return Err(Error::Params(
-            "--init INIT.pts|auto is needed to fit the AAM (or follow anyone with --follow \
-             landmarks)"
-                .into(),
-        ));
+    // One loop for either kind of tracker. Frames go in at their size: the AAM tracker chooses
+    // the fit scale for the face's size (large faces are fitted in a smaller copy of the frame,
+    // at about the size the model was built at) and both report in the frame's pixels, as they
+    // do for the page and the npm package.
+    let mut tracker: Box<dyn FaceTracker> = match a.follow {
+        Follow::Aam => Box::new(Tracker::new(&model, options)?),
+        Follow::Landmarks => Box::new(Follower::new(&model, FollowOptions::default())?),
     };
-    let first = &images[0];
-    let mut tracker = Tracker::new(&model, options)?;
-    // Frames go in at their size: the tracker chooses the fit scale for the face's size (large
-    // faces are fitted in a smaller copy of the frame, at about the size the model was built
-    // at) and reports in the frame's pixels, as it does for the page and the npm package.
-    if init_arg.as_os_str() == "auto" {
-        if model.landmarks() != 68 {
-            return Err(Error::Params(format!(
-                "--init auto needs a 68-landmark model (the face finder's layout); this one has {}",
-                model.landmarks()
-            )));
-        }
-        tracker.set_face_source(Box::new(FaceFinder::new()?));
-        tracker.start_auto()?;
-    } else {
-        let init = io::read_landmarks(init_arg, first.width, first.height)?;
-        tracker
-            .start_from_landmarks(&init)
-            .map_err(|e| e.with_context(&init_arg.display().to_string()))?;
-    }
-
+    start(&a, &model, &images[0], tracker.as_mut())?;
     let dt = 1.0 / a.fps;
     let mut results = Vec::with_capacity(images.len());
     let t0 = Instant::now();
@@ -117,57 +97,72 @@ pub fn run(a: Args) -> Result<()> {
     }
     let secs = t0.elapsed().as_secs_f64();
     write_csv(&a, &model, &results)?;
-
-    let frames = results.len();
-    let iters = results.iter().map(|r| r.0.iterations as f64).sum::<f64>() / frames.max(1) as f64;
-    let converged = results.iter().filter(|r| r.0.converged).count();
-    crate::print_line(&format!(
-        "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
-         {:.1} fits/s ({:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
-         {} second opinions ({} kept), fit scale {:.3} -> {}",
-        frames as f64 / secs.max(1e-9),
-        1e3 * secs / frames.max(1) as f64,
-        tracker.resets(),
-        tracker.sequence().lost_count(),
-        tracker.sequence().reacquisitions(),
-        tracker.rechecks().0,
-        tracker.rechecks().1,
-        tracker.scale(),
-        a.out.display()
-    ))
+    crate::print_line(&summary(&a, tracker.as_ref(), &results, secs))
 }
 
-/// `--follow landmarks`: the person-independent [`Follower`] on every frame.
-fn follow_landmarks(a: &Args, model: &Model, images: &[Image]) -> Result<()> {
-    let mut follower = Follower::new(model, FollowOptions::default())?;
-    if let Some(init) = a.init.as_ref().filter(|p| p.as_os_str() != "auto") {
-        let first = &images[0];
-        let points = io::read_landmarks(init, first.width, first.height)?;
-        follower
-            .offer_faces(vec![points])
-            .map_err(|e| e.with_context(&init.display().to_string()))?;
+/// Starts `tracker` on the first frame: the AAM from `--init` landmarks or, with `auto`, from
+/// the face finder's face (68-landmark models; it finds the face again whenever it is lost);
+/// the landmark follower from its own finder, offered the `--init` face when one is given.
+fn start(a: &Args, model: &Model, first: &Image, tracker: &mut dyn FaceTracker) -> Result<()> {
+    let init = a.init.as_ref().filter(|p| p.as_os_str() != "auto");
+    match (tracker.kind(), init) {
+        (TrackerKind::Aam, None) if a.init.is_none() => Err(Error::Params(
+            "--init INIT.pts|auto is needed to fit the AAM (or follow anyone with --follow \
+             landmarks)"
+                .into(),
+        )),
+        (TrackerKind::Aam, None) if model.landmarks() != 68 => Err(Error::Params(format!(
+            "--init auto needs a 68-landmark model (the face finder's layout); this one has {}",
+            model.landmarks()
+        ))),
+        (TrackerKind::Aam, None) => tracker.start_auto(),
+        (kind, Some(path)) => {
+            let points = io::read_landmarks(path, first.width, first.height)?;
+            let context = |e: Error| e.with_context(&path.display().to_string());
+            match kind {
+                TrackerKind::Aam => tracker.start_from_landmarks(&points).map_err(context),
+                TrackerKind::Landmarks => tracker.offer_faces(vec![points]).map_err(context),
+            }
+        }
+        (TrackerKind::Landmarks, None) => Ok(()),
     }
-    let dt = 1.0 / a.fps;
-    let mut results = Vec::with_capacity(images.len());
-    let t0 = Instant::now();
-    for (img, path) in images.iter().zip(&a.frames) {
-        let r = follower
-            .track(&img.view()?, dt)
-            .map_err(|e| e.with_context(&path.display().to_string()))?;
-        results.push((r.clone(), follower.sequence().placed()));
-    }
-    let secs = t0.elapsed().as_secs_f64();
-    write_csv(a, model, &results)?;
+}
+
+/// The line `fit` prints: frames, speed and the tracker's counters.
+fn summary(
+    a: &Args,
+    tracker: &dyn FaceTracker,
+    results: &[(FitResult, Similarity)],
+    secs: f64,
+) -> String {
     let frames = results.len();
-    crate::print_line(&format!(
-        "facemimic fit: {frames} frames followed by landmarks, {:.1} frames/s ({:.3} ms per \
-         frame), {} lost, {} acquisitions -> {}",
+    let (rate, ms) = (
         frames as f64 / secs.max(1e-9),
         1e3 * secs / frames.max(1) as f64,
-        follower.sequence().lost_count(),
-        follower.sequence().reacquisitions(),
+    );
+    let seq = tracker.sequence();
+    if tracker.kind() == TrackerKind::Landmarks {
+        return format!(
+            "facemimic fit: {frames} frames followed by landmarks, {rate:.1} frames/s ({ms:.3} ms \
+             per frame), {} lost, {} acquisitions -> {}",
+            seq.lost_count(),
+            seq.reacquisitions(),
+            a.out.display()
+        );
+    }
+    let iters = results.iter().map(|r| r.0.iterations as f64).sum::<f64>() / frames.max(1) as f64;
+    let converged = results.iter().filter(|r| r.0.converged).count();
+    let (rechecks, kept) = tracker.rechecks();
+    format!(
+        "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
+         {rate:.1} fits/s ({ms:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
+         {rechecks} second opinions ({kept} kept), fit scale {:.3} -> {}",
+        tracker.resets(),
+        seq.lost_count(),
+        seq.reacquisitions(),
+        tracker.scale(),
         a.out.display()
-    ))
+    )
 }
 
 /// Writes the track CSV: one row per frame (name, lost, converged, iterations, error, the

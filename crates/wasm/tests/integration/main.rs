@@ -17,6 +17,7 @@ wasm_bindgen_test_configure!(run_in_browser);
 mod browser;
 mod browser_composite;
 mod browser_hostile;
+mod policy;
 mod wasm_enrol;
 mod wasm_find;
 mod wasm_tracker;
