@@ -13,36 +13,85 @@ use super::precompute::{regularise, Level, ShapeBasis};
 
 /// Buffers of one fit, allocated once per fitter.
 pub(super) struct Work {
+    /// The landmarks a fit starts from, in level coordinates.
     pub init: Vec<f32>,
+    /// The current landmarks, the next estimate, a scratch copy and the last step.
     pub cur: Vec<f32>,
     pub next: Vec<f32>,
     pub scratch: Vec<f32>,
     pub delta: Vec<f32>,
+    /// The shape parameters and the pose of `cur`.
     pub p: Vec<f32>,
     pub pose: Similarity,
-    pub w: Vec<f32>,
-    pub e: Vec<f32>,
-    pub lam: Vec<f32>,
-    pub tgx: Vec<f32>,
-    pub tgy: Vec<f32>,
-    pub sd: Vec<f32>,
-    pub proj: Vec<f64>,
-    pub g: Vec<f64>,
-    pub h: Vec<f64>,
-    pub hf: Vec<f64>,
-    pub dc: Vec<f64>,
+    /// What is computed per frame pixel.
+    pub px: PixelWork,
+    /// The Gauss-Newton system and its saved copy.
+    pub sys: System,
     /// The state before the last step of [`run`], to undo it.
     pub saved: FitState,
-    /// The system (`g`, `h`) at the saved state.
-    pub saved_g: Vec<f64>,
-    pub saved_h: Vec<f64>,
     /// The landmarks the starts of a multi-start level are offset from.
     pub start_cur: Vec<f32>,
     /// The best state over a multi-start level's starts.
     pub best: FitState,
     /// The state the first level started from (for [`super::FitOptions::level_check`]).
     pub before: FitState,
+    /// The appearance synthesised for the appearance-aware refinement (empty without it).
     pub rgb: Vec<f32>,
+}
+
+/// The per-pixel buffers of a fit (`n` pixels of the largest level, `l` its grey appearance
+/// modes, `k` warp parameters).
+pub(super) struct PixelWork {
+    /// The warped image's grey levels (`n`) and the error image (`n`).
+    pub w: Vec<f32>,
+    pub e: Vec<f32>,
+    /// The grey appearance parameters (`l`).
+    pub lam: Vec<f32>,
+    /// The warped image's gradients (`n` each).
+    pub tgx: Vec<f32>,
+    pub tgy: Vec<f32>,
+    /// The steepest-descent images (`k x n`).
+    pub sd: Vec<f32>,
+}
+
+impl PixelWork {
+    pub fn new(n: usize, l: usize, k: usize) -> PixelWork {
+        PixelWork {
+            w: vec![0.0; n],
+            e: vec![0.0; n],
+            lam: vec![0.0; l],
+            tgx: vec![0.0; n],
+            tgy: vec![0.0; n],
+            sd: vec![0.0; k * n],
+        }
+    }
+}
+
+/// The Gauss-Newton system of `k` warp parameters, in f64: the appearance projection
+/// (`l x k`), the gradient `g`, the Hessian `h`, its factor `hf` and the step `dc`, and the
+/// system saved with the state before a step (to undo it).
+pub(super) struct System {
+    pub proj: Vec<f64>,
+    pub g: Vec<f64>,
+    pub h: Vec<f64>,
+    pub hf: Vec<f64>,
+    pub dc: Vec<f64>,
+    pub saved_g: Vec<f64>,
+    pub saved_h: Vec<f64>,
+}
+
+impl System {
+    pub fn new(k: usize, l: usize) -> System {
+        System {
+            proj: vec![0.0; l * k],
+            g: vec![0.0; k],
+            h: vec![0.0; k * k],
+            hf: vec![0.0; k * k],
+            dc: vec![0.0; k],
+            saved_g: vec![0.0; k],
+            saved_h: vec![0.0; k * k],
+        }
+    }
 }
 
 /// A copy of the fitting state of [`Work`] (its `cur`, `p` and `pose`): the landmarks in level
@@ -86,22 +135,22 @@ pub(super) enum Step {
     Failed,
 }
 
-/// Samples, estimates `lambda` by projection and leaves the residual in `w.e`; returns its
+/// Samples, estimates `lambda` by projection and leaves the residual in `w.px.e`; returns its
 /// RMS.
 pub(super) fn residual(level: &Level, img: GreyView<'_>, w: &mut Work) -> f32 {
     let n = level.n;
-    sample(level, img, &w.cur, &mut w.w[..n]);
-    let e = &mut w.e[..n];
-    for ((o, a), b) in e.iter_mut().zip(&w.w[..n]).zip(&level.a0) {
+    sample(level, img, &w.cur, &mut w.px.w[..n]);
+    let e = &mut w.px.e[..n];
+    for ((o, a), b) in e.iter_mut().zip(&w.px.w[..n]).zip(&level.a0) {
         *o = a - b;
     }
     for i in 0..level.la {
         let mode = &level.app[i * n..(i + 1) * n];
-        w.lam[i] = dot(mode, e);
+        w.px.lam[i] = dot(mode, e);
     }
     for i in 0..level.la {
         let mode = &level.app[i * n..(i + 1) * n];
-        axpy(-w.lam[i], mode, e);
+        axpy(-w.px.lam[i], mode, e);
     }
     (dot(e, e) / n as f32).sqrt()
 }
@@ -117,7 +166,7 @@ impl Work {
 }
 
 /// The cost a level minimises at the current state: the projected-out residual
-/// `|e|^2 - |A^T e|^2` plus the shape prior (leaves the residual in `w.e`).
+/// `|e|^2 - |A^T e|^2` plus the shape prior (leaves the residual in `w.px.e`).
 pub(super) fn level_cost(c: &Ctx<'_>, w: &mut Work) -> f64 {
     let rms = residual(c.level, c.img, w) as f64;
     let mut cost = rms * rms * c.level.n as f64;
@@ -131,10 +180,10 @@ pub(super) fn level_cost(c: &Ctx<'_>, w: &mut Work) -> f64 {
 }
 
 /// One fitting algorithm: builds the Gauss-Newton system `H dc = g` at the current state
-/// (into `w.h` and `w.g`) and returns the cost it minimises. The step itself (solve, update)
+/// (into `w.sys.h` and `w.sys.g`) and returns the cost it minimises. The step itself (solve, update)
 /// is shared: [`run`] and [`update`].
 pub(super) trait Algorithm {
-    /// Samples the image at the current state, fills `w.g` and `w.h`, returns the cost.
+    /// Samples the image at the current state, fills `w.sys.g` and `w.sys.h`, returns the cost.
     fn system(&self, c: &Ctx<'_>, w: &mut Work) -> f64;
 }
 
@@ -177,8 +226,8 @@ pub(super) fn run<A: Algorithm>(
         if cost.is_finite() && cost <= best {
             best = cost;
             w.saved.save(&w.cur, &w.p, w.pose);
-            w.saved_g.copy_from_slice(&w.g);
-            w.saved_h.copy_from_slice(&w.h);
+            w.sys.saved_g.copy_from_slice(&w.sys.g);
+            w.sys.saved_h.copy_from_slice(&w.sys.h);
             mu = if mu < 1e-4 { 0.0 } else { mu * 0.1 };
         } else {
             if !best.is_finite() {
@@ -186,25 +235,25 @@ pub(super) fn run<A: Algorithm>(
             }
             // Undo the last step; retry from the saved state with more damping.
             w.saved.restore(&mut w.cur, &mut w.p, &mut w.pose);
-            w.g.copy_from_slice(&w.saved_g);
-            w.h.copy_from_slice(&w.saved_h);
+            w.sys.g.copy_from_slice(&w.sys.saved_g);
+            w.sys.h.copy_from_slice(&w.sys.saved_h);
             mu = if mu == 0.0 { 1e-2 } else { mu * 10.0 };
             if mu > 1e4 {
                 return true;
             }
         }
         // Solve (H + prior + mu diag H) dc = g.
-        w.hf.copy_from_slice(&w.h);
+        w.sys.hf.copy_from_slice(&w.sys.h);
         for j in 0..k {
-            let d = w.hf[j * k + j];
-            w.hf[j * k + j] = d + mu * d;
+            let d = w.sys.hf[j * k + j];
+            w.sys.hf[j * k + j] = d + mu * d;
         }
-        regularise(&mut w.hf, &c.level.prior, k);
-        if !cholesky(&mut w.hf, k) {
+        regularise(&mut w.sys.hf, &c.level.prior, k);
+        if !cholesky(&mut w.sys.hf, k) {
             return false;
         }
-        w.dc.copy_from_slice(&w.g);
-        cholesky_solve(&w.hf, k, &mut w.dc);
+        w.sys.dc.copy_from_slice(&w.sys.g);
+        cholesky_solve(&w.sys.hf, k, &mut w.sys.dc);
         match update(c.geom, c.basis, w) {
             Step::Moved(d) if d <= tol => return true,
             Step::Moved(_) => {}
@@ -217,13 +266,13 @@ pub(super) fn run<A: Algorithm>(
     false
 }
 
-/// Prior cost `sum_j w_j p_j^2` and gradient term `w_j p_j` added to `w.g`.
+/// Prior cost `sum_j w_j p_j^2` and gradient term `w_j p_j` added to `w.sys.g`.
 fn add_prior(c: &Ctx<'_>, w: &mut Work) -> f64 {
     let mut cost = 0.0;
     for (j, m) in c.basis.mode_of.iter().enumerate() {
         if let Some(m) = m {
             let p = w.p[*m] as f64;
-            w.g[j] += c.level.prior[j] * p;
+            w.sys.g[j] += c.level.prior[j] * p;
             cost += c.level.prior[j] * p * p;
         }
     }
@@ -236,20 +285,20 @@ impl Algorithm for ProjectOut {
     fn system(&self, c: &Ctx<'_>, w: &mut Work) -> f64 {
         let l = c.level;
         let n = l.n;
-        sample(l, c.img, &w.cur, &mut w.w[..n]);
-        for ((o, a), b) in w.e[..n].iter_mut().zip(&w.w[..n]).zip(&l.a0) {
+        sample(l, c.img, &w.cur, &mut w.px.w[..n]);
+        for ((o, a), b) in w.px.e[..n].iter_mut().zip(&w.px.w[..n]).zip(&l.a0) {
             *o = a - b;
         }
-        let e = &w.e[..n];
+        let e = &w.px.e[..n];
         let mut cost = dot(e, e) as f64;
         for i in 0..l.la {
             let v = dot(&l.app[i * n..(i + 1) * n], e) as f64;
             cost -= v * v;
         }
         for j in 0..c.basis.k {
-            w.g[j] = dot(&l.sd_po[j * n..(j + 1) * n], e) as f64;
+            w.sys.g[j] = dot(&l.sd_po[j * n..(j + 1) * n], e) as f64;
         }
-        w.h.copy_from_slice(&l.h_po);
+        w.sys.h.copy_from_slice(&l.h_po);
         cost + add_prior(c, w)
     }
 }
@@ -265,51 +314,51 @@ impl Algorithm for Simultaneous {
         let la = l.la;
         let rms = residual(l, c.img, w) as f64;
         let cost = rms * rms * n as f64;
-        w.tgx[..n].copy_from_slice(&l.a0_gx);
-        w.tgy[..n].copy_from_slice(&l.a0_gy);
+        w.px.tgx[..n].copy_from_slice(&l.a0_gx);
+        w.px.tgy[..n].copy_from_slice(&l.a0_gy);
         for i in 0..la {
-            let lam = w.lam[i];
-            axpy(lam, &l.app_gx[i * n..(i + 1) * n], &mut w.tgx[..n]);
-            axpy(lam, &l.app_gy[i * n..(i + 1) * n], &mut w.tgy[..n]);
+            let lam = w.px.lam[i];
+            axpy(lam, &l.app_gx[i * n..(i + 1) * n], &mut w.px.tgx[..n]);
+            axpy(lam, &l.app_gy[i * n..(i + 1) * n], &mut w.px.tgy[..n]);
         }
         for j in 0..k {
-            let sd = &mut w.sd[j * n..(j + 1) * n];
+            let sd = &mut w.px.sd[j * n..(j + 1) * n];
             let (jx, jy) = (&l.jx[j * n..(j + 1) * n], &l.jy[j * n..(j + 1) * n]);
             for i in 0..n {
-                sd[i] = w.tgx[i] * jx[i] + w.tgy[i] * jy[i];
+                sd[i] = w.px.tgx[i] * jx[i] + w.px.tgy[i] * jy[i];
             }
         }
         for i in 0..la {
             let mode = &l.app[i * n..(i + 1) * n];
             for j in 0..k {
-                w.proj[i * k + j] = dot(mode, &w.sd[j * n..(j + 1) * n]) as f64;
+                w.sys.proj[i * k + j] = dot(mode, &w.px.sd[j * n..(j + 1) * n]) as f64;
             }
         }
         for a in 0..k {
-            let sa = &w.sd[a * n..(a + 1) * n];
+            let sa = &w.px.sd[a * n..(a + 1) * n];
             for b in 0..=a {
-                let mut v = dot(sa, &w.sd[b * n..(b + 1) * n]) as f64;
+                let mut v = dot(sa, &w.px.sd[b * n..(b + 1) * n]) as f64;
                 for i in 0..la {
-                    v -= w.proj[i * k + a] * w.proj[i * k + b];
+                    v -= w.sys.proj[i * k + a] * w.sys.proj[i * k + b];
                 }
-                w.h[a * k + b] = v;
-                w.h[b * k + a] = v;
+                w.sys.h[a * k + b] = v;
+                w.sys.h[b * k + a] = v;
             }
-            w.g[a] = dot(sa, &w.e[..n]) as f64;
+            w.sys.g[a] = dot(sa, &w.px.e[..n]) as f64;
         }
         cost + add_prior(c, w)
     }
 }
 
-/// Applies the parameter update `w.dc` (combined basis): compose the inverse incremental
+/// Applies the parameter update `w.sys.dc` (combined basis): compose the inverse incremental
 /// warp, project onto the model. Returns the largest landmark movement.
 pub(super) fn update(geom: &Geometry, basis: &ShapeBasis, w: &mut Work) -> Step {
-    if w.dc.iter().any(|v| !v.is_finite()) {
+    if w.sys.dc.iter().any(|v| !v.is_finite()) {
         return Step::Failed;
     }
     let d = w.delta.len();
     w.delta.iter_mut().for_each(|v| *v = 0.0);
-    for (j, &c) in w.dc.iter().enumerate() {
+    for (j, &c) in w.sys.dc.iter().enumerate() {
         axpy(c as f32, &basis.vectors[j * d..(j + 1) * d], &mut w.delta);
     }
     geom.compose_inverse(&w.cur, &w.delta, &w.pose, &mut w.scratch);

@@ -7,7 +7,9 @@ use crate::image::ImageRef;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
-use super::algorithm::{level_cost, residual, run, Ctx, FitState, ProjectOut, Simultaneous, Work};
+use super::algorithm::{
+    level_cost, residual, run, Ctx, FitState, PixelWork, ProjectOut, Simultaneous, System, Work,
+};
 use super::geometry::Geometry;
 use super::grey::Grey;
 use super::precompute::{Level, ShapeBasis};
@@ -81,20 +83,9 @@ impl Fitter {
             delta: vec![0.0; n2],
             p: vec![0.0; m],
             pose: Similarity::IDENTITY,
-            w: vec![0.0; nmax],
-            e: vec![0.0; nmax],
-            lam: vec![0.0; lmax],
-            tgx: vec![0.0; nmax],
-            tgy: vec![0.0; nmax],
-            sd: vec![0.0; k * nmax],
-            proj: vec![0.0; lmax * k],
-            g: vec![0.0; k],
-            h: vec![0.0; k * k],
-            hf: vec![0.0; k * k],
-            dc: vec![0.0; k],
+            px: PixelWork::new(nmax, lmax, k),
+            sys: System::new(k, lmax),
             saved: FitState::new(n2, m),
-            saved_g: vec![0.0; k],
-            saved_h: vec![0.0; k * k],
             start_cur: vec![0.0; n2],
             best: FitState::new(n2, m),
             before: FitState::new(n2, m),
@@ -311,7 +302,7 @@ impl Fitter {
         let level = &self.levels[self.levels.len() - 1];
         let w = &mut self.work;
         let err = residual(level, self.grey.full(), w);
-        self.contrast = contrast(&w.w[..level.n]) / level.a0_std.max(1e-6);
+        self.contrast = contrast(&w.px.w[..level.n]) / level.a0_std.max(1e-6);
         // Result.
         let r = &mut self.result;
         r.landmarks.copy_from_slice(&w.cur);
