@@ -9,7 +9,7 @@
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser } from '../../tests/e2e/lib.mjs';
+import { ROOT, serveStatic, launchBrowser } from '../lib/browser.mjs';
 
 const args = process.argv.slice(2);
 const runs = Number(args[args.indexOf('--runs') + 1]) || 5;

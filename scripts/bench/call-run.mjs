@@ -1,8 +1,8 @@
 // What the call scripts (call.mjs, call-soak.mjs) share: their command-line options and the
 // browser, fake media and demo server a call runs in.
 
-import { launchBrowser } from '../../tests/e2e/lib.mjs';
-import { fakeMedia, startDemoServer } from '../../tests/e2e/call-lib.mjs';
+import { launchBrowser } from '../lib/browser.mjs';
+import { fakeMedia, startDemoServer } from '../lib/call.mjs';
 
 /** The value after `--name` on the command line, else `def`. */
 export const arg = (name, def) => {

@@ -26,9 +26,9 @@
 
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT } from '../../tests/e2e/lib.mjs';
+import { ROOT } from '../lib/browser.mjs';
 import { summarise, diff, report } from './heap-diff.mjs';
-import { status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
+import { status, waitCall, twoPages } from '../lib/call.mjs';
 import { arg, runCall } from './call-run.mjs';
 
 const minutes = Number(arg('minutes', 30));

@@ -14,8 +14,8 @@
 
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT } from '../../tests/e2e/lib.mjs';
-import { status, waitCall, twoPages } from '../../tests/e2e/call-lib.mjs';
+import { ROOT } from '../lib/browser.mjs';
+import { status, waitCall, twoPages } from '../lib/call.mjs';
 import { arg, runCall } from './call-run.mjs';
 
 const seconds = Number(arg('seconds', 30));

@@ -11,7 +11,7 @@
 // `exports` every export called (the glue's allocations for arguments included).
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
 import fs from 'node:fs';
-import { serveStatic, launchBrowser } from '../../tests/e2e/lib.mjs';
+import { serveStatic, launchBrowser } from '../lib/browser.mjs';
 
 const args = process.argv.slice(2);
 const opt = (name, dflt) => {

@@ -5,7 +5,7 @@
 // worker avoids).
 //   node scripts/bench/page-finder.mjs [--seconds 6]
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
-import { serveStatic, launchBrowser } from '../../tests/e2e/lib.mjs';
+import { serveStatic, launchBrowser } from '../lib/browser.mjs';
 
 const args = process.argv.slice(2);
 const i = args.indexOf('--seconds');

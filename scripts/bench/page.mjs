@@ -6,7 +6,7 @@
 //                      frame while the finder searches; --track 0 skips)
 // Both rasterisers are measured; --raster picks the headline (default scanline, the page's default).
 // Needs www/pkg (scripts/build-wasm.sh) and www/models (scripts/build-models.sh).
-import { serveStatic, launchBrowser, screenshot } from '../../tests/e2e/lib.mjs';
+import { serveStatic, launchBrowser, screenshot } from '../lib/browser.mjs';
 
 const args = process.argv.slice(2);
 const opt = (name, dflt) => {

@@ -16,7 +16,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import { launchBrowser, haveChromium, screenshot, serveStatic, ROOT, pkg } from './lib.mjs';
-import { fakeMedia, startDemoServer, status, waitCall, remotePicture, meanAbs, twoPages } from './call-lib.mjs';
+import { fakeMedia, startDemoServer, status, waitCall, remotePicture, meanAbs, twoPages } from '../../scripts/lib/call.mjs';
 import path from 'node:path';
 
 /** Sets the input `selector` of `page` to `value` as the user would: an `input` event follows. */

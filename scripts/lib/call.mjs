@@ -8,7 +8,7 @@ import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { ROOT, fakeCameraFile, fakeCameraArgs } from './lib.mjs';
+import { ROOT, fakeCameraFile, fakeCameraArgs } from './browser.mjs';
 
 /** The clip the fake camera plays (spk07 is the default source model; an unseen clip). */
 export const CAMERA_CLIP = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
