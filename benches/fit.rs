@@ -18,6 +18,7 @@
 //!
 //! Run: `cargo bench --bench fit`. Each tracking benchmark also prints the model sizes.
 
+use facemimic::fit::FaceTracker;
 use std::path::{Path, PathBuf};
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

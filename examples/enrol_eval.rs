@@ -16,6 +16,7 @@ use native::main;
 /// Native only: the example reads files.
 #[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
+    use facemimic::fit::FaceTracker;
     use std::path::{Path, PathBuf};
 
     use facemimic::find::{add_face_offsets, mean_face_offsets};

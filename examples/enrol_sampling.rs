@@ -29,6 +29,7 @@ use facemimic_testkit as common;
 /// Native only: the example reads files.
 #[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
+    use facemimic::fit::FaceTracker;
     use std::path::Path;
     use std::time::Instant;
 

@@ -44,6 +44,7 @@ use facemimic_testkit as common;
 /// Native only: the example reads files.
 #[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
+    use facemimic::fit::FaceTracker;
     use std::path::{Path, PathBuf};
     use std::time::Instant;
 

@@ -21,6 +21,7 @@ use native::main;
 #[cfg(not(any(target_arch = "wasm32", test)))]
 mod native {
     use facemimic::clone::{CloneOptions, Cloner, Method};
+    use facemimic::fit::FaceTracker;
     use facemimic::fit::{FitOptions, Tracker};
     use facemimic::{
         io, Builder, FaceFinder, Image, Model, Renderer, Scanline, Similarity, TrainingImage,

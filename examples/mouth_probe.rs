@@ -18,6 +18,7 @@ fn main() {
     use common::following::{build, pearson, spk07};
     use common::{frame, shared_data};
     use facemimic::clone::{CloneOptions, Cloner};
+    use facemimic::fit::FaceTracker;
     use facemimic::fit::{mouth_opening, FollowOptions, Follower};
     use facemimic::TrainingImage;
 

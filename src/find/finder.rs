@@ -9,6 +9,7 @@ use super::{Face, FindOptions};
 use crate::error::{Error, Result};
 use crate::geometry::BBox;
 use crate::image::ImageRef;
+use crate::summary::summary;
 
 /// Mesh passes per face in [`FaceFinder::find`] and [`FaceFinder::landmarks`]: the first on
 /// the detector's region (or the box given), the next on the region of the previous pass's
@@ -53,7 +54,7 @@ pub struct FaceFinder {
 
 impl std::fmt::Debug for FaceFinder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        crate::summary::summary(f, "FaceFinder", &[("options", &self.options)])
+        summary(f, "FaceFinder", &[("options", &self.options)])
     }
 }
 

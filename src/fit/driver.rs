@@ -6,6 +6,7 @@ use crate::error::{check_finite, check_len, Error, Result};
 use crate::image::ImageRef;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
+use crate::summary::summary;
 
 use super::algorithm::{
     level_cost, residual, run, Ctx, FitState, PixelWork, ProjectOut, Simultaneous, System, Work,
@@ -406,7 +407,7 @@ fn shape_width(shape: &[f32]) -> f32 {
 
 impl std::fmt::Debug for Fitter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        crate::summary::summary(
+        summary(
             f,
             "Fitter",
             &[

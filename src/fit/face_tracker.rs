@@ -1,14 +1,13 @@
 //! One interface for following a face through video: [`FaceTracker`], implemented by the AAM
-//! [`Tracker`] (a person's own model fitted to every frame) and the landmark [`Follower`]
+//! [`Tracker`](super::Tracker) (a person's own model fitted to every frame) and the landmark [`Follower`](super::Follower)
 //! (anyone followed with a model that is not theirs), and the policy choosing between them
-//! ([`tracker_for`], [`TrackerKind::for_source`]).
+//! ([`tracker_for`](super::tracker_for), [`TrackerKind::for_source`]).
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::image::ImageRef;
-use crate::model::Model;
 
 use super::anchor::Sequence;
-use super::{FitOptions, FitResult, FollowOptions, Follower, TrackPolicy, Tracker};
+use super::{FitResult, TrackPolicy};
 
 /// The longer side (pixels) of the work frame a page tracks and finds faces on: a camera or
 /// video frame larger than this is scaled down to it first (the trackers then choose their own
@@ -19,11 +18,11 @@ pub const WORK_SIDE: u32 = 640;
 /// Which way a [`FaceTracker`] follows a face.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TrackerKind {
-    /// The model's active appearance model is fitted to every frame ([`Tracker`]): for the
+    /// The model's active appearance model is fitted to every frame ([`Tracker`](super::Tracker)): for the
     /// person the model was built from.
     Aam,
     /// The face finder's landmarks are read as expression and mapped onto the model's shape
-    /// modes ([`Follower`]): for anyone, with a model that is not theirs.
+    /// modes ([`Follower`](super::Follower)): for anyone, with a model that is not theirs.
     Landmarks,
 }
 
@@ -79,8 +78,8 @@ pub enum Whose {
 }
 
 /// A tracker following one face through video frames: the one interface of the AAM
-/// [`Tracker`] and the landmark [`Follower`], so a front end drives either the same way.
-/// Object-safe: `Box<dyn FaceTracker>` is what [`tracker_for`] returns.
+/// [`Tracker`](super::Tracker) and the landmark [`Follower`](super::Follower), so a front end drives either the same way.
+/// Object-safe: `Box<dyn FaceTracker>` is what [`tracker_for`](super::tracker_for) returns.
 ///
 /// **Represents** one followed face: where a sequence starts (landmarks, a box, or a search
 /// for a face), the last frame's [`FitResult`], the [`Sequence`] (frame counters and the pose
@@ -104,8 +103,8 @@ pub trait FaceTracker: std::fmt::Debug {
     /// Follows the face in the next frame, `dt` seconds after the previous one (the pose
     /// anchor's time step, and the landmark smoothing's).
     ///
-    /// Requires: a started sequence (else the [`Tracker`] fails with [`Error::Params`]; a
-    /// [`Follower`] searches the frame), `dt` finite and non-negative (else [`Error::Params`];
+    /// Requires: a started sequence (else the [`Tracker`](super::Tracker) fails with [`Error::Params`](crate::Error::Params); a
+    /// [`Follower`](super::Follower) searches the frame), `dt` finite and non-negative (else [`Error::Params`](crate::Error::Params);
     /// the follower needs it positive to smooth, a `dt` of 0 restarts its smoothing).
     ///
     /// Ensures: the result is the frame's face, or `lost = true` and the last good result;
@@ -113,7 +112,7 @@ pub trait FaceTracker: std::fmt::Debug {
     /// is followed.
     fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult>;
 
-    /// The last frame's result, `None` before the first frame of the tracker (the [`Tracker`]:
+    /// The last frame's result, `None` before the first frame of the tracker (the [`Tracker`](super::Tracker):
     /// of the sequence).
     fn last(&self) -> Option<&FitResult>;
 
@@ -122,18 +121,18 @@ pub trait FaceTracker: std::fmt::Debug {
     fn sequence(&self) -> &Sequence;
 
     /// Re-initialisations: frames whose fit was judged implausible and refitted from the last
-    /// good one (the [`Tracker`]); always 0 for the [`Follower`], which does not refit.
+    /// good one (the [`Tracker`](super::Tracker)); always 0 for the [`Follower`](super::Follower), which does not refit.
     fn resets(&self) -> u32;
 
     /// Second opinions taken while tracking ([`TrackPolicy::recheck_frames`]) and those kept;
-    /// `(0, 0)` for the [`Follower`] (its landmarks come from the finder every frame).
+    /// `(0, 0)` for the [`Follower`](super::Follower) (its landmarks come from the finder every frame).
     fn rechecks(&self) -> (u32, u32);
 
     /// Faces found elsewhere, in the frame's pixels, `2n` values each, most confident first:
-    /// the next acquisition takes the one nearest the last face (the [`Tracker`] also uses
+    /// the next acquisition takes the one nearest the last face (the [`Tracker`](super::Tracker) also uses
     /// them for a second opinion). They are used once.
     ///
-    /// Fails with [`Error::Params`], keeping none, when a face has the wrong length or a
+    /// Fails with [`Error::Params`](crate::Error::Params), keeping none, when a face has the wrong length or a
     /// non-finite point.
     fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()>;
 
@@ -145,193 +144,54 @@ pub trait FaceTracker: std::fmt::Debug {
     /// Whether faces will be offered from elsewhere ([`FaceTracker::offer_faces`]).
     ///
     /// Ensures, `yes`: a lost face is searched for with the faces offered
-    /// ([`FaceTracker::wants_faces`] turns true when they are needed); the [`Follower`] no
+    /// ([`FaceTracker::wants_faces`] turns true when they are needed); the [`Follower`](super::Follower) no
     /// longer runs its own finder on the whole frame (the finder elsewhere does that), the
-    /// [`Tracker`] still asks its face source if it was given one. `no`: offered faces are
-    /// dropped; the [`Follower`] searches the frame with its own finder, the [`Tracker`] only
+    /// [`Tracker`](super::Tracker) still asks its face source if it was given one. `no`: offered faces are
+    /// dropped; the [`Follower`](super::Follower) searches the frame with its own finder, the [`Tracker`](super::Tracker) only
     /// with its face source.
     fn expect_offers(&mut self, yes: bool);
 
     /// Starts a new sequence with no face: frames are lost until one is acquired (from the
     /// faces offered, or the tracker's own finder when it uses one), and the face is then
-    /// followed. The [`Tracker`] also expects offers from then on
-    /// ([`FaceTracker::expect_offers`]); the [`Follower`] forgets the person (their neutral
+    /// followed. The [`Tracker`](super::Tracker) also expects offers from then on
+    /// ([`FaceTracker::expect_offers`]); the [`Follower`](super::Follower) forgets the person (their neutral
     /// face is estimated again).
     fn start_searching(&mut self);
 
     /// Starts a new sequence with no face, found by the tracker's own finder on each frame
-    /// until one is acquired: the [`Tracker`]'s face source (the shipped face finder when it
-    /// has none and the model has its 68 landmarks), the [`Follower`]'s finder (faces are no
+    /// until one is acquired: the [`Tracker`](super::Tracker)'s face source (the shipped face finder when it
+    /// has none and the model has its 68 landmarks), the [`Follower`](super::Follower)'s finder (faces are no
     /// longer expected from elsewhere).
     ///
-    /// Fails with [`Error::Params`] for a [`Tracker`] with no face source and a model without
+    /// Fails with [`Error::Params`](crate::Error::Params) for a [`Tracker`](super::Tracker) with no face source and a model without
     /// the finder's 68 landmarks.
     fn start_auto(&mut self) -> Result<()>;
 
     /// Starts a new sequence from the face's landmarks on the next frame (frame pixels, `2n`).
-    /// Fails with [`Error::Params`], changing nothing, for the wrong length, non-finite or
+    /// Fails with [`Error::Params`](crate::Error::Params), changing nothing, for the wrong length, non-finite or
     /// degenerate points.
     fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()>;
 
     /// Starts a new sequence from a face box on the next frame (frame pixels: left, top,
-    /// width, height). Fails with [`Error::Params`], changing nothing, for a non-finite box or
+    /// width, height). Fails with [`Error::Params`](crate::Error::Params), changing nothing, for a non-finite box or
     /// one under 4x4.
     fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()>;
 
     /// The tracking policy (resampling scale, appearance bounds, the anchor's time constant,
-    /// second opinions); the [`Follower`] uses its `recentre_tau` only.
+    /// second opinions); the [`Follower`](super::Follower) uses its `recentre_tau` only.
     fn policy(&self) -> &TrackPolicy;
 
-    /// Replaces the tracking policy; fails with [`Error::Params`], keeping the old one, when a
+    /// Replaces the tracking policy; fails with [`Error::Params`](crate::Error::Params), keeping the old one, when a
     /// value is out of range.
     fn set_policy(&mut self, policy: TrackPolicy) -> Result<()>;
 
-    /// The fit scale in use (fitted pixels per frame pixel): the [`Tracker`]'s (0 before a
-    /// sequence's first frame decides it), always 1 for the [`Follower`] (it reads the frame
+    /// The fit scale in use (fitted pixels per frame pixel): the [`Tracker`](super::Tracker)'s (0 before a
+    /// sequence's first frame decides it), always 1 for the [`Follower`](super::Follower) (it reads the frame
     /// at its own size).
     fn scale(&self) -> f32;
 
     /// The fit scale the tracker would choose for a `width x height` frame with a face
-    /// `face_height` pixels tall, `current` the scale in use (0: none): the [`Tracker`]'s rule
-    /// ([`TrackPolicy::fit_scale`]); always 1 for the [`Follower`].
+    /// `face_height` pixels tall, `current` the scale in use (0: none): the [`Tracker`](super::Tracker)'s rule
+    /// ([`TrackPolicy::fit_scale`]); always 1 for the [`Follower`](super::Follower).
     fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32;
-}
-
-/// The tracker the policy chooses ([`TrackerKind::for_source`]) for following a face with
-/// `model`, the model being `whose` face: an AAM [`Tracker`] with the default [`FitOptions`],
-/// or a landmark [`Follower`] with the default [`FollowOptions`] (and its finder's searches
-/// on: [`FaceTracker::expect_offers`] turns them off).
-///
-/// Fails as [`Tracker::new`] or [`Follower::new`] do (an invalid model; the shipped finder
-/// not loading).
-pub fn tracker_for(model: &Model, whose: Whose) -> Result<Box<dyn FaceTracker>> {
-    tracker_of_kind(model, TrackerKind::for_source(whose, model.landmarks()))
-}
-
-/// A tracker of `kind` for `model`, with the default options (see [`tracker_for`]). Fails with
-/// [`Error::Params`] for a landmark follower of a model without the finder's 68 landmarks.
-pub fn tracker_of_kind(model: &Model, kind: TrackerKind) -> Result<Box<dyn FaceTracker>> {
-    Ok(match kind {
-        TrackerKind::Aam => Box::new(Tracker::new(model, FitOptions::default())?),
-        TrackerKind::Landmarks => Box::new(Follower::new(model, FollowOptions::default())?),
-    })
-}
-
-/// The face finder as a [`Tracker`]'s face source, when the model has its 68 landmarks.
-pub(super) fn shipped_finder(landmarks: usize) -> Result<crate::find::FaceFinder> {
-    if landmarks != 68 {
-        return Err(Error::Params(format!(
-            "the tracker has no face source to start from and its model has {landmarks} \
-             landmarks, not the face finder's 68: set one first"
-        )));
-    }
-    crate::find::FaceFinder::new()
-}
-
-impl FaceTracker for Tracker {
-    fn kind(&self) -> TrackerKind {
-        TrackerKind::Aam
-    }
-    fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
-        Tracker::track(self, frame, dt)
-    }
-    fn last(&self) -> Option<&FitResult> {
-        Tracker::last(self)
-    }
-    fn sequence(&self) -> &Sequence {
-        Tracker::sequence(self)
-    }
-    fn resets(&self) -> u32 {
-        Tracker::resets(self)
-    }
-    fn rechecks(&self) -> (u32, u32) {
-        Tracker::rechecks(self)
-    }
-    fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
-        Tracker::offer_faces(self, faces)
-    }
-    fn wants_faces(&self) -> bool {
-        Tracker::wants_faces(self)
-    }
-    fn expect_offers(&mut self, yes: bool) {
-        Tracker::expect_offers(self, yes)
-    }
-    fn start_searching(&mut self) {
-        Tracker::start_searching(self)
-    }
-    fn start_auto(&mut self) -> Result<()> {
-        Tracker::start_auto(self)
-    }
-    fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
-        Tracker::start_from_landmarks(self, landmarks)
-    }
-    fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        Tracker::start_from_box(self, x, y, w, h)
-    }
-    fn policy(&self) -> &TrackPolicy {
-        Tracker::policy(self)
-    }
-    fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
-        Tracker::set_policy(self, policy)
-    }
-    fn scale(&self) -> f32 {
-        Tracker::scale(self)
-    }
-    fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
-        Tracker::fit_scale(self, face_height, width, height, current)
-    }
-}
-
-impl FaceTracker for Follower {
-    fn kind(&self) -> TrackerKind {
-        TrackerKind::Landmarks
-    }
-    fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
-        Follower::track(self, frame, dt)
-    }
-    fn last(&self) -> Option<&FitResult> {
-        Follower::last(self)
-    }
-    fn sequence(&self) -> &Sequence {
-        Follower::sequence(self)
-    }
-    fn resets(&self) -> u32 {
-        0
-    }
-    fn rechecks(&self) -> (u32, u32) {
-        (0, 0)
-    }
-    fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
-        Follower::offer_faces(self, faces)
-    }
-    fn wants_faces(&self) -> bool {
-        Follower::wants_faces(self)
-    }
-    fn expect_offers(&mut self, yes: bool) {
-        Follower::expect_offers(self, yes)
-    }
-    fn start_searching(&mut self) {
-        Follower::start_searching(self)
-    }
-    fn start_auto(&mut self) -> Result<()> {
-        Follower::start_auto(self)
-    }
-    fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
-        Follower::start_from_landmarks(self, landmarks)
-    }
-    fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        Follower::start_from_box(self, x, y, w, h)
-    }
-    fn policy(&self) -> &TrackPolicy {
-        Follower::policy(self)
-    }
-    fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
-        Follower::set_policy(self, policy)
-    }
-    fn scale(&self) -> f32 {
-        1.0
-    }
-    fn fit_scale(&self, _face_height: f32, _width: u32, _height: u32, _current: f32) -> f32 {
-        1.0
-    }
 }

@@ -10,8 +10,10 @@ use crate::image::ImageRef;
 use crate::model::limits::{check_face_box, check_landmarks_len};
 use crate::model::Model;
 use crate::similarity::Similarity;
+use crate::summary::summary;
 
 use super::anchor::Sequence;
+use super::face_tracker::{FaceTracker, TrackerKind};
 use super::{FitResult, TrackPolicy};
 
 /// Tuning of a [`Follower`]. The defaults were chosen on webcam-dev frames 0-599 and measured
@@ -122,13 +124,13 @@ impl FollowOptions {
 /// coordinates) and the source model's shape basis (`s0`, its orthonormal modes and their
 /// standard deviations).
 ///
-/// Each frame ([`Follower::track`]):
+/// Each frame ([`Follower::track`](crate::fit::FaceTracker::track)):
 /// 1. **Landmarks.** While a face is followed, the finder's mesh runs near it: one pass on the
 ///    region of the last frame's mesh ([`FaceFinder::follow_into`]), or two from the box of
 ///    its last points after a search ([`FaceFinder::scored_landmarks_into`]). If the mesh
 ///    says the region holds no face ([`FollowOptions::min_face_score`]), or no face is
 ///    followed yet, the finder searches the whole frame (or the faces offered by
-///    [`Follower::offer_faces`] are used) and the face nearest the last one is taken. No face:
+///    [`Follower::offer_faces`](crate::fit::FaceTracker::offer_faces) are used) and the face nearest the last one is taken. No face:
 ///    the frame is lost.
 /// 2. **Expression.** The pose `P` is the least-squares similarity from the neutral shape `n`
 ///    onto the smoothed points, and the frame's shape in model coordinates is
@@ -194,7 +196,7 @@ pub struct Follower {
     offered: Option<Vec<Vec<f32>>>,
     /// Whether a search runs the finder on the frame (else it waits for offered faces).
     search: bool,
-    /// A box to look in on the next frame ([`Follower::start_from_box`]).
+    /// A box to look in on the next frame ([`Follower::start_from_box`](crate::fit::FaceTracker::start_from_box)).
     start_box: Option<BBox>,
     /// The last frame's points came from the finder's mesh near the last face (not from a
     /// search), so the next frame can follow that mesh (`FaceFinder::follow_into`).
@@ -207,15 +209,164 @@ pub struct Follower {
     seq: Sequence,
 }
 
+impl FaceTracker for Follower {
+    fn kind(&self) -> TrackerKind {
+        TrackerKind::Landmarks
+    }
+
+    /// Always 0: the follower does not refit.
+    fn resets(&self) -> u32 {
+        0
+    }
+
+    /// Always `(0, 0)`: its landmarks come from the finder every frame.
+    fn rechecks(&self) -> (u32, u32) {
+        (0, 0)
+    }
+
+    /// Always 1: it reads the frame at its own size.
+    fn scale(&self) -> f32 {
+        1.0
+    }
+
+    /// Always 1 (see [`FaceTracker::scale`]).
+    fn fit_scale(&self, _face_height: f32, _width: u32, _height: u32, _current: f32) -> f32 {
+        1.0
+    }
+
+    /// Follows the face in the next frame, `dt` seconds after the previous one (the One-Euro
+    /// filter's step; `1/25` for a 25 fps clip).
+    ///
+    /// Fails with [`Error::Params`] when `dt` is not a finite non-negative number (0 restarts
+    /// the smoothing: a frame at the same instant); otherwise the result (see the type's
+    /// documentation) has `lost = true` when no face was found.
+    /// [`super::FaceTracker::track`].
+    fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(Error::Params(format!(
+                "the time step is {dt} s: a finite non-negative number is needed"
+            )));
+        }
+        self.step(frame, dt)?;
+        let r = &self.result;
+        let pose = (!r.lost).then_some(r.params.pose);
+        let reacquired = !r.lost && r.reacquired;
+        self.seq
+            .frame(pose.as_ref(), dt, self.policy.recentre_tau, reacquired);
+        Ok(&self.result)
+    }
+
+    /// The last frame's result, `None` before the follower's first frame.
+    fn last(&self) -> Option<&FitResult> {
+        (self.seq.frames() > 0).then_some(&self.result)
+    }
+
+    /// The sequence's counters and pose anchor, as [`Tracker::sequence`](crate::fit::FaceTracker::sequence):
+    /// [`Sequence::placed`] is the last face's pose re-centred on the model's mean pose.
+    fn sequence(&self) -> &Sequence {
+        &self.seq
+    }
+
+    /// Faces found elsewhere (68 landmarks each, image coordinates, most confident first):
+    /// the next search takes the one nearest the last face instead of running the finder.
+    /// Fails with [`Error::Params`] (keeping none) when a face has another length or a
+    /// non-finite point.
+    fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
+        for f in &faces {
+            check_landmarks_len("offered face landmarks", f, 136)?;
+        }
+        self.offered = Some(faces);
+        Ok(())
+    }
+
+    /// Whether the follower is searching for a face and has none offered: the moment to run a
+    /// finder on a frame and [`Follower::offer_faces`](crate::fit::FaceTracker::offer_faces).
+    fn wants_faces(&self) -> bool {
+        !self.following && self.offered.is_none() && self.start_box.is_none()
+    }
+
+    /// Whether faces will be offered from elsewhere ([`Follower::offer_faces`](crate::fit::FaceTracker::offer_faces): a finder on
+    /// another thread): then a search only uses them (until they come, frames are lost);
+    /// else (the default) a search runs the follower's own finder on the whole frame and the
+    /// faces offered are dropped. [`super::FaceTracker::expect_offers`].
+    fn expect_offers(&mut self, yes: bool) {
+        self.search = !yes;
+        if !yes {
+            self.offered = None;
+        }
+    }
+
+    /// Starts a new sequence with no face: forgets the person; the next frame searches for a
+    /// face (the faces offered, or its finder: [`Follower::expect_offers`](crate::fit::FaceTracker::expect_offers)), and the neutral
+    /// shape is estimated again from the first frames.
+    fn start_searching(&mut self) {
+        self.following = false;
+        self.meshed = false;
+        self.seen = false;
+        self.neutral_frames = 0;
+        self.offered = None;
+        self.start_box = None;
+        self.result.lost = true;
+        self.seq.restart();
+    }
+
+    /// Starts a new sequence with no face, found by the follower's own finder on the whole
+    /// frame: [`Follower::start_searching`](crate::fit::FaceTracker::start_searching) with offers no longer expected
+    /// ([`Follower::expect_offers`](crate::fit::FaceTracker::expect_offers)). Never fails (the trait's signature).
+    fn start_auto(&mut self) -> Result<()> {
+        self.expect_offers(false);
+        self.start_searching();
+        Ok(())
+    }
+
+    /// Starts a new person from their face's 68 landmarks on the next frame (image
+    /// coordinates): [`Follower::start_searching`](crate::fit::FaceTracker::start_searching), then the landmarks offered as the face. Fails with
+    /// [`Error::Params`] (changing nothing) for another length or non-finite values.
+    fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
+        check_landmarks_len("landmarks", landmarks, 136)?;
+        self.start_searching();
+        self.offered = Some(vec![landmarks.to_vec()]);
+        Ok(())
+    }
+
+    /// Starts a new person from a face box on the next frame (image coordinates: left, top,
+    /// width, height): [`Follower::start_searching`](crate::fit::FaceTracker::start_searching), then the mesh in the box; if it holds no face,
+    /// the frame is searched as usual. Fails with [`Error::Params`] for a
+    /// non-finite box or one under 4x4.
+    fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
+        check_face_box(x, y, w, h)?;
+        self.start_searching();
+        self.start_box = Some(BBox {
+            x,
+            y,
+            width: w,
+            height: h,
+        });
+        Ok(())
+    }
+
+    /// The policy (the pose anchor's `recentre_tau`).
+    fn policy(&self) -> &TrackPolicy {
+        &self.policy
+    }
+
+    /// Replaces the resampling policy; fails with [`Error::Params`] (keeping the old one) when
+    /// a value is out of range.
+    fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
+        self.policy.replace(policy)
+    }
+}
+
 impl std::fmt::Debug for Follower {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        crate::summary::summary(
+        let (o, following, frames) = (&self.options, self.following, self.seq.frames());
+        summary(
             f,
             "Follower",
             &[
-                ("options", &self.options),
-                ("following", &self.following),
-                ("frames", &self.seq.frames()),
+                ("options", o),
+                ("following", &following),
+                ("frames", &frames),
             ],
         )
     }
@@ -297,118 +448,7 @@ impl Follower {
         Ok(())
     }
 
-    /// Whether faces will be offered from elsewhere ([`Follower::offer_faces`]: a finder on
-    /// another thread): then a search only uses them (until they come, frames are lost);
-    /// else (the default) a search runs the follower's own finder on the whole frame and the
-    /// faces offered are dropped. [`super::FaceTracker::expect_offers`].
-    pub fn expect_offers(&mut self, yes: bool) {
-        self.search = !yes;
-        if !yes {
-            self.offered = None;
-        }
-    }
-
-    /// Whether the follower is searching for a face and has none offered: the moment to run a
-    /// finder on a frame and [`Follower::offer_faces`].
-    pub fn wants_faces(&self) -> bool {
-        !self.following && self.offered.is_none() && self.start_box.is_none()
-    }
-
-    /// Faces found elsewhere (68 landmarks each, image coordinates, most confident first):
-    /// the next search takes the one nearest the last face instead of running the finder.
-    /// Fails with [`Error::Params`] (keeping none) when a face has another length or a
-    /// non-finite point.
-    pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
-        for f in &faces {
-            check_landmarks_len("offered face landmarks", f, 136)?;
-        }
-        self.offered = Some(faces);
-        Ok(())
-    }
-
-    /// Starts a new sequence with no face: forgets the person; the next frame searches for a
-    /// face (the faces offered, or its finder: [`Follower::expect_offers`]), and the neutral
-    /// shape is estimated again from the first frames.
-    pub fn start_searching(&mut self) {
-        self.following = false;
-        self.meshed = false;
-        self.seen = false;
-        self.neutral_frames = 0;
-        self.offered = None;
-        self.start_box = None;
-        self.result.lost = true;
-        self.seq.restart();
-    }
-
-    /// Starts a new person from their face's 68 landmarks on the next frame (image
-    /// coordinates): [`Follower::start_searching`], then the landmarks offered as the face. Fails with
-    /// [`Error::Params`] (changing nothing) for another length or non-finite values.
-    pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
-        check_landmarks_len("landmarks", landmarks, 136)?;
-        self.start_searching();
-        self.offered = Some(vec![landmarks.to_vec()]);
-        Ok(())
-    }
-
-    /// Starts a new person from a face box on the next frame (image coordinates: left, top,
-    /// width, height): [`Follower::start_searching`], then the mesh in the box; if it holds no face,
-    /// the frame is searched as usual. Fails with [`Error::Params`] for a
-    /// non-finite box or one under 4x4.
-    pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        check_face_box(x, y, w, h)?;
-        self.start_searching();
-        self.start_box = Some(BBox {
-            x,
-            y,
-            width: w,
-            height: h,
-        });
-        Ok(())
-    }
-
-    /// Starts a new sequence with no face, found by the follower's own finder on the whole
-    /// frame: [`Follower::start_searching`] with offers no longer expected
-    /// ([`Follower::expect_offers`]). Never fails (the trait's signature).
-    pub fn start_auto(&mut self) -> Result<()> {
-        self.expect_offers(false);
-        self.start_searching();
-        Ok(())
-    }
-
-    /// The policy (the pose anchor's `recentre_tau`).
-    pub fn policy(&self) -> &TrackPolicy {
-        &self.policy
-    }
-
-    /// Replaces the resampling policy; fails with [`Error::Params`] (keeping the old one) when
-    /// a value is out of range.
-    pub fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
-        self.policy.replace(policy)
-    }
-
-    /// Follows the face in the next frame, `dt` seconds after the previous one (the One-Euro
-    /// filter's step; `1/25` for a 25 fps clip).
-    ///
-    /// Fails with [`Error::Params`] when `dt` is not a finite non-negative number (0 restarts
-    /// the smoothing: a frame at the same instant); otherwise the result (see the type's
-    /// documentation) has `lost = true` when no face was found.
-    /// [`super::FaceTracker::track`].
-    pub fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
-        if !(dt.is_finite() && dt >= 0.0) {
-            return Err(Error::Params(format!(
-                "the time step is {dt} s: a finite non-negative number is needed"
-            )));
-        }
-        self.step(frame, dt)?;
-        let r = &self.result;
-        let pose = (!r.lost).then_some(r.params.pose);
-        let reacquired = !r.lost && r.reacquired;
-        self.seq
-            .frame(pose.as_ref(), dt, self.policy.recentre_tau, reacquired);
-        Ok(&self.result)
-    }
-
-    /// One frame of [`Follower::track`] into `self.result` (the counters left to it).
+    /// One frame of [`Follower::track`](crate::fit::FaceTracker::track) into `self.result` (the counters left to it).
     fn step(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<()> {
         let mut passes = 0u32;
         // The frame's `FitResult::error`: the mesh's doubt that the region holds a face.
@@ -458,7 +498,7 @@ impl Follower {
     }
 
     /// Searches a lost or new face (the faces offered, else the finder on the whole frame when
-    /// [`Follower::expect_offers`] allows): the one nearest the last face, inside the frame, into
+    /// [`Follower::expect_offers`](crate::fit::FaceTracker::expect_offers) allows): the one nearest the last face, inside the frame, into
     /// `self.points`. Returns whether there was one.
     fn search_face(&mut self, frame: &ImageRef<'_>) -> bool {
         let faces = match self.offered.take() {
@@ -592,21 +632,10 @@ impl Follower {
         Ok(())
     }
 
-    /// The last frame's result, `None` before the follower's first frame.
-    pub fn last(&self) -> Option<&FitResult> {
-        (self.seq.frames() > 0).then_some(&self.result)
-    }
-
     /// The person's neutral shape as estimated so far (model coordinates, aligned to the
     /// model's `s0`); `None` before the first face.
     pub fn neutral(&self) -> Option<&[f32]> {
         self.seen.then_some(&self.neutral[..])
-    }
-
-    /// The sequence's counters and pose anchor, as [`crate::fit::Tracker::sequence`]:
-    /// [`Sequence::placed`] is the last face's pose re-centred on the model's mean pose.
-    pub fn sequence(&self) -> &Sequence {
-        &self.seq
     }
 }
 

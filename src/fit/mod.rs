@@ -26,6 +26,7 @@ mod geometry;
 mod grey;
 mod linalg;
 mod options;
+mod policy;
 mod precompute;
 mod resample;
 mod tracker;
@@ -39,12 +40,13 @@ use crate::model::Params;
 
 pub use anchor::{PoseAnchor, Sequence};
 pub use driver::Fitter;
-pub use face_tracker::{tracker_for, tracker_of_kind, FaceTracker, TrackerKind, Whose, WORK_SIDE};
+pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
 pub use follow::{
     close_mouth, expression_params, mouth_opening, neutral_update, split_head_turn, FollowOptions,
     Follower,
 };
 pub use options::{FitOptions, LevelSpec, TrackPolicy};
+pub use policy::{tracker_for, tracker_of_kind};
 pub use tracker::{FaceSource, Tracker, DEFAULT_TIME_STEP, MIN_CONTRAST};
 
 /// The result of one fit.
@@ -66,7 +68,7 @@ pub struct FitResult {
     /// one (the tracker re-initialised from it).
     pub lost: bool,
     /// Set by the [`Tracker`]: this frame's face was (re-)acquired from its [`FaceSource`]
-    /// (the first face of [`Tracker::start_auto`], or a face found again after a loss).
+    /// (the first face of [`Tracker::start_auto`](crate::fit::FaceTracker::start_auto), or a face found again after a loss).
     #[serde(default)]
     pub reacquired: bool,
 }

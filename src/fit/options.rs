@@ -204,16 +204,16 @@ pub struct TrackPolicy {
     /// projection paints noise on the face it drives; the faces a model was built for stay well
     /// inside. 0 disables the clamp.
     pub appearance_limit: f32,
-    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): the resampled frame's longer side is at most this (pixels).
+    /// [`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale): the resampled frame's longer side is at most this (pixels).
     pub max_fit_side: u32,
-    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): ...and at least this (pixels).
+    /// [`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale): ...and at least this (pixels).
     pub min_fit_side: u32,
-    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): a frame is enlarged at most this much.
+    /// [`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale): a frame is enlarged at most this much.
     pub max_upscale: f32,
-    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): a face whose size is within `1/native_band..native_band` of the
+    /// [`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale): a face whose size is within `1/native_band..native_band` of the
     /// model's is fitted at the frame's own resolution (no resampling).
     pub native_band: f32,
-    /// [`Tracker::fit_scale`](crate::fit::Tracker::fit_scale): while tracking, the scale changes only when the wanted one
+    /// [`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale): while tracking, the scale changes only when the wanted one
     /// differs from the current one by more than this fraction (a face moving to or from the
     /// camera), so the resampling does not flicker between nearby scales.
     pub rescale_change: f32,
@@ -225,7 +225,7 @@ pub struct TrackPolicy {
     pub recentre_tau: f32,
     /// While a face is tracked, every this many frames the tracker takes a second opinion:
     /// the faces found in the frame (its [`FaceSource`](crate::fit::FaceSource), or faces
-    /// offered: [`Tracker::wants_faces`](crate::fit::Tracker::wants_faces) turns true), a cold
+    /// offered: [`Tracker::wants_faces`](crate::fit::FaceTracker::wants_faces) turns true), a cold
     /// fit from the one nearest the tracked face, kept when its residual is lower. A tracked
     /// fit can be led into a wrong minimum by frames before it (a hand under the chin read as
     /// an open mouth) and stay there with a plausible shape and residual; a fit from the
@@ -260,7 +260,7 @@ impl TrackPolicy {
 
     /// The scale by which to resample a `width x height` frame before following a face
     /// `face_height` pixels tall in it, for a model whose mean face is `model_face_height`
-    /// pixels tall: [`crate::fit::Tracker::fit_scale`] (which gives the rule).
+    /// pixels tall: [`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale) (which gives the rule).
     pub fn fit_scale(
         &self,
         model_face_height: f32,

@@ -7,12 +7,14 @@ use crate::image::ImageRef;
 use crate::model::limits::{check_face_box, check_landmarks_len};
 use crate::model::Model;
 use crate::similarity::Similarity;
+use crate::summary::summary;
 
 use super::anchor::Sequence;
+use super::face_tracker::{FaceTracker, TrackerKind};
 use super::resample::{from_scaled, pose_from_scaled, to_scaled, Resampler};
 use super::{FitOptions, FitResult, Fitter, TrackPolicy};
 
-/// The time step of 30 frames a second (seconds): what a front end gives [`Tracker::track`]
+/// The time step of 30 frames a second (seconds): what a front end gives [`Tracker::track`](crate::fit::FaceTracker::track)
 /// when it knows no better.
 pub const DEFAULT_TIME_STEP: f32 = 1.0 / 30.0;
 
@@ -48,8 +50,8 @@ impl FaceSource for crate::find::FaceFinder {
 
 /// Follows one face through video frames with a [`Fitter`].
 ///
-/// Start a sequence with [`Tracker::start_from_landmarks`] or [`Tracker::start_from_box`], then
-/// call [`Tracker::track`] once per frame. A fit is judged lost when its error exceeds
+/// Start a sequence with [`Tracker::start_from_landmarks`](crate::fit::FaceTracker::start_from_landmarks) or [`Tracker::start_from_box`](crate::fit::FaceTracker::start_from_box), then
+/// call [`Tracker::track`](crate::fit::FaceTracker::track) once per frame. A fit is judged lost when its error exceeds
 /// [`FitOptions::max_error`], the shape parameters' RMS in standard deviations
 /// (`sqrt(mean (p_i / sigma_i)^2)`) exceeds [`FitOptions::max_sigmas`], the scale jumps by more than [`FitOptions::max_scale_jump`] or the rotation by
 /// more than 0.5 rad from the last good fit, the image contrast under the mesh is implausible
@@ -61,9 +63,9 @@ impl FaceSource for crate::find::FaceFinder {
 /// too, the frame is lost: its result has `lost = true` and carries the last good fit (not a
 /// face on this frame); without a source the next frame starts from the last good fit again,
 /// with one it asks the source again on every frame until a face is found and fits
-/// (`reacquired = true` on that frame). [`Tracker::start_auto`] starts a sequence that way,
+/// (`reacquired = true` on that frame). [`Tracker::start_auto`](crate::fit::FaceTracker::start_auto) starts a sequence that way,
 /// from no landmarks at all. With faces offered from elsewhere instead
-/// ([`Tracker::expect_offers`]), a lost face is searched for with the faces offered; until
+/// ([`Tracker::expect_offers`](crate::fit::FaceTracker::expect_offers)), a lost face is searched for with the faces offered; until
 /// they come, each frame gets only the ordinary fit from the last good fit (no retry).
 ///
 /// **Second opinions.** A fit judged good can still be in a wrong minimum the frames before led
@@ -71,20 +73,20 @@ impl FaceSource for crate::find::FaceFinder {
 /// the checks) and stay there. With a source or faces offered, every
 /// [`TrackPolicy::recheck_frames`] good frames the tracker fits the frame again from the face
 /// found nearest the tracked one (a cold fit) and keeps whichever fits lower
-/// ([`Tracker::rechecks`] counts them).
+/// ([`Tracker::rechecks`](crate::fit::FaceTracker::rechecks) counts them).
 ///
 /// **One pixel convention.** Frames come in at their own size, and everything going in and
 /// out (start landmarks and boxes, offered faces, what a [`FaceSource`] finds, the results'
 /// landmarks and poses) is in that frame's pixels. The tracker decides at what scale it fits
-/// ([`Tracker::fit_scale`], under the [`TrackPolicy`]: a large face is fitted in a smaller copy
+/// ([`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale), under the [`TrackPolicy`]: a large face is fitted in a smaller copy
 /// of the frame, at about the size the model was built at): the scale is chosen on the first
 /// frame of a sequence from the start landmarks, on an acquisition from the face acquired, and
 /// after every good fit from the face's size (a face moving to or from the camera), and the
-/// tracker resamples the frame itself (a triangle filter, [`Tracker::scale`]) with pixel
+/// tracker resamples the frame itself (a triangle filter, [`Tracker::scale`](crate::fit::FaceTracker::scale)) with pixel
 /// centres on integers, so a frame point `v` is `(v + 0.5) k - 0.5` in the fitted copy.
 ///
 /// **The placement.** Each good fit's pose also moves the sequence's pose anchor
-/// ([`Sequence`], [`Tracker::sequence`]), and [`Sequence::placed`] is the pose re-centred on
+/// ([`Sequence`], [`Tracker::sequence`](crate::fit::FaceTracker::sequence)), and [`Sequence::placed`] is the pose re-centred on
 /// the model's mean pose: what the page draws the driven face with.
 pub struct Tracker {
     fitter: Fitter,
@@ -122,11 +124,11 @@ pub struct Tracker {
     /// The model's appearance standard deviations (for [`TrackPolicy::appearance_limit`]).
     appearance_sigmas: Vec<f32>,
     /// Height (pixels) of the model's mean face at its mean pose: the face size the model was
-    /// built at (for [`Tracker::fit_scale`]).
+    /// built at (for [`Tracker::fit_scale`](crate::fit::FaceTracker::fit_scale)).
     model_face_height: f32,
-    /// Faces offered by [`Tracker::offer_faces`], used by the next acquisition.
+    /// Faces offered by [`Tracker::offer_faces`](crate::fit::FaceTracker::offer_faces), used by the next acquisition.
     offered: Option<Vec<Vec<f32>>>,
-    /// True when faces are offered from elsewhere ([`Tracker::expect_offers`]): a lost face
+    /// True when faces are offered from elsewhere ([`Tracker::expect_offers`](crate::fit::FaceTracker::expect_offers)): a lost face
     /// is searched for (offered faces are used) even without a source.
     offers: bool,
     /// Good frames tracked since the last second opinion ([`TrackPolicy::recheck_frames`]).
@@ -183,132 +185,15 @@ impl Tracker {
         })
     }
 
-    /// The tracking policy (resampling scale, appearance bounds).
-    pub fn policy(&self) -> &TrackPolicy {
-        &self.policy
-    }
-
-    /// Replaces the tracking policy; fails with [`Error::Params`] (and keeps the old one) when
-    /// a value is out of range.
-    pub fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
-        self.policy.replace(policy)
-    }
-
-    /// The scale at which the tracker fits a `width x height` frame with a face
-    /// `face_height` pixels tall in it (resampled pixels per frame pixel; the tracker asks it
-    /// itself, [`Tracker::scale`] is the one in use), under the
-    /// [`TrackPolicy`]: the fit's cost grows with the face's size in pixels (a face twice the
-    /// model's size costs about 3 times more), so the face is brought to about the size the
-    /// model was built at; a face within [`TrackPolicy::native_band`] of it is fitted at the
-    /// frame's own resolution, the resampled frame's longer side stays within
-    /// `min_fit_side..=max_fit_side`, and it is enlarged at most [`TrackPolicy::max_upscale`]
-    /// times. `current` is the scale in use (0 when there is none): it is kept unless the
-    /// wanted scale differs from it by more than [`TrackPolicy::rescale_change`]. A
-    /// non-finite or non-positive size gives `current` (or 1).
-    pub fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
-        self.policy
-            .fit_scale(self.model_face_height, face_height, width, height, current)
-    }
-
-    /// Faces found elsewhere (a face finder on another thread, on a recent frame): landmarks in
-    /// frame pixels, `2n` values each, most confident first. The next acquisition (the
-    /// start of [`Tracker::start_searching`], or a lost face) fits from the one nearest the
-    /// last good position instead of asking the source; offered while a face is tracked, they
-    /// give the next frame's second opinion ([`TrackPolicy::recheck_frames`]). They are used
-    /// once. Fails with
-    /// [`Error::Params`] (keeping none) when a face has the wrong length or non-finite points.
-    pub fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
-        for f in &faces {
-            check_landmarks_len("offered face landmarks", f, self.start.len())?;
-        }
-        self.offered = Some(faces);
-        Ok(())
-    }
-
-    /// Whether the tracker is looking for a face (a sequence started with no landmarks, or a
-    /// lost face) or a second opinion on the tracked face is due
-    /// ([`TrackPolicy::recheck_frames`]), faces are expected from elsewhere
-    /// ([`Tracker::expect_offers`]) and none are left to try: the moment to run a finder on a
-    /// frame and [`Tracker::offer_faces`].
-    pub fn wants_faces(&self) -> bool {
-        self.started
-            && self.offers
-            && self.offered.is_none()
-            && (self.searching || self.recheck_due())
-    }
-
     /// Whether the next tracked frame takes a second opinion ([`TrackPolicy::recheck_frames`]).
     fn recheck_due(&self) -> bool {
         let every = self.policy.recheck_frames;
         every > 0 && self.last_good.is_some() && !self.was_lost && self.since_check >= every
     }
 
-    /// Second opinions taken while tracking ([`TrackPolicy::recheck_frames`]), and how many
-    /// of them were kept (fitted lower than the tracked fit).
-    pub fn rechecks(&self) -> (u32, u32) {
-        self.rechecks
-    }
-
-    /// Starts a new sequence with no landmarks, with faces offered from elsewhere
-    /// ([`Tracker::offer_faces`], e.g. a finder running on another thread) and, if the tracker
-    /// has one, from its source. Frames are reported lost until a face is acquired; from then
-    /// on a lost face is first refitted from the last good fit, and acquired again from the
-    /// next faces offered.
-    pub fn start_searching(&mut self) {
-        self.begin(false);
-        self.offers = true;
-        self.searching = true;
-    }
-
-    /// Whether faces will be offered from elsewhere ([`Tracker::offer_faces`]): then a lost
-    /// face is searched for ([`Tracker::wants_faces`] turns true) even without a source, in
-    /// every sequence however it was started. Off by default; [`Tracker::start_searching`]
-    /// turns it on.
-    pub fn expect_offers(&mut self, yes: bool) {
-        self.offers = yes;
-        if !yes {
-            self.offered = None;
-        }
-    }
-
     /// The fitter (for its sizes and options).
     pub fn fitter(&self) -> &Fitter {
         &self.fitter
-    }
-
-    /// Starts a new sequence from landmarks on the next frame (frame pixels, `2n`); the fit
-    /// scale is chosen on that frame for their size.
-    pub fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
-        check_landmarks_len("landmarks", landmarks, self.start.len())?;
-        let pose = Similarity::align(&self.fitter.geom.s0, landmarks);
-        if !(pose.is_valid() && pose.scale() > 1e-4) {
-            return Err(Error::Params(
-                "landmarks are degenerate (all points coincide)".into(),
-            ));
-        }
-        self.start.copy_from_slice(landmarks);
-        self.begin(false);
-        Ok(())
-    }
-
-    /// Starts a new sequence from a face box (frame pixels: left, top, width, height):
-    /// the base shape is scaled to the box's width and centred in it.
-    pub fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
-        check_face_box(x, y, w, h)?;
-        let s0 = &self.fitter.geom.s0;
-        let b = crate::geometry::BBox::of_points(s0);
-        let (minx, miny, maxx, maxy) = (b.x, b.y, b.right(), b.bottom());
-        let scale = (w / (maxx - minx).max(1e-6)).min(h / (maxy - miny).max(1e-6));
-        let (cx, cy) = (0.5 * (minx + maxx), 0.5 * (miny + maxy));
-        let pose = Similarity {
-            a: scale,
-            b: 0.0,
-            tx: x + 0.5 * w - scale * cx,
-            ty: y + 0.5 * h - scale * cy,
-        };
-        pose.apply(s0, &mut self.start);
-        self.begin(true);
-        Ok(())
     }
 
     fn begin(&mut self, cold: bool) {
@@ -326,7 +211,7 @@ impl Tracker {
     }
 
     /// Gives the tracker a source of faces (a face finder): it is asked when a face is lost
-    /// and by [`Tracker::start_auto`]. Replaces any previous source.
+    /// and by [`Tracker::start_auto`](crate::fit::FaceTracker::start_auto). Replaces any previous source.
     pub fn set_face_source(&mut self, source: Box<dyn FaceSource>) {
         self.source = Some(source);
     }
@@ -334,20 +219,6 @@ impl Tracker {
     /// Whether the tracker has a face source.
     pub fn has_face_source(&self) -> bool {
         self.source.is_some()
-    }
-
-    /// Starts a new sequence with no landmarks: each frame asks the face source until a face
-    /// is found and fits; until then frames are reported lost. Without a source
-    /// ([`Tracker::set_face_source`]) the shipped face finder becomes it for a 68-landmark
-    /// model; fails with [`Error::Params`] for another model without one.
-    pub fn start_auto(&mut self) -> Result<()> {
-        if self.source.is_none() {
-            let finder = super::face_tracker::shipped_finder(self.fitter.landmarks())?;
-            self.source = Some(Box::new(finder));
-        }
-        self.begin(false);
-        self.searching = true;
-        Ok(())
     }
 
     /// Asks the source for the faces in `frame` (or takes the faces offered) and fits from the
@@ -475,99 +346,6 @@ impl Tracker {
         Ok(())
     }
 
-    /// Fits the next frame, `dt` seconds after the previous one (the pose anchor's time step;
-    /// [`DEFAULT_TIME_STEP`] for 30 frames a second), starting from the previous result (or
-    /// the sequence's start): [`super::FaceTracker::track`]. The frame comes at its own size:
-    /// the tracker fits a resampled copy when the face is far from the model's size, and the
-    /// result's landmarks and pose are in the frame's pixels (see the type's documentation).
-    ///
-    /// Fails with [`Error::Params`] if no sequence was started or `dt` is not a finite
-    /// non-negative number. The result's `lost` flag says whether the face was lost on this
-    /// frame (then the result is the last good fit).
-    pub fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
-        if !self.started {
-            return Err(Error::Params(
-                "the tracker has no start: call start_from_landmarks or start_from_box".into(),
-            ));
-        }
-        if !(dt.is_finite() && dt >= 0.0) {
-            return Err(Error::Params(format!(
-                "the time step is {dt} s: a finite non-negative number is needed"
-            )));
-        }
-        self.frame_size = (frame.width() as f32, frame.height() as f32);
-        let mut reacquired = false;
-        // Without a source, a search with nothing offered yet refits from the last good fit
-        // (when there is one), as a tracker without a source does.
-        let can_acquire = self.source.is_some() || self.offered.is_some();
-        let ok = if self.searching && (can_acquire || self.last_good.is_none()) {
-            reacquired = self.acquire(frame)?;
-            reacquired
-        } else {
-            let cold_iters = self.cold_iters();
-            let opts = self.fitter.options();
-            let (coarse, tracking) = (opts.coarse_starts, opts.tracking_starts);
-            let first = if self.cold { Some(cold_iters) } else { None };
-            let starts = if first.is_some() { coarse } else { tracking };
-            self.fit(frame, From::Start, first, starts)?;
-            let mut ok = self.plausible(&self.fitted, true);
-            // Searching here means the face was lost on an earlier frame and the faces to
-            // acquire it from are awaited from elsewhere (`offer_faces`: a finder on another
-            // thread; no source, nothing offered yet). Then the ordinary fit from the last good
-            // fit above is all a frame costs: it catches the face coming back where it was, and
-            // the harder retry is left to the offered faces (else every lost frame of the
-            // search would cost a few tracked ones).
-            let awaiting_offers = self.searching;
-            if !ok && self.last_good.is_some() && !awaiting_offers {
-                self.resets += 1;
-                // Retry from the last good fit, working harder (more appearance-aware steps).
-                self.fit(frame, From::LastGood, Some(cold_iters), coarse)?;
-                ok = self.plausible(&self.fitted, true);
-            }
-            if !ok && (self.source.is_some() || self.offered.is_some()) {
-                reacquired = self.acquire(frame)?;
-                ok = reacquired;
-            } else if ok && !awaiting_offers {
-                self.second_opinion(frame)?;
-            }
-            ok
-        };
-        let tau = self.policy.recentre_tau;
-        if ok {
-            self.since_check = self.since_check.saturating_add(1);
-            self.cold = false;
-            self.searching = false;
-            let mut r = std::mem::replace(&mut self.fitted, empty_result());
-            self.bound_appearance(&mut r);
-            // A face found again after lost frames (or the first face of an auto start).
-            r.reacquired = reacquired && (self.was_lost || self.last_good.is_none());
-            r.lost = false;
-            // A slow running mean, restarted by a (re-)acquisition.
-            self.typical_error = if self.typical_error > 0.0 && !r.reacquired {
-                0.95 * self.typical_error + 0.05 * r.error
-            } else {
-                r.error
-            };
-            self.seq.frame(Some(&r.params.pose), dt, tau, r.reacquired);
-            store(&mut self.last_good, &r);
-            self.start.copy_from_slice(&r.landmarks);
-            // The face grew or shrank a lot (moving to or from the camera): the next frame is
-            // fitted at a new scale.
-            self.k = self.fit_scale(
-                extent(&r.landmarks).1,
-                frame.width(),
-                frame.height(),
-                self.k,
-            );
-            store(&mut self.last, &r);
-            self.fitted = r;
-        } else {
-            self.lost_frame(dt, tau);
-        }
-        self.was_lost = !ok;
-        Ok(self.last.as_ref().expect("just set"))
-    }
-
     /// A lost frame, `dt` seconds after the previous one: counted, searched for from the next
     /// frame when faces can come, and reported as the last good fit (or the failed attempt).
     fn lost_frame(&mut self, dt: f32, tau: f32) {
@@ -662,38 +440,268 @@ impl Tracker {
         true
     }
 
-    /// The last frame's result.
-    pub fn last(&self) -> Option<&FitResult> {
-        self.last.as_ref()
-    }
-
     /// The last fit judged good.
     pub fn last_good(&self) -> Option<&FitResult> {
         self.last_good.as_ref()
     }
+}
 
-    /// Re-initialisations: frames whose fit was judged implausible, so that the tracker
-    /// re-initialised from the last good result and fitted again.
-    pub fn resets(&self) -> u32 {
-        self.resets
+impl FaceTracker for Tracker {
+    fn kind(&self) -> TrackerKind {
+        TrackerKind::Aam
+    }
+
+    /// Fits the next frame, `dt` seconds after the previous one (the pose anchor's time step;
+    /// [`DEFAULT_TIME_STEP`] for 30 frames a second), starting from the previous result (or
+    /// the sequence's start): [`super::FaceTracker::track`]. The frame comes at its own size:
+    /// the tracker fits a resampled copy when the face is far from the model's size, and the
+    /// result's landmarks and pose are in the frame's pixels (see the type's documentation).
+    ///
+    /// Fails with [`Error::Params`] if no sequence was started or `dt` is not a finite
+    /// non-negative number. The result's `lost` flag says whether the face was lost on this
+    /// frame (then the result is the last good fit).
+    fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult> {
+        if !self.started {
+            return Err(Error::Params(
+                "the tracker has no start: call start_from_landmarks or start_from_box".into(),
+            ));
+        }
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(Error::Params(format!(
+                "the time step is {dt} s: a finite non-negative number is needed"
+            )));
+        }
+        self.frame_size = (frame.width() as f32, frame.height() as f32);
+        let mut reacquired = false;
+        // Without a source, a search with nothing offered yet refits from the last good fit
+        // (when there is one), as a tracker without a source does.
+        let can_acquire = self.source.is_some() || self.offered.is_some();
+        let ok = if self.searching && (can_acquire || self.last_good.is_none()) {
+            reacquired = self.acquire(frame)?;
+            reacquired
+        } else {
+            let cold_iters = self.cold_iters();
+            let opts = self.fitter.options();
+            let (coarse, tracking) = (opts.coarse_starts, opts.tracking_starts);
+            let first = if self.cold { Some(cold_iters) } else { None };
+            let starts = if first.is_some() { coarse } else { tracking };
+            self.fit(frame, From::Start, first, starts)?;
+            let mut ok = self.plausible(&self.fitted, true);
+            // Searching here means the face was lost on an earlier frame and the faces to
+            // acquire it from are awaited from elsewhere (`offer_faces`: a finder on another
+            // thread; no source, nothing offered yet). Then the ordinary fit from the last good
+            // fit above is all a frame costs: it catches the face coming back where it was, and
+            // the harder retry is left to the offered faces (else every lost frame of the
+            // search would cost a few tracked ones).
+            let awaiting_offers = self.searching;
+            if !ok && self.last_good.is_some() && !awaiting_offers {
+                self.resets += 1;
+                // Retry from the last good fit, working harder (more appearance-aware steps).
+                self.fit(frame, From::LastGood, Some(cold_iters), coarse)?;
+                ok = self.plausible(&self.fitted, true);
+            }
+            if !ok && (self.source.is_some() || self.offered.is_some()) {
+                reacquired = self.acquire(frame)?;
+                ok = reacquired;
+            } else if ok && !awaiting_offers {
+                self.second_opinion(frame)?;
+            }
+            ok
+        };
+        let tau = self.policy.recentre_tau;
+        if ok {
+            self.since_check = self.since_check.saturating_add(1);
+            self.cold = false;
+            self.searching = false;
+            let mut r = std::mem::replace(&mut self.fitted, empty_result());
+            self.bound_appearance(&mut r);
+            // A face found again after lost frames (or the first face of an auto start).
+            r.reacquired = reacquired && (self.was_lost || self.last_good.is_none());
+            r.lost = false;
+            // A slow running mean, restarted by a (re-)acquisition.
+            self.typical_error = if self.typical_error > 0.0 && !r.reacquired {
+                0.95 * self.typical_error + 0.05 * r.error
+            } else {
+                r.error
+            };
+            self.seq.frame(Some(&r.params.pose), dt, tau, r.reacquired);
+            store(&mut self.last_good, &r);
+            self.start.copy_from_slice(&r.landmarks);
+            // The face grew or shrank a lot (moving to or from the camera): the next frame is
+            // fitted at a new scale.
+            self.k = self.fit_scale(
+                extent(&r.landmarks).1,
+                frame.width(),
+                frame.height(),
+                self.k,
+            );
+            store(&mut self.last, &r);
+            self.fitted = r;
+        } else {
+            self.lost_frame(dt, tau);
+        }
+        self.was_lost = !ok;
+        Ok(self.last.as_ref().expect("just set"))
+    }
+
+    /// The last frame's result.
+    fn last(&self) -> Option<&FitResult> {
+        self.last.as_ref()
     }
 
     /// The sequence's counters and pose anchor: [`Sequence::placed`] is the last good pose
     /// re-centred on the model's mean pose (what the driven face is drawn with).
-    pub fn sequence(&self) -> &Sequence {
+    fn sequence(&self) -> &Sequence {
         &self.seq
+    }
+
+    /// Re-initialisations: frames whose fit was judged implausible, so that the tracker
+    /// re-initialised from the last good result and fitted again.
+    fn resets(&self) -> u32 {
+        self.resets
+    }
+
+    /// Second opinions taken while tracking ([`TrackPolicy::recheck_frames`]), and how many
+    /// of them were kept (fitted lower than the tracked fit).
+    fn rechecks(&self) -> (u32, u32) {
+        self.rechecks
+    }
+
+    /// Faces found elsewhere (a face finder on another thread, on a recent frame): landmarks in
+    /// frame pixels, `2n` values each, most confident first. The next acquisition (the
+    /// start of [`Tracker::start_searching`](crate::fit::FaceTracker::start_searching), or a lost face) fits from the one nearest the
+    /// last good position instead of asking the source; offered while a face is tracked, they
+    /// give the next frame's second opinion ([`TrackPolicy::recheck_frames`]). They are used
+    /// once. Fails with
+    /// [`Error::Params`] (keeping none) when a face has the wrong length or non-finite points.
+    fn offer_faces(&mut self, faces: Vec<Vec<f32>>) -> Result<()> {
+        for f in &faces {
+            check_landmarks_len("offered face landmarks", f, self.start.len())?;
+        }
+        self.offered = Some(faces);
+        Ok(())
+    }
+
+    /// Whether the tracker is looking for a face (a sequence started with no landmarks, or a
+    /// lost face) or a second opinion on the tracked face is due
+    /// ([`TrackPolicy::recheck_frames`]), faces are expected from elsewhere
+    /// ([`Tracker::expect_offers`](crate::fit::FaceTracker::expect_offers)) and none are left to try: the moment to run a finder on a
+    /// frame and [`Tracker::offer_faces`](crate::fit::FaceTracker::offer_faces).
+    fn wants_faces(&self) -> bool {
+        self.started
+            && self.offers
+            && self.offered.is_none()
+            && (self.searching || self.recheck_due())
+    }
+
+    /// Whether faces will be offered from elsewhere ([`Tracker::offer_faces`](crate::fit::FaceTracker::offer_faces)): then a lost
+    /// face is searched for ([`Tracker::wants_faces`](crate::fit::FaceTracker::wants_faces) turns true) even without a source, in
+    /// every sequence however it was started. Off by default; [`Tracker::start_searching`](crate::fit::FaceTracker::start_searching)
+    /// turns it on.
+    fn expect_offers(&mut self, yes: bool) {
+        self.offers = yes;
+        if !yes {
+            self.offered = None;
+        }
+    }
+
+    /// Starts a new sequence with no landmarks, with faces offered from elsewhere
+    /// ([`Tracker::offer_faces`](crate::fit::FaceTracker::offer_faces), e.g. a finder running on another thread) and, if the tracker
+    /// has one, from its source. Frames are reported lost until a face is acquired; from then
+    /// on a lost face is first refitted from the last good fit, and acquired again from the
+    /// next faces offered.
+    fn start_searching(&mut self) {
+        self.begin(false);
+        self.offers = true;
+        self.searching = true;
+    }
+
+    /// Starts a new sequence with no landmarks: each frame asks the face source until a face
+    /// is found and fits; until then frames are reported lost. Without a source
+    /// ([`Tracker::set_face_source`]) the shipped face finder becomes it for a 68-landmark
+    /// model; fails with [`Error::Params`] for another model without one.
+    fn start_auto(&mut self) -> Result<()> {
+        if self.source.is_none() {
+            let finder = shipped_finder(self.fitter.landmarks())?;
+            self.source = Some(Box::new(finder));
+        }
+        self.begin(false);
+        self.searching = true;
+        Ok(())
+    }
+
+    /// Starts a new sequence from landmarks on the next frame (frame pixels, `2n`); the fit
+    /// scale is chosen on that frame for their size.
+    fn start_from_landmarks(&mut self, landmarks: &[f32]) -> Result<()> {
+        check_landmarks_len("landmarks", landmarks, self.start.len())?;
+        let pose = Similarity::align(&self.fitter.geom.s0, landmarks);
+        if !(pose.is_valid() && pose.scale() > 1e-4) {
+            return Err(Error::Params(
+                "landmarks are degenerate (all points coincide)".into(),
+            ));
+        }
+        self.start.copy_from_slice(landmarks);
+        self.begin(false);
+        Ok(())
+    }
+
+    /// Starts a new sequence from a face box (frame pixels: left, top, width, height):
+    /// the base shape is scaled to the box's width and centred in it.
+    fn start_from_box(&mut self, x: f32, y: f32, w: f32, h: f32) -> Result<()> {
+        check_face_box(x, y, w, h)?;
+        let s0 = &self.fitter.geom.s0;
+        let b = crate::geometry::BBox::of_points(s0);
+        let (minx, miny, maxx, maxy) = (b.x, b.y, b.right(), b.bottom());
+        let scale = (w / (maxx - minx).max(1e-6)).min(h / (maxy - miny).max(1e-6));
+        let (cx, cy) = (0.5 * (minx + maxx), 0.5 * (miny + maxy));
+        let pose = Similarity {
+            a: scale,
+            b: 0.0,
+            tx: x + 0.5 * w - scale * cx,
+            ty: y + 0.5 * h - scale * cy,
+        };
+        pose.apply(s0, &mut self.start);
+        self.begin(true);
+        Ok(())
+    }
+
+    /// The tracking policy (resampling scale, appearance bounds).
+    fn policy(&self) -> &TrackPolicy {
+        &self.policy
+    }
+
+    /// Replaces the tracking policy; fails with [`Error::Params`] (and keeps the old one) when
+    /// a value is out of range.
+    fn set_policy(&mut self, policy: TrackPolicy) -> Result<()> {
+        self.policy.replace(policy)
     }
 
     /// The fit scale in use (fitted pixels per frame pixel; 1: the frame is fitted as it
     /// comes), or 0 before a sequence's first frame decides it.
-    pub fn scale(&self) -> f32 {
+    fn scale(&self) -> f32 {
         self.k
+    }
+
+    /// The scale at which the tracker fits a `width x height` frame with a face
+    /// `face_height` pixels tall in it (resampled pixels per frame pixel; the tracker asks it
+    /// itself, [`Tracker::scale`](crate::fit::FaceTracker::scale) is the one in use), under the
+    /// [`TrackPolicy`]: the fit's cost grows with the face's size in pixels (a face twice the
+    /// model's size costs about 3 times more), so the face is brought to about the size the
+    /// model was built at; a face within [`TrackPolicy::native_band`] of it is fitted at the
+    /// frame's own resolution, the resampled frame's longer side stays within
+    /// `min_fit_side..=max_fit_side`, and it is enlarged at most [`TrackPolicy::max_upscale`]
+    /// times. `current` is the scale in use (0 when there is none): it is kept unless the
+    /// wanted scale differs from it by more than [`TrackPolicy::rescale_change`]. A
+    /// non-finite or non-positive size gives `current` (or 1).
+    fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32 {
+        self.policy
+            .fit_scale(self.model_face_height, face_height, width, height, current)
     }
 }
 
 impl std::fmt::Debug for Tracker {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        crate::summary::summary(f, "Tracker", &[("fitter", &self.fitter)])
+        summary(f, "Tracker", &[("fitter", &self.fitter)])
     }
 }
 
@@ -781,4 +789,15 @@ fn store(slot: &mut Option<FitResult>, src: &FitResult) {
         Some(d) => copy_result(d, src),
         None => *slot = Some(src.clone()),
     }
+}
+
+/// The face finder as a [`Tracker`]'s face source, when the model has its 68 landmarks.
+fn shipped_finder(landmarks: usize) -> Result<crate::find::FaceFinder> {
+    if landmarks != 68 {
+        return Err(Error::Params(format!(
+            "the tracker has no face source to start from and its model has {landmarks} \
+             landmarks, not the face finder's 68: set one first"
+        )));
+    }
+    crate::find::FaceFinder::new()
 }

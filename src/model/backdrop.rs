@@ -2,6 +2,7 @@
 //! faces"). One image of the person with its landmarks, kept JPEG-compressed in the model file
 //! and decoded once on load.
 
+use crate::summary::summary;
 use std::io::Cursor;
 
 use crate::error::{Error, Result};
@@ -46,15 +47,15 @@ pub struct Backdrop {
 
 impl std::fmt::Debug for Backdrop {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        crate::summary::summary(
+        let (size, n, jpeg) = (
+            (self.width, self.height),
+            self.landmarks.len() / 2,
+            self.jpeg.len(),
+        );
+        summary(
             f,
             "Backdrop",
-            &[
-                ("width", &self.width),
-                ("height", &self.height),
-                ("landmarks", &(self.landmarks.len() / 2)),
-                ("jpeg_bytes", &self.jpeg.len()),
-            ],
+            &[("size", &size), ("landmarks", &n), ("jpeg_bytes", &jpeg)],
         )
     }
 }

@@ -1,6 +1,7 @@
 //! The tiny-skia backend: the piecewise-affine warp of an appearance from the reference frame
 //! onto a shape, one pattern-shaded triangle fill per mesh triangle.
 
+use crate::summary::summary;
 use glam::Vec2;
 use tiny_skia::{
     FillRule, FilterQuality, Paint, PathBuilder, Pattern, Pixmap, PixmapMut, SpreadMode, Transform,
@@ -32,7 +33,7 @@ pub struct SkiaStore {
 
 impl std::fmt::Debug for SkiaStore {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        crate::summary::summary(
+        summary(
             f,
             "SkiaStore",
             &[

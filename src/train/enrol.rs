@@ -12,6 +12,7 @@
 use crate::error::Result;
 use crate::find::{BBox, Face, FaceFinder};
 use crate::image::ImageRef;
+use crate::summary::summary;
 
 /// Box shifts (x, y as fractions of the box side) and scales of the passes, first the box the
 /// finder settled on.
@@ -47,7 +48,7 @@ pub struct EnrolFinder {
 
 impl std::fmt::Debug for EnrolFinder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        crate::summary::summary(
+        summary(
             f,
             "EnrolFinder",
             &[("finder", &self.finder), ("boxes", &self.boxes)],

@@ -29,6 +29,7 @@
 //! variable is set. `cargo test --release --test integration enrol_webcam:: -- --nocapture` prints the
 //! figures (about a minute in release).
 
+use facemimic::fit::FaceTracker;
 use facemimic_testkit as common;
 
 use std::ops::Range;

@@ -3,6 +3,7 @@
 //! Error measure: mean point-to-point distance between fitted and annotated landmarks divided
 //! by the distance between landmarks 36 and 45 (outer eye corners) of the annotation.
 
+use facemimic::fit::FaceTracker;
 use facemimic_testkit as common;
 
 use std::path::{Path, PathBuf};

@@ -31,6 +31,7 @@
 //! Skips with a message when ../shared is absent; fails then if the CI variable is set.
 //! `cargo test --release --test integration follow:: -- --nocapture` prints the figures.
 
+use facemimic::fit::FaceTracker;
 use facemimic_testkit as common;
 
 use common::following::{errors, follow, mean, over, pearson, spk07};

@@ -8,6 +8,7 @@
 //! Fitting halves the training landmarks' noise, but the rebuilt model tracks the unseen clip
 //! worse: refinement stays an option (`build_refined`, `buildModel({refine})`), off by default.
 
+use facemimic::fit::FaceTracker;
 use std::path::Path;
 
 use facemimic::find::landmark_error;

@@ -6,6 +6,7 @@
 //! tracked frames: spk07's unseen clip (`data/grid/spk07_id2_vcd_swwp2s`, no frame of it is in
 //! the model) and another speaker (spk02) for the appearance bounds.
 
+use facemimic::fit::FaceTracker;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 

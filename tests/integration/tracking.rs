@@ -12,6 +12,7 @@
 //!
 //! Error: mean point-to-point distance / distance between landmarks 36 and 45 of the truth.
 
+use facemimic::fit::FaceTracker;
 use facemimic_testkit as common;
 
 use std::cell::RefCell;

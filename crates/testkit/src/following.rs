@@ -3,6 +3,7 @@
 
 use facemimic::clone::{CloneOptions, Cloner, Method};
 use facemimic::find::{convention_free_errors, landmark_error};
+use facemimic::fit::FaceTracker;
 use facemimic::fit::{mouth_opening, FollowOptions, Follower};
 use facemimic::{Builder, Model, TrainingImage};
 

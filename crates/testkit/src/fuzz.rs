@@ -17,6 +17,7 @@
 //! Inputs whose outcome class was not seen before are "interesting" and may be saved as a
 //! corpus; failures are returned with the input that caused them.
 
+use facemimic::fit::FaceTracker;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::collections::BTreeSet;
 use std::sync::atomic::{AtomicU64, Ordering};

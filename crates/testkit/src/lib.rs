@@ -22,6 +22,9 @@ pub use rng::Rng;
 #[cfg(not(target_arch = "wasm32"))]
 use std::path::{Path, PathBuf};
 
+#[cfg(not(target_arch = "wasm32"))]
+use facemimic::fit::FaceTracker;
+
 use facemimic::Similarity;
 #[cfg(not(target_arch = "wasm32"))]
 use facemimic::{
@@ -129,7 +132,7 @@ pub fn first_face(finder: &mut FaceFinder, image: &Image) -> Option<Vec<f32>> {
 }
 
 #[cfg(not(target_arch = "wasm32"))]
-/// As the page's finder worker does: when `tracker` wants faces ([`Tracker::wants_faces`]),
+/// As the page's finder worker does: when `tracker` wants faces ([`Tracker::wants_faces`](facemimic::fit::FaceTracker::wants_faces)),
 /// the faces `finder` finds in `image` are offered to it.
 pub fn offer_when_wanted(tracker: &mut Tracker, finder: &mut FaceFinder, image: &ImageRef) {
     if tracker.wants_faces() {
