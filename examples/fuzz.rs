@@ -1,6 +1,6 @@
 //! The fuzz harness, long runs: `cargo run --release --example fuzz -- [EXECS] [SEED]`.
 //!
-//! Mutates models, landmark files and parameter JSON (see `fuzz/engine.rs`), checks that
+//! Mutates models, landmark files and parameter JSON (see `crates/testkit/src/fuzz.rs`), checks that
 //! nothing panics, every `Ok` output is finite and every model load stays within its memory
 //! budget (counting global allocator), prints executions per second, saves each input whose
 //! outcome class is new into `fuzz/corpus/` (replayed by `tests/integration/fuzz.rs`), and exits non-zero

@@ -1,7 +1,7 @@
 //! Hostile input, one regression test per case of the "hostile input" review: finite numbers
 //! that used to give NaN or infinity, memory far beyond the input, files the reader could not
 //! read back, multi-line or misleading errors, and public helpers that panicked. The models are
-//! the fuzz harness's small synthetic seeds (`fuzz/engine.rs`).
+//! the fuzz harness's small synthetic seeds (`facemimic_testkit::fuzz`).
 
 use facemimic_testkit::fuzz as engine;
 

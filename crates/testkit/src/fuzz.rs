@@ -1,8 +1,8 @@
-//! The mutation fuzzing engine behind `examples/fuzz.rs` (long runs) and `tests/integration/fuzz.rs` (a
-//! short deterministic run in the test suite). Stable Rust, no dependency: the tests' xorshift64*
-//! generator and synthetic training set (`tests/common`, which the including crate declares as
-//! `mod common`), byte-level mutations (flips, interesting numbers, splices,
-//! truncation, extension) and structure-aware ones (header fields and array values of valid
+//! The mutation fuzzing engine behind `examples/fuzz.rs` (long runs) and
+//! `tests/integration/fuzz.rs` (a short deterministic run in the test suite). Stable Rust, no
+//! dependency: the tests' xorshift64* generator and synthetic training set (this crate's `Rng`
+//! and `synthetic`), byte-level mutations (flips, interesting numbers, splices, truncation,
+//! extension) and structure-aware ones (header fields and array values of valid
 //! `.fmm` models with the checksum repaired, numeric tokens of landmark files and parameter
 //! JSON replaced by interesting numbers).
 //!
