@@ -20,6 +20,7 @@ use crate::model::{Model, Params};
 use crate::render::{base_box, Compositor, FaceDrawer};
 
 mod compare;
+mod head;
 mod paint;
 mod picture;
 mod source;
@@ -111,6 +112,8 @@ pub struct Stage {
     /// The options a new target's picture starts with.
     target_defaults: PictureOptions,
     compare: Compare,
+    /// Head-motion damping of the poses taken from fits, if any.
+    head: Option<head::HeadDamping>,
 }
 
 impl Stage {
@@ -140,6 +143,7 @@ impl Stage {
             target_pictures: Vec::new(),
             target_defaults: PictureOptions::default(),
             compare: Compare::default(),
+            head: None,
         })
     }
 
@@ -180,6 +184,9 @@ impl Stage {
         self.params = params;
         self.source = face;
         self.tracker = None;
+        if let Some(h) = &mut self.head {
+            h.restart();
+        }
         self.options.shape_gains.truncate(m);
         self.options.appearance_gains.truncate(l);
         self.targets.iter_mut().for_each(|t| t.compositor = None);

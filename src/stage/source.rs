@@ -31,6 +31,7 @@ impl super::Stage {
     /// good ones). Returns whether the fit was taken; fails (changing nothing) when the fit
     /// does not fit the source model.
     pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
+        let placed = self.damped(placed, fit.lost);
         take_fit(
             self.cloner.source(),
             (Some(fit), placed),
@@ -45,6 +46,37 @@ impl super::Stage {
         match tracker.last() {
             Some(fit) => self.source_from_fit(fit, tracker.sequence().placed()),
             None => Ok(false),
+        }
+    }
+
+    /// Damps the head's motion in the poses taken from fits from now on
+    /// ([`super::Stage::source_from_fit`], [`super::Stage::source_from_tracker`],
+    /// [`super::Stage::track`]): each pose's deviation from a running anchor of the poses (time
+    /// constant `tau` seconds; 0 keeps the first pose as the anchor) scaled by `factor` (0 holds
+    /// the head still, 1 passes it unchanged, over 1 exaggerates), the core's one pose anchor
+    /// ([`crate::fit::PoseAnchor`]). Changing the settings keeps the anchor. Fails with
+    /// [`Error::Params`] (changing nothing) for a non-finite or negative `tau` or a non-finite
+    /// `factor`.
+    pub fn set_head_damping(&mut self, tau: f32, factor: f32) -> Result<()> {
+        match &mut self.head {
+            Some(h) => h.set(tau, factor),
+            None => {
+                self.head = Some(super::head::HeadDamping::new(tau, factor)?);
+                Ok(())
+            }
+        }
+    }
+
+    /// Stops damping the head (poses are taken as fitted) and forgets the anchor.
+    pub fn clear_head_damping(&mut self) {
+        self.head = None;
+    }
+
+    /// `placed` damped by the head damping, when there is one and the fit is taken.
+    fn damped(&mut self, placed: Similarity, lost: bool) -> Similarity {
+        match &mut self.head {
+            Some(head) if !lost => head.apply(placed, (self.painter.clock)()),
+            _ => placed,
         }
     }
 
@@ -79,9 +111,14 @@ impl super::Stage {
         };
         tracker.track(frame, dt)?;
         let tracker: &dyn FaceTracker = &**tracker;
+        let (fit, placed) = (tracker.last(), tracker.sequence().placed());
+        let placed = match (&mut self.head, fit) {
+            (Some(head), Some(f)) if !f.lost => head.apply(placed, (self.painter.clock)()),
+            _ => placed,
+        };
         take_fit(
             self.cloner.source(),
-            (tracker.last(), tracker.sequence().placed()),
+            (fit, placed),
             &mut self.pending,
             &mut self.params,
         )

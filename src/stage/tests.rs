@@ -444,3 +444,65 @@ fn models_are_shared_not_copied() {
     drop(s);
     assert_eq!(Arc::strong_count(&source), 1);
 }
+
+/// Head damping: the first pose taken is the anchor; with factor 0 a sudden move of the head
+/// stays at the (slowly following) anchor, with factor 1 it passes unchanged; new settings keep
+/// the anchor; bad settings are refused and change nothing; a lost fit moves nothing.
+#[test]
+fn head_damping_holds_or_passes_the_head() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NOW: AtomicU64 = AtomicU64::new(0);
+    fn clock() -> f64 {
+        NOW.load(Ordering::Relaxed) as f64
+    }
+    let first = crate::io::read_training_image(&unseen(0)).unwrap();
+    let mut tracker = Tracker::new(&models()[0], FitOptions::default()).unwrap();
+    tracker.start_from_landmarks(&first.landmarks).unwrap();
+    let fit = tracker
+        .track(&first.image.view().unwrap(), 0.04)
+        .unwrap()
+        .clone();
+    assert!(!fit.lost);
+    let mut s = stage();
+    s.set_clock(clock);
+    s.set_head_damping(2.0, 0.0).unwrap();
+    let p0 = fit.params.pose;
+    assert!(s.source_from_fit(&fit, p0).unwrap());
+    let near = |a: crate::similarity::Similarity, b: crate::similarity::Similarity| {
+        (a.a - b.a).abs() < 1e-5
+            && (a.b - b.b).abs() < 1e-5
+            && (a.tx - b.tx).abs() < 1e-3
+            && (a.ty - b.ty).abs() < 1e-3
+    };
+    assert!(
+        near(s.source_params().pose, p0),
+        "the first pose is the anchor"
+    );
+    NOW.fetch_add(40, Ordering::Relaxed);
+    let moved = crate::similarity::Similarity {
+        tx: p0.tx + 20.0,
+        ..p0
+    };
+    assert!(s.source_from_fit(&fit, moved).unwrap());
+    let held = s.source_params().pose;
+    // 40 ms of a 2 s anchor: 2% of the way.
+    assert!((held.tx - p0.tx).abs() < 0.5, "{} vs {}", held.tx, p0.tx);
+    assert!(s.set_head_damping(-1.0, 1.0).is_err());
+    assert!(s.set_head_damping(2.0, f32::NAN).is_err());
+    NOW.fetch_add(40, Ordering::Relaxed);
+    assert!(s.source_from_fit(&fit, moved).unwrap());
+    assert!(
+        (s.source_params().pose.tx - p0.tx).abs() < 1.0,
+        "bad settings kept factor 0"
+    );
+    s.set_head_damping(2.0, 1.0).unwrap();
+    assert!(s.source_from_fit(&fit, moved).unwrap());
+    assert_eq!(s.source_params().pose, moved, "factor 1 passes the pose");
+    let mut lost = fit.clone();
+    lost.lost = true;
+    assert!(!s.source_from_fit(&lost, p0).unwrap());
+    assert_eq!(s.source_params().pose, moved);
+    s.clear_head_damping();
+    assert!(s.source_from_fit(&fit, p0).unwrap());
+    assert_eq!(s.source_params().pose, p0);
+}

@@ -4,7 +4,7 @@
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { makePoseDamper, parseControl, FrameLog, clampSettings, MAX_CONTROL_BYTES } from '../../www/js/call-controls.js';
+import { parseControl, FrameLog, clampSettings, MAX_CONTROL_BYTES } from '../../www/js/call-controls.js';
 import { pkg } from './lib.mjs';
 import { encodeDescription, decodeDescription, parseIceServers } from '../../www/js/call-peer.js';
 
@@ -12,7 +12,7 @@ const AVATARS = ['spk02', 'spk03'];
 
 test('head-motion damping scales the deviation from the running mean (the core\'s pose anchor)', () => {
   const fm = pkg();
-  const damper = () => makePoseDamper(fm, 2);
+  const damper = () => new fm.PoseDamper(2); // the package's class over the core's pose anchor
   const d = damper();
   const still = { scale: 2, rotation: 0.1, tx: 100, ty: 50 };
   // A steady pose: the mean is the pose; any factor gives it back.

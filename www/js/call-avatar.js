@@ -7,15 +7,17 @@
 // `Tracker.kindFor`): a bundled source model is someone else's face, so anyone is followed by
 // their landmarks mapped onto it; a model of one's own ("Your models") has its AAM fitted.
 //
-// Per fit: the tracker's parameters (pose re-centred as on the main page) -> head-motion damping
-// (the package's PoseDamper: the core's pose anchor) -> Cloner (the core's default method from the package's `methods()`; gain and
-// region gains, set when they change) -> the avatar drawn into the canvas -> a row of the frame log.
+// Per fit: the Cloner reads the tracker's fit inside wasm (`sourceFromTracker`: the pose
+// re-centred as on the main page, head-motion damped by the core's pose anchor,
+// `setHeadDamping`) and clones it (the core's default method; gain and region gains, set when
+// they change) -> `drawFrame` draws the avatar into the registered canvas -> a row of the frame
+// log.
 // A lost face draws nothing new: the avatar holds its last frame (and the other side is told).
 // Changing the avatar replaces the Cloner's target: the same canvas, the same track, no
 // renegotiation.
 
 import { createSource } from './sources.js';
-import { makePoseDamper, FrameLog, clampSettings, REGIONS } from './call-controls.js';
+import { HEAD_TAU, FrameLog, clampSettings, REGIONS } from './call-controls.js';
 import './tracking.js'; // registers the webcam source
 
 export const WIDTH = 640;
@@ -65,7 +67,6 @@ export class Avatar {
     // The cloning method: the core's default (the package's one list, `methods()`).
     const methods = fm.methods();
     this.method = (methods.find((m) => m.isDefault) ?? methods[0]).name;
-    this.damper = makePoseDamper(fm); // the core's pose anchor
     this.log = null;
     this.frames = 0; // avatar frames drawn
     this.fits = 0;
@@ -95,6 +96,7 @@ export class Avatar {
     this.cloner.addTarget(target.model);
     this.registerCanvas(target);
     this.cloner.setFollowPose(true);
+    this.cloner.setHeadDamping(HEAD_TAU, this.settings.head);
     this.cloner.setMethod(this.method);
     this.applySettings();
     oldCloner?.free();
@@ -142,6 +144,7 @@ export class Avatar {
     this.cloner?.setGain(s.gain);
     this.cloner?.setRegionGains(...REGIONS.map((r) => s[r]));
     this.cloner?.setStyle(s.style);
+    this.cloner?.setHeadDamping(HEAD_TAU, s.head);
   }
 
   restartCamera() {
@@ -215,17 +218,25 @@ export class Avatar {
       return;
     }
     this.setCamera('ok');
-    this.drawParams(params, captured, r.pose);
+    if (!this.cloner) return;
+    this.params = params; // the frame log's copy (the tracking source has it already)
+    // The parameters stay in wasm: the cloner reads the tracker's fit and damps the head itself.
+    const tracker = this.video?.tracker;
+    if (!(tracker && this.cloner.sourceFromTracker(tracker))) this.cloner.setSourceParams(params);
+    this.drawCurrent(captured, r.pose);
   }
 
-  /** Clone and draw `params` (pose damped), stamp it in bench mode, log the frame. */
-  drawParams(params, captured, fitPose = params.pose) {
+  /** Clone and draw `params` given from JS (the base face before any fit), log the frame. */
+  drawParams(params, captured) {
     if (!this.cloner) return;
-    const now = performance.now();
-    const sent = this.damper.apply(params.pose, now, this.settings.head);
-    const p = { pose: sent, shape: params.shape, appearance: params.appearance };
     this.params = params;
-    this.cloner.setSourceParams(p);
+    this.cloner.setSourceParams(params);
+    this.drawCurrent(captured, params.pose);
+  }
+
+  /** Draw the cloner's current source parameters, stamp it in bench mode, log the frame (with
+   *  the pose sent: the fit's, head-damped by the cloner). */
+  drawCurrent(captured, fitPose) {
     this.cloner.drawFrame();
     if (this.bench) this.stamp(captured);
     const drawn = performance.now();
@@ -240,11 +251,12 @@ export class Avatar {
     while (this.drawTimes.length && drawn - this.drawTimes[0] > 1000) this.drawTimes.shift();
     this.pipeline.push(drawn - captured);
     if (this.pipeline.length > 60) this.pipeline.shift();
+    const sent = this.cloner.sourceParams().pose;
     this.logRow({ now: drawn, captured, lost: false, fitPose, sent });
   }
 
   redraw() {
-    if (this.params) this.drawParams(this.params, performance.now());
+    if (this.params && this.cloner) this.drawCurrent(performance.now(), this.params.pose);
   }
 
   /** Bench mode: the capture time (ms of the wall clock, mod 2^24) as black / white blocks. */

@@ -24,16 +24,6 @@ export const MAX_CONTROL_BYTES = 4096;
 
 const clamp = (x, [lo, hi]) => Math.min(hi, Math.max(lo, x));
 
-/**
- * Head-motion damping: the package's `PoseDamper` (`fm`: the package), the core's one running
- * pose anchor (an exponential running mean of the pose, geometric in scale, the short way round
- * in angle; time constant `tau` seconds, HEAD_TAU). `apply(pose, nowMs, factor)` returns
- * anchor + factor * (pose - anchor); `reset()` forgets the anchor.
- */
-export function makePoseDamper(fm, tau = HEAD_TAU) {
-  return new fm.PoseDamper(tau);
-}
-
 const finite = (x) => typeof x === 'number' && Number.isFinite(x);
 
 /**

@@ -264,6 +264,23 @@ impl JsCloner {
             .map_err(js_err)
     }
 
+    /// Damps the head's motion in the poses taken from trackers (`sourceFromTracker`) from now
+    /// on: each pose's deviation from a running anchor of the poses (time constant `tau`
+    /// seconds; 0 keeps the first pose as the anchor) scaled by `factor` (0 holds the head
+    /// still, 1 passes it unchanged, above 1 exaggerates): the core's pose anchor, as
+    /// `PoseDamper`. New settings keep the anchor. Throws for a negative or non-finite `tau` or
+    /// a non-finite `factor`.
+    #[wasm_bindgen(js_name = setHeadDamping)]
+    pub fn set_head_damping(&mut self, tau: f32, factor: f32) -> Result<(), JsError> {
+        self.stage.set_head_damping(tau, factor).map_err(js_err)
+    }
+
+    /// Stops damping the head (poses are taken as fitted) and forgets the anchor.
+    #[wasm_bindgen(js_name = clearHeadDamping)]
+    pub fn clear_head_damping(&mut self) {
+        self.stage.clear_head_damping();
+    }
+
     /// The current source parameters.
     #[wasm_bindgen(js_name = sourceParams, unchecked_return_type = "Params")]
     pub fn source_params(&self) -> Result<JsValue, JsError> {

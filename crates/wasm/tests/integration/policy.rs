@@ -78,3 +78,17 @@ fn a_model_summary_agrees_with_the_model_and_refuses_what_is_not_one() {
     assert!(!message(model_summary(b"<!doctype html>").unwrap_err()).is_empty());
     assert!(!message(model_summary(&[]).unwrap_err()).is_empty());
 }
+
+/// The cloner's head damping takes the call's settings and refuses bad ones with a message.
+#[wasm_bindgen_test]
+fn head_damping_settings_are_checked() {
+    let model = JsModel::from_bytes(TINY).unwrap();
+    let mut cloner = facemimic_wasm::JsCloner::new(&model).unwrap();
+    cloner.set_head_damping(2.0, 0.5).unwrap();
+    cloner.set_head_damping(0.0, 1.5).unwrap();
+    let e = message(cloner.set_head_damping(-1.0, 1.0).unwrap_err());
+    assert!(e.contains("tau"), "{e}");
+    let e = message(cloner.set_head_damping(2.0, f32::NAN).unwrap_err());
+    assert!(e.contains("factor"), "{e}");
+    cloner.clear_head_damping();
+}
