@@ -65,8 +65,8 @@ pub use model::shape::ShapeModel;
 pub use model::{bounds, format};
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
 pub use render::{
-    base_box, canvas_view, demultiply, demultiply_into, fit_view, picture_view, Compositor,
-    DrawOptions, FaceDrawer, Rasterizer, Renderer, Scanline,
+    base_box, canvas_view, demultiply, demultiply_into, fit_view, picture_view, straight_rgba,
+    Compositor, DrawOptions, FaceDrawer, Rasterizer, Renderer, Scanline,
 };
 pub use similarity::{PoseJson, Similarity};
 pub use stage::{

@@ -296,6 +296,23 @@ pub fn demultiply(pixmap: &Pixmap) -> Vec<u8> {
     out
 }
 
+/// A drawing's pixels as straight RGBA8 (as PNG files and `ImageData` take): the pixmap's own
+/// bytes when its background was `opaque` (an opaque background stays opaque under opaque
+/// fills and source-over strokes, so the premultiplied pixels are already straight), else
+/// [`demultiply_into`] `scratch`. Allocates nothing once `scratch` is large enough.
+pub fn straight_rgba<'a>(
+    pixmap: PixmapRef<'a>,
+    opaque: bool,
+    scratch: &'a mut Vec<u8>,
+) -> &'a [u8] {
+    if opaque {
+        pixmap.data()
+    } else {
+        demultiply_into(pixmap, scratch);
+        scratch
+    }
+}
+
 /// [`demultiply`] into a reusable buffer (cleared first; no allocation once it is large enough).
 pub fn demultiply_into(pixmap: PixmapRef<'_>, out: &mut Vec<u8>) {
     out.clear();

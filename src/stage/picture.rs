@@ -164,8 +164,7 @@ impl Picture {
         match &self.pixmap {
             None => &[],
             Some(_) if self.demultiplied => &self.straight,
-            // An opaque background stays opaque under opaque fills and source-over strokes,
-            // so the premultiplied pixels are already straight.
+            // Already straight (crate::render::straight_rgba).
             Some(p) => p.data(),
         }
     }
@@ -183,9 +182,7 @@ impl Picture {
     pub(super) fn finish(&mut self) {
         if let Some(p) = &self.pixmap {
             self.demultiplied = !self.options.background.is_opaque();
-            if self.demultiplied {
-                crate::render::demultiply_into(p.as_ref(), &mut self.straight);
-            }
+            crate::render::straight_rgba(p.as_ref(), !self.demultiplied, &mut self.straight);
             self.drawn = true;
         }
     }

@@ -6,13 +6,6 @@
 import { message } from './toasts.js';
 import { setCanvasSize } from './canvas.js';
 
-/**
- * The frame shown (and placed on, and searched for faces) is at most this big (longer side, px):
- * the core's tracking policy (`WORK_SIDE`, the package's `workSide()`), which a `MediaFeed` is
- * given; this is its value for a page without the package.
- */
-export const MAX_WORK_SIDE = 640;
-
 /** Image types a dropped file may be (beside videos). */
 const IMAGE_RE = /\.(jpe?g|png|webp|gif|bmp|avif)$/i;
 const VIDEO_RE = /\.(webm|mp4|m4v|mov|ogv|ogg|mkv)$/i;
@@ -118,12 +111,13 @@ export { CLIP_JSON };
 /**
  * One picture source for a panel: a <video> element (a file, the clip or a camera stream) or a
  * still image, and the "work" canvas holding the current frame at most `workSide` px on its
- * longer side (the package's `workSide()`; MAX_WORK_SIDE when not given). `k` is work pixels per
+ * longer side (the core's policy: the package's `policy().workSide`). `k` is work pixels per
  * source pixel.
  */
 export class MediaFeed {
-  constructor(workSide = MAX_WORK_SIDE) {
-    this.workSide = workSide > 0 ? workSide : MAX_WORK_SIDE;
+  constructor(workSide) {
+    if (!(workSide > 0)) throw new Error(`MediaFeed: a work side in pixels is needed, got ${workSide}`);
+    this.workSide = workSide;
     this.video = document.createElement('video');
     this.video.muted = true;
     this.video.defaultMuted = true;

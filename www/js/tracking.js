@@ -108,7 +108,7 @@ class VideoSource {
     this.running = false;
     this.tracker = null;
     this.params = this.initialParams();
-    this.media = new MediaFeed(this.wasm.workSide?.());
+    this.media = new MediaFeed(this.wasm.policy().workSide); // the core's work-frame side
     this.video = this.media.video;
     this.placement = new Placement(this.model.landmarks(this.model.baseParams()));
     this.sequencer = new Sequencer(this);

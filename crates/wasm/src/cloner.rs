@@ -39,7 +39,8 @@ struct Canvases {
 }
 
 /// One source model cloned onto any number of targets (the paper's section 3), with rendering
-/// into canvases. Models are copied in; the cloner owns its copies.
+/// into canvases. Models are shared with the `Model` objects, not copied (freeing a `Model`
+/// leaves the cloner's share alive).
 #[wasm_bindgen(js_name = Cloner)]
 pub struct JsCloner {
     stage: Stage,
@@ -160,7 +161,7 @@ impl JsCloner {
 
 #[wasm_bindgen(js_class = Cloner)]
 impl JsCloner {
-    /// A cloner driven by `source` (copied), with no targets yet.
+    /// A cloner driven by `source` (shared, not copied), with no targets yet.
     #[wasm_bindgen(constructor)]
     pub fn new(source: &JsModel) -> Result<JsCloner, JsError> {
         install_panic_hook();
@@ -175,7 +176,7 @@ impl JsCloner {
         })
     }
 
-    /// Replaces the source model (copied). Throws if it is inconsistent or a target is
+    /// Replaces the source model (shared). Throws if it is inconsistent or a target is
     /// incompatible with it; the cloner is unchanged then. The source parameters reset to the
     /// new source's base face, and per-mode gains longer than its mode counts are dropped.
     #[wasm_bindgen(js_name = setSource)]
@@ -187,7 +188,7 @@ impl JsCloner {
         Ok(())
     }
 
-    /// Adds a target (copied) and returns its index. Throws `incompatible models: ...` naming
+    /// Adds a target (shared) and returns its index. Throws `incompatible models: ...` naming
     /// what differs when it is not built in the source's reference frame.
     #[wasm_bindgen(js_name = addTarget)]
     pub fn add_target(&mut self, target: &JsModel) -> Result<u32, JsError> {
@@ -207,7 +208,7 @@ impl JsCloner {
         Ok(())
     }
 
-    /// Replaces target `index` with `target` (copied); on error nothing changes. Its
+    /// Replaces target `index` with `target` (shared); on error nothing changes. Its
     /// registered canvas stays.
     #[wasm_bindgen(js_name = replaceTarget)]
     pub fn replace_target(&mut self, index: u32, target: &JsModel) -> Result<(), JsError> {

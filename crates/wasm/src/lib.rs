@@ -33,7 +33,7 @@ pub use landmarks::{landmark_error, parse_pts};
 pub use model::{model_summary, render_mode, JsModel};
 pub use policy::policy;
 pub use pose::{lerp_pose, mean_pose, recentre_pose, JsPoseDamper};
-pub use tracker::{work_side, WasmTracker};
+pub use tracker::WasmTracker;
 
 /// Converts a library error into a JS `Error` (its message names the problem).
 pub(crate) fn js_err(e: facemimic::Error) -> JsError {

@@ -366,14 +366,8 @@ where
         let surface = surfaces.get(w, h)?;
         draw(&mut surface.pixmap.as_mut(), w, h)?;
         let t1 = now_ms();
-        // An opaque background stays opaque under opaque fills and source-over strokes, so the
-        // premultiplied pixels are already straight: blit them as they are.
-        let bytes: &[u8] = if opaque {
-            surface.pixmap.data()
-        } else {
-            facemimic::demultiply_into(surface.pixmap.as_ref(), &mut surface.straight);
-            &surface.straight
-        };
+        let bytes =
+            facemimic::straight_rgba(surface.pixmap.as_ref(), opaque, &mut surface.straight);
         match sink {
             Sink::Canvas(ctx) => put_rgba(ctx, bytes, w, h)?,
             Sink::Image { out, .. } => {

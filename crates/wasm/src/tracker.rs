@@ -14,7 +14,7 @@ use wasm_bindgen::JsCast;
 
 use facemimic::fit::{
     tracker_for, tracker_of_kind, FaceTracker, FitResult, Sequence, TrackPolicy, TrackerKind,
-    Whose, DEFAULT_TIME_STEP, WORK_SIDE,
+    Whose, DEFAULT_TIME_STEP,
 };
 use facemimic::ImageRef;
 use facemimic::PoseJson;
@@ -463,13 +463,6 @@ fn patched_policy(base: &TrackPolicy, policy: JsValue) -> Result<TrackPolicy, Js
         recentre_tau: patch.recentre_tau.unwrap_or(base.recentre_tau),
         recheck_frames: patch.recheck_frames.unwrap_or(base.recheck_frames),
     })
-}
-
-/// The longer side (pixels) of the work frame the page tracks and finds faces on (the core's
-/// `WORK_SIDE`): a larger camera or video frame is scaled down to it first.
-#[wasm_bindgen(js_name = workSide)]
-pub fn work_side() -> u32 {
-    WORK_SIDE
 }
 
 impl WasmTracker {

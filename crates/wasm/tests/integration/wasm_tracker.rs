@@ -21,7 +21,7 @@
 use facemimic_testkit as common;
 
 use common::js::message;
-use facemimic_wasm::{lerp_pose, recentre_pose, work_side, JsModel, JsPoseDamper, WasmTracker};
+use facemimic_wasm::{lerp_pose, recentre_pose, JsModel, JsPoseDamper, WasmTracker};
 use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen_test::wasm_bindgen_test;
@@ -269,7 +269,6 @@ fn the_policy_chooses_the_kind() {
         "landmarks"
     );
     assert_eq!(WasmTracker::new(TINY).unwrap().path(), "aam");
-    assert_eq!(work_side(), 640);
 }
 
 #[wasm_bindgen_test]
