@@ -1,7 +1,9 @@
 //! The head placement a followed face drives: its pose re-centred on the model's mean pose
 //! about an anchor that follows the head slowly, and what the [`crate::fit::Tracker`] and the
-//! [`crate::fit::Follower`] share (counters, the anchor), and the running [`PoseAnchor`] itself.
+//! [`crate::fit::Follower`] share (counters, the anchor), the running [`PoseAnchor`] itself, and
+//! [`HeadDamper`], head-motion damping over time.
 
+use crate::error::{Error, Result};
 use crate::similarity::Similarity;
 
 /// What a tracker and a follower keep of a sequence beside the fit: the frame counters and the
@@ -159,6 +161,78 @@ impl PoseAnchor {
             Some(a) if factor != 1.0 && factor.is_finite() => a.lerp(pose, factor),
             _ => *pose,
         }
+    }
+}
+
+/// Head-motion damping over time: what the Stage applies to the pose of every fit it takes
+/// (the call page's head motion) and the package's `PoseDamper` is.
+///
+/// Represents: a running anchor of the fitted poses (time constant `tau` seconds, 0: the first
+/// pose stays the anchor) and a `factor` on the deviation from it (0 holds the head at the
+/// anchor, 1 passes the pose unchanged, over 1 exaggerates).
+#[derive(Debug)]
+pub struct HeadDamper {
+    anchor: PoseAnchor,
+    tau: f32,
+    factor: f32,
+    /// The clock (ms) of the last pose taken.
+    at: Option<f64>,
+}
+
+impl HeadDamper {
+    /// Requires `tau` finite and non-negative, `factor` finite (else [`Error::Params`]).
+    pub fn new(tau: f32, factor: f32) -> Result<HeadDamper> {
+        check(tau, factor)?;
+        Ok(HeadDamper {
+            anchor: PoseAnchor::new(),
+            tau,
+            factor,
+            at: None,
+        })
+    }
+
+    /// New settings, keeping the anchor (a slider moved mid-call does not restart it).
+    pub fn set(&mut self, tau: f32, factor: f32) -> Result<()> {
+        check(tau, factor)?;
+        self.tau = tau;
+        self.factor = factor;
+        Ok(())
+    }
+
+    /// The anchor's time constant, seconds.
+    pub fn tau(&self) -> f32 {
+        self.tau
+    }
+
+    /// Forgets the anchor (a new source: the next pose becomes it).
+    pub fn restart(&mut self) {
+        self.anchor.reset();
+        self.at = None;
+    }
+
+    /// Moves the anchor towards `pose` for the time since the last pose (`now`, ms; a clock
+    /// going back counts as no time) and returns the damped pose. An invalid pose passes
+    /// unchanged (the model's checks refuse it).
+    pub fn apply(&mut self, pose: Similarity, now: f64) -> Similarity {
+        let dt = self
+            .at
+            .map_or(0.0, |at| ((now - at) / 1000.0).max(0.0) as f32);
+        self.at = Some(now);
+        self.anchor.wait(dt);
+        if self.anchor.follow(&pose, self.tau).is_none() {
+            return pose;
+        }
+        self.anchor.damped(&pose, self.factor)
+    }
+}
+
+fn check(tau: f32, factor: f32) -> Result<()> {
+    if tau.is_finite() && tau >= 0.0 && factor.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::Params(format!(
+            "head damping: tau {tau} must be finite and non-negative, factor {factor} finite"
+        )))
     }
 }
 

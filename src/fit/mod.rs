@@ -38,7 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::model::Params;
 
-pub use anchor::{PoseAnchor, Sequence};
+pub use anchor::{HeadDamper, PoseAnchor, Sequence};
 pub use driver::Fitter;
 pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
 pub use follow::{

@@ -20,7 +20,6 @@ use crate::model::{Model, Params};
 use crate::render::{base_box, Compositor, FaceDrawer};
 
 mod compare;
-mod head;
 mod paint;
 mod picture;
 mod source;
@@ -113,7 +112,7 @@ pub struct Stage {
     target_defaults: PictureOptions,
     compare: Compare,
     /// Head-motion damping of the poses taken from fits, if any.
-    head: Option<head::HeadDamping>,
+    head: Option<crate::fit::HeadDamper>,
 }
 
 impl Stage {

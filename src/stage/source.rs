@@ -31,7 +31,7 @@ impl super::Stage {
     /// good ones). Returns whether the fit was taken; fails (changing nothing) when the fit
     /// does not fit the source model.
     pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
-        let placed = self.damped(placed, fit.lost);
+        let placed = damped(&mut self.head, self.painter.clock, placed, fit.lost);
         take_fit(
             self.cloner.source(),
             (Some(fit), placed),
@@ -61,7 +61,7 @@ impl super::Stage {
         match &mut self.head {
             Some(h) => h.set(tau, factor),
             None => {
-                self.head = Some(super::head::HeadDamping::new(tau, factor)?);
+                self.head = Some(crate::fit::HeadDamper::new(tau, factor)?);
                 Ok(())
             }
         }
@@ -70,14 +70,6 @@ impl super::Stage {
     /// Stops damping the head (poses are taken as fitted) and forgets the anchor.
     pub fn clear_head_damping(&mut self) {
         self.head = None;
-    }
-
-    /// `placed` damped by the head damping, when there is one and the fit is taken.
-    fn damped(&mut self, placed: Similarity, lost: bool) -> Similarity {
-        match &mut self.head {
-            Some(head) if !lost => head.apply(placed, (self.painter.clock)()),
-            _ => placed,
-        }
     }
 
     /// The tracker that reads the source from video, if any.
@@ -112,10 +104,8 @@ impl super::Stage {
         tracker.track(frame, dt)?;
         let tracker: &dyn FaceTracker = &**tracker;
         let (fit, placed) = (tracker.last(), tracker.sequence().placed());
-        let placed = match (&mut self.head, fit) {
-            (Some(head), Some(f)) if !f.lost => head.apply(placed, (self.painter.clock)()),
-            _ => placed,
-        };
+        let lost = fit.is_none_or(|f| f.lost);
+        let placed = damped(&mut self.head, self.painter.clock, placed, lost);
         take_fit(
             self.cloner.source(),
             (fit, placed),
@@ -132,6 +122,20 @@ impl super::Stage {
         self.update()?;
         self.draw()?;
         Ok(taken)
+    }
+}
+
+/// `placed` damped by `head` (at the time `clock` reads), when there is head damping and the
+/// fit is taken (not `lost`).
+fn damped(
+    head: &mut Option<crate::fit::HeadDamper>,
+    clock: super::Clock,
+    placed: Similarity,
+    lost: bool,
+) -> Similarity {
+    match head {
+        Some(h) if !lost => h.apply(placed, clock()),
+        _ => placed,
     }
 }
 

@@ -67,16 +67,15 @@ pub fn lerp_pose(
     pose_to_js(from.lerp(&to, u))
 }
 
-/// Head-motion damping (the call page's): a running pose anchor, the core's one
+/// Head-motion damping: the core's `fit::HeadDamper` (what `Cloner.setHeadDamping` applies inside
+/// the cloner) over its running pose anchor
 /// (`PoseAnchor`: an exponential running mean of the poses, geometric in scale, the short way
 /// round in angle, time constant `tau` seconds), and each pose's deviation from it scaled.
 #[wasm_bindgen(js_name = PoseDamper)]
 #[derive(Debug)]
 pub struct JsPoseDamper {
-    anchor: facemimic::fit::PoseAnchor,
-    tau: f32,
-    /// The clock (ms) of the last `apply`, `None` before it or after `reset`.
-    at: Option<f64>,
+    /// The core's damper (its factor is set on each `apply`).
+    inner: facemimic::fit::HeadDamper,
 }
 
 #[wasm_bindgen(js_class = PoseDamper)]
@@ -86,23 +85,14 @@ impl JsPoseDamper {
     #[wasm_bindgen(constructor)]
     pub fn new(tau: Option<f32>) -> Result<JsPoseDamper, JsError> {
         super::install_panic_hook();
-        let tau = tau.unwrap_or(2.0);
-        if !(tau.is_finite() && tau >= 0.0) {
-            return Err(JsError::new(&format!(
-                "PoseDamper: tau is {tau}, not a finite non-negative number of seconds"
-            )));
-        }
-        Ok(JsPoseDamper {
-            anchor: facemimic::fit::PoseAnchor::new(),
-            tau,
-            at: None,
-        })
+        let inner = facemimic::fit::HeadDamper::new(tau.unwrap_or(2.0), 1.0)
+            .map_err(|e| JsError::new(&format!("PoseDamper: {e}")))?;
+        Ok(JsPoseDamper { inner })
     }
 
     /// Forgets the anchor: the next pose becomes it.
     pub fn reset(&mut self) {
-        self.anchor.reset();
-        self.at = None;
+        self.inner.restart();
     }
 
     /// Moves the anchor towards `pose` for the time since the last call (`now`, a clock in
@@ -124,10 +114,10 @@ impl JsPoseDamper {
                 "PoseDamper: a valid pose and a finite now ({now}) and factor ({factor}) are needed"
             )));
         }
-        let dt = self.at.map_or(0.0, |at| ((now - at) / 1000.0) as f32);
-        self.at = Some(now);
-        self.anchor.wait(dt);
-        self.anchor.follow(&pose, self.tau);
-        pose_to_js(self.anchor.damped(&pose, factor))
+        let tau = self.inner.tau();
+        self.inner
+            .set(tau, factor)
+            .map_err(|e| JsError::new(&format!("PoseDamper: {e}")))?;
+        pose_to_js(self.inner.apply(pose, now))
     }
 }
