@@ -45,7 +45,7 @@ test('head-motion damping scales the deviation from the running mean (the core\'
 });
 
 test('data channel messages: only well-formed ones pass, with only their known fields', () => {
-  const none = { gain: undefined, head: undefined, mouth: undefined, eyes: undefined, brows: undefined, style: undefined, avatar: undefined };
+  const none = { gain: undefined, head: undefined, mouth: undefined, eyes: undefined, brows: undefined, style: undefined, avatar: undefined, condition: undefined };
   assert.deepEqual(parseControl('{"t":"set","gain":0.5}', AVATARS).msg, { t: 'set', ...none, gain: 0.5 });
   // The expression gain per region: mouth, eyes, brows, each 0..3.
   assert.deepEqual(parseControl('{"t":"set","mouth":3,"eyes":0,"brows":1.25}', AVATARS).msg, { t: 'set', ...none, mouth: 3, eyes: 0, brows: 1.25 });
@@ -62,6 +62,12 @@ test('data channel messages: only well-formed ones pass, with only their known f
   assert.equal(st.camera, 'face-lost');
   assert.equal(st.pipelineMs, 31.5);
   assert.deepEqual(parseControl('{"t":"bye","x":1}', AVATARS).msg, { t: 'bye' });
+  // A schedule's condition number rides on a set (for the other side's log) and comes back in
+  // the status; a page running a schedule says so (blind), so the other hides the conditions.
+  assert.equal(parseControl('{"t":"set","gain":1,"condition":3}', AVATARS).msg.condition, 3);
+  const sb = parseControl('{"t":"status","camera":"ok","blind":true,"condition":2}', AVATARS).msg;
+  assert.deepEqual([sb.blind, sb.condition], [true, 2]);
+  assert.equal(parseControl('{"t":"status","camera":"ok"}', AVATARS).msg.blind, false);
   const bad = [
     [42, /not text/],
     ['x'.repeat(MAX_CONTROL_BYTES + 1), /longer/],
@@ -85,6 +91,11 @@ test('data channel messages: only well-formed ones pass, with only their known f
     ['{"t":"status","camera":"on fire"}', /camera state/],
     ['{"t":"status","camera":"ok","encodeMs":-1}', /outside/],
     ['{"t":"launch"}', /unknown kind/],
+    ['{"t":"set","gain":1,"condition":1.5}', /condition is not a whole number/],
+    ['{"t":"set","gain":1,"condition":-1}', /condition is outside/],
+    ['{"t":"set","condition":2}', /changes nothing/],
+    ['{"t":"status","camera":"ok","condition":"2"}', /condition is not a number/],
+    ['{"t":"status","camera":"ok","blind":"yes"}', /blind is not true or false/],
     ['{"__proto__":{"t":"set"}}', /unknown kind/],
   ];
   for (const [m, why] of bad) {
@@ -139,9 +150,19 @@ test('the frame log: a fixed ring, CSV with named columns, oldest row first', ()
   assert.deepEqual(head.slice(16, 19), ['mouth_gain', 'eyes_gain', 'brows_gain']);
   assert.deepEqual(rows.map((r) => r[head.indexOf('mouth_gain')]), ['2', '2', '2', '2']);
   assert.deepEqual(rows.map((r) => r[head.indexOf('brows_gain')]), ['0.5', '0.75', '1', '1.25']);
-  // A target with more modes widens the columns (and starts the log again).
+  assert.deepEqual(head.slice(19, 22), ['style', 'condition', 'condition_name']);
+  // A target with more modes widens the columns and keeps the rows (a schedule switches avatars).
   log.ensure(2, 3, 5, 1);
   assert.ok(log.columns.includes('tgt_shape_5'));
+  assert.equal(log.length, 4);
+  const wide = log.toCSV().trim().split('\n');
+  const wideHead = wide[0].split(',');
+  assert.deepEqual(wide.slice(1).map((l) => l.split(',')[1]), ['2', '3', '4', '5'], 'the rows are kept, in order');
+  assert.equal(wide[1].split(',')[wideHead.indexOf('tgt_shape_2')], '0.4');
+  assert.equal(wide[1].split(',')[wideHead.indexOf('tgt_shape_5')], '');
+  assert.equal(wide[1].split(',')[wideHead.indexOf('src_app_3')], '3');
+  // Another source (other mode counts) starts the log again.
+  log.ensure(4, 3, 5, 1);
   assert.equal(log.length, 0);
 });
 

@@ -21,6 +21,10 @@ export const HEAD_RANGE = [0, 1.5];
 export const HEAD_TAU = 2;
 /** A data channel message longer than this is dropped unread. */
 export const MAX_CONTROL_BYTES = 4096;
+/** A condition's number (1-based; 0: none) in a set or status message (call-schedule.js). */
+export const CONDITION_RANGE = [0, 100000];
+/** The condition switches the frame log keeps (a few an hour in a study). */
+export const MAX_EVENTS = 10000;
 
 const clamp = (x, [lo, hi]) => Math.min(hi, Math.max(lo, x));
 
@@ -30,9 +34,13 @@ const finite = (x) => typeof x === 'number' && Number.isFinite(x);
  * A data channel message, checked. Returns `{ msg }` (a fresh object with only known fields) or
  * `{ error }`. Kinds (mouth, eyes, brows: the expression gain per region, REGION_RANGE; style:
  * STYLE_RANGE):
- *   {t:"set", gain?, head?, mouth?, eyes?, brows?, style?, avatar?}   the experimenter sets this side's settings
- *   {t:"status", camera, pipelineMs?, encodeMs?, avatar?, gain?, head?, mouth?, eyes?, brows?, style?}
- *                                        the other side's state
+ *   {t:"set", gain?, head?, mouth?, eyes?, brows?, style?, avatar?, condition?}
+ *                                        the experimenter sets this side's settings (condition: the
+ *                                        schedule's condition number, for the log; 0 none)
+ *   {t:"status", camera, pipelineMs?, encodeMs?, avatar?, gain?, head?, mouth?, eyes?, brows?, style?, blind?, condition?}
+ *                                        the other side's state (blind: it runs a schedule, so
+ *                                        this side hides the conditions; condition: the number
+ *                                        it last applied)
  *   {t:"bye"}                            the other side hangs up
  * `avatars`: the names an "avatar" may take.
  */
@@ -58,10 +66,19 @@ export function parseControl(data, avatars) {
     return m.avatar;
   };
   const regions = () => Object.fromEntries(REGIONS.map((k) => [k, num(k, REGION_RANGE)]));
+  const bool = (k) => {
+    if (m[k] !== undefined && typeof m[k] !== 'boolean') throw new Error(`${k} is not true or false`);
+    return m[k] === true;
+  };
+  const condition = () => {
+    if (num('condition', CONDITION_RANGE) !== undefined && !Number.isInteger(m.condition)) throw new Error('condition is not a whole number');
+    return m.condition;
+  };
   try {
     if (m.t === 'set') {
       const out = { t: 'set', gain: num('gain', GAIN_RANGE), head: num('head', HEAD_RANGE), ...regions(), style: num('style', STYLE_RANGE), avatar: avatar() };
       if (Object.keys(out).every((k) => k === 't' || out[k] === undefined)) return { error: 'set changes nothing' };
+      out.condition = condition();
       return { msg: out };
     }
     if (m.t === 'status') {
@@ -78,6 +95,8 @@ export function parseControl(data, avatars) {
           ...regions(),
           style: num('style', STYLE_RANGE),
           avatar: name,
+          blind: bool('blind'),
+          condition: condition(),
         },
       };
     }
@@ -94,39 +113,66 @@ export function clampSettings({ gain, head, mouth = 1, eyes = 1, brows = 1, styl
   return { gain: clamp(gain, GAIN_RANGE), head: clamp(head, HEAD_RANGE), ...regions, style: clamp(style, STYLE_RANGE) };
 }
 
+/** The settings of one side in the switch log's columns (as the frame log names them). */
+const EVENT_VALUES = [['gain', 'gain'], ['head', 'head_motion'], ...REGIONS.map((r) => [r, `${r}_gain`]), ['style', 'style'], ['avatar', 'avatar']];
+/** The switch log's columns: when, what, which condition, then each side's settings. */
+export const EVENT_COLUMNS = ['wall_ms', 'event', 'condition', 'condition_name', 'planned_ms', 'duration_s', ...['local', 'remote'].flatMap((side) => EVENT_VALUES.map(([, c]) => `${side}_${c}`))];
+
+const csvText = (v) => (v === undefined || v === null ? '' : JSON.stringify(String(v)));
+const csvNumber = (v) => (typeof v !== 'number' || Number.isNaN(v) ? '' : Number.isInteger(v) ? String(v) : String(+v.toPrecision(7)));
+
 /**
  * The per-frame log: a ring of `capacity` rows of numbers (allocated once, so a long call does
  * not grow the page's memory), written out as CSV. Columns: time and frame, the pipeline's
  * timing, the lost flag, the settings, the pose (as fitted and as sent), the region gains, the
- * source's shape and appearance parameters and the avatar's (the target's, as cloned).
+ * condition of a schedule (its number and name), the source's shape and appearance parameters
+ * and the avatar's (the target's, as cloned). Beside the frames, the schedule's switches
+ * (`event`, `eventsCSV`): one row each, with both sides' settings.
  */
 export class FrameLog {
   constructor({ shapeModes, appearanceModes, targetShape, targetAppearance, capacity = 18000 }) {
     this.capacity = capacity;
-    this.layout(shapeModes, appearanceModes, targetShape, targetAppearance);
     this.rows = 0; // written in all
     this.avatars = []; // names by index (the avatar column holds the index)
+    this.conditionNames = []; // the same for the condition_name column
+    this.events = []; // the schedule's switches, oldest first (at most MAX_EVENTS)
+    this.layout(shapeModes, appearanceModes, targetShape, targetAppearance);
   }
 
-  layout(ss, sa, ts, ta) {
+  layout(ss, sa, ts, ta, keep = false) {
+    const old = keep && this.rows ? { columns: this.columns, data: this.data } : null;
     this.dims = { ss, sa, ts, ta };
     const fixed = [
       'wall_ms', 'frame', 'capture_ms', 'render_ms', 'lost', 'gain', 'head_motion', 'avatar',
       'fit_scale', 'fit_rotation', 'fit_tx', 'fit_ty', 'sent_scale', 'sent_rotation', 'sent_tx', 'sent_ty',
       ...REGIONS.map((r) => `${r}_gain`),
-      'style',
+      'style', 'condition', 'condition_name',
     ];
+    this.fixed = fixed.length;
     const seq = (p, n) => Array.from({ length: n }, (_, i) => `${p}${i + 1}`);
     this.columns = [...fixed, ...seq('src_shape_', ss), ...seq('src_app_', sa), ...seq('tgt_shape_', ts), ...seq('tgt_app_', ta)];
+    this.col = Object.fromEntries(this.columns.map((c, i) => [c, i]));
     this.data = new Float64Array(this.capacity * this.columns.length);
-    this.rows = 0;
+    if (!old) {
+      this.rows = 0;
+      return;
+    }
+    // Wider: the rows so far are kept, column by column (the new ones empty).
+    const w = this.columns.length;
+    const ow = old.columns.length;
+    const from = this.columns.map((c) => old.columns.indexOf(c));
+    for (let r = 0; r < Math.min(this.rows, this.capacity); r++) {
+      for (let i = 0; i < w; i++) this.data[r * w + i] = from[i] < 0 ? NaN : old.data[r * ow + from[i]];
+    }
   }
 
-  /** A new avatar (or source) with other mode counts: the log starts again (its columns change). */
+  /** A new source with other mode counts starts the log again (its columns change); an avatar
+   *  with more modes widens it, keeping the rows (a schedule switches avatars mid-log). */
   ensure(ss, sa, ts, ta) {
     const d = this.dims;
     if (d.ss === ss && d.sa === sa && d.ts >= ts && d.ta >= ta) return;
-    this.layout(ss, sa, Math.max(ts, d.ts), Math.max(ta, d.ta));
+    const sameSource = d.ss === ss && d.sa === sa;
+    this.layout(ss, sa, Math.max(ts, d.ts), Math.max(ta, d.ta), sameSource);
   }
 
   avatarIndex(name) {
@@ -135,11 +181,12 @@ export class FrameLog {
     return i;
   }
 
-  /** One row. `r`: { wall, frame, captureMs, renderMs, lost, gain, head, avatar, fitPose, sentPose, mouth, eyes, brows, style, src, tgt }. */
+  /** One row. `r`: { wall, frame, captureMs, renderMs, lost, gain, head, avatar, fitPose, sentPose, mouth, eyes, brows, style, condition, conditionName, src, tgt }. */
   push(r) {
     const w = this.columns.length;
     const o = (this.rows % this.capacity) * w;
     const d = this.data;
+    const c = this.col;
     const { ss, sa, ts, ta } = this.dims;
     d.fill(NaN, o, o + w);
     const fixed = [r.wall, r.frame, r.captureMs, r.renderMs, r.lost ? 1 : 0, r.gain, r.head, this.avatarIndex(r.avatar)];
@@ -151,15 +198,23 @@ export class FrameLog {
       d[o + at + 2] = p.tx;
       d[o + at + 3] = p.ty;
     };
-    pose(r.fitPose, 8);
-    pose(r.sentPose, 12);
-    REGIONS.forEach((k, i) => (d[o + 16 + i] = r[k] ?? NaN));
-    d[o + 16 + REGIONS.length] = r.style ?? NaN;
+    pose(r.fitPose, c.fit_scale);
+    pose(r.sentPose, c.sent_scale);
+    for (const k of REGIONS) d[o + c[`${k}_gain`]] = r[k] ?? NaN;
+    d[o + c.style] = r.style ?? NaN;
+    if (r.condition) {
+      d[o + c.condition] = r.condition;
+      if (r.conditionName) {
+        let i = this.conditionNames.indexOf(r.conditionName);
+        if (i < 0) i = this.conditionNames.push(r.conditionName) - 1;
+        d[o + c.condition_name] = i;
+      }
+    }
     const put = (arr, at, n) => {
       if (!arr) return;
       for (let i = 0; i < Math.min(n, arr.length); i++) d[o + at + i] = arr[i];
     };
-    let at = 17 + REGIONS.length;
+    let at = this.fixed;
     put(r.src?.shape, at, ss);
     put(r.src?.appearance, (at += ss), sa);
     put(r.tgt?.shape, (at += sa), ts);
@@ -171,9 +226,10 @@ export class FrameLog {
     return Math.min(this.rows, this.capacity);
   }
 
-  /** The log as CSV text (oldest row first); the avatar column by name. */
+  /** The log as CSV text (oldest row first); the avatar and condition_name columns by name. */
   toCSV() {
     const w = this.columns.length;
+    const text = { [this.col.avatar]: this.avatars, [this.col.condition_name]: this.conditionNames };
     const lines = [this.columns.join(',')];
     const n = this.length;
     const first = this.rows - n;
@@ -182,13 +238,33 @@ export class FrameLog {
       const cells = new Array(w);
       for (let i = 0; i < w; i++) {
         const v = this.data[o + i];
-        if (i === 7) cells[i] = Number.isNaN(v) ? '' : JSON.stringify(this.avatars[v] ?? '');
+        if (text[i]) cells[i] = Number.isNaN(v) ? '' : csvText(text[i][v] ?? '');
         else if (Number.isNaN(v)) cells[i] = '';
         else if (i === 0 || i === 2) cells[i] = v.toFixed(3); // wall-clock times, ms
-        else cells[i] = Number.isInteger(v) ? String(v) : String(+v.toPrecision(7));
+        else cells[i] = csvNumber(v);
       }
       lines.push(cells.join(','));
     }
     return `${lines.join('\n')}\n`;
+  }
+
+  /**
+   * A switch of the schedule: `e` { wall (ms, wall clock), event ("start", "switch", "skip",
+   * "end", "stop" on the page running it; "applied" on the other), condition (number, 0 none),
+   * name, planned (ms, wall clock), duration (s), local, remote (each side's settings: gain,
+   * head, mouth, eyes, brows, style, avatar) }. Kept beside the frames, not in their ring.
+   */
+  event(e) {
+    this.events.push({ ...e, local: e.local ? { ...e.local } : null, remote: e.remote ? { ...e.remote } : null });
+    if (this.events.length > MAX_EVENTS) this.events.shift();
+  }
+
+  /** The switches as CSV (EVENT_COLUMNS), oldest first. */
+  eventsCSV() {
+    const side = (v) => EVENT_VALUES.map(([k]) => (k === 'avatar' ? csvText(v?.[k]) : csvNumber(v?.[k])));
+    const lines = this.events.map((e) =>
+      [typeof e.wall === 'number' ? e.wall.toFixed(3) : '', e.event, csvNumber(e.condition), csvText(e.name), typeof e.planned === 'number' ? e.planned.toFixed(3) : '', csvNumber(e.duration), ...side(e.local), ...side(e.remote)].join(','),
+    );
+    return `${[EVENT_COLUMNS.join(','), ...lines].join('\n')}\n`;
   }
 }

@@ -18,6 +18,18 @@ import { SETTINGS } from './call-controls.js';
 const $ = (id) => document.getElementById(id);
 const STALE_MS = 2000;
 
+/** Saves `text` as a file named `name` (a download). */
+export function download(name, text, type) {
+  const url = URL.createObjectURL(new Blob([text], { type }));
+  const a = document.createElement('a');
+  a.href = url;
+  a.download = name;
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 10_000);
+}
+
 const median = (a) => {
   if (!a.length) return null;
   const s = [...a].sort((x, y) => x - y);
@@ -42,6 +54,11 @@ export class CallView {
     this.stampCanvas.height = STAMP_BLOCK;
     this.stampCtx = this.stampCanvas.getContext('2d', { willReadFrequently: true });
     this.state = 'loading';
+    // While a condition schedule runs (call-schedule-ui.js): `blind` shows no avatar name and no
+    // setting's value (a participant's view), `locked` keeps the other side's controls off.
+    this.blind = false;
+    this.locked = false;
+    this.selfNameText = '';
     this.exposeStatus();
   }
 
@@ -60,7 +77,8 @@ export class CallView {
   }
 
   selfName(name) {
-    $('self-name').textContent = name;
+    this.selfNameText = name;
+    $('self-name').textContent = this.blind ? '' : name;
   }
 
   note(text) {
@@ -249,7 +267,7 @@ export class CallView {
     const c = this.call;
     const s = this.computeState();
     this.state = s;
-    const peerName = c.peer.avatar ? ` (${c.peer.avatar})` : '';
+    const peerName = c.peer.avatar && !this.blind ? ` (${c.peer.avatar})` : '';
     const signalNote = c.signal && c.signal.state !== 'open' && !c.manual ? ' · the signalling server is away: reconnecting to it' : '';
     const text = {
       idle: 'Not in a call. Start one, or open the link the other side sent you.',
@@ -276,11 +294,13 @@ export class CallView {
     badge.hidden = !holding;
     badge.textContent = s === 'peer-left' ? 'left · last frame' : s === 'stalled' ? 'no picture · last frame' : `${s === 'face-lost' ? 'face' : 'camera'} lost · last frame`;
     $('remote-card').classList.toggle('holding', holding);
-    $('remote-name').textContent = c.peer.avatar || '–';
+    $('remote-name').textContent = this.blind ? '' : c.peer.avatar || '–';
+    const self = this.blind ? '' : this.selfNameText;
+    if ($('self-name').textContent !== self) $('self-name').textContent = self;
     // The room panel.
     $('room-idle').hidden = Boolean(c.room) && c.joined;
     $('room-active').hidden = !(c.room && c.joined);
-    for (const id of ['peer-avatar', ...SETTINGS.map((k) => `peer-${k}`)]) $(id).disabled = c.link?.dc?.readyState !== 'open';
+    for (const id of ['peer-avatar', ...SETTINGS.map((k) => `peer-${k}`)]) $(id).disabled = c.link?.dc?.readyState !== 'open' || this.locked;
     // Figures.
     const fps = this.remoteFps;
     const lat = this.latencyMs;
@@ -321,7 +341,7 @@ export class CallView {
   ownSettings(s) {
     for (const k of SETTINGS) {
       $(k).value = String(s[k]);
-      $(`${k}-out`).textContent = s[k].toFixed(2);
+      $(`${k}-out`).textContent = this.blind ? '–' : s[k].toFixed(2);
     }
   }
 
@@ -330,7 +350,7 @@ export class CallView {
     const set = (id, v) => {
       if (v === null || v === undefined) return;
       if (document.activeElement !== $(id)) $(id).value = String(v);
-      $(`${id}-out`).textContent = Number(v).toFixed(2);
+      $(`${id}-out`).textContent = this.blind ? '–' : Number(v).toFixed(2);
     };
     for (const k of SETTINGS) set(`peer-${k}`, p[k]);
     if (p.avatar && document.activeElement !== $('peer-avatar')) {
@@ -375,6 +395,8 @@ export class CallView {
       fits: () => ({ fits: c.avatar?.fits ?? 0, lost: c.avatar?.lost ?? 0 }),
       drawGaps: () => (c.avatar?.drawGaps ?? []).map((g) => ({ ...g })),
       logRows: () => c.avatar?.log?.length ?? 0,
+      schedule: () => c.schedule?.status() ?? null,
+      switches: () => (c.avatar?.log?.events ?? []).map((e) => ({ ...e, local: e.local && { ...e.local }, remote: e.remote && { ...e.remote } })),
       rejectedMessages: () => c.rejected,
       audio: () => ({ sending: Boolean(c.mic), level: v.parts.audioLevel ?? null, energy: v.parts.audioEnergy ?? null, samples: v.parts.audioSamples ?? null }),
       wasmBytes: () => v.wasmBytes(),

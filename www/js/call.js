@@ -2,7 +2,8 @@
 // chose. This module wires the page: the models (bundled, and "Your models" from this browser's
 // store), the avatar (call-avatar.js: webcam -> tracker -> cloner -> canvas), the signalling
 // connection (call-signal.js), the WebRTC link (call-peer.js), the experimenter's controls and
-// the status; call-view.js keeps the figures (stats, latency, fps) and the status line.
+// the status; call-view.js keeps the figures (stats, latency, fps) and the status line;
+// call-schedule-ui.js runs the experimenter's condition schedule (both participants blind).
 //
 // `call.html?room=ID&avatar=NAME&autojoin=1` joins room ID as NAME with no click (no room: a new
 // one is made). `window.facemimicCall` is a read-only view of the call (docs/call.md).
@@ -15,7 +16,8 @@ import { Avatar } from './call-avatar.js';
 import { SignalClient, defaultSignalUrl, inviteUrl, randomId } from './call-signal.js';
 import { PeerLink, openMicrophone, parseIceServers } from './call-peer.js';
 import { parseControl, SETTINGS } from './call-controls.js';
-import { CallView } from './call-view.js';
+import { CallView, download } from './call-view.js';
+import { SchedulePanel } from './call-schedule-ui.js';
 
 const $ = (id) => document.getElementById(id);
 const MODELS = 'models/';
@@ -37,6 +39,7 @@ const call = {
   rejected: 0, // data channel messages refused
   mic: null,
   error: null,
+  schedule: null, // the condition schedule (call-schedule-ui.js)
 };
 
 /** A model by key (loaded once). Keys: "b:FILE" bundled, "s:ID" from the store. */
@@ -293,6 +296,7 @@ function sendStatus() {
     encodeMs: view.encodeMs ?? undefined,
     avatar: a.target?.name,
     ...a.settings, // gain, head, mouth, eyes, brows, style
+    ...call.schedule?.statusFields(), // blind, condition
   });
 }
 
@@ -307,15 +311,17 @@ function onControl(data) {
     Object.assign(call.peer, { camera: msg.camera, avatar: msg.avatar ?? call.peer.avatar, pipelineMs: msg.pipelineMs ?? null, encodeMs: msg.encodeMs ?? null, at: performance.now() });
     for (const k of SETTINGS) call.peer[k] = msg[k] ?? call.peer[k];
     view.peerSettings(call.peer);
+    call.schedule?.onPeerStatus(msg);
   } else if (msg.t === 'set') {
     if (!$('allow-remote').checked) {
       view.note('The other side tried to change your settings (not allowed: see "Let the other side set mine").');
       return;
     }
+    call.schedule?.onSet(msg); // a schedule's condition number, for the log
     const s = Object.fromEntries(SETTINGS.filter((k) => msg[k] !== undefined).map((k) => [k, msg[k]]));
     if (Object.keys(s).length) setOwnSettings(s);
     if (msg.avatar !== undefined) setAvatarKey(`b:${msg.avatar}.fmm`).catch((e) => notify('error', 'Could not change the avatar', message(e)));
-    view.note('The other side changed your settings.');
+    if (!call.schedule?.blind) view.note('The other side changed your settings.');
   } else if (msg.t === 'bye') {
     call.peerLeft = true;
   }
@@ -367,17 +373,8 @@ function wire() {
     $(`peer-${k}`).addEventListener('input', () => setPeer({ [k]: Number($(`peer-${k}`).value) }));
   }
   $('peer-avatar').addEventListener('change', () => setPeer({ avatar: call.models.get($('peer-avatar').value)?.name }));
-  $('download-log').addEventListener('click', () => {
-    const csv = call.avatar.log.toCSV();
-    const url = URL.createObjectURL(new Blob([csv], { type: 'text/csv' }));
-    const a = document.createElement('a');
-    a.href = url;
-    a.download = `facemimic-call-${new Date().toISOString().replace(/[:.]/g, '-')}.csv`;
-    document.body.append(a);
-    a.click();
-    a.remove();
-    setTimeout(() => URL.revokeObjectURL(url), 10_000);
-  });
+  const stamp = () => new Date().toISOString().replace(/[:.]/g, '-');
+  $('download-log').addEventListener('click', () => download(`facemimic-call-${stamp()}.csv`, call.avatar.log.toCSV(), 'text/csv'));
   $('make-offer').addEventListener('click', () => manualStep('offer'));
   $('make-answer').addEventListener('click', () => manualStep('answer'));
   $('accept-answer').addEventListener('click', () => manualStep('accept'));
@@ -434,6 +431,8 @@ async function main() {
     return;
   }
   wire();
+  const forceBlind = params.get('blind') === '1';
+  call.schedule = new SchedulePanel({ call, view, modelFor, setOwnSettings, setAvatarKey, forceBlind });
   view.start();
   setInterval(sendStatus, 1000);
   const room = params.get('room');
