@@ -21,9 +21,10 @@ RUSTDOCFLAGS=-Dwarnings cargo doc -p facemimic-wasm --target wasm32-unknown-unkn
 step "native tests"
 cargo test --workspace --all-targets
 
-step "build the wasm package and the default models"
+step "build the wasm packages; check the committed default models against a fresh build"
 bash scripts/build-wasm.sh
-bash scripts/build-models.sh
+bash scripts/build-faces.sh
+bash scripts/build-models.sh --check
 
 step "wasm tests (Node, then headless Chromium)"
 cargo test -p facemimic -p facemimic-wasm --target wasm32-unknown-unknown

@@ -57,6 +57,41 @@ impl From<std::io::Error> for Error {
 }
 
 impl Error {
+    /// A stable, machine-readable name of the error's kind, for front ends that show or branch
+    /// on it (the npm package puts it in every thrown `Error`'s `code`). Never changes for a
+    /// kind once released; the message may be reworded.
+    ///
+    /// | kind | code |
+    /// |---|---|
+    /// | [`Error::Landmarks`] | `bad-landmarks` |
+    /// | [`Error::Format`] | `bad-model` |
+    /// | [`Error::Training`] | `training` |
+    /// | [`Error::Incompatible`] | `mismatched-models` |
+    /// | [`Error::Params`] | `bad-params` |
+    /// | [`Error::Image`] | `bad-frame` |
+    /// | [`Error::File`] | its source's code |
+    /// | [`Error::Io`] | `io` |
+    /// | [`Error::Cancelled`] | `cancelled` |
+    /// | [`Error::Weights`] | `bad-weights` |
+    /// | [`Error::Overflow`] | `overflow` |
+    /// | [`Error::Budget`] | `too-large` |
+    pub fn code(&self) -> &'static str {
+        match self {
+            Error::Landmarks(_) => "bad-landmarks",
+            Error::Format(_) => "bad-model",
+            Error::Training(_) => "training",
+            Error::Incompatible(_) => "mismatched-models",
+            Error::Params(_) => "bad-params",
+            Error::Image(_) => "bad-frame",
+            Error::File { source, .. } => source.code(),
+            Error::Io(_) => "io",
+            Error::Cancelled => "cancelled",
+            Error::Weights(_) => "bad-weights",
+            Error::Overflow(_) => "overflow",
+            Error::Budget(_) => "too-large",
+        }
+    }
+
     /// Prefixes the message with where it happened (a file name), keeping the variant for
     /// [`Error::Format`] by turning it into a context-carrying [`Error::File`].
     pub fn with_context(self, context: &str) -> Error {

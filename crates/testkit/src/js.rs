@@ -6,10 +6,19 @@ use wasm_bindgen::JsCast;
 use web_sys::{OffscreenCanvas, OffscreenCanvasRenderingContext2d};
 
 /// The message of a JS `Error` thrown by the package (empty when it is not an `Error`).
-pub fn message(e: JsError) -> String {
+pub fn message(e: impl Into<JsValue>) -> String {
     let v: JsValue = e.into();
     v.dyn_into::<js_sys::Error>()
         .map(|e| String::from(e.message()))
+        .unwrap_or_default()
+}
+
+/// The `code` of a JS `Error` thrown by the package (empty when it has none).
+pub fn code(e: impl Into<JsValue>) -> String {
+    let v: JsValue = e.into();
+    js_sys::Reflect::get(&v, &JsValue::from_str("code"))
+        .ok()
+        .and_then(|c| c.as_string())
         .unwrap_or_default()
 }
 

@@ -5,6 +5,7 @@
 //! across the boundary. The build runs synchronously: in a page, call it from a Web Worker
 //! (`www/js/build-worker.js` does) so the page keeps drawing.
 
+use crate::JsError;
 use wasm_bindgen::prelude::*;
 
 use super::install_panic_hook;
@@ -264,11 +265,14 @@ fn read_frames(options: &JsValue) -> Result<Vec<EnrolFrame>, JsError> {
         let (width, height) = (dim(&f, "width", &what)?, dim(&f, "height", &what)?);
         let data = pixels(&get(&f, "rgba")?, &what)?;
         if data.len() != width as usize * height as usize * 4 {
-            return Err(JsError::new(&format!(
-                "buildModel: {what}.rgba has {} bytes, {width}x{height} RGBA needs {}",
-                data.len(),
-                width as usize * height as usize * 4
-            )));
+            return Err(JsError::coded(
+                "bad-frame",
+                format!(
+                    "buildModel: {what}.rgba has {} bytes, {width}x{height} RGBA needs {}",
+                    data.len(),
+                    width as usize * height as usize * 4
+                ),
+            ));
         }
         let lm = match &landmark_list {
             Some(a) => a.get(i as u32),
@@ -417,10 +421,8 @@ fn with_finder<T>(f: impl FnOnce(&mut EnrolFinder) -> Result<T, JsError>) -> Res
     FINDER.with(|cell| {
         let mut slot = cell.borrow_mut();
         if slot.is_none() {
-            *slot = Some(
-                EnrolFinder::new(ENROL_BOXES)
-                    .map_err(|e| JsError::new(&format!("face finder: {e}")))?,
-            );
+            *slot =
+                Some(EnrolFinder::new(ENROL_BOXES).map_err(|e| JsError::core("face finder", e))?);
         }
         match slot.as_mut() {
             Some(finder) => f(finder),
@@ -431,10 +433,10 @@ fn with_finder<T>(f: impl FnOnce(&mut EnrolFinder) -> Result<T, JsError>) -> Res
 
 fn build_err(e: facemimic::Error) -> JsError {
     match e {
-        facemimic::Error::Cancelled => JsError::new("cancelled"),
+        facemimic::Error::Cancelled => JsError::coded("cancelled", "cancelled"),
         // The pipeline's messages name the frames already ("a face in 0 of 3 frames, ...").
-        facemimic::Error::Training(msg) => JsError::new(&format!("buildModel: {msg}")),
-        e => JsError::new(&format!("buildModel: {e}")),
+        facemimic::Error::Training(msg) => JsError::coded("training", format!("buildModel: {msg}")),
+        e => JsError::core("buildModel", e),
     }
 }
 
@@ -447,7 +449,7 @@ pub fn select_varied_js(shapes: Vec<js_sys::Float32Array>, n: usize) -> Result<V
     let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
     facemimic::select_varied(&refs, n)
         .map(|v| v.into_iter().map(|i| i as u32).collect())
-        .map_err(|e| JsError::new(&format!("selectVaried: {e}")))
+        .map_err(|e| JsError::core("selectVaried", e))
 }
 
 /// How much of the variety of `shapes` the `chosen` ones cover, in [0, 1] (see the core's
@@ -461,7 +463,7 @@ pub fn shape_coverage_js(
     let owned: Vec<Vec<f32>> = shapes.iter().map(|s| s.to_vec()).collect();
     let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
     let chosen: Vec<usize> = chosen.into_iter().map(|i| i as usize).collect();
-    facemimic::coverage(&refs, &chosen).map_err(|e| JsError::new(&format!("shapeCoverage: {e}")))
+    facemimic::coverage(&refs, &chosen).map_err(|e| JsError::core("shapeCoverage", e))
 }
 
 /// The face to enrol in one RGBA frame: the finder's most confident face if its score reaches

@@ -1,6 +1,7 @@
 //! `Cloner` for JavaScript: one source driving many targets, drawn into canvases. A thin shell
 //! over [`facemimic::Stage`]: it parses, passes and blits.
 
+use crate::JsError;
 use std::str::FromStr;
 
 use wasm_bindgen::prelude::*;
@@ -450,7 +451,7 @@ impl JsCloner {
     }
 
     /// Renders target `index` as of the last `update()` into a new `ImageData` of the given
-    /// size (for workers, compositing or saving).
+    /// size (for workers, compositing or saving; a browser's or a worker's `ImageData`).
     #[wasm_bindgen(js_name = renderTargetImageData)]
     pub fn render_target_image_data(
         &mut self,
@@ -459,9 +460,24 @@ impl JsCloner {
         height: u32,
         options: Option<RenderOptionsArg>,
     ) -> Result<ImageData, JsError> {
+        let data = self.render_target_rgba(index, width, height, options)?;
+        as_image_data(data, width, height)
+    }
+
+    /// Renders target `index` as of the last `update()` into new straight RGBA bytes,
+    /// `width * height * 4`, rows top to bottom: for batch work where there is no `ImageData`
+    /// (Node) or the pixels go to an encoder.
+    #[wasm_bindgen(js_name = renderTargetRGBA)]
+    pub fn render_target_rgba(
+        &mut self,
+        index: u32,
+        width: u32,
+        height: u32,
+        options: Option<RenderOptionsArg>,
+    ) -> Result<js_sys::Uint8ClampedArray, JsError> {
         let i = self.check_index(index)?;
         let o = picture_options(options)?;
-        image_data(width, height, |sink| {
+        rgba_out(width, height, |sink| {
             self.paint_into(sink, o.background.is_opaque(), |s, p| {
                 s.draw_target_into(i, &o, p)
             })
@@ -476,8 +492,21 @@ impl JsCloner {
         height: u32,
         options: Option<RenderOptionsArg>,
     ) -> Result<ImageData, JsError> {
+        let data = self.render_source_rgba(width, height, options)?;
+        as_image_data(data, width, height)
+    }
+
+    /// Renders the source face into new straight RGBA bytes of the given size (see
+    /// `renderTargetRGBA`).
+    #[wasm_bindgen(js_name = renderSourceRGBA)]
+    pub fn render_source_rgba(
+        &mut self,
+        width: u32,
+        height: u32,
+        options: Option<RenderOptionsArg>,
+    ) -> Result<js_sys::Uint8ClampedArray, JsError> {
         let o = source_options(options)?;
-        image_data(width, height, |sink| {
+        rgba_out(width, height, |sink| {
             self.paint_into(sink, o.background.is_opaque(), |s, p| {
                 s.draw_source_into(&o, p)
             })
@@ -643,17 +672,31 @@ impl std::fmt::Debug for JsCloner {
     }
 }
 
-/// A new `ImageData` of `width x height` that `draw` renders into.
-fn image_data(
+/// `rgba_out`'s pixels as an `ImageData` (which exists in browsers and workers, not in Node).
+fn as_image_data(
+    data: js_sys::Uint8ClampedArray,
+    width: u32,
+    height: u32,
+) -> Result<ImageData, JsError> {
+    ImageData::new_with_js_u8_clamped_array_and_sh(&data, width, height).map_err(|e| {
+        JsError::new(&format!(
+            "ImageData: {} (in Node use renderTargetRGBA / renderSourceRGBA)",
+            crate::surface::describe(&e)
+        ))
+    })
+}
+
+/// New straight RGBA bytes of `width x height` that `draw` renders into.
+fn rgba_out(
     width: u32,
     height: u32,
     draw: impl FnOnce(Sink<'_>) -> Result<(), JsError>,
-) -> Result<ImageData, JsError> {
+) -> Result<js_sys::Uint8ClampedArray, JsError> {
     let mut out = None;
     draw(Sink::Image {
         width,
         height,
         out: &mut out,
     })?;
-    out.ok_or_else(|| JsError::new("internal error: no image produced"))
+    out.ok_or_else(|| JsError::coded("internal", "internal error: no image produced"))
 }

@@ -1,5 +1,6 @@
 //! `FaceFinder` for JavaScript: every face in an RGBA frame with its 68 landmarks.
 
+use crate::JsError;
 use js_sys::{Array, Float32Array, Object, Reflect};
 use wasm_bindgen::prelude::*;
 
@@ -48,7 +49,7 @@ impl JsFaceFinder {
                 inner,
                 precise: false,
             })
-            .map_err(|e| JsError::new(&format!("FaceFinder: {e}")))
+            .map_err(|e| JsError::core("FaceFinder", e))
     }
 
     /// Whether `find` averages each face over the frame and its mirror image: closer to dlib's
@@ -67,9 +68,14 @@ impl JsFaceFinder {
 
     /// Every face in a straight RGBA frame, most confident first.
     #[wasm_bindgen(unchecked_return_type = "FoundFace[]")]
-    pub fn find(&mut self, rgba: &[u8], width: u32, height: u32) -> Result<Array, JsError> {
-        let img = ImageRef::new(width, height, rgba)
-            .map_err(|e| JsError::new(&format!("FaceFinder.find: {e}")))?;
+    pub fn find(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] rgba: &[u8],
+        width: u32,
+        height: u32,
+    ) -> Result<Array, JsError> {
+        let img =
+            ImageRef::new(width, height, rgba).map_err(|e| JsError::core("FaceFinder.find", e))?;
         let out = Array::new();
         // The mirror only for this call: `enrol` averages its own passes.
         let finder = self.inner.finder();
@@ -104,7 +110,7 @@ impl JsFaceFinder {
     #[wasm_bindgen(unchecked_return_type = "Float32Array")]
     pub fn landmarks(
         &mut self,
-        rgba: &[u8],
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] rgba: &[u8],
         width: u32,
         height: u32,
         #[wasm_bindgen(
@@ -114,7 +120,7 @@ impl JsFaceFinder {
         bbox: JsValue,
     ) -> Result<Float32Array, JsError> {
         let img = ImageRef::new(width, height, rgba)
-            .map_err(|e| JsError::new(&format!("FaceFinder.landmarks: {e}")))?;
+            .map_err(|e| JsError::core("FaceFinder.landmarks", e))?;
         let b: BBox = serde_wasm_bindgen::from_value(bbox).map_err(|e| {
             JsError::new(&format!(
                 "FaceFinder.landmarks: box must be {{x, y, width, height}} in numbers: {e}"
@@ -124,7 +130,7 @@ impl JsFaceFinder {
             .inner
             .finder()
             .landmarks(&img, b)
-            .map_err(|e| JsError::new(&format!("FaceFinder.landmarks: {e}")))?;
+            .map_err(|e| JsError::core("FaceFinder.landmarks", e))?;
         Ok(Float32Array::from(points.as_slice()))
     }
 

@@ -2,6 +2,7 @@
 //! enrolment and photo targets read `.pts` files with [`parse_pts`], and the end-to-end tests
 //! measure with [`landmark_error`] rather than a JavaScript copy of it.
 
+use crate::JsError;
 use wasm_bindgen::prelude::*;
 
 use super::{install_panic_hook, js_err};

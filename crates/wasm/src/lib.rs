@@ -14,10 +14,13 @@
 
 use wasm_bindgen::prelude::*;
 
+pub use error::JsError;
+
 use facemimic::Params;
 
 mod build;
 mod cloner;
+mod error;
 mod finder;
 mod landmarks;
 mod model;
@@ -37,25 +40,26 @@ pub use tracker::WasmTracker;
 
 /// Converts a library error into a JS `Error` (its message names the problem).
 pub(crate) fn js_err(e: facemimic::Error) -> JsError {
-    JsError::new(&e.to_string())
+    e.into()
 }
 
 /// Parameters from JS: `{ pose: { scale, rotation, tx, ty }, shape: number[], appearance: number[] }`
 /// (arrays may be typed arrays).
 pub(crate) fn params_from_js(value: &JsValue) -> Result<Params, JsError> {
     if !value.is_object() {
-        return Err(JsError::new(&format!(
+        return Err(JsError::coded("bad-params", format!(
             "parameters: expected {{ pose: {{ scale, rotation, tx, ty }}, shape: [...], appearance: [...] }}, got {}",
             surface::describe(value)
         )));
     }
     serde_wasm_bindgen::from_value(value.clone())
-        .map_err(|e| JsError::new(&format!("parameters: {e}")))
+        .map_err(|e| JsError::coded("bad-params", format!("parameters: {e}")))
 }
 
 /// Parameters to JS as a plain object with number arrays.
 pub(crate) fn params_to_js(params: &Params) -> Result<JsValue, JsError> {
-    serde_wasm_bindgen::to_value(params).map_err(|e| JsError::new(&format!("parameters: {e}")))
+    serde_wasm_bindgen::to_value(params)
+        .map_err(|e| JsError::coded("bad-params", format!("parameters: {e}")))
 }
 
 pub use facemimic::canvas_view;

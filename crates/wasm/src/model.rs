@@ -1,5 +1,6 @@
 //! `Model` for JavaScript: load, inspect, project, render, and the inspector's `renderMode`.
 
+use crate::JsError;
 use std::cell::RefCell;
 use std::sync::Arc;
 
@@ -86,7 +87,7 @@ pub(crate) fn model_info_with(m: &Model, notice: Option<&str>) -> Result<JsValue
     // `None` as `null`, as the TypeScript type says (`to_value` would give `undefined`).
     let ser = serde_wasm_bindgen::Serializer::new().serialize_missing_as_null(true);
     info.serialize(&ser)
-        .map_err(|e| JsError::new(&format!("model info: {e}")))
+        .map_err(|e| JsError::core("model info", e))
 }
 
 /// The plain object `modelSummary()` returns (see the TypeScript `ModelSummary`).
@@ -128,7 +129,7 @@ pub fn model_summary(
         is_photo: s.is_photo,
         file_bytes: s.file_bytes,
     };
-    serde_wasm_bindgen::to_value(&js).map_err(|e| JsError::new(&format!("model summary: {e}")))
+    serde_wasm_bindgen::to_value(&js).map_err(|e| JsError::core("model summary", e))
 }
 
 /// Per-model rendering scratch (created on the first render, reused afterwards).
@@ -200,13 +201,13 @@ impl JsModel {
         let mut slot = self
             .scratch
             .try_borrow_mut()
-            .map_err(|_| JsError::new("model: render called re-entrantly"))?;
+            .map_err(|_| JsError::coded("busy", "model: render called re-entrantly"))?;
         if slot.is_none() {
             *slot = Some(Box::new(ModelScratch::new(&self.model)?));
         }
         match slot.as_deref_mut() {
             Some(s) => f(&self.model, s),
-            None => Err(JsError::new("internal error: model scratch")),
+            None => Err(JsError::coded("internal", "internal error: model scratch")),
         }
     }
 }
@@ -216,7 +217,9 @@ impl JsModel {
     /// Parses and validates a `.fmm` model file. Throws an `Error` naming the problem
     /// (corrupt, truncated, unsupported version, limits exceeded).
     #[wasm_bindgen(js_name = fromBytes)]
-    pub fn from_bytes(bytes: &[u8]) -> Result<JsModel, JsError> {
+    pub fn from_bytes(
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array")] bytes: &[u8],
+    ) -> Result<JsModel, JsError> {
         install_panic_hook();
         let (model, info) =
             facemimic::format::read_model_info(bytes).map_err(|e| js_err(e.into()))?;
@@ -315,7 +318,7 @@ impl JsModel {
     #[wasm_bindgen(js_name = viewFor, unchecked_return_type = "Pose")]
     pub fn view_for(&self, width: u32, height: u32) -> Result<JsValue, JsError> {
         serde_wasm_bindgen::to_value(&super::canvas_view(&self.model, width, height))
-            .map_err(|e| JsError::new(&format!("view: {e}")))
+            .map_err(|e| JsError::core("view", e))
     }
 
     /// A copy of the model.

@@ -2,6 +2,7 @@
 //! decide nothing of their own (work-frame size, photo targets, enrolment sampling, cloning
 //! defaults).
 
+use crate::JsError;
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
@@ -85,6 +86,5 @@ pub fn policy() -> Result<JsValue, JsError> {
         },
     };
     let ser = serde_wasm_bindgen::Serializer::new().serialize_missing_as_null(true);
-    p.serialize(&ser)
-        .map_err(|e| JsError::new(&format!("policy: {e}")))
+    p.serialize(&ser).map_err(|e| JsError::core("policy", e))
 }

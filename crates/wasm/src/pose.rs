@@ -1,5 +1,6 @@
 //! Pose helpers for JavaScript (the page's re-centring of a tracked or recorded head).
 
+use crate::JsError;
 use wasm_bindgen::prelude::*;
 
 use facemimic::{PoseJson, Similarity};
@@ -10,8 +11,7 @@ fn pose_from_js(what: &str, v: JsValue) -> Result<Similarity, JsError> {
 
 /// A pose as the JS `Pose` object every function here returns.
 fn pose_to_js(pose: Similarity) -> Result<JsValue, JsError> {
-    serde_wasm_bindgen::to_value(&PoseJson::from(pose))
-        .map_err(|e| JsError::new(&format!("pose: {e}")))
+    serde_wasm_bindgen::to_value(&PoseJson::from(pose)).map_err(|e| JsError::core("pose", e))
 }
 
 /// The mean of poses (`Similarity::mean`: geometric in scale, circular in angle, arithmetic in
@@ -21,8 +21,8 @@ fn pose_to_js(pose: Similarity) -> Result<JsValue, JsError> {
 pub fn mean_pose(
     #[wasm_bindgen(unchecked_param_type = "Pose[]")] poses: JsValue,
 ) -> Result<JsValue, JsError> {
-    let poses: Vec<Similarity> = serde_wasm_bindgen::from_value(poses)
-        .map_err(|e| JsError::new(&format!("meanPose: {e}")))?;
+    let poses: Vec<Similarity> =
+        serde_wasm_bindgen::from_value(poses).map_err(|e| JsError::core("meanPose", e))?;
     let m = Similarity::mean(&poses).ok_or_else(|| {
         JsError::new("meanPose: no poses, an invalid pose, or rotations that cancel out")
     })?;
@@ -86,7 +86,7 @@ impl JsPoseDamper {
     pub fn new(tau: Option<f32>) -> Result<JsPoseDamper, JsError> {
         super::install_panic_hook();
         let inner = facemimic::fit::HeadDamper::new(tau.unwrap_or(2.0), 1.0)
-            .map_err(|e| JsError::new(&format!("PoseDamper: {e}")))?;
+            .map_err(|e| JsError::core("PoseDamper", e))?;
         Ok(JsPoseDamper { inner })
     }
 
@@ -117,7 +117,7 @@ impl JsPoseDamper {
         let tau = self.inner.tau();
         self.inner
             .set(tau, factor)
-            .map_err(|e| JsError::new(&format!("PoseDamper: {e}")))?;
+            .map_err(|e| JsError::core("PoseDamper", e))?;
         pose_to_js(self.inner.apply(pose, now))
     }
 }

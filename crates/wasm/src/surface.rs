@@ -3,6 +3,7 @@
 //! blit and the clock. What is drawn, and where in the canvas, is the core's
 //! ([`facemimic::FaceDrawer`], [`facemimic::fit_view`]).
 
+use crate::JsError;
 use std::cell::RefCell;
 
 use facemimic::tiny_skia::{Color, Pixmap, PixmapMut};
@@ -303,14 +304,14 @@ pub(crate) struct Stages {
 pub(crate) enum Sink<'a> {
     /// Blit into this context's canvas (sized by the canvas).
     Canvas(&'a Ctx),
-    /// Return a fresh `ImageData` of this size (the pixels are copied out of wasm memory).
+    /// Return a fresh array of this size's straight RGBA pixels (copied out of wasm memory).
     Image {
         /// Width in pixels.
         width: u32,
         /// Height in pixels.
         height: u32,
         /// The result.
-        out: &'a mut Option<ImageData>,
+        out: &'a mut Option<js_sys::Uint8ClampedArray>,
     },
 }
 
@@ -361,7 +362,7 @@ where
     }
     SURFACES.with(|cell| {
         let Ok(mut surfaces) = cell.try_borrow_mut() else {
-            return Err(JsError::new("render called re-entrantly"));
+            return Err(JsError::coded("busy", "render called re-entrantly"));
         };
         let surface = surfaces.get(w, h)?;
         draw(&mut surface.pixmap.as_mut(), w, h)?;
@@ -373,9 +374,7 @@ where
             Sink::Image { out, .. } => {
                 let array = js_sys::Uint8ClampedArray::new_with_length(bytes.len() as u32);
                 array.copy_from(bytes);
-                let image = ImageData::new_with_js_u8_clamped_array_and_sh(&array, w, h)
-                    .map_err(|e| JsError::new(&format!("ImageData: {}", describe(&e))))?;
-                *out = Some(image);
+                *out = Some(array);
             }
         }
         let t2 = now_ms();
@@ -396,8 +395,9 @@ impl Surfaces {
         {
             Some(i) => i,
             None => {
-                let pixmap = Pixmap::new(w, h)
-                    .ok_or_else(|| JsError::new(&format!("cannot allocate a {w}x{h} pixmap")))?;
+                let pixmap = Pixmap::new(w, h).ok_or_else(|| {
+                    JsError::coded("too-large", format!("cannot allocate a {w}x{h} pixmap"))
+                })?;
                 if self.list.len() >= MAX_SURFACES {
                     if let Some(oldest) = self
                         .list
@@ -418,7 +418,7 @@ impl Surfaces {
             }
         };
         let Some(surface) = self.list.get_mut(idx) else {
-            return Err(JsError::new("internal error: surface cache"));
+            return Err(JsError::coded("internal", "internal error: surface cache"));
         };
         surface.last_use = clock;
         Ok(surface)
@@ -435,8 +435,12 @@ pub(crate) fn put_rgba(ctx: &Ctx, rgba: &[u8], w: u32, h: u32) -> Result<(), JsE
 
 /// Reads a JS property, naming it in the error.
 fn prop(value: &JsValue, key: &str, what: &str) -> Result<JsValue, JsError> {
-    js_sys::Reflect::get(value, &JsValue::from_str(key))
-        .map_err(|e| JsError::new(&format!("parameters: reading {what}: {}", describe(&e))))
+    js_sys::Reflect::get(value, &JsValue::from_str(key)).map_err(|e| {
+        JsError::coded(
+            "bad-params",
+            format!("parameters: reading {what}: {}", describe(&e)),
+        )
+    })
 }
 
 /// Copies a JS number array (an `Array`, a typed array or any array-like) of exactly
@@ -444,45 +448,54 @@ fn prop(value: &JsValue, key: &str, what: &str) -> Result<JsValue, JsError> {
 fn numbers_into(value: &JsValue, out: &mut [f32], what: &str) -> Result<(), JsError> {
     if let Some(a) = value.dyn_ref::<js_sys::Float32Array>() {
         if a.length() as usize != out.len() {
-            return Err(JsError::new(&format!(
-                "parameters: {what} has {} values, the model expects {}",
-                a.length(),
-                out.len()
-            )));
+            return Err(JsError::coded(
+                "bad-params",
+                format!(
+                    "parameters: {what} has {} values, the model expects {}",
+                    a.length(),
+                    out.len()
+                ),
+            ));
         }
         a.copy_to(out);
         return Ok(());
     }
     if !value.is_object() {
-        return Err(JsError::new(&format!(
-            "parameters: {what} must be an array of numbers, got {}",
-            describe(value)
-        )));
+        return Err(JsError::coded(
+            "bad-params",
+            format!(
+                "parameters: {what} must be an array of numbers, got {}",
+                describe(value)
+            ),
+        ));
     }
     let len = prop(value, "length", what)?.as_f64().unwrap_or(-1.0);
     if len != out.len() as f64 {
-        return Err(JsError::new(&format!(
-            "parameters: {what} has {} values, the model expects {}",
-            if len < 0.0 {
-                "no length: not an array, and no".to_string()
-            } else {
-                len.to_string()
-            },
-            out.len()
-        )));
+        return Err(JsError::coded(
+            "bad-params",
+            format!(
+                "parameters: {what} has {} values, the model expects {}",
+                if len < 0.0 {
+                    "no length: not an array, and no".to_string()
+                } else {
+                    len.to_string()
+                },
+                out.len()
+            ),
+        ));
     }
     for (i, o) in out.iter_mut().enumerate() {
         let v = js_sys::Reflect::get_u32(value, i as u32).map_err(|e| {
-            JsError::new(&format!(
-                "parameters: reading {what}[{i}]: {}",
-                describe(&e)
-            ))
+            JsError::coded(
+                "bad-params",
+                format!("parameters: reading {what}[{i}]: {}", describe(&e)),
+            )
         })?;
         *o = v.as_f64().ok_or_else(|| {
-            JsError::new(&format!(
-                "parameters: {what}[{i}] is not a number ({})",
-                describe(&v)
-            ))
+            JsError::coded(
+                "bad-params",
+                format!("parameters: {what}[{i}] is not a number ({})", describe(&v)),
+            )
         })? as f32;
     }
     Ok(())
@@ -493,26 +506,32 @@ fn numbers_into(value: &JsValue, out: &mut [f32], what: &str) -> Result<(), JsEr
 /// `out` may be partly written: read into a scratch copy and swap on success.
 pub(crate) fn params_into(value: &JsValue, out: &mut facemimic::Params) -> Result<(), JsError> {
     if !value.is_object() {
-        return Err(JsError::new(&format!(
+        return Err(JsError::coded("bad-params", format!(
             "parameters: expected {{ pose: {{ scale, rotation, tx, ty }}, shape: [...], appearance: [...] }}, got {}",
             describe(value)
         )));
     }
     let pose = prop(value, "pose", "pose")?;
     if !pose.is_object() {
-        return Err(JsError::new(&format!(
-            "parameters: pose must be {{ scale, rotation, tx, ty }}, got {}",
-            describe(&pose)
-        )));
+        return Err(JsError::coded(
+            "bad-params",
+            format!(
+                "parameters: pose must be {{ scale, rotation, tx, ty }}, got {}",
+                describe(&pose)
+            ),
+        ));
     }
     let mut p = [0f32; 4];
     for (o, key) in p.iter_mut().zip(["scale", "rotation", "tx", "ty"]) {
         let v = prop(&pose, key, key)?;
         *o = v.as_f64().ok_or_else(|| {
-            JsError::new(&format!(
-                "parameters: pose.{key} must be a number, got {}",
-                describe(&v)
-            ))
+            JsError::coded(
+                "bad-params",
+                format!(
+                    "parameters: pose.{key} must be a number, got {}",
+                    describe(&v)
+                ),
+            )
         })? as f32;
     }
     out.pose = Similarity::from_parts(p[0], p[1], p[2], p[3]);

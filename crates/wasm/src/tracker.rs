@@ -6,6 +6,7 @@
 //! Every entry point validates its input and returns `Result<_, JsError>`; nothing panics
 //! across the boundary.
 
+use crate::JsError;
 use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
@@ -58,7 +59,7 @@ fn to_js(r: &FitResult, seq: &Sequence, scale: f32) -> Result<JsValue, JsError> 
         lost: r.lost,
         reacquired: r.reacquired,
     };
-    serde_wasm_bindgen::to_value(&v).map_err(|e| JsError::new(&format!("tracker: {e}")))
+    serde_wasm_bindgen::to_value(&v).map_err(|e| JsError::core("tracker", e))
 }
 
 /// `TrackPolicy` in JS (camelCase).
@@ -111,6 +112,29 @@ const TS_POLICY: &'static str = r##"
  *  "landmarks" reads the face finder's landmarks as expression and maps them onto the model's
  *  shape modes (anyone, with a model that is not theirs). */
 export type TrackerKind = "aam" | "landmarks";
+/** What `Tracker.track` and `Tracker.last` return: one frame's fit (or follow). */
+export interface FitResult {
+  /** 68 landmarks in the frame's pixels, `[x0, y0, x1, y1, ...]`. */
+  landmarks: number[];
+  /** The fit's pose, model -> frame pixels. */
+  pose: Pose;
+  /** The last good pose re-centred on the model's mean pose: the head placement to drive the
+   *  source face with (`Cloner.setSourceParams({ ...fit, pose: fit.placed })`). */
+  placed: Pose;
+  /** The fit scale in use (fitted pixels per frame pixel; 1 for the landmark path). */
+  scale: number;
+  shape: number[];
+  /** Clamped to +- `policy.appearanceLimit` standard deviations. */
+  appearance: number[];
+  /** The AAM's RMS grey residual, or for the landmark path 1 minus the mesh's face score. */
+  error: number;
+  iterations: number;
+  converged: boolean;
+  /** No face on this frame: `landmarks` are the last good fit's, not a face here. */
+  lost: boolean;
+  /** The face was found (again) by the face finder on this frame. */
+  reacquired: boolean;
+}
 /** How a `Tracker` resamples frames and bounds what it reports (`Tracker.policy`). */
 export interface TrackPolicy {
   /** Reported appearance parameters are clamped to +- this many standard deviations (0: off). */
@@ -135,7 +159,7 @@ export interface TrackPolicy {
 "##;
 
 fn err(e: facemimic::Error) -> JsError {
-    JsError::new(&format!("tracker: {e}"))
+    JsError::core("tracker", e)
 }
 
 /// `offerFaces`' argument: `FaceFinder.find`'s result (objects with `landmarks`) or arrays of
@@ -193,7 +217,9 @@ impl WasmTracker {
     /// An AAM tracker (`path` "aam") for a model given as `.fmm` bytes. Throws if the bytes are
     /// not a valid model.
     #[wasm_bindgen(constructor)]
-    pub fn new(model_bytes: &[u8]) -> Result<WasmTracker, JsError> {
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array")] model_bytes: &[u8],
+    ) -> Result<WasmTracker, JsError> {
         super::install_panic_hook();
         let model = facemimic::format::read_model(model_bytes).map_err(|e| err(e.into()))?;
         Self::of_kind(&model, TrackerKind::Aam)
@@ -250,9 +276,10 @@ impl WasmTracker {
     /// residual, or for the landmark path 1 minus the mesh's face score; `iterations`: the
     /// fit's iterations, or the mesh passes. Throws for a bad image, a `dt` that is not a
     /// finite non-negative number, or an AAM tracker with no sequence started.
+    #[wasm_bindgen(unchecked_return_type = "FitResult")]
     pub fn track(
         &mut self,
-        data: &[u8],
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] data: &[u8],
         width: u32,
         height: u32,
         dt: Option<f32>,
@@ -266,6 +293,7 @@ impl WasmTracker {
 
     /// The last frame's result (same shape as `track`'s), or `null` before the first frame
     /// (for an AAM tracker: of the sequence).
+    #[wasm_bindgen(unchecked_return_type = "FitResult | null")]
     pub fn last(&self) -> Result<JsValue, JsError> {
         match self.inner.last() {
             Some(r) => to_js(r, self.inner.sequence(), self.inner.scale()),
@@ -358,7 +386,7 @@ impl WasmTracker {
     #[wasm_bindgen(getter, unchecked_return_type = "TrackPolicy")]
     pub fn policy(&self) -> Result<JsValue, JsError> {
         serde_wasm_bindgen::to_value(&PolicyJs::from(self.inner.policy()))
-            .map_err(|e| JsError::new(&format!("tracker: {e}")))
+            .map_err(|e| JsError::core("tracker", e))
     }
 
     /// Changes some of the tracking policy's values (the others keep theirs). Throws, changing
@@ -452,7 +480,7 @@ fn patched_policy(base: &TrackPolicy, policy: JsValue) -> Result<TrackPolicy, Js
     }
     let base = PolicyJs::from(base);
     let patch: PolicyPatch = serde_wasm_bindgen::from_value(policy)
-        .map_err(|e| JsError::new(&format!("tracker: setPolicy: {e}")))?;
+        .map_err(|e| JsError::core("tracker: setPolicy", e))?;
     Ok(TrackPolicy {
         appearance_limit: patch.appearance_limit.unwrap_or(base.appearance_limit),
         max_fit_side: patch.max_fit_side.unwrap_or(base.max_fit_side),

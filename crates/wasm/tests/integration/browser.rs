@@ -11,7 +11,7 @@
 
 use facemimic_testkit as common;
 
-use common::js::{message, offscreen_ctx, params_js};
+use common::js::{code, message, offscreen_ctx, params_js};
 use common::pixels::{in_triangle, mean_abs_diff};
 use facemimic::landmarks::parse_pts;
 use facemimic::{BuildOptions, Builder, Image, Model, Params, Similarity, TrainingImage};
@@ -477,6 +477,7 @@ fn bad_params_are_refused(cloner: &mut JsCloner, source: &Model) {
     let mut p = source.base_params();
     p.shape[0] = f32::NAN;
     let e = cloner.set_source_params(params_js(&p)).unwrap_err();
+    assert_eq!(code(e.clone()), "bad-params");
     assert!(message(e).contains("not finite"));
     let mut p = source.base_params();
     p.shape.push(1.0);
@@ -509,7 +510,9 @@ fn bad_params_are_refused(cloner: &mut JsCloner, source: &Model) {
     );
     assert!(cloner.set_gain(f32::INFINITY).is_err());
     assert!(cloner.set_clamp(Some(-1.0)).is_err());
-    assert!(message(cloner.set_method("blend").unwrap_err()).contains("unknown cloning method"));
+    let e = cloner.set_method("blend").unwrap_err();
+    assert_eq!(code(e.clone()), "bad-argument");
+    assert!(message(e).contains("unknown cloning method"));
     assert!(cloner.set_shape_gains(&vec![1.0; 500]).is_err());
 }
 
@@ -551,6 +554,7 @@ fn incompatible_target_is_refused(cloner: &mut JsCloner) {
     .build(&training(&SPK02, 0.3), None)
     .unwrap();
     let e = cloner.add_target(&JsModel::from(alien)).unwrap_err();
+    assert_eq!(code(e.clone()), "mismatched-models");
     assert!(
         message(e).contains("incompatible models"),
         "add_target error"

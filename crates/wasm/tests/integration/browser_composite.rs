@@ -16,7 +16,7 @@ use facemimic_testkit as common;
 use common::js::{message, params_js};
 use facemimic::landmarks::parse_pts;
 use facemimic::{BuildOptions, Builder, Image, Model, TrainingImage};
-use facemimic_wasm::{JsCloner, JsModel, RenderOptionsArg};
+use facemimic_wasm::{JsCloner, JsError, JsModel, RenderOptionsArg};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;

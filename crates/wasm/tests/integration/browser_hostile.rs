@@ -10,7 +10,7 @@
 use facemimic_testkit as common;
 use facemimic_testkit::fuzz as engine;
 
-use common::js::{message, params_js};
+use common::js::{code, message, params_js};
 use facemimic::format::write_model;
 use facemimic::{Model, ModelParts, Similarity};
 use facemimic_wasm::{JsCloner, JsModel, WasmTracker};
@@ -23,7 +23,9 @@ fn seeds() -> &'static engine::Seeds {
 
 fn load_err(m: &Model) -> String {
     let bytes = facemimic::format::write_model_as(m, facemimic::format::Storage::F32);
-    message(JsModel::from_bytes(&bytes).expect_err("refused"))
+    let e = JsModel::from_bytes(&bytes).expect_err("refused");
+    assert_eq!(code(e.clone()), "bad-model", "{}", message(e.clone()));
+    message(e)
 }
 
 #[wasm_bindgen_test]
