@@ -14,8 +14,9 @@ use super::{install_panic_hook, js_err, params_to_js, Context2dArg, RenderOption
 use facemimic::clone::{CloneOptions, Method};
 use facemimic::{Params, Picture, PictureOptions, Stage};
 
+/// A method's name (an unknown name is a bad argument, whatever the core calls it).
 fn parse_method(method: &str) -> Result<Method, JsError> {
-    Method::from_str(method).map_err(js_err)
+    Method::from_str(method).map_err(|e| JsError::new(&e.to_string()))
 }
 
 /// Render options read from JS as the core's picture options.
