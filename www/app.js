@@ -21,6 +21,7 @@ import { buildStage, wireTargetInputs, buildLibrary, addTargetFromBytes, setSour
 import { buildControls, refreshModelLists } from './js/controls.js';
 import { activate, buildSliders, play, syncSliders, syncTransport, usableTrack } from './js/source-control.js';
 import { wireCapture, renderOptions, recordFrame } from './js/capture.js';
+import { wireOutput, feedOutputs, outputCanvas } from './js/output-page.js';
 
 // ---------------------------------------------------------------------------------------------
 // Start-up
@@ -100,6 +101,7 @@ async function main() {
   buildControls();
   wireTargetInputs();
   wireCapture();
+  wireOutput(); // the output views: one avatar alone in a pop-out window (js/output-page.js)
   // Models kept in this browser (www/js/store.js).
   app.shelf = new ModelShelf($('shelf'), {
     fm,
@@ -196,7 +198,10 @@ function registerCanvases(c, opts, targetOpts) {
   const compareOn = !$('compare').hidden && app.targets.length > 0;
   const ci = compareOn ? Math.min(app.compareIndex, app.targets.length - 1) : null;
   const compare = compareOn ? app.compareViews : [];
-  const canvases = [app.source.canvas, ...app.targets.map((e) => e.canvas), ...compare.map((v) => v.canvas)];
+  // A target whose output view shows it in its picture is drawn into the output's canvas (one
+  // composite a frame, not two; its card gets a copy: js/output-page.js).
+  const outputs = app.targets.map((e) => outputCanvas(e, targetOpts));
+  const canvases = [app.source.canvas, ...app.targets.map((e, i) => outputs[i]?.canvas ?? e.canvas), ...compare.map((v) => v.canvas)];
   const key = [opts.background, opts.raster, opts.mesh, targetOpts.composite, ci, ...compare.map((v) => v.method)].join('|');
   const same =
     registered.cloner === c &&
@@ -205,7 +210,7 @@ function registerCanvases(c, opts, targetOpts) {
     canvases.every((x, k) => x === registered.canvases[k]);
   if (!same) {
     c.setSourceCanvas(ctx2d(app.source.canvas), opts);
-    app.targets.forEach((e, i) => c.setTargetCanvas(i, ctx2d(e.canvas), targetOpts));
+    app.targets.forEach((e, i) => c.setTargetCanvas(i, ctx2d(canvases[1 + i]), outputs[i]?.options ?? targetOpts));
     for (const { method, canvas } of app.compareViews) c.setCompareCanvas(method, compareOn ? ctx2d(canvas) : null, opts);
     c.setCompareTarget(ci);
     Object.assign(registered, { cloner: c, key, canvases });
@@ -244,6 +249,7 @@ function render(t) {
   // The stage timings of this frame (drawFrame's update() reset them).
   const tm = c.timings();
   const { mapMs: map, synthMs: synth, rasterMs: raster, blitMs: blit } = tm;
+  feedOutputs(); // the open output views get this frame's avatars
   recordFrame();
 
   // Per-frame timings, smoothed.

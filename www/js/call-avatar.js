@@ -19,6 +19,9 @@
 import { createSource } from './sources.js';
 import { HEAD_TAU, FrameLog, clampSettings, REGIONS } from './call-controls.js';
 import './tracking.js'; // registers the webcam source
+import { OutputFeed, copyContain, headAnchor } from './output-feed.js';
+import { popoutMenu } from './output-controls.js';
+import { notify } from './toasts.js';
 
 export const WIDTH = 640;
 export const HEIGHT = 480;
@@ -80,6 +83,34 @@ export class Avatar {
     // in a gap): { at: wall-clock ms of the frame that ended it, ms, lost: fits lost within it }.
     this.drawGaps = [];
     this.lostAtDraw = 0;
+    // The schedule's condition (call-schedule-ui.js), written in each row of the log: { number, name }.
+    this.condition = null;
+    // The output view (www/js/output-feed.js): this avatar alone in a pop-out window, for OBS,
+    // fed every frame drawn; when no camera frame comes soon after a change, one is drawn.
+    const wake = () => {
+      const at = performance.now();
+      setTimeout(() => this.lastDrawn < at && this.redraw(), 100);
+    };
+    this.outputs = new OutputFeed({ page: 'call', wake });
+    this.drawnInto = null; // the output's canvas the cloner draws into, when not `canvas`
+    const caption = canvas.closest('figure')?.querySelector('figcaption');
+    if (caption) popoutMenu(caption, this.outputs, () => this.popOut());
+  }
+
+  /** Opens the output view of this avatar (in a click: a pop-up window). */
+  popOut() {
+    if (!this.target || !this.cloner) return; // no avatar yet (the models are loading)
+    const source = () =>
+      this.target && this.cloner
+        ? {
+            name: this.target.name,
+            picture: this.target.info.backdrop,
+            render: (ctx, options) => this.cloner.renderTarget(0, ctx, options),
+            anchor: () => headAnchor(this.cloner.targetLandmarks(0), this.target.info.imageWidth, this.target.info.imageHeight),
+          }
+        : null;
+    if (this.outputs.openFor('avatar', source)) this.redraw();
+    else notify('error', 'The output view did not open', 'the browser blocked its window: allow pop-ups for this page, then press Pop out again');
   }
 
   /** Avatar frames drawn in the last second. */
@@ -120,6 +151,7 @@ export class Avatar {
   /** The canvas the cloner draws the avatar into (once per avatar: composited into its picture
    *  when it has one); a frame is then `setSourceParams` and `drawFrame`. */
   registerCanvas(target) {
+    this.drawnInto = null;
     const composite = Boolean(target.info.backdrop);
     this.cloner.setTargetCanvas(0, this.ctx, { raster: 'scanline', composite, background: '#1b1d22' });
   }
@@ -237,7 +269,17 @@ export class Avatar {
   /** Draw the cloner's current source parameters, stamp it in bench mode, log the frame (with
    *  the pose sent: the fit's, head-damped by the cloner). */
   drawCurrent(captured, fitPose) {
+    // An output view showing the avatar in its picture: drawn once, at the output's size, and
+    // copied into the canvas sent (one composite a frame, not two at two sizes).
+    const out = this.outputs.open ? this.outputs.canvasFor('avatar') : null;
+    if ((out?.canvas ?? null) !== this.drawnInto) {
+      if (out) this.cloner.setTargetCanvas(0, out.canvas.getContext('2d', { alpha: false }), out.options);
+      else this.registerCanvas(this.target);
+      this.drawnInto = out?.canvas ?? null;
+    }
     this.cloner.drawFrame();
+    if (out) copyContain(this.canvas, out.canvas, '#1b1d22');
+    this.outputs.feed();
     if (this.bench) this.stamp(captured);
     const drawn = performance.now();
     this.frames++;
@@ -287,6 +329,8 @@ export class Avatar {
       lost,
       ...this.settings, // gain, head, mouth, eyes, brows, style
       avatar: this.target.name,
+      condition: this.condition?.number,
+      conditionName: this.condition?.name,
       fitPose,
       sentPose: sent,
       src: lost ? null : this.params,

@@ -5,6 +5,7 @@
 
 import { dropZone } from './drop.js';
 import { isMediaFile } from './tracking.js';
+import { POPOUT_ICON } from './output-controls.js';
 import { app, $, notVideos, FACE_ASPECT, PICTURE_ASPECT, PHOTO_NOTE, PHOTO_TITLE } from './page-state.js';
 
 /** A small button showing the SVG path `d`, its action in `data-action`. */
@@ -21,7 +22,8 @@ function iconButton(action, title, d) {
 /**
  * A face card: a canvas, a caption with the name, and buttons. role: "source" | "target".
  * `actions`: `pick(slot)` (choose files for the card's slot), `load(files, slot)` (files dropped
- * on it), `remove(entry)` (its remove button), `inspect(entry, role)` (a click on the face).
+ * on it), `remove(entry)` (its remove button), `popout(entry)` (its output view's button),
+ * `inspect(entry, role)` (a click on the face).
  */
 export function makeCard(role, actions) {
   const el = document.createElement('figure');
@@ -35,7 +37,10 @@ export function makeCard(role, actions) {
   tools.className = 'tools';
   const replace = iconButton('replace', 'Replace with a model file…', 'M3 8a5 5 0 0 1 8.5-3.5M13 8a5 5 0 0 1-8.5 3.5M11.5 1.5v3h-3M4.5 14.5v-3h3');
   tools.append(replace);
-  if (role === 'target') tools.append(iconButton('remove', 'Remove this target', 'M4 4l8 8M12 4l-8 8'));
+  if (role === 'target') {
+    tools.prepend(iconButton('popout', 'Pop out: this avatar alone in a window of its own, for OBS, Zoom, Meet or Discord (Output view)', POPOUT_ICON));
+    tools.append(iconButton('remove', 'Remove this target', 'M4 4l8 8M12 4l-8 8'));
+  }
   cap.append(name, tools);
   el.append(canvas, cap);
   if (role === 'source') {
@@ -49,6 +54,7 @@ export function makeCard(role, actions) {
   const slot = () => (role === 'source' ? { kind: 'source' } : { kind: 'replace', entry: entryOf(el) });
   replace.addEventListener('click', () => actions.pick(slot()));
   tools.querySelector('[data-action="remove"]')?.addEventListener('click', () => actions.remove(entryOf(el)));
+  tools.querySelector('[data-action="popout"]')?.addEventListener('click', () => actions.popout(entryOf(el)));
   // A video or a photo dropped on the source goes on to the page, which tracks it (the source is
   // driven by it); on a target, a photo replaces the target with a photo target (and a video
   // goes on to the page).
@@ -78,6 +84,7 @@ export function setCardName(entry) {
   canvas.setAttribute('aria-label', `${role} face: ${entry.name}`);
   entry.card.querySelector('[data-action="replace"]').setAttribute('aria-label', `Replace ${entry.name} with a model file`);
   entry.card.querySelector('[data-action="remove"]')?.setAttribute('aria-label', `Remove target ${entry.name}`);
+  entry.card.querySelector('[data-action="popout"]')?.setAttribute('aria-label', `Pop out ${entry.name} (output view)`);
   entry.card.dataset.model = entry.name;
 }
 

@@ -12,6 +12,7 @@ import { photoTarget, chooseFace, splitPhotos, isPts } from './photo-target.js';
 import { makeCard, setCardName, styleTarget, pendingCard } from './cards.js';
 import { activate, buildSliders, usableTrack } from './source-control.js';
 import { refreshModelLists } from './controls.js';
+import { openOutput, refreshOutputTargets } from './output-page.js';
 import { app, fm, $, bytesKey, notVideos, MODELS } from './page-state.js';
 
 /** What a face card's buttons, drops and clicks do. */
@@ -19,6 +20,7 @@ const cardActions = {
   pick: (slot) => pickFiles(slot),
   load: (files, slot) => loadFiles(files, slot),
   remove: (entry) => removeTarget(entry),
+  popout: (entry) => openOutput(entry),
   inspect: (entry, role) => {
     app.inspector.show(entry.model, entry.info, role);
     refreshModelLists();
@@ -330,6 +332,7 @@ function removeTarget(entry) {
 function afterModelsChanged() {
   if (!app.cloner || !app.inspector) return;
   refreshModelLists();
+  refreshOutputTargets();
   app.dirty = true;
 }
 
