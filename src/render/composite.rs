@@ -15,7 +15,7 @@
 use glam::Vec2;
 use tiny_skia::{Pixmap, PixmapMut, PixmapPaint, Transform};
 
-use super::{scanline, skia, DrawOptions, FaceDrawer, Rasterizer};
+use super::{scanline, skia, DrawOptions, FaceDrawer, PixelRect, Rasterizer};
 use crate::error::{check_finite, check_len, Error, Result};
 use crate::model::frame::ReferenceFrame;
 use crate::model::{Model, Params};
@@ -355,9 +355,11 @@ pub fn mean_value_weights(x: Vec2, poly: &[Vec2], out: &mut [f32]) {
 /// (a coverage per frame pixel) and the scratch of one frame.
 /// Requires: the model it was made for ([`Compositor::draw`] checks the frame and landmark
 /// counts). Ensures: a frame allocates nothing once the cache of the static backdrop is made for
-/// the canvas; pixels outside the outer ring are the backdrop's (through the view); the face's
-/// colour offset is the mean-value interpolation of the border differences, so a constant
-/// difference is removed exactly.
+/// the canvas; nothing is drawn outside the picture (the target's pixels whose centres the
+/// picture covers through the view, `PixelRect::picture`: around a letterboxed picture the
+/// caller's background stays exactly as painted); pixels outside the outer ring are the
+/// backdrop's (through the view); the face's colour offset is the mean-value interpolation of
+/// the border differences, so a constant difference is removed exactly.
 #[derive(Debug)]
 pub struct Compositor {
     fingerprint: u64,
@@ -533,7 +535,8 @@ impl Compositor {
     /// Composites a face given by its appearance (`3N`, frame pixels) and its landmarks in the
     /// backdrop's pixels (`image_shape`), through `view` (backdrop pixels to target pixels),
     /// into `target`: the static backdrop, the head warped by the extended mesh, then the face,
-    /// colour-matched and feathered.
+    /// colour-matched and feathered, the last two within the picture's pixels (the box around
+    /// it for a rotated view).
     pub fn draw(
         &mut self,
         model: &Model,
@@ -552,13 +555,17 @@ impl Compositor {
             return Err(Error::Params("the view is not a valid similarity".into()));
         }
         self.paint_static(view, target);
-        self.warp_head(image_shape, view, target)?;
+        // The head and the face are drawn within the picture only: around a letterboxed
+        // picture the caller's background stays as it was painted (the mesh under the chin and
+        // a face near the edge reach beyond the picture, where the warp would smear its edge).
+        let clip = PixelRect::picture(view, self.size, (target.width(), target.height()));
+        self.warp_head(image_shape, view, clip, target)?;
         self.colour_match(frame, appearance);
         let rgb = std::mem::take(&mut self.rgb);
         let r = self
             .drawer
             .upload_with_alpha(frame, &rgb, &self.alpha)
-            .and_then(|_| self.drawer.warp(frame, image_shape, view, target));
+            .and_then(|_| self.drawer.warp_in(frame, image_shape, view, clip, target));
         self.rgb = rgb;
         r
     }
@@ -603,6 +610,7 @@ impl Compositor {
         &mut self,
         image_shape: &[f32],
         view: &Similarity,
+        clip: PixelRect,
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
         self.mesh.place(image_shape, &mut self.placed);
@@ -638,6 +646,7 @@ impl Compositor {
                 src,
                 &self.dst,
                 &self.draw_list,
+                clip,
                 target,
             ),
             Rasterizer::TinySkia => {
@@ -647,6 +656,7 @@ impl Compositor {
                     src,
                     |i| dst[i],
                     &self.draw_list,
+                    clip,
                     &mut self.path,
                     target,
                 )

@@ -30,6 +30,7 @@ pub use overlay::MeshOverlay;
 pub use scanline::Scanline;
 pub use skia::Renderer;
 pub use texture::Store;
+pub(crate) use view::PixelRect;
 pub use view::{base_box, canvas_view, fit_view, picture_view};
 
 /// Which rasteriser warps the triangles of a piecewise-affine warp into a tiny-skia pixmap.
@@ -130,12 +131,29 @@ impl FaceDrawer {
         view: &Similarity,
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
+        let whole = PixelRect::whole(target.width(), target.height());
+        self.warp_in(frame, image_shape, view, whole, target)
+    }
+
+    /// [`FaceDrawer::warp`] painting only inside `clip` (the face and the mesh's strokes; the
+    /// [`Compositor`]'s picture within a letterboxed canvas).
+    pub(crate) fn warp_in(
+        &mut self,
+        frame: &ReferenceFrame,
+        image_shape: &[f32],
+        view: &Similarity,
+        clip: PixelRect,
+        target: &mut PixmapMut<'_>,
+    ) -> Result<()> {
         match self.options.rasterizer {
-            Rasterizer::TinySkia => self.skia.warp(frame, image_shape, view, target)?,
-            Rasterizer::Scanline => self.scanline.warp(frame, image_shape, view, target)?,
+            Rasterizer::TinySkia => self.skia.warp_in(frame, image_shape, view, clip, target)?,
+            Rasterizer::Scanline => {
+                self.scanline
+                    .warp_in(frame, image_shape, view, clip, target)?
+            }
         }
         if self.options.mesh {
-            self.overlay.draw(frame, image_shape, view, target);
+            self.overlay.draw(frame, image_shape, view, clip, target);
         }
         Ok(())
     }

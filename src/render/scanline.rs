@@ -15,7 +15,7 @@
 use tiny_skia::PixmapMut;
 
 use super::texture::{Store, Warp};
-use super::triangle_affine;
+use super::{triangle_affine, PixelRect};
 use crate::error::Result;
 use crate::model::frame::ReferenceFrame;
 use glam::Vec2;
@@ -90,7 +90,13 @@ impl Store for ScanlineStore {
         Ok(())
     }
 
-    fn warp(&mut self, frame: &ReferenceFrame, dst: &[Vec2], target: &mut PixmapMut<'_>) {
+    fn warp(
+        &mut self,
+        frame: &ReferenceFrame,
+        dst: &[Vec2],
+        clip: PixelRect,
+        target: &mut PixmapMut<'_>,
+    ) {
         let (tw, th) = (self.width as i32, self.height as i32);
         let [ox, oy] = frame.origin();
         let v = frame.vertices();
@@ -100,7 +106,8 @@ impl Store for ScanlineStore {
                 v.get(2 * i + 1).copied().unwrap_or(0.0) + oy,
             )
         };
-        warp_mesh(&self.texture, (tw, th), src, dst, frame.triangles(), target);
+        let triangles = frame.triangles();
+        warp_mesh(&self.texture, (tw, th), src, dst, triangles, clip, target);
     }
 }
 
@@ -213,17 +220,22 @@ const ONE: f32 = 65536.0;
 /// The fixed-point scanline warp of a packed RGBA8 texture (`tw x th` premultiplied words) by a
 /// triangle mesh: triangle `t` is painted where `dst` places it (target pixels, centres on
 /// integers), reading the texture bilinearly where `src` places it (texels, centres on
-/// integers); premultiplied source-over where the texture is not opaque. Pixels outside the
-/// mesh are untouched. Allocates nothing.
+/// integers); premultiplied source-over where the texture is not opaque. Only the pixels of
+/// `clip` are painted (the rows and spans are cut to it, at no cost); pixels outside the mesh
+/// or the clip are untouched. Allocates nothing.
 pub(crate) fn warp_mesh(
     tex: &[u32],
     (tw, th): (i32, i32),
     src: impl Fn(usize) -> Vec2,
     dst: &[Vec2],
     triangles: &[[u32; 3]],
+    clip: PixelRect,
     target: &mut PixmapMut<'_>,
 ) {
-    let (cw, ch) = (target.width() as i32, target.height() as i32);
+    let cw = target.width() as i32;
+    let whole = PixelRect::whole(target.width(), target.height());
+    let (cx0, cy0) = (clip.x0.max(whole.x0), clip.y0.max(whole.y0));
+    let (cx1, cy1) = (clip.x1.min(whole.x1), clip.y1.min(whole.y1));
     let out = target.data_mut();
     let texture = Texture {
         words: tex,
@@ -244,8 +256,8 @@ pub(crate) fn warp_mesh(
             d[0].y.min(d[1].y).min(d[2].y),
             d[0].y.max(d[1].y).max(d[2].y),
         );
-        let j0 = (ymin.ceil() as i32).max(0);
-        let j1 = (ymax.ceil() as i32).min(ch); // exclusive
+        let j0 = (ymin.ceil() as i32).max(cy0);
+        let j1 = (ymax.ceil() as i32).min(cy1); // exclusive
         let edges = [(d[0], d[1]), (d[1], d[2]), (d[2], d[0])];
         let (du, dv) = (
             (m.matrix2.x_axis.x * ONE) as i32,
@@ -256,8 +268,8 @@ pub(crate) fn warp_mesh(
             let Some((xl, xr)) = row_crossing(&edges, y) else {
                 continue;
             };
-            let i0 = (xl.ceil() as i32).max(0);
-            let i1 = (xr.ceil() as i32).min(cw); // exclusive
+            let i0 = (xl.ceil() as i32).max(cx0);
+            let i1 = (xr.ceil() as i32).min(cx1); // exclusive
             if i0 >= i1 {
                 continue;
             }

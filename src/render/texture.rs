@@ -6,6 +6,7 @@
 use glam::Vec2;
 use tiny_skia::PixmapMut;
 
+use super::PixelRect;
 use crate::error::{check_finite, check_len, Result};
 use crate::model::frame::ReferenceFrame;
 use crate::similarity::Similarity;
@@ -27,8 +28,15 @@ pub trait Store {
     fn check_points(&self, frame: &ReferenceFrame, dst: &[Vec2]) -> Result<()>;
 
     /// Warps the texture from the frame's base mesh onto `dst` (checked by
-    /// [`Store::check_points`]) into `target`. Allocates nothing.
-    fn warp(&mut self, frame: &ReferenceFrame, dst: &[Vec2], target: &mut PixmapMut<'_>);
+    /// [`Store::check_points`]) into `target`, painting only the pixels of `clip` (within the
+    /// target). Allocates nothing.
+    fn warp(
+        &mut self,
+        frame: &ReferenceFrame,
+        dst: &[Vec2],
+        clip: PixelRect,
+        target: &mut PixmapMut<'_>,
+    );
 }
 
 /// A face texture on one reference frame in a backend's [`Store`], and the scratch of its
@@ -92,6 +100,19 @@ impl<S: Store> Warp<S> {
         view: &Similarity,
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
+        let whole = PixelRect::whole(target.width(), target.height());
+        self.warp_in(frame, image_shape, view, whole, target)
+    }
+
+    /// [`Warp::warp`] painting only the pixels of `clip`.
+    pub(crate) fn warp_in(
+        &mut self,
+        frame: &ReferenceFrame,
+        image_shape: &[f32],
+        view: &Similarity,
+        clip: PixelRect,
+        target: &mut PixmapMut<'_>,
+    ) -> Result<()> {
         self.store.check_frame(frame)?;
         check_len("shape", image_shape, frame.vertices().len())?;
         check_finite("shape", image_shape)?;
@@ -101,7 +122,7 @@ impl<S: Store> Warp<S> {
             self.dst.push(Vec2::new(x, y));
         }
         self.store.check_points(frame, &self.dst)?;
-        self.store.warp(frame, &self.dst, target);
+        self.store.warp(frame, &self.dst, clip, target);
         Ok(())
     }
 }

@@ -513,3 +513,287 @@ fn the_inner_mouth_and_the_eyes_keep_the_models_own_colours() {
     // And the border was lifted towards the picture.
     assert!(c.vertex_offsets().iter().all(|o| *o > 0.0));
 }
+
+// ---- Letterboxing: nothing is drawn outside the picture (issue 32, part 5) ----
+
+/// Canvases of other aspect ratios than the backdrops' 360x288: taller, square, wider, much
+/// taller, tiny, odd and huge.
+const CANVASES: [(u32, u32); 13] = [
+    (288, 360),
+    (360, 400),
+    (200, 200),
+    (640, 200),
+    (100, 400),
+    (1, 1),
+    (5, 1),
+    (2, 7),
+    (3, 40),
+    (37, 91),
+    (333, 127),
+    (641, 479),
+    (1500, 2600),
+];
+
+/// The letterboxed picture's rectangle in a `w x h` canvas, in pixel edges (pixel `i` spans
+/// `[i, i + 1]`): `[left, top, right, bottom]`, as `picture_view` places it.
+fn picture_rect(size: (u32, u32), w: u32, h: u32) -> [f64; 4] {
+    let v = facemimic::picture_view(size.0, size.1, w, h);
+    let s = v.a as f64;
+    let (tx, ty) = (v.tx as f64, v.ty as f64);
+    [
+        tx - 0.5 * s + 0.5,
+        ty - 0.5 * s + 0.5,
+        tx + s * (size.0 as f64 - 0.5) + 0.5,
+        ty + s * (size.1 as f64 - 0.5) + 0.5,
+    ]
+}
+
+/// How many pixels of `rgba` (straight or premultiplied RGBA8, `w x h`) wholly outside the
+/// picture `rect` differ from `background`, and how many such pixels there are.
+fn band_spill(
+    rgba: &[u8],
+    (w, h): (u32, u32),
+    rect: [f64; 4],
+    background: [u8; 4],
+) -> (usize, usize) {
+    // A pixel touching the picture's edge within a thousandth of a pixel counts as touched.
+    let eps = 1e-3;
+    let (mut spilt, mut band) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let (fx, fy) = (x as f64, y as f64);
+            let outside = fx + 1.0 <= rect[0] + eps
+                || fy + 1.0 <= rect[1] + eps
+                || fx >= rect[2] - eps
+                || fy >= rect[3] - eps;
+            if outside {
+                band += 1;
+                let k = 4 * (y * w + x) as usize;
+                if rgba[k..k + 4] != background {
+                    spilt += 1;
+                }
+            }
+        }
+    }
+    (spilt, band)
+}
+
+/// Head motions about the source's face centre (in face widths and degrees) that take the
+/// followed target's head to the picture's edges: down (the mesh under the chin past the
+/// bottom), up, to the sides, rolled and scaled on the way down.
+const EDGE_MOTIONS: [(f32, f32, f32, f32); 8] = [
+    (0.0, 0.0, 0.0, 1.0),
+    (0.0, 0.4, 0.0, 1.0),
+    (0.0, 0.9, 0.0, 1.0),
+    (0.0, -0.9, 0.0, 1.0),
+    (-1.2, 0.2, 0.0, 1.0),
+    (1.2, 0.3, 0.0, 1.0),
+    (0.3, 0.6, 20.0, 1.0),
+    (-0.2, 0.5, -15.0, 1.3),
+];
+
+/// spk07's unseen frame 24 with its head moved by `(dx, dy, roll, scale)` ([`EDGE_MOTIONS`])
+/// about its face centre.
+fn moved_source(motion: (f32, f32, f32, f32)) -> facemimic::Params {
+    let source = spk07();
+    let f =
+        io::read_training_image(&root().join("data/grid/spk07_id2_vcd_swwp2s/000024.jpg")).unwrap();
+    let mut params = source
+        .project(&f.image.view().unwrap(), &f.landmarks)
+        .unwrap();
+    let xs = f.landmarks.iter().step_by(2);
+    let width = xs.clone().copied().fold(f32::MIN, f32::max) - xs.copied().fold(f32::MAX, f32::min);
+    let (dx, dy, roll, scale) = motion;
+    let (cx, cy) = (params.pose.tx, params.pose.ty);
+    let m = Similarity::from_parts(scale, roll.to_radians(), 0.0, 0.0);
+    let (mx, my) = m.apply_point(cx, cy);
+    let about = Similarity {
+        tx: m.tx + cx - mx + dx * width,
+        ty: m.ty + cy - my + dy * width,
+        ..m
+    };
+    params.pose = about.compose(&params.pose);
+    params
+}
+
+/// The followed faces of `target` (appearance, landmarks in its picture) for every
+/// [`EDGE_MOTIONS`] at gains 1 and 2, follow-pose on.
+fn edge_faces(target: &Model) -> Vec<(Vec<f32>, Vec<f32>)> {
+    let mut cloner = Cloner::new(spk07().clone()).unwrap();
+    cloner.add_target(target.clone()).unwrap();
+    let mut out = Vec::new();
+    for motion in EDGE_MOTIONS {
+        let params = moved_source(motion);
+        for gain in [1.0, 2.0] {
+            let options = CloneOptions {
+                method: Method::Map,
+                follow_pose: true,
+                gain,
+                ..CloneOptions::default()
+            };
+            cloner.clone_frame(&params, &options).unwrap();
+            out.push((
+                cloner.target_appearance(0).to_vec(),
+                cloner.target_shape(0).to_vec(),
+            ));
+        }
+    }
+    out
+}
+
+#[test]
+fn a_letterboxed_composite_draws_nothing_outside_its_picture() {
+    let background = [23u8, 201, 77, 255];
+    let mut failures = Vec::new();
+    let (mut cases, mut bands) = (0, 0);
+    for target in [spk02()] {
+        let faces = edge_faces(target);
+        for (r, mesh) in [
+            (Rasterizer::TinySkia, false),
+            (Rasterizer::Scanline, false),
+            (Rasterizer::TinySkia, true),
+        ] {
+            let options = DrawOptions {
+                rasterizer: r,
+                mesh,
+            };
+            let mut c = Compositor::new(target, options).unwrap();
+            for (w, h) in CANVASES {
+                let view = facemimic::picture_view(c.size().0, c.size().1, w, h);
+                let rect = picture_rect(c.size(), w, h);
+                let mut pixmap = Pixmap::new(w, h).unwrap();
+                for (k, (appearance, shape)) in faces.iter().enumerate() {
+                    let [cr, cg, cb, ca] = background;
+                    pixmap.fill(facemimic::tiny_skia::Color::from_rgba8(cr, cg, cb, ca));
+                    c.draw(target, appearance, shape, &view, &mut pixmap.as_mut())
+                        .unwrap();
+                    let (spilt, band) = band_spill(pixmap.data(), (w, h), rect, background);
+                    cases += 1;
+                    bands += band;
+                    if spilt > 0 {
+                        failures.push(format!(
+                            "{r:?} mesh {mesh} {w}x{h} face {k}: {spilt} of {band} band pixels drawn"
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(bands > 100_000, "only {bands} band pixels checked");
+    assert!(
+        failures.is_empty(),
+        "{} of {cases} composites drew outside the picture:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn the_stages_composited_pictures_keep_their_bands_clean() {
+    // Every front end (the page and the call through the wasm Cloner, the npm package, the CLI's
+    // render and clone) draws its composites as a Stage's pictures: the same through it, with a
+    // translucent background as well as an opaque one.
+    let mut stage = facemimic::Stage::new(spk07().clone()).unwrap();
+    stage.add_target(spk02().clone()).unwrap();
+    let mut failures = Vec::new();
+    let (mut cases, mut bands) = (0, 0);
+    for (background, r) in [
+        ([32u8, 32, 36, 255], Rasterizer::TinySkia),
+        ([32, 32, 36, 255], Rasterizer::Scanline),
+        ([0, 0, 0, 0], Rasterizer::Scanline),
+    ] {
+        for (w, h) in CANVASES {
+            let picture = stage.target_picture_mut(0).unwrap();
+            picture.set_size(w, h).unwrap();
+            let [cr, cg, cb, ca] = background;
+            picture.set_options(facemimic::PictureOptions {
+                background: facemimic::tiny_skia::Color::from_rgba8(cr, cg, cb, ca),
+                draw: DrawOptions {
+                    rasterizer: r,
+                    mesh: false,
+                },
+                composite: true,
+                ..facemimic::PictureOptions::default()
+            });
+            let rect = picture_rect(
+                spk02().backdrop().map(|b| (b.width(), b.height())).unwrap(),
+                w,
+                h,
+            );
+            for motion in [EDGE_MOTIONS[2], EDGE_MOTIONS[6], EDGE_MOTIONS[4]] {
+                stage
+                    .set_options(CloneOptions {
+                        follow_pose: true,
+                        gain: 2.0,
+                        ..CloneOptions::default()
+                    })
+                    .unwrap();
+                stage.frame_from_params(&moved_source(motion)).unwrap();
+                let rgba = stage.target_rgba(0).unwrap();
+                let (spilt, band) = band_spill(rgba, (w, h), rect, background);
+                cases += 1;
+                bands += band;
+                if spilt > 0 {
+                    failures.push(format!(
+                        "{r:?} background {background:?} {w}x{h} motion {motion:?}: {spilt} of {band} band pixels drawn"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(bands > 100_000, "only {bands} band pixels checked");
+    assert!(
+        failures.is_empty(),
+        "{} of {cases} pictures drew outside the picture:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn inside_its_picture_a_letterboxed_composite_is_the_composite() {
+    // Letterboxed at scale 1 (a 360x400 canvas: the 360x288 picture 56 rows down), the picture
+    // is the composite drawn at the picture's own size, moved (within 3 levels: the float
+    // rounding of the moved coordinates): nothing inside it is cut away, whichever way the
+    // head went.
+    let target = spk02();
+    let (bw, bh) = (360, 288);
+    assert_eq!(
+        target.backdrop().map(|b| (b.width(), b.height())),
+        Some((bw, bh))
+    );
+    let (w, h, down) = (360, 400, 56);
+    let view = facemimic::picture_view(bw, bh, w, h);
+    assert_eq!((view.a, view.tx, view.ty), (1.0, 0.0, down as f32));
+    let faces = edge_faces(target);
+    for r in [Rasterizer::TinySkia, Rasterizer::Scanline] {
+        let options = DrawOptions {
+            rasterizer: r,
+            mesh: false,
+        };
+        let mut c = Compositor::new(target, options).unwrap();
+        let mut alone = Pixmap::new(bw, bh).unwrap();
+        let mut boxed = Pixmap::new(w, h).unwrap();
+        for (k, (appearance, shape)) in faces.iter().enumerate() {
+            c.draw(
+                target,
+                appearance,
+                shape,
+                &Similarity::IDENTITY,
+                &mut alone.as_mut(),
+            )
+            .unwrap();
+            boxed.fill(facemimic::tiny_skia::Color::BLACK);
+            c.draw(target, appearance, shape, &view, &mut boxed.as_mut())
+                .unwrap();
+            let rows = 4 * (bw * down) as usize..4 * (bw * (down + bh)) as usize;
+            let diff = pixel_diff(&boxed.data()[rows], alone.data(), 4, 3);
+            assert!(
+                diff.differing == 0,
+                "{r:?} face {k}: {} pixels of the picture differ (worst {})",
+                diff.differing,
+                diff.worst
+            );
+        }
+    }
+}

@@ -18,6 +18,11 @@
 //!   at the backdrop's size (360x288), without and with follow-pose; for follow-pose the
 //!   source's pose is additionally rolled by 8 degrees and moved 12 px right about the face
 //!   centre, so that the head's motion in the picture is plain;
+//! - `composite_letterboxed.png`: the same frame cloned onto spk02 by `map` with follow-pose,
+//!   the source's head rolled by 10 degrees and moved 30 px down about its face centre,
+//!   composited into spk02's backdrop letterboxed into a taller 288x360 canvas: the bands above
+//!   and below the picture stay the background (the mesh under the chin reaches past the
+//!   picture's bottom edge);
 //! - `composite_photo.png`: the same frame cloned onto a one-photo target (spk03's first
 //!   training frame, `data/grid/spk03_lbax4n/train20.txt`), composited into the photo.
 //! - `expressive_laugh_grid.png`, `expressive_laugh_photo.png`: a laugh with teeth (the London
@@ -47,6 +52,8 @@ const TOLERANCE: i32 = 3;
 const MAX_DIFFERING_SHARE: f64 = 0.005;
 const SIZE: (u32, u32) = (200, 220);
 const BACKGROUND: [u8; 4] = [32, 32, 36, 255];
+/// The canvas of the letterboxed composite: taller than the 360x288 backdrop.
+const LETTERBOXED: (u32, u32) = (288, 360);
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -136,19 +143,31 @@ fn source_params() -> Params {
 /// degrees and moved 12 px right about its face centre, and followed (straight RGBA8, and the
 /// size).
 fn draw_composite(target: &Model, follow: bool) -> (Vec<u8>, (u32, u32)) {
-    let source = spk07();
     let mut params = source_params();
     if follow {
-        let (cx, cy) = (params.pose.tx, params.pose.ty);
-        let turn = Similarity::from_parts(1.0, 8f32.to_radians(), 0.0, 0.0);
-        let (mx, my) = turn.apply_point(cx, cy);
-        let about = Similarity {
-            tx: cx - mx + 12.0,
-            ty: cy - my,
-            ..turn
-        };
-        params.pose = about.compose(&params.pose);
+        params.pose = moved(&params.pose, 8.0, (12.0, 0.0));
     }
+    let cloner = cloned(target, &params, follow);
+    composite(target, &cloner, picture_size(target))
+}
+
+/// `pose` rolled by `roll` degrees about its face centre and moved by `(dx, dy)` pixels.
+fn moved(pose: &Similarity, roll: f32, (dx, dy): (f32, f32)) -> Similarity {
+    let (cx, cy) = (pose.tx, pose.ty);
+    let turn = Similarity::from_parts(1.0, roll.to_radians(), 0.0, 0.0);
+    let (mx, my) = turn.apply_point(cx, cy);
+    let about = Similarity {
+        tx: cx - mx + dx,
+        ty: cy - my + dy,
+        ..turn
+    };
+    about.compose(pose)
+}
+
+/// A cloner of spk07 onto `target` that cloned `params` by `map` (with or without
+/// follow-pose).
+fn cloned(target: &Model, params: &Params, follow: bool) -> Cloner {
+    let source = spk07();
     let mut cloner = Cloner::new(source.clone()).unwrap();
     cloner.add_target(target.clone()).unwrap();
     let options = CloneOptions {
@@ -156,15 +175,31 @@ fn draw_composite(target: &Model, follow: bool) -> (Vec<u8>, (u32, u32)) {
         follow_pose: follow,
         ..CloneOptions::default()
     };
-    cloner.clone_frame(&params, &options).unwrap();
-    composite(target, &cloner)
+    cloner.clone_frame(params, &options).unwrap();
+    cloner
 }
 
-/// The cloner's first target composited into its picture at the picture's size (straight
-/// RGBA8, and the size).
-fn composite(target: &Model, cloner: &Cloner) -> (Vec<u8>, (u32, u32)) {
+/// spk07's unseen frame 24 cloned onto spk02 by `map` with follow-pose, the source's head
+/// rolled by 10 degrees and moved 30 px down about its face centre, composited into spk02's
+/// backdrop letterboxed into a 288x360 canvas (straight RGBA8, and the size).
+fn draw_letterboxed() -> (Vec<u8>, (u32, u32)) {
+    let mut params = source_params();
+    params.pose = moved(&params.pose, 10.0, (0.0, 30.0));
+    let target = spk02_backdrop();
+    composite(target, &cloned(target, &params, true), LETTERBOXED)
+}
+
+/// The size of `target`'s picture (its backdrop).
+fn picture_size(target: &Model) -> (u32, u32) {
+    let b = target.backdrop().unwrap();
+    (b.width(), b.height())
+}
+
+/// The cloner's first target composited into its picture, letterboxed into a canvas of
+/// `(w, h)` over the background (straight RGBA8, and the size).
+fn composite(target: &Model, cloner: &Cloner, (w, h): (u32, u32)) -> (Vec<u8>, (u32, u32)) {
     let mut compositor = Compositor::new(target, DrawOptions::default()).unwrap();
-    let (w, h) = compositor.size();
+    let (bw, bh) = compositor.size();
     let mut pixmap = Pixmap::new(w, h).unwrap();
     let [r, g, b, a] = BACKGROUND;
     pixmap.fill(Color::from_rgba8(r, g, b, a));
@@ -173,7 +208,7 @@ fn composite(target: &Model, cloner: &Cloner) -> (Vec<u8>, (u32, u32)) {
             target,
             cloner.target_appearance(0),
             cloner.target_shape(0),
-            &picture_view(w, h, w, h),
+            &picture_view(bw, bh, w, h),
             &mut pixmap.as_mut(),
         )
         .unwrap();
@@ -241,7 +276,7 @@ fn draw_expressive(target: &Model) -> (Vec<u8>, (u32, u32)) {
         ..CloneOptions::default()
     };
     cloner.clone_frame(&params, &options).unwrap();
-    composite(target, &cloner)
+    composite(target, &cloner, picture_size(target))
 }
 
 /// Compares `got` with the golden image `name` (or writes it with `FACEMIMIC_BLESS=1`).
@@ -345,6 +380,21 @@ fn composite_with_follow_pose_matches_golden_image() {
     let (got, _) = draw_composite(spk02_backdrop(), true);
     assert_ne!(got, still, "the head did not move");
     check_sized("composite_map_follow", &got, size);
+}
+
+#[test]
+fn letterboxed_composite_matches_golden_image() {
+    let (got, size) = draw_letterboxed();
+    // The bands above and below the picture (rows 0-64 and 295-359: the picture's 230.4 rows
+    // start at 64.8) are the background, untouched.
+    let band = |y: u32| got[(4 * y * size.0) as usize..(4 * (y + 1) * size.0) as usize].to_vec();
+    for y in (0..64).chain(296..size.1) {
+        assert!(
+            band(y).chunks_exact(4).all(|p| p == BACKGROUND),
+            "row {y} of the band was drawn on"
+        );
+    }
+    check_sized("composite_letterboxed", &got, size);
 }
 
 #[test]
