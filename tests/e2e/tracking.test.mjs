@@ -43,7 +43,7 @@ let camBrowser;
 
 before(async () => {
   assert.ok(haveChromium(), `chromium not found at ${CHROMIUM}: run scripts/setup.sh --browser`);
-  const glue = path.join(WWW, 'pkg', 'facemimic.js');
+  const glue = path.join(WWW, 'pkg', 'facemimic_wasm.js');
   assert.ok(fs.existsSync(glue), 'www/pkg/facemimic.js is missing: run scripts/build-wasm.sh');
   assert.ok(
     /export class Tracker\b/.test(fs.readFileSync(glue, 'utf8')),

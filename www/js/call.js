@@ -18,6 +18,7 @@ import { PeerLink, openMicrophone, parseIceServers } from './call-peer.js';
 import { parseControl, SETTINGS } from './call-controls.js';
 import { CallView, download } from './call-view.js';
 import { SchedulePanel } from './call-schedule-ui.js';
+import { AvatarSides, defaultAvatars, fillModelMenu } from './call-side.js';
 
 const $ = (id) => document.getElementById(id);
 const MODELS = 'models/';
@@ -40,6 +41,8 @@ const call = {
   mic: null,
   error: null,
   schedule: null, // the condition schedule (call-schedule-ui.js)
+  avatarChosen: false, // this side's avatar was chosen (the address, the menu, the experimenter, a schedule)
+  second: null, // this side joined a room the other side was in (or answered by hand); null: not known yet
 };
 
 /** A model by key (loaded once). Keys: "b:FILE" bundled, "s:ID" from the store. */
@@ -74,27 +77,20 @@ async function loadModelLists() {
     if (!(rec.bytes instanceof ArrayBuffer)) continue;
     call.models.set(`s:${rec.id}`, { key: `s:${rec.id}`, name: rec.name || `model ${rec.id}`, bytes: new Uint8Array(rec.bytes), bundled: false });
   }
-  const fill = (sel, keys, value) => {
-    sel.replaceChildren();
-    const groups = [['Bundled', keys.filter((k) => k.startsWith('b:'))], ['Your models', keys.filter((k) => k.startsWith('s:'))]];
-    for (const [label, list] of groups) {
-      if (!list.length) continue;
-      const g = document.createElement('optgroup');
-      g.label = label;
-      for (const k of list) g.append(new Option(call.models.get(k).name, k));
-      sel.append(g);
-    }
-    sel.value = value;
-  };
+  const fill = (sel, keys, value) => fillModelMenu(sel, call.models, keys, value);
   const keys = [...call.models.keys()];
   fill($('source-model'), keys, `b:${m.source}`);
   const avatars = keys.filter((k) => k !== `b:${m.source}`);
   const want = params.get('avatar');
   const wantKey = want && `b:${want.replace(/\.fmm$/i, '')}.fmm`;
   if (want && !call.models.has(wantKey)) notify('error', `No bundled avatar named ${want}`, `the avatars are ${bundledAvatarNames().join(', ')}`);
-  fill($('avatar-model'), avatars, call.models.has(wantKey) ? wantKey : `b:${(m.targets || [])[0] || m.library[0]}`);
+  call.avatarChosen = Boolean(want && call.models.has(wantKey));
+  fill($('avatar-model'), avatars, call.avatarChosen ? wantKey : defaultAvatars(call)[0]);
   fill($('peer-avatar'), avatars.filter((k) => k.startsWith('b:')), `b:${(m.targets || [])[0]}`);
 }
+
+/** Who takes which default avatar (call-side.js): a default taken is not a choice. */
+const sides = new AvatarSides(call, (key) => setAvatarKey(key, { chosen: false }).catch((e) => notify('error', 'Could not use this avatar', message(e))));
 
 /** The bundled avatars' names (what the other side may ask for). */
 function bundledAvatarNames() {
@@ -111,7 +107,9 @@ async function applyModels() {
   view.selfName(target.name);
 }
 
-async function setAvatarKey(key) {
+/** Makes `key` this side's avatar; `chosen`: by someone (the menu, the experimenter, a schedule). */
+async function setAvatarKey(key, { chosen = true } = {}) {
+  if (chosen) call.avatarChosen = true;
   const target = await modelFor(key);
   $('avatar-model').value = key;
   call.avatar.setTarget(target);
@@ -180,6 +178,7 @@ async function onSignalMessage(m) {
     case 'joined':
       call.joined = true;
       call.peerPresent = m.peers === 2;
+      sides.take(call.peerPresent);
       link.polite = Boolean(m.polite);
       if (call.peerPresent) {
         call.peerLeft = false;
@@ -275,6 +274,7 @@ function leave() {
   call.joined = false;
   call.peerPresent = false;
   call.room = null;
+  sides.reset();
   const u = new URL(location.href);
   u.searchParams.delete('room');
   u.searchParams.delete('autojoin');
@@ -311,6 +311,7 @@ function onControl(data) {
     Object.assign(call.peer, { camera: msg.camera, avatar: msg.avatar ?? call.peer.avatar, pipelineMs: msg.pipelineMs ?? null, encodeMs: msg.encodeMs ?? null, at: performance.now() });
     for (const k of SETTINGS) call.peer[k] = msg[k] ?? call.peer[k];
     view.peerSettings(call.peer);
+    sides.avoid(msg.avatar);
     call.schedule?.onPeerStatus(msg);
   } else if (msg.t === 'set') {
     if (!$('allow-remote').checked) {
@@ -334,6 +335,7 @@ function onControl(data) {
 async function manualStep(step) {
   if (call.joined) return notify('warning', 'You are in a room', 'leave it first to connect by hand');
   call.manual = true;
+  if (step !== 'accept') sides.take(step === 'answer');
   const link = await ensureLink();
   try {
     if (step === 'offer') $('manual-out').value = await link.offerText();

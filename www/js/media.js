@@ -31,6 +31,36 @@ export function mediaErrorText(err) {
   return err.message ? `${what} (${err.message})` : what;
 }
 
+/**
+ * Whether the browser can show a picture of a video file, found in a <video> of its own (the
+ * page's sources are not touched): resolves once a frame is decoded; rejects with an Error
+ * whose `unplayable` is true when the browser cannot read the format (its container or codec),
+ * with the browser's own words in `detail`, or whose message says the file has no picture.
+ */
+export function probeVideo(file, ms = 15000) {
+  const url = URL.createObjectURL(file);
+  const v = document.createElement('video');
+  v.muted = true;
+  v.preload = 'auto';
+  return new Promise((resolve, reject) => {
+    const done = (err) => {
+      clearTimeout(timer);
+      v.onloadeddata = v.onerror = null;
+      v.removeAttribute('src');
+      v.load();
+      URL.revokeObjectURL(url);
+      if (err) reject(err);
+      else resolve();
+    };
+    const unplayable = (detail) => Object.assign(new Error('the browser cannot play this format'), { unplayable: true, detail });
+    v.onloadeddata = () => done(v.videoWidth && v.videoHeight ? null : new Error('the file has no video track (sound only?)'));
+    // MEDIA_ERR_DECODE (3) and MEDIA_ERR_SRC_NOT_SUPPORTED (4): a container or codec it cannot read.
+    v.onerror = () => done(v.error && v.error.code < 3 ? new Error(mediaErrorText(v.error)) : unplayable(v.error?.message || ''));
+    const timer = setTimeout(() => done(unplayable('no frame was decoded')), ms);
+    v.src = url;
+  });
+}
+
 /** What a getUserMedia failure means for the user, and what to do. */
 export function cameraErrorText(e) {
   const name = e?.name || '';

@@ -4,8 +4,24 @@
 
 const MAX = 5;
 
-/** Show a notice. kind: "error" | "warning" | "info". Returns the element. */
+/** Rewrites of notices about to be shown (amendNext): [{ prefix, detail }]. */
+const amends = [];
+
+/**
+ * The next notice whose title starts with `prefix`, shown in this task, gets `detail` instead of
+ * its own (a module that changed what another one is about to announce says so; forgotten at
+ * the end of the task).
+ */
+export function amendNext(prefix, detail) {
+  const a = { prefix, detail };
+  amends.push(a);
+  queueMicrotask(() => amends.includes(a) && amends.splice(amends.indexOf(a), 1));
+}
+
+/** Show a notice. kind: "error" | "warning" | "info"; `detail`: text or an element. Returns the element. */
 export function notify(kind, title, detail = '') {
+  const k = amends.findIndex((a) => title.startsWith(a.prefix));
+  if (k >= 0) detail = amends.splice(k, 1)[0].detail;
   const host = document.getElementById('toasts');
   const el = document.createElement('div');
   el.className = `toast ${kind}`;
@@ -15,7 +31,8 @@ export function notify(kind, title, detail = '') {
   const t = document.createElement('strong');
   t.textContent = title;
   text.append(t);
-  if (detail) {
+  if (detail instanceof Node) text.append(detail);
+  else if (detail) {
     const d = document.createElement('span');
     d.textContent = detail;
     text.append(d);

@@ -86,14 +86,15 @@ export class MediaOpener {
   }
 
   /**
-   * The user's camera, showing in the feed: resolves to its frame rate, or null when the source
+   * The user's camera (`given`: a stream already open, passed on by the source this one
+   * replaced), showing in the feed: resolves to its frame rate, or null when the source
    * stopped meanwhile. Rejects with an Error whose message says what happened (a refusal or a
    * missing camera is also notified).
    */
-  async camera() {
-    let stream;
+  async camera(given = null) {
+    let stream = given;
     try {
-      stream = await openCamera();
+      stream ??= await openCamera();
     } catch (e) {
       if (this.live() && e.cause) notify('error', 'Webcam unavailable', e.message);
       throw e;

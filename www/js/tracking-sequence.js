@@ -4,10 +4,21 @@
 // boxes are in the work canvas's pixels, the frame the tracker is given: it chooses its fit
 // scale itself.
 
-import { fileError, message } from './toasts.js';
-import { CLIP_JSON, videoToWork } from './media.js';
+import { fileError, message, notify } from './toasts.js';
+import { CLIP_JSON, videoToWork, probeVideo, looksLikeImage } from './media.js';
 import { findFaces } from './finder-client.js';
 import { MediaOpener, notMediaReason } from './tracking-open.js';
+import { unplayableHelp, unplayableLine } from './media-help.js';
+import { stillTheSource } from './tracking-flow.js';
+
+/** Rejects with the reason when the browser cannot decode the image `file`. */
+async function probeImage(file) {
+  try {
+    (await createImageBitmap(file)).close();
+  } catch (e) {
+    throw new Error(`the image could not be decoded (${message(e)})`);
+  }
+}
 
 /**
  * A video source's sequences, owned by the source (`src`). It keeps what a sequence starts from
@@ -22,6 +33,7 @@ export class Sequencer {
     this.clip = null; // the bundled clip's description
     this.seqStart = null; // a file: where tracking began ({ time, landmarks }), to loop back to
     this.searchingGuide = false; // the webcam's placement step: the tracker is searching
+    this.file = null; // the file open (a video or a photo)
     this.opener = new MediaOpener(src.media, {
       live: () => src.running,
       onEnded: () => (src.mode === 'clip' ? this.onClipEnded() : this.onFileEnded()),
@@ -31,6 +43,21 @@ export class Sequencer {
         src.fail('The camera stopped sending pictures (unplugged, or access was withdrawn)');
       },
     });
+  }
+
+  /**
+   * The source's start: the clip, the camera, or (a file) an empty panel. `handed`: what the
+   * source it replaced passed on (www/js/tracking-flow.js): the camera's stream and where the
+   * face was, or the file and where in it.
+   */
+  begin(handed) {
+    const src = this.src;
+    if (src.mode === 'clip') this.openClip();
+    else if (src.mode === 'webcam') this.openWebcam(handed?.stream, handed?.landmarks);
+    else {
+      src.setPhase('empty');
+      if (handed?.file) this.openFile(handed.file, handed.time);
+    }
   }
 
   /** After an error: open the clip or the camera again. */
@@ -85,18 +112,32 @@ export class Sequencer {
     }
   }
 
-  /** A dropped or picked file: a video (tracked) or a photo (one face fitted). */
-  async openFile(file) {
+  /**
+   * A dropped or picked file: a video (tracked) or a photo (one face fitted); `resumeAt`: where
+   * in the video to start (s). The file is tried on the side first: one that cannot be shown
+   * leaves everything as it was (the file playing, or the source held, which takes its place back).
+   */
+  async openFile(file, resumeAt = 0) {
     const src = this.src;
     if (!src.running) return;
     const name = file.name || 'the file';
     const why = notMediaReason(file);
     if (why) {
-      fileError(name, new Error(why));
-      if (!src.haveFrame) src.setPhase('empty', `${name}: ${why}`);
-      else src.say(`${name}: ${why}`);
+      this.refuse(name, new Error(why));
       return;
     }
+    src.probing = true;
+    try {
+      await (looksLikeImage(file) ? probeImage(file) : probeVideo(file));
+    } catch (e) {
+      src.probing = false;
+      if (src.running) this.refuse(name, e);
+      return;
+    }
+    src.probing = false;
+    if (!src.running) return;
+    src.release(); // the source held, if any, stops: this file takes over
+    if (!src.tracker && !src.makeTracker()) return;
     src.cancelFrames();
     src.seqId++;
     src.media.haveFrame = false;
@@ -107,6 +148,8 @@ export class Sequencer {
     try {
       const opened = await this.opener.file(file);
       if (!opened || !src.running) return;
+      this.file = file;
+      if (resumeAt > 0 && !src.media.still) await src.media.seek(Math.min(resumeAt, src.video.duration || 0)).catch(() => {});
       src.fps = opened.fps;
       src.grab();
       await this.enterPlacing();
@@ -115,6 +158,26 @@ export class Sequencer {
       fileError(name, e);
       src.media.haveFrame = false;
       src.setPhase('empty', `${name}: ${message(e)}`);
+      src.panel.showError();
+    }
+  }
+
+  /**
+   * A file that cannot be shown (`e` why): said (a video the browser cannot play, with the
+   * commands that convert it); the source held takes its place back, or this one stays as it was.
+   */
+  refuse(name, e) {
+    const src = this.src;
+    const still = src.previous ? stillTheSource(src.previous) : src.haveFrame && this.file ? `${src.fileName} goes on.` : '';
+    if (e.unplayable) {
+      console.warn(`facemimic: ${name}: ${e.message} (${e.detail})`);
+      notify('error', `Cannot play ${name}`, unplayableHelp({ name, detail: e.detail, still }));
+    } else fileError(name, e);
+    if (src.handBack()) return;
+    const line = e.unplayable ? unplayableLine(name) : `${name}: ${message(e)}`;
+    if (src.haveFrame) src.say(line);
+    else {
+      src.setPhase('empty', line);
       src.panel.showError();
     }
   }
@@ -163,13 +226,14 @@ export class Sequencer {
     else if (!faces.length && !src.findError) await this.startSearch();
   }
 
-  async openWebcam() {
+  /** The camera (`stream`: one already open, passed on), tracked from `landmarks` (work px) if given. */
+  async openWebcam(stream = null, landmarks = null) {
     const src = this.src;
-    src.setPhase('loading', 'Asking for the camera…');
+    src.setPhase('loading', stream ? 'Going on with the camera…' : 'Asking for the camera…');
     src.streamEnded = false;
     let fps;
     try {
-      fps = await this.opener.camera();
+      fps = await this.opener.camera(stream);
     } catch (e) {
       if (src.running) src.fail(e.message);
       return;
@@ -178,6 +242,8 @@ export class Sequencer {
     src.fps = fps;
     src.grab();
     await this.enterPlacing();
+    // Where the face was a moment ago: the new tracker starts there (and searches if it is not).
+    if (landmarks && src.autoStart && src.running && src.phase === 'placing') await this.startTracking(landmarks);
   }
 
   async play() {

@@ -42,6 +42,7 @@ import { followPath, makeTracker } from './follow-path.js';
 import { TrackingPanel } from './tracking-panel.js';
 import { Sequencer } from './tracking-sequence.js';
 import { FitLog, LOG_MAX } from './tracking-log.js';
+import { FLOW_METHODS, watchTransport, release } from './tracking-flow.js';
 
 // ---------------------------------------------------------------------------------------------
 // One tracker per source model (the fitter's precomputation is done once per model).
@@ -130,6 +131,10 @@ class VideoSource {
     this.findError = null;
     this.streamEnded = false;
     this.reacquired = 0;
+    this.previous = null; // the source held while a file is tried (www/js/tracking-flow.js)
+    this.probing = false; // a file is being tried
+    this.handed = null; // what the source this one replaced passed on (its camera stream, its file)
+    watchTransport(this);
   }
 
   // Read-only views used by the panel and the tests.
@@ -181,8 +186,7 @@ class VideoSource {
 
   initialParams() {
     const p = typeof this.ctx.currentParams === 'function' ? this.ctx.currentParams() : this.ctx.params;
-    const ok =
-      p && p.pose && p.shape?.length === this.info.shapeModes && p.appearance?.length === this.info.appearanceModes;
+    const ok = p && p.pose && p.shape?.length === this.info.shapeModes && p.appearance?.length === this.info.appearanceModes;
     const src = ok ? p : this.model.baseParams();
     return { pose: { ...src.pose }, shape: Array.from(src.shape), appearance: Array.from(src.appearance) };
   }
@@ -200,16 +204,23 @@ class VideoSource {
     shown = this;
     this.path = followPath(this.ctx, this.mode, this.model);
     this.panel = new TrackingPanel(this);
+    if (this.previous) this.panel.el.hidden = true; // until the source held lets go
     this.setPhase('loading');
+    // A file's tracker is made once a file opens (a source held meanwhile keeps its own).
+    if (this.mode !== 'file' && !this.makeTracker()) return;
+    this.sequencer.begin(this.handed);
+    this.handed = null;
+  }
+
+  /** The tracker for the source model (false, with the reason shown, when it cannot be made). */
+  makeTracker() {
     try {
       this.tracker = trackerFor(this.wasm, this.model, this.path, this.mode);
+      return true;
     } catch (e) {
       this.fail('The tracker could not be made for this source model', e);
-      return;
+      return false;
     }
-    if (this.mode === 'clip') this.sequencer.openClip();
-    else if (this.mode === 'file') this.setPhase('empty');
-    else this.sequencer.openWebcam();
   }
 
   stop() {
@@ -220,6 +231,12 @@ class VideoSource {
     this.sequencer.opener.close();
     this.panel?.remove();
     if (shown === this) shown = null;
+    release(this); // a source held (www/js/tracking-flow.js), if any, stops too
+  }
+
+  /** This source is the one shown (given its place back: www/js/tracking-flow.js). */
+  show() {
+    if (this.running) shown = this;
   }
 
   paramsAt() {
@@ -244,6 +261,7 @@ class VideoSource {
   setPhase(phase, msg) {
     this.phase = phase;
     this.panel?.show(phase, msg);
+    if (this.running) this.ctx.transportChanged?.(this);
   }
 
   say(text) {
@@ -393,6 +411,8 @@ class VideoSource {
   }
 }
 
+// The page's flow (tracking-flow.js): transport(), keepsAcross(), takeOver(), release(), handBack().
+Object.assign(VideoSource.prototype, FLOW_METHODS);
 
 // ---------------------------------------------------------------------------------------------
 // Registration
