@@ -14,7 +14,7 @@
 
 use wasm_bindgen::prelude::*;
 
-pub use error::JsError;
+pub use error::{JsError, CODES};
 
 use facemimic::Params;
 

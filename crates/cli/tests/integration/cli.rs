@@ -1166,3 +1166,93 @@ fn the_typescript_method_type_is_the_core_list() {
         assert_eq!(names, want, "{file}");
     }
 }
+
+/// Every error code the package can throw is listed once, the same, in the wasm layer
+/// (`CODES`), the JS entry (`ERROR_CODES`), the TypeScript `ErrorCode` type and the npm
+/// README's table; and every kind of the core's `Error` has its code among them.
+#[test]
+fn the_error_codes_agree_everywhere() {
+    let read = |file: &str| std::fs::read_to_string(root().join(file)).unwrap();
+    let quoted = |text: &str| -> Vec<String> {
+        text.split('"')
+            .skip(1)
+            .step_by(2)
+            .map(str::to_string)
+            .collect()
+    };
+    let between = |text: &str, start: &str, end: &str| -> String {
+        let i = text.find(start).unwrap_or_else(|| panic!("no {start}"));
+        let rest = &text[i + start.len()..];
+        rest[..rest
+            .find(end)
+            .unwrap_or_else(|| panic!("no {end} after {start}"))]
+            .to_string()
+    };
+    let mut wasm = quoted(&between(
+        &read("crates/wasm/src/error.rs"),
+        "pub const CODES",
+        "];",
+    ));
+    let mut js = quoted(&between(
+        &read("npm/facemimic.js"),
+        "ERROR_CODES = Object.freeze([",
+        "]",
+    ));
+    let mut ts = quoted(&between(
+        &read("npm/facemimic.d.ts"),
+        "export type ErrorCode =",
+        ";",
+    ));
+    let readme = read("npm/README.md");
+    let table = between(&readme, "| code | when |", "\n\n");
+    let mut documented: Vec<String> = table
+        .lines()
+        .flat_map(|l| {
+            l.split('|')
+                .nth(1)
+                .unwrap_or("")
+                .split(['`', ',', '/'])
+                .map(str::trim)
+                .map(str::to_string)
+                .collect::<Vec<_>>()
+        })
+        .filter(|s| {
+            s.starts_with(|c: char| c.is_ascii_lowercase())
+                && s.chars().all(|c| c.is_ascii_lowercase() || c == '-')
+        })
+        .collect();
+    for list in [&mut wasm, &mut js, &mut ts, &mut documented] {
+        list.sort();
+        list.dedup();
+    }
+    assert_eq!(js, ts, "ERROR_CODES and ErrorCode differ");
+    assert_eq!(js, documented, "the README's table lists other codes");
+    for c in &wasm {
+        assert!(
+            js.contains(c),
+            "the wasm layer's code {c} is not in the JS entry's list"
+        );
+    }
+    use facemimic::{Error, FormatError};
+    let kinds = [
+        Error::Landmarks(String::new()),
+        Error::Format(FormatError::BadMagic),
+        Error::Training(String::new()),
+        Error::Incompatible(String::new()),
+        Error::Params(String::new()),
+        Error::Image(String::new()),
+        Error::Io(String::new()),
+        Error::Cancelled,
+        Error::Weights(String::new()),
+        Error::Overflow(String::new()),
+        Error::Budget(String::new()),
+        Error::Cancelled.with_context("file"),
+    ];
+    for e in kinds {
+        assert!(
+            wasm.contains(&e.code().to_string()),
+            "{e:?}: {} is not in CODES",
+            e.code()
+        );
+    }
+}
