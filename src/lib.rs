@@ -83,8 +83,9 @@ pub use train::photo::{
 };
 pub use train::pipeline::{
     enrol, EnrolFrame, EnrolOptions, EnrolProgress, EnrolSampling, EnrolStage, Enrolment,
-    DEFAULT_MIN_SCORE, ENROL_BOXES, MAX_REFINE_ROUNDS,
+    QualityScope, DEFAULT_MIN_SCORE, ENROL_BOXES, MAX_REFINE_ROUNDS,
 };
+pub use train::quality::{occlusion_scores, FrameProblem, FrameQuality};
 pub use train::refine::refine_landmarks;
 pub use train::select::{coverage, select_varied};
 pub use train::{

@@ -115,6 +115,8 @@ impl Fitter {
                 converged: false,
                 lost: false,
                 reacquired: false,
+                status: crate::fit::TrackStatus::Tracking,
+                reasons: crate::fit::Reasons::NONE,
             },
             options,
         })
@@ -320,6 +322,8 @@ impl Fitter {
         r.converged = converged && err.is_finite();
         r.lost = false;
         r.reacquired = false;
+        r.status = super::TrackStatus::Tracking;
+        r.reasons = super::Reasons::NONE;
         Ok(())
     }
 }

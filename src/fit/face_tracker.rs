@@ -108,6 +108,8 @@ pub trait FaceTracker: std::fmt::Debug {
     /// the follower needs it positive to smooth, a `dt` of 0 restarts its smoothing).
     ///
     /// Ensures: the result is the frame's face, or `lost = true` and the last good result;
+    /// its `status` says how far to trust it ("tracking", "unsure" with its `reasons`: drive
+    /// nothing with it, or "lost");
     /// [`FaceTracker::sequence`] counted the frame. Allocates nothing per frame while a face
     /// is followed.
     fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<&FitResult>;

@@ -248,6 +248,14 @@ impl FaceTracker for Follower {
             )));
         }
         self.step(frame, dt)?;
+        // The follower reads the finder's face on every frame: it is tracking a face or has
+        // none (a mesh score under the bound is a search, then no face).
+        let r = &mut self.result;
+        (r.status, r.reasons) = if r.lost {
+            (super::TrackStatus::Lost, super::Reasons::NO_FACE)
+        } else {
+            (super::TrackStatus::Tracking, super::Reasons::NONE)
+        };
         let r = &self.result;
         let pose = (!r.lost).then_some(r.params.pose);
         let reacquired = !r.lost && r.reacquired;
@@ -431,6 +439,8 @@ impl Follower {
                 converged: false,
                 lost: true,
                 reacquired: false,
+                status: crate::fit::TrackStatus::Tracking,
+                reasons: crate::fit::Reasons::NONE,
             },
         })
     }

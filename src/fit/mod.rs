@@ -19,6 +19,7 @@
 
 mod algorithm;
 mod anchor;
+mod confidence;
 mod driver;
 mod face_tracker;
 mod follow;
@@ -39,6 +40,7 @@ use serde::{Deserialize, Serialize};
 use crate::model::Params;
 
 pub use anchor::{HeadDamper, PoseAnchor, Sequence};
+pub use confidence::{ConfidenceBounds, Reasons, TrackStatus};
 pub use driver::Fitter;
 pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
 pub use follow::{
@@ -71,4 +73,11 @@ pub struct FitResult {
     /// (the first face of [`Tracker::start_auto`](crate::fit::FaceTracker::start_auto), or a face found again after a loss).
     #[serde(default)]
     pub reacquired: bool,
+    /// How far the fit can be trusted: "tracking", "unsure" (the [`Tracker`]'s confidence
+    /// checks doubt it: the targets hold the last good expression) or "lost" (as `lost`).
+    #[serde(default)]
+    pub status: TrackStatus,
+    /// Why the fit is unsure or lost (empty while tracking).
+    #[serde(default)]
+    pub reasons: Reasons,
 }

@@ -10,6 +10,7 @@ use crate::similarity::Similarity;
 use crate::summary::summary;
 
 use super::anchor::Sequence;
+use super::confidence::{sigma_rms, Confidence, ConfidenceBounds, Reasons, TrackStatus};
 use super::face_tracker::{FaceTracker, TrackerKind};
 use super::resample::{from_scaled, pose_from_scaled, to_scaled, Resampler};
 use super::{FitOptions, FitResult, Fitter, TrackPolicy};
@@ -75,6 +76,13 @@ impl FaceSource for crate::find::FaceFinder {
 /// found nearest the tracked one (a cold fit) and keeps whichever fits lower
 /// ([`Tracker::rechecks`](crate::fit::FaceTracker::rechecks) counts them).
 ///
+/// **Confidence** (issue 33). A plausible fit is also checked for what the loss checks miss
+/// (it collapsed, folded, slid off the finder's face, took an unlikely shape, its residual or
+/// pose jumped: [`ConfidenceBounds`]); a doubted fit is reported with
+/// [`TrackStatus::Unsure`] and its [`Reasons`], is not the last good fit, is fitted again from
+/// the last good fit when its mesh is broken, and asks for a second opinion. The result's
+/// `status` is "tracking", "unsure" or "lost".
+///
 /// **One pixel convention.** Frames come in at their own size, and everything going in and
 /// out (start landmarks and boxes, offered faces, what a [`FaceSource`] finds, the results'
 /// landmarks and poses) is in that frame's pixels. The tracker decides at what scale it fits
@@ -137,6 +145,16 @@ pub struct Tracker {
     rechecks: (u32, u32),
     /// The tracked fit, kept while a second opinion is fitted.
     tracked: FitResult,
+    /// The confidence checks ("unsure" fits).
+    confidence: Confidence,
+    /// The face finder's face nearest the fit on this frame (a second opinion's), when
+    /// `has_finder_face`.
+    finder_face: Vec<f32>,
+    has_finder_face: bool,
+    /// The last frame's fit was unsure: a second opinion is due on the next.
+    doubtful: bool,
+    /// Why the last fit judged was implausible (a lost frame's reasons).
+    why: Reasons,
 }
 
 impl Tracker {
@@ -161,6 +179,8 @@ impl Tracker {
                 converged: false,
                 lost: true,
                 reacquired: false,
+                status: crate::fit::TrackStatus::Tracking,
+                reasons: crate::fit::Reasons::NONE,
             },
             seq: Sequence::new(base.pose),
             fitter,
@@ -182,13 +202,20 @@ impl Tracker {
             since_check: 0,
             rechecks: (0, 0),
             tracked: empty_result(),
+            confidence: Confidence::new(model),
+            finder_face: vec![0.0; n2],
+            has_finder_face: false,
+            doubtful: false,
+            why: Reasons::NONE,
         })
     }
 
     /// Whether the next tracked frame takes a second opinion ([`TrackPolicy::recheck_frames`]).
     fn recheck_due(&self) -> bool {
         let every = self.policy.recheck_frames;
-        every > 0 && self.last_good.is_some() && !self.was_lost && self.since_check >= every
+        self.last_good.is_some()
+            && !self.was_lost
+            && (self.doubtful || (every > 0 && self.since_check >= every))
     }
 
     /// The fitter (for its sizes and options).
@@ -208,12 +235,30 @@ impl Tracker {
         self.last_good = None;
         self.last = None;
         self.since_check = 0;
+        self.confidence.restart();
+        self.doubtful = false;
+        self.has_finder_face = false;
+        self.why = Reasons::NONE;
     }
 
     /// Gives the tracker a source of faces (a face finder): it is asked when a face is lost
     /// and by [`Tracker::start_auto`](crate::fit::FaceTracker::start_auto). Replaces any previous source.
     pub fn set_face_source(&mut self, source: Box<dyn FaceSource>) {
         self.source = Some(source);
+    }
+
+    /// The bounds of the confidence checks that call a plausible fit "unsure"
+    /// ([`ConfidenceBounds::off`]: none, the tracker as it was before them).
+    pub fn confidence_bounds(&self) -> &ConfidenceBounds {
+        &self.confidence.bounds
+    }
+
+    /// Replaces the bounds of the confidence checks; fails with [`Error::Params`] (keeping
+    /// the old ones) for a NaN or negative bound.
+    pub fn set_confidence_bounds(&mut self, bounds: ConfidenceBounds) -> Result<()> {
+        bounds.check()?;
+        self.confidence.bounds = bounds;
+        Ok(())
     }
 
     /// Whether the tracker has a face source.
@@ -235,25 +280,31 @@ impl Tracker {
         }
         let near = self.last_good.as_ref().map(|g| centroid(&g.landmarks));
         let Some(face) = nearest_face(&faces, near, centroid, |_| true) else {
+            self.why = Reasons::NO_FACE;
             return Ok(false);
         };
         // The scale for the face acquired (kept when near the one in use).
         self.k = self.fit_scale(extent(face).1, frame.width(), frame.height(), self.k);
         let (cold_iters, starts) = (self.cold_iters(), self.fitter.options().coarse_starts);
         match self.fit(frame, From::Face(face), Some(cold_iters), starts) {
-            Ok(()) => Ok(self.plausible(&self.fitted, false)),
+            Ok(()) => Ok(self.check(false)),
             // A degenerate found face is no face.
-            Err(Error::Params(_)) => Ok(false),
+            Err(Error::Params(_)) => {
+                self.why = Reasons::NO_FACE;
+                Ok(false)
+            }
             Err(e) => Err(e),
         }
     }
 
-    /// When one is due ([`TrackPolicy::recheck_frames`]) or faces were offered, fits `frame`
-    /// again from the found face nearest the tracked one (a cold fit, as an acquisition) and
-    /// keeps whichever of the two fits has the lower residual (the second one only when
-    /// plausible); `fitted` holds the tracked fit on entry and the one kept on return.
-    fn second_opinion(&mut self, frame: &ImageRef<'_>) -> Result<()> {
-        let due = self.recheck_due();
+    /// When one is due ([`TrackPolicy::recheck_frames`], or `doubts` about the tracked fit) or
+    /// faces were offered, fits `frame` again from the found face nearest the tracked one (a
+    /// cold fit, as an acquisition) and keeps whichever of the two fits has the lower residual
+    /// (the second one only when plausible; while the tracked fit is doubted, the second one
+    /// also when it raises no doubt); `fitted` holds the tracked fit on entry and the one kept
+    /// on return, `finder_face` the found face used.
+    fn second_opinion(&mut self, frame: &ImageRef<'_>, doubts: Reasons) -> Result<()> {
+        let due = self.recheck_due() || !doubts.is_empty();
         let faces = match (self.offered.take(), self.source.as_mut()) {
             (Some(faces), _) => faces,
             (None, Some(source)) if due => source.faces(frame)?,
@@ -274,11 +325,17 @@ impl Tracker {
         let Some(face) = nearest_face(&faces, Some((cx, cy)), centroid, near) else {
             return Ok(());
         };
+        self.finder_face.copy_from_slice(face);
+        self.has_finder_face = true;
         self.rechecks.0 = self.rechecks.0.saturating_add(1);
         std::mem::swap(&mut self.tracked, &mut self.fitted);
         let (cold_iters, starts) = (self.cold_iters(), self.fitter.options().coarse_starts);
         let better = match self.fit(frame, From::Face(face), Some(cold_iters), starts) {
-            Ok(()) => self.fitted.error < self.tracked.error && self.plausible(&self.fitted, true),
+            Ok(()) => {
+                self.plausible(&self.fitted, true)
+                    && (self.fitted.error < self.tracked.error
+                        || (!doubts.is_empty() && self.doubts(&self.fitted).is_empty()))
+            }
             Err(Error::Params(_)) => false,
             Err(e) => {
                 std::mem::swap(&mut self.tracked, &mut self.fitted);
@@ -346,11 +403,97 @@ impl Tracker {
         Ok(())
     }
 
+    /// The confidence checks on the plausible tracked fit in `fitted`, and the recovery of a
+    /// doubted one: a fit that collapsed, folded or took an unlikely shape is fitted again from
+    /// the last good fit (kept when that raises no doubt); a doubted fit takes a second opinion
+    /// from the faces found or offered (kept when it raises no doubt, or fits lower). Returns
+    /// the doubts left about the fit kept (the finder's face included when one was found).
+    fn settle(&mut self, frame: &ImageRef<'_>) -> Result<Reasons> {
+        let doubts = self.doubts(&self.fitted);
+        if doubts.intersects(Reasons::STRUCTURAL) && self.last_good.is_some() {
+            std::mem::swap(&mut self.tracked, &mut self.fitted);
+            let (cold_iters, coarse) = (self.cold_iters(), self.fitter.options().coarse_starts);
+            self.fit(frame, From::LastGood, Some(cold_iters), coarse)?;
+            let clear = self.plausible(&self.fitted, true) && self.doubts(&self.fitted).is_empty();
+            if !clear {
+                std::mem::swap(&mut self.tracked, &mut self.fitted);
+            }
+        }
+        let doubts = self.doubts(&self.fitted);
+        self.second_opinion(frame, doubts)?;
+        Ok(self.doubts(&self.fitted))
+    }
+
+    /// A plausible frame, `dt` seconds after the previous one, with the confidence checks'
+    /// `doubts` about it: "tracking" without doubts (the fit becomes the last good one and
+    /// moves the pose anchor and the fit scale), "unsure" with them (reported, but the last
+    /// good fit stays, the anchor holds, a second opinion is due on the next frame, and a fit
+    /// that collapsed or folded is not started from).
+    fn good_frame(&mut self, frame: &ImageRef<'_>, dt: f32, reacquired: bool, doubts: Reasons) {
+        let sure = doubts.is_empty();
+        self.since_check = self.since_check.saturating_add(1);
+        self.cold = false;
+        self.searching = false;
+        self.doubtful = !sure;
+        let mut r = std::mem::replace(&mut self.fitted, empty_result());
+        self.bound_appearance(&mut r);
+        // A face found again after lost frames (or the first face of an auto start).
+        r.reacquired = reacquired && (self.was_lost || self.last_good.is_none());
+        r.lost = false;
+        r.status = if sure {
+            TrackStatus::Tracking
+        } else {
+            TrackStatus::Unsure
+        };
+        r.reasons = doubts;
+        self.confidence.note(&r.landmarks, &r.params.pose, sure);
+        let tau = self.policy.recentre_tau;
+        if sure {
+            // A slow running mean, restarted by a (re-)acquisition.
+            self.typical_error = if self.typical_error > 0.0 && !r.reacquired {
+                0.95 * self.typical_error + 0.05 * r.error
+            } else {
+                r.error
+            };
+            self.seq.frame(Some(&r.params.pose), dt, tau, r.reacquired);
+            store(&mut self.last_good, &r);
+            // The face grew or shrank a lot (moving to or from the camera): the next frame is
+            // fitted at a new scale.
+            self.k = self.fit_scale(
+                extent(&r.landmarks).1,
+                frame.width(),
+                frame.height(),
+                self.k,
+            );
+        } else {
+            // The placement holds at the last good pose.
+            let held = self
+                .last_good
+                .as_ref()
+                .map_or(r.params.pose, |g| g.params.pose);
+            self.seq.frame(Some(&held), dt, tau, r.reacquired);
+        }
+        match self.last_good.as_ref() {
+            Some(g) if doubts.intersects(Reasons::STRUCTURAL) => {
+                self.start.copy_from_slice(&g.landmarks)
+            }
+            _ => self.start.copy_from_slice(&r.landmarks),
+        }
+        store(&mut self.last, &r);
+        self.fitted = r;
+    }
+
     /// A lost frame, `dt` seconds after the previous one: counted, searched for from the next
     /// frame when faces can come, and reported as the last good fit (or the failed attempt).
     fn lost_frame(&mut self, dt: f32, tau: f32) {
         self.seq.frame(None, dt, tau, false);
         self.searching = self.source.is_some() || self.offers;
+        self.doubtful = false;
+        let why = if self.why.is_empty() {
+            Reasons::NO_FACE
+        } else {
+            self.why
+        };
         match &self.last_good {
             Some(g) => {
                 self.start.copy_from_slice(&g.landmarks);
@@ -359,12 +502,16 @@ impl Tracker {
                 last.lost = true;
                 last.converged = false;
                 last.reacquired = false;
+                last.status = TrackStatus::Lost;
+                last.reasons = why;
             }
             None => {
                 // Nothing good yet (a bad box, or no face found): report the attempt.
                 let mut r = std::mem::replace(&mut self.fitted, empty_result());
                 r.lost = true;
                 r.reacquired = false;
+                r.status = TrackStatus::Lost;
+                r.reasons = why;
                 self.bound_appearance(&mut r);
                 store(&mut self.last, &r);
                 self.fitted = r;
@@ -386,12 +533,23 @@ impl Tracker {
     /// Whether a fit is plausible (see the type's documentation); `jump` also checks the
     /// change of scale and rotation from the last good fit.
     fn plausible(&self, r: &FitResult, jump: bool) -> bool {
+        self.implausible(r, jump).is_empty()
+    }
+
+    /// Whether `fitted` is plausible ([`Tracker::plausible`]); if not, `why` says why.
+    fn check(&mut self, jump: bool) -> bool {
+        self.why = self.implausible(&self.fitted, jump);
+        self.why.is_empty()
+    }
+
+    /// Why a fit is implausible: a lost face (none: plausible).
+    fn implausible(&self, r: &FitResult, jump: bool) -> Reasons {
         let o = self.fitter.options();
         if !r.error.is_finite() || r.error > o.max_error {
-            return false;
+            return Reasons::RESIDUAL;
         }
         if !r.landmarks.iter().all(|v| v.is_finite()) || !r.params.pose.is_valid() {
-            return false;
+            return Reasons::RESIDUAL;
         }
         let (w, h) = self.frame_size;
         let n = (r.landmarks.len() / 2).max(1) as f32;
@@ -401,43 +559,47 @@ impl Tracker {
             .filter(|p| p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= w - 1.0 && p[1] <= h - 1.0)
             .count() as f32;
         if inside < o.min_inside * n {
-            return false;
+            return Reasons::OUTSIDE;
         }
         if jump
             && o.max_error_ratio > 0.0
             && self.typical_error > 0.0
             && r.error > o.max_error_ratio * self.typical_error
         {
-            return false;
+            return Reasons::RESIDUAL;
         }
         let c = self.fitter.contrast();
         if !(MIN_CONTRAST..=1.0 / MIN_CONTRAST).contains(&c) {
-            return false;
+            return Reasons::CONTRAST;
         }
-        let sig = self.fitter.shape_sigmas();
-        let m = sig.len().max(1) as f32;
-        let z2: f32 = r
-            .params
-            .shape
-            .iter()
-            .zip(sig)
-            .map(|(p, s)| (p / s.max(1e-12)).powi(2))
-            .sum();
-        if !((z2 / m).sqrt() <= o.max_sigmas) {
-            return false;
+        if !(sigma_rms(&r.params.shape, self.fitter.shape_sigmas()) <= o.max_sigmas) {
+            return Reasons::SHAPE;
         }
         if let Some(g) = self.last_good.as_ref().filter(|_| jump) {
             let (s0, s1) = (g.params.pose.scale(), r.params.pose.scale());
             if !((s1 - s0).abs() <= o.max_scale_jump * s0) {
-                return false;
+                return Reasons::JUMP;
             }
             let dr = (r.params.pose.rotation() - g.params.pose.rotation()).abs();
             let dr = dr.min(2.0 * std::f32::consts::PI - dr);
             if dr > 0.5 {
-                return false;
+                return Reasons::JUMP;
             }
         }
-        true
+        Reasons::NONE
+    }
+
+    /// The confidence checks' doubts about a plausible fit `r` (none: tracking), with this
+    /// frame's finder face when one was found.
+    fn doubts(&self, r: &FitResult) -> Reasons {
+        let ratio = if self.typical_error > 0.0 {
+            r.error / self.typical_error
+        } else {
+            0.0
+        };
+        let finder = self.has_finder_face.then_some(&self.finder_face[..]);
+        self.confidence
+            .doubts(&r.landmarks, &r.params.pose, &r.params.shape, ratio, finder)
     }
 
     /// The last fit judged good.
@@ -472,7 +634,10 @@ impl FaceTracker for Tracker {
             )));
         }
         self.frame_size = (frame.width() as f32, frame.height() as f32);
+        self.has_finder_face = false;
+        self.why = Reasons::NONE;
         let mut reacquired = false;
+        let mut doubts = Reasons::NONE;
         // Without a source, a search with nothing offered yet refits from the last good fit
         // (when there is one), as a tracker without a source does.
         let can_acquire = self.source.is_some() || self.offered.is_some();
@@ -486,7 +651,7 @@ impl FaceTracker for Tracker {
             let first = if self.cold { Some(cold_iters) } else { None };
             let starts = if first.is_some() { coarse } else { tracking };
             self.fit(frame, From::Start, first, starts)?;
-            let mut ok = self.plausible(&self.fitted, true);
+            let mut ok = self.check(true);
             // Searching here means the face was lost on an earlier frame and the faces to
             // acquire it from are awaited from elsewhere (`offer_faces`: a finder on another
             // thread; no source, nothing offered yet). Then the ordinary fit from the last good
@@ -498,45 +663,26 @@ impl FaceTracker for Tracker {
                 self.resets += 1;
                 // Retry from the last good fit, working harder (more appearance-aware steps).
                 self.fit(frame, From::LastGood, Some(cold_iters), coarse)?;
-                ok = self.plausible(&self.fitted, true);
+                ok = self.check(true);
             }
             if !ok && (self.source.is_some() || self.offered.is_some()) {
                 reacquired = self.acquire(frame)?;
                 ok = reacquired;
             } else if ok && !awaiting_offers {
-                self.second_opinion(frame)?;
+                doubts = self.settle(frame)?;
+            } else if ok {
+                doubts = self.doubts(&self.fitted);
             }
             ok
         };
+        if ok && reacquired {
+            // A face (found again): judged afresh, not against the fits before.
+            self.confidence.restart();
+            doubts = self.doubts(&self.fitted);
+        }
         let tau = self.policy.recentre_tau;
         if ok {
-            self.since_check = self.since_check.saturating_add(1);
-            self.cold = false;
-            self.searching = false;
-            let mut r = std::mem::replace(&mut self.fitted, empty_result());
-            self.bound_appearance(&mut r);
-            // A face found again after lost frames (or the first face of an auto start).
-            r.reacquired = reacquired && (self.was_lost || self.last_good.is_none());
-            r.lost = false;
-            // A slow running mean, restarted by a (re-)acquisition.
-            self.typical_error = if self.typical_error > 0.0 && !r.reacquired {
-                0.95 * self.typical_error + 0.05 * r.error
-            } else {
-                r.error
-            };
-            self.seq.frame(Some(&r.params.pose), dt, tau, r.reacquired);
-            store(&mut self.last_good, &r);
-            self.start.copy_from_slice(&r.landmarks);
-            // The face grew or shrank a lot (moving to or from the camera): the next frame is
-            // fitted at a new scale.
-            self.k = self.fit_scale(
-                extent(&r.landmarks).1,
-                frame.width(),
-                frame.height(),
-                self.k,
-            );
-            store(&mut self.last, &r);
-            self.fitted = r;
+            self.good_frame(frame, dt, reacquired, doubts);
         } else {
             self.lost_frame(dt, tau);
         }
@@ -767,6 +913,8 @@ fn empty_result() -> FitResult {
         converged: false,
         lost: false,
         reacquired: false,
+        status: crate::fit::TrackStatus::Tracking,
+        reasons: crate::fit::Reasons::NONE,
     }
 }
 
@@ -781,6 +929,8 @@ fn copy_result(dst: &mut FitResult, src: &FitResult) {
     dst.converged = src.converged;
     dst.lost = src.lost;
     dst.reacquired = src.reacquired;
+    dst.status = src.status;
+    dst.reasons = src.reasons;
 }
 
 /// Stores `src` in `slot`, reusing the buffers of what it held.

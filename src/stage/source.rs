@@ -27,11 +27,13 @@ impl super::Stage {
 
     /// Takes the source parameters from a tracker's fit: its shape and appearance parameters
     /// and `placed`, the head placement to draw the source with
-    /// ([`crate::fit::Sequence::placed`]). A lost fit is not taken (the parameters stay the last
-    /// good ones). Returns whether the fit was taken; fails (changing nothing) when the fit
-    /// does not fit the source model.
+    /// ([`crate::fit::Sequence::placed`]). A fit that is not "tracking" (lost, or unsure:
+    /// [`crate::fit::TrackStatus`]) is not taken: the parameters stay the last good ones, so
+    /// the targets hold the last good expression instead of copying a broken shape. Returns
+    /// whether the fit was taken; fails (changing nothing) when the fit does not fit the
+    /// source model.
     pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
-        let placed = damped(&mut self.head, self.painter.clock, placed, fit.lost);
+        let placed = damped(&mut self.head, self.painter.clock, placed, !trusted(fit));
         take_fit(
             self.cloner.source(),
             (Some(fit), placed),
@@ -92,7 +94,7 @@ impl super::Stage {
     }
 
     /// Tracks the source in the next video frame, `dt` seconds after the previous one, and
-    /// takes the fit as the source parameters unless the face is lost
+    /// takes the fit as the source parameters unless the face is lost or the fit unsure
     /// ([`super::Stage::source_from_fit`]). Returns whether it was taken. Fails with
     /// [`Error::Params`] when the stage has no tracker, or as the tracker does.
     pub fn track(&mut self, frame: &ImageRef<'_>, dt: f32) -> Result<bool> {
@@ -104,7 +106,7 @@ impl super::Stage {
         tracker.track(frame, dt)?;
         let tracker: &dyn FaceTracker = &**tracker;
         let (fit, placed) = (tracker.last(), tracker.sequence().placed());
-        let lost = fit.is_none_or(|f| f.lost);
+        let lost = !fit.is_some_and(trusted);
         let placed = damped(&mut self.head, self.painter.clock, placed, lost);
         take_fit(
             self.cloner.source(),
@@ -139,15 +141,20 @@ fn damped(
     }
 }
 
+/// Whether a fit drives the source: its status is "tracking" (not lost, not unsure).
+fn trusted(fit: &FitResult) -> bool {
+    !fit.lost && fit.status == crate::fit::TrackStatus::Tracking
+}
+
 /// Takes a fit and its placed pose as the source parameters ([`take_params`]) unless there is
-/// none or its face is lost; returns whether it was taken.
+/// none or it is not trusted (lost or unsure); returns whether it was taken.
 fn take_fit(
     model: &Model,
     (fit, placed): (Option<&FitResult>, Similarity),
     pending: &mut Params,
     current: &mut Params,
 ) -> Result<bool> {
-    let Some(fit) = fit.filter(|f| !f.lost) else {
+    let Some(fit) = fit.filter(|f| trusted(f)) else {
         return Ok(false);
     };
     take_params(

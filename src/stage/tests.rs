@@ -316,6 +316,8 @@ fn bad_input_gives_errors_and_changes_nothing() {
         converged: true,
         lost: false,
         reacquired: false,
+        status: crate::fit::TrackStatus::Tracking,
+        reasons: crate::fit::Reasons::NONE,
     };
     fit.params.shape.pop();
     assert!(s.source_from_fit(&fit, good.pose).is_err());
@@ -505,4 +507,34 @@ fn head_damping_holds_or_passes_the_head() {
     s.clear_head_damping();
     assert!(s.source_from_fit(&fit, p0).unwrap());
     assert_eq!(s.source_params().pose, p0);
+}
+
+/// An unsure fit (issue 33) is not taken, as a lost one: the targets hold the last good
+/// expression instead of copying a broken shape; a tracking fit is taken.
+#[test]
+fn an_unsure_fit_holds_the_last_good_expression() {
+    use crate::fit::{FitResult, Reasons, TrackStatus};
+    let mut s = stage();
+    let good = source_params(24);
+    s.set_source_params(&good).unwrap();
+    let mut broken = source_params(30);
+    assert_ne!(broken, good);
+    broken.pose = good.pose;
+    let mut fit = FitResult {
+        landmarks: vec![],
+        params: broken.clone(),
+        error: 0.0,
+        iterations: 0,
+        converged: true,
+        lost: false,
+        reacquired: false,
+        status: TrackStatus::Unsure,
+        reasons: Reasons::COLLAPSED,
+    };
+    assert!(!s.source_from_fit(&fit, good.pose).unwrap());
+    assert_eq!(s.source_params(), &good, "an unsure fit was taken");
+    fit.status = TrackStatus::Tracking;
+    fit.reasons = Reasons::NONE;
+    assert!(s.source_from_fit(&fit, good.pose).unwrap());
+    assert_eq!(s.source_params().shape, broken.shape);
 }

@@ -8,6 +8,8 @@
 //! - `enrol.rs`: the face finder's landmarks for enrolment ([`crate::EnrolFinder`]).
 //! - `pipeline.rs`: the enrolment pipeline ([`crate::enrol`]: find, select, build, refine,
 //!   backdrop) that the CLI and the wasm layer both call.
+//! - `quality.rs`: which enrolment frames are good enough ([`crate::FrameQuality`]:
+//!   occluded, blurred, dark, turned, outside the picture).
 //! - `photo.rs`: a target from a single photo.
 
 pub(crate) mod builder;
@@ -15,6 +17,7 @@ pub mod canonical;
 pub(crate) mod enrol;
 pub(crate) mod photo;
 pub(crate) mod pipeline;
+pub(crate) mod quality;
 pub(crate) mod refine;
 pub(crate) mod select;
 

@@ -6,15 +6,19 @@
 //! 1. **landmarks**: the face finder ([`EnrolFinder`]) places them where a frame has none;
 //!    frames without a face scoring at least [`EnrolOptions::min_score`] are skipped (and
 //!    reported);
-//! 2. **select**: when asked, [`crate::select_varied`] keeps that many varied frames, always
+//! 2. **quality**: frames whose face is outside the picture, turned too far, dark, blurred or
+//!    covered (a hand, a cup, hair) are rejected with their reason ([`crate::FrameQuality`],
+//!    [`crate::occlusion_scores`]; [`EnrolOptions::quality`] says which frames are checked);
+//! 3. **select**: when asked, [`crate::select_varied`] keeps that many varied frames, always
 //!    keeping the named reference frame;
-//! 3. **build** (and **refine**): [`Builder::build_refined`];
-//! 4. **backdrop**: the training frame closest to the model's mean, when asked.
+//! 4. **build** (and **refine**): [`Builder::build_refined`];
+//! 5. **backdrop**: the training frame closest to the model's mean, when asked.
 
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::model::Model;
 use crate::train::enrol::EnrolFinder;
+use crate::train::quality::{occlusion_scores, FrameProblem, FrameQuality, MAX_OCCLUSION};
 use crate::train::{BuildOptions, BuildProgress, Builder, ReferenceChoice, TrainingImage};
 
 /// Boxes the enrolment finder averages by default (each on the image and its mirror): one. On
@@ -59,6 +63,21 @@ pub struct EnrolOptions {
     pub boxes: usize,
     /// Give the model a backdrop: the training frame closest to its mean (default true).
     pub backdrop: bool,
+    /// Which frames the quality checks judge (default [`QualityScope::Found`]).
+    pub quality: QualityScope,
+}
+
+/// Which frames [`enrol`]'s quality checks judge (a rejected frame is not built from and is
+/// reported with its [`FrameProblem`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QualityScope {
+    /// None: every frame with a face is used.
+    Off,
+    /// The frames whose landmarks the face finder placed (frames given with landmarks, such
+    /// as a curated training set, are trusted).
+    Found,
+    /// Every frame with 68 landmarks (the page's frames come with the finder's landmarks).
+    All,
 }
 
 /// How a front end samples frames for enrolment (the page's "Create a face" and the CLI's
@@ -106,6 +125,7 @@ impl Default for EnrolOptions {
             refine_rounds: 0,
             boxes: ENROL_BOXES,
             backdrop: true,
+            quality: QualityScope::Found,
         }
     }
 }
@@ -130,6 +150,8 @@ pub struct EnrolProgress<'a> {
     pub total: usize,
     /// Indices of the frames skipped so far (no face found).
     pub skipped: &'a [usize],
+    /// The frames rejected so far by the quality checks, each with its reason.
+    pub rejected: &'a [(usize, FrameProblem)],
 }
 
 /// What [`enrol`] made.
@@ -143,6 +165,8 @@ pub struct Enrolment {
     pub used: Vec<usize>,
     /// Indices of the frames skipped (no face found).
     pub skipped: Vec<usize>,
+    /// The frames with a face that the quality checks rejected (index, reason), by index.
+    pub rejected: Vec<(usize, FrameProblem)>,
 }
 
 /// Builds a model from `frames` through the pipeline's stages (see the module). `finder` is
@@ -152,8 +176,9 @@ pub struct Enrolment {
 /// [`Error::Cancelled`].
 ///
 /// Fails with [`Error::Training`] naming the problem: fewer than two frames, a bad option,
-/// fewer frames with a face than [`EnrolOptions::min_frames`] (listing the frames without one),
-/// a named reference that is not among the frames or has no face.
+/// fewer usable frames than [`EnrolOptions::min_frames`] (listing the frames without a face and
+/// the frames rejected, with their reasons), a named reference that is not among the frames,
+/// has no face or was rejected.
 pub fn enrol(
     frames: Vec<EnrolFrame>,
     options: &EnrolOptions,
@@ -171,24 +196,33 @@ pub fn enrol(
         _ => None,
     };
     let total = frames.len();
-    let (images, used, skipped) = place_landmarks(frames, options, finder, progress)?;
+    let mut placed = place_landmarks(frames, options, finder, progress)?;
+    reject_occluded(&mut placed, options)?;
+    let Placed {
+        images,
+        used,
+        skipped,
+        rejected,
+        ..
+    } = placed;
     if let Some(r) = reference {
         if skipped.contains(&r) {
             return Err(Error::Training(format!(
                 "the reference, frames[{r}], has no confident face"
             )));
         }
+        if let Some((_, why)) = rejected.iter().find(|(i, _)| *i == r) {
+            return Err(Error::Training(format!(
+                "the reference, frames[{r}], was rejected ({why})"
+            )));
+        }
     }
     let needed = options.min_frames.max(2);
     if images.len() < needed {
         return Err(Error::Training(format!(
-            "a face in {} of {total} frames, at least {needed} are needed{}",
+            "a usable face in {} of {total} frames, at least {needed} are needed{}",
             images.len(),
-            if skipped.is_empty() {
-                String::new()
-            } else {
-                format!("; no confident face in frames {}", list_indices(&skipped))
-            }
+            unusable(&skipped, &rejected)
         )));
     }
     let (images, used) = select(images, used, options.select, reference)?;
@@ -202,6 +236,7 @@ pub fn enrol(
                 done: p.done,
                 total: p.total,
                 skipped: &skipped,
+                rejected: &rejected,
             })
         },
     )?;
@@ -215,7 +250,32 @@ pub fn enrol(
         images,
         used,
         skipped,
+        rejected,
     })
+}
+
+/// "; no confident face in frames 1, 4; rejected: frames 2, 3 occluded, 7 turned" (empty when
+/// nothing was left out).
+fn unusable(skipped: &[usize], rejected: &[(usize, FrameProblem)]) -> String {
+    let mut s = String::new();
+    if !skipped.is_empty() {
+        s += &format!("; no confident face in frames {}", list_indices(skipped));
+    }
+    if !rejected.is_empty() {
+        let mut by: Vec<(FrameProblem, Vec<usize>)> = Vec::new();
+        for &(i, p) in rejected {
+            match by.iter_mut().find(|(q, _)| *q == p) {
+                Some((_, v)) => v.push(i),
+                None => by.push((p, vec![i])),
+            }
+        }
+        let parts: Vec<String> = by
+            .iter()
+            .map(|(p, v)| format!("{} {p}", list_indices(v)))
+            .collect();
+        s += &format!("; rejected: frames {}", parts.join("; "));
+    }
+    s
 }
 
 fn check_options(o: &EnrolOptions, frames: usize) -> Result<()> {
@@ -245,9 +305,17 @@ fn check_options(o: &EnrolOptions, frames: usize) -> Result<()> {
     Ok(())
 }
 
-/// The frames as training images, with the finder's landmarks where none were given; returns
-/// them, their indices among the frames, and the indices of the frames without a face.
-type Placed = (Vec<TrainingImage>, Vec<usize>, Vec<usize>);
+/// The frames as training images, with the finder's landmarks where none were given: the
+/// images kept, their indices among the frames, the indices of the frames without a face, the
+/// frames rejected by the per-frame checks (with their reasons), and for each image kept
+/// whether the quality checks judge it.
+struct Placed {
+    images: Vec<TrainingImage>,
+    used: Vec<usize>,
+    skipped: Vec<usize>,
+    rejected: Vec<(usize, FrameProblem)>,
+    judged: Vec<bool>,
+}
 
 fn place_landmarks(
     frames: Vec<EnrolFrame>,
@@ -262,11 +330,17 @@ fn place_landmarks(
     if finder.is_none() && to_find > 0 {
         finder = Some(own.insert(EnrolFinder::new(options.boxes)?));
     }
-    let (mut images, mut used, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
+    let mut p = Placed {
+        images: Vec::new(),
+        used: Vec::new(),
+        skipped: Vec::new(),
+        rejected: Vec::new(),
+        judged: Vec::new(),
+    };
     let mut searched = 0;
     for (i, frame) in frames.into_iter().enumerate() {
-        let landmarks = match frame.landmarks {
-            Some(l) => Some(l),
+        let (landmarks, spread) = match frame.landmarks {
+            Some(l) => (Some(l), None),
             None => {
                 let Some(f) = finder.as_deref_mut() else {
                     return Err(Error::Training(
@@ -277,34 +351,91 @@ fn place_landmarks(
                     .image
                     .view()
                     .and_then(|view| f.find(&view, options.min_score))
-                    .map_err(|e| e.with_context(&format!("frames[{i}]")))?
-                    .map(|face| face.landmarks);
+                    .map_err(|e| e.with_context(&format!("frames[{i}]")))?;
                 searched += 1;
-                if found.is_none() {
-                    skipped.push(i);
+                match found {
+                    Some(face) => (Some(face.landmarks), Some(face.spread)),
+                    None => {
+                        p.skipped.push(i);
+                        (None, None)
+                    }
                 }
-                let report = EnrolProgress {
-                    stage: EnrolStage::Landmarks,
-                    done: searched,
-                    total: to_find,
-                    skipped: &skipped,
-                };
-                if !progress(report) {
-                    return Err(Error::Cancelled);
-                }
-                found
             }
         };
         if let Some(landmarks) = landmarks {
-            images.push(TrainingImage {
-                name: frame.name,
-                image: frame.image,
-                landmarks,
-            });
-            used.push(i);
+            let judged = match options.quality {
+                QualityScope::Off => false,
+                QualityScope::Found => spread.is_some(),
+                QualityScope::All => true,
+            } && landmarks.len() == 136;
+            let problem = if judged {
+                FrameQuality::measure(&frame.image.view()?, &landmarks, spread)?.problem()
+            } else {
+                None
+            };
+            match problem {
+                Some(why) => p.rejected.push((i, why)),
+                None => {
+                    p.images.push(TrainingImage {
+                        name: frame.name,
+                        image: frame.image,
+                        landmarks,
+                    });
+                    p.used.push(i);
+                    p.judged.push(judged);
+                }
+            }
+        }
+        if spread.is_some() || p.skipped.last() == Some(&i) {
+            let report = EnrolProgress {
+                stage: EnrolStage::Landmarks,
+                done: searched,
+                total: to_find,
+                skipped: &p.skipped,
+                rejected: &p.rejected,
+            };
+            if !progress(report) {
+                return Err(Error::Cancelled);
+            }
         }
     }
-    Ok((images, used, skipped))
+    Ok(p)
+}
+
+/// Rejects (as [`FrameProblem::Occluded`]) the judged images whose face differs from the
+/// others' in one region ([`occlusion_scores`] over [`MAX_OCCLUSION`]); the others' faces are
+/// the reference whether judged or not.
+fn reject_occluded(p: &mut Placed, options: &EnrolOptions) -> Result<()> {
+    if options.quality == QualityScope::Off || !p.judged.iter().any(|&j| j) {
+        return Ok(());
+    }
+    let faces: Vec<(crate::image::ImageRef, &[f32])> = p
+        .images
+        .iter()
+        .filter(|t| t.landmarks.len() == 136)
+        .map(|t| Ok((t.image.view()?, t.landmarks.as_slice())))
+        .collect::<Result<_>>()?;
+    if faces.len() != p.images.len() {
+        return Ok(());
+    }
+    let scores = occlusion_scores(&faces)?;
+    drop(faces);
+    let out: Vec<bool> = scores
+        .iter()
+        .zip(&p.judged)
+        .map(|(&s, &j)| j && s > MAX_OCCLUSION)
+        .collect();
+    for (k, _) in out.iter().enumerate().filter(|(_, &o)| o) {
+        p.rejected.push((p.used[k], FrameProblem::Occluded));
+    }
+    p.rejected.sort_unstable_by_key(|r| r.0);
+    let mut keep = out.iter().map(|o| !o);
+    p.images.retain(|_| keep.next().unwrap_or(true));
+    let mut keep = out.iter().map(|o| !o);
+    p.used.retain(|_| keep.next().unwrap_or(true));
+    let mut keep = out.iter().map(|o| !o);
+    p.judged.retain(|_| keep.next().unwrap_or(true));
+    Ok(())
 }
 
 /// `n` varied images (all when `n` is `None` or not fewer), keeping the frame `reference`;

@@ -24,7 +24,11 @@ mod composite;
 #[cfg(not(target_arch = "wasm32"))]
 mod composite_measure;
 #[cfg(not(target_arch = "wasm32"))]
+mod confidence;
+#[cfg(not(target_arch = "wasm32"))]
 mod enrol;
+#[cfg(not(target_arch = "wasm32"))]
+mod enrol_quality;
 #[cfg(not(target_arch = "wasm32"))]
 mod enrol_webcam;
 #[cfg(not(target_arch = "wasm32"))]

@@ -27,6 +27,7 @@ let sampling = null;
 const enrolPolicy = () => (sampling ??= policy().enrol);
 const MIN_SCORE = 0; // finder score to keep a face: any face it accepts (see buildModel's minScore)
 const GUIDE = 'Talk, smile, open your mouth wide, raise your eyebrows, look a little left and right.';
+const REASONS = { occluded: 'something covers the face', blurred: 'blurred', dark: 'too dark', turned: 'turned too far', outside: 'the face is partly out of the picture' };
 const PROMPTS = ['Talk', 'Smile', 'Open your mouth wide', 'Raise your eyebrows', 'Look a little left', 'Look a little right', 'Frown', 'Talk again'];
 
 /** Reads a .pts (iBUG, 1-based) into 0-based points (also used by photo-target.js). */
@@ -116,16 +117,25 @@ export class Enrolment {
     this.stopCapture();
     this.candidates = [];
     this.seen = 0;
+    this.rejected = 0;
+    this.lastReason = '';
     this.hideResult();
     this.els.progress.hidden = true;
     this.els.guide.textContent = '';
     this.update('Choose the webcam, or drop photos or a video.');
   }
 
-  /** Landmarks of the most confident face in a frame (found in the page's finder worker), or null. */
+  /** Landmarks of the most confident face in a frame (found in the page's finder worker), or
+   *  null; a face the core's quality checks reject (occluded, blurred, dark, turned, outside)
+   *  is null too, counted and its reason shown in the guide. A frame kept stays kept. */
   async findFace(frame) {
     // The worker's Float32Array, transferred: this page's own copy.
     const face = await enrolFace(frame, MIN_SCORE);
+    if (face?.reason) {
+      this.rejected = (this.rejected || 0) + 1;
+      this.lastReason = `frame not used: ${REASONS[face.reason] || face.reason}`;
+      return null;
+    }
     return face ? face.landmarks : null;
   }
 
@@ -152,7 +162,7 @@ export class Enrolment {
     this.drawStrip([...pick].sort((a, b) => a - b));
     this.els.coverage.value = cover;
     this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(enrolPolicy().want, n)} frames that would be used`;
-    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < enrolPolicy().minFrames ? ` (at least ${enrolPolicy().minFrames} are needed)` : ''}.`;
+    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < enrolPolicy().minFrames ? ` (at least ${enrolPolicy().minFrames} are needed)` : ''}.${this.lastReason ? ` Last ${this.lastReason}.` : ''}`;
     this.els.build.disabled = n < enrolPolicy().minFrames || this.abort !== null || this.intake > 0;
     this.els.cancel.textContent = this.abort ? 'Cancel' : 'Close';
   }
@@ -196,7 +206,8 @@ export class Enrolment {
           this.update(`Looking for the face in ${f.name}…`);
           frame.landmarks = await this.findFace(frame);
           if (!frame.landmarks) {
-            problems.push(`${f.name}: no face found`);
+            problems.push(`${f.name}: ${this.lastReason || 'no face found'}`);
+            this.lastReason = '';
             continue;
           }
         }
@@ -264,7 +275,10 @@ export class Enrolment {
     }
     if (this.session !== session) return; // the capture ended meanwhile
     this.seen++;
-    if (frame.landmarks) this.addCandidate(frame);
+    if (frame.landmarks) {
+      this.lastReason = '';
+      this.addCandidate(frame);
+    }
     this.update();
   }
 
@@ -347,7 +361,7 @@ export class Enrolment {
     const t0 = performance.now();
     const refine = this.els.refine.checked ? 1 : 0;
     try {
-      const r = await buildInWorker({ frames, name, refine, minFrames: Math.min(enrolPolicy().minFrames, frames.length) }, {
+      const r = await buildInWorker({ frames, name, refine, quality: 'all', minFrames: Math.min(enrolPolicy().minFrames, frames.length) }, {
         signal: this.abort.signal,
         onProgress: (done, total, stage) => {
           p.value = done / total;

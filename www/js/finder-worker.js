@@ -3,7 +3,7 @@
 // milliseconds a frame) never stalls the page's drawing. Messages in: { id, kind: "find" |
 // "enrol", data (RGBA ArrayBuffer, transferred), width, height, minScore? }. Messages out:
 //   find:  { id, faces: [{ box, score, landmarks (Float32Array, transferred) }], ms }
-//   enrol: { id, face: { landmarks, score, spread } | null, ms }   (the package's FaceFinder.enrol:
+//   enrol: { id, face: { landmarks, score, spread, reason } | null, ms }   (the package's FaceFinder.enrol:
 //          the face buildModel would use, its points averaged with a pass on the mirror)
 //   or { id, error }.
 import init, { FaceFinder } from '../pkg/facemimic.js';
@@ -21,7 +21,7 @@ self.onmessage = async (e) => {
     const t0 = performance.now();
     if (kind === 'enrol') {
       const f = finder.enrol(rgba, width, height, minScore ?? 0);
-      const face = f ? { landmarks: f.landmarks, score: f.score, spread: f.spread } : null;
+      const face = f ? { landmarks: f.landmarks, score: f.score, spread: f.spread, reason: f.reason ?? null } : null;
       self.postMessage({ id, face, ms: performance.now() - t0 }, face ? [face.landmarks.buffer] : []);
       return;
     }

@@ -277,7 +277,8 @@ export class TrackingPanel {
     let label;
     if (src.phase === 'tracking') {
       s = src.state;
-      label = { lost: 'face lost', searching: 'looking for a face', reinit: 're-initialised', tracking: 'tracking' }[s] || s;
+      label = { lost: 'face lost', unsure: 'unsure', searching: 'looking for a face', reinit: 're-initialised', tracking: 'tracking' }[s] || s;
+      if (s === 'unsure' && src.last?.reasons?.length) label = `unsure · ${src.last.reasons.join(', ')}`;
     } else {
       s = src.phase;
       const { faces, face } = src.placement;

@@ -118,7 +118,7 @@ class VideoSource {
     this.panel = null;
     this.last = null; // last fit result (work coordinates)
     this.lastGood = null; // last fit that was not lost, this sequence
-    this.state = 'idle'; // tracking | lost | searching | reinit | idle
+    this.state = 'idle'; // tracking | unsure | lost | searching | reinit | idle (the panel's label)
     this.loops = 0;
     this.autoStart = true;
     this.fps = 0;
@@ -359,11 +359,13 @@ class VideoSource {
 
     const resets = this.tracker.resets;
     const wasLost = this.last?.lost;
-    this.state = r.lost ? (this.lastGood ? 'lost' : this.searchStart ? 'searching' : 'lost') : resets > this.lastResets ? 'reinit' : 'tracking';
+    // An unsure fit (the core doubts it: r.status, r.reasons) drives nothing; never "tracking".
+    const unsure = !r.lost && r.status === 'unsure';
+    this.state = r.lost ? (this.lastGood ? 'lost' : this.searchStart ? 'searching' : 'lost') : unsure ? 'unsure' : resets > this.lastResets ? 'reinit' : 'tracking';
     this.lastResets = resets;
     this.last = r;
     if (r.reacquired) this.reacquired++;
-    if (!r.lost) {
+    if (!r.lost && !unsure) {
       this.lastGood = r;
       this.params = { pose: r.placed, shape: r.shape, appearance: r.appearance };
       this.invalidate();

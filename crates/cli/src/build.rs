@@ -43,7 +43,9 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     list: Option<PathBuf>,
     /// Place the landmarks with the face finder (the most confident face of each image),
-    /// ignoring any landmark files; images without a face are skipped with a note.
+    /// ignoring any landmark files; images without a face are skipped with a note, and images
+    /// whose face is occluded, blurred, dark, turned too far or partly outside the picture are
+    /// rejected, a line each naming the reason.
     #[arg(long)]
     find_faces: bool,
     /// Keep this many varied frames (farthest-point sampling of the aligned shapes).
@@ -149,7 +151,12 @@ pub fn run(a: Args) -> Result<()> {
         noted = p.skipped.len();
         true
     })?;
-    if made.images.len() < paths.len() - made.skipped.len() {
+    // The quality checks' verdicts (the comparison of the faces with each other comes after
+    // the search), a line each, in frame order.
+    for &(i, why) in &made.rejected {
+        eprintln!("facemimic: rejected {} ({why})", paths[i].display());
+    }
+    if made.images.len() < paths.len() - made.skipped.len() - made.rejected.len() {
         eprintln!("facemimic: selected {} varied frames", made.images.len());
     }
     let images = made.images;

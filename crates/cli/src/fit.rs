@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use facemimic::fit::{
-    FaceTracker, FitOptions, FitResult, FollowOptions, Follower, Tracker, TrackerKind,
+    FaceTracker, FitOptions, FitResult, FollowOptions, Follower, TrackStatus, Tracker, TrackerKind,
 };
 use facemimic::{io, Error, Image, Model, Result, Similarity};
 
@@ -52,6 +52,12 @@ pub struct Args {
     /// Where to write the track (CSV).
     #[arg(long, value_name = "TRACK.csv")]
     out: PathBuf,
+    /// Where to write each frame's status (CSV `frame,status,reasons`): "tracking", "unsure"
+    /// (the tracker's confidence checks doubt the fit: collapsed, folded, slid off the
+    /// finder's face, an unlikely shape, a residual or pose jump; reasons separated by `;`)
+    /// or "lost".
+    #[arg(long, value_name = "STATUS.csv")]
+    status_out: Option<PathBuf>,
     /// The frames (PNG or JPEG), fitted in the order given.
     #[arg(value_name = "FRAME", required = true)]
     frames: Vec<PathBuf>,
@@ -97,6 +103,9 @@ pub fn run(a: Args) -> Result<()> {
     }
     let secs = t0.elapsed().as_secs_f64();
     write_csv(&a, &model, &results)?;
+    if let Some(path) = &a.status_out {
+        write_status(path, &a.frames, &results)?;
+    }
     crate::print_line(&summary(&a, tracker.as_ref(), &results, secs))
 }
 
@@ -141,6 +150,10 @@ fn summary(
         1e3 * secs / frames.max(1) as f64,
     );
     let seq = tracker.sequence();
+    let unsure = results
+        .iter()
+        .filter(|r| r.0.status == TrackStatus::Unsure)
+        .count();
     if tracker.kind() == TrackerKind::Landmarks {
         return format!(
             "facemimic fit: {frames} frames followed by landmarks, {rate:.1} frames/s ({ms:.3} ms \
@@ -155,8 +168,8 @@ fn summary(
     let (rechecks, kept) = tracker.rechecks();
     format!(
         "facemimic fit: {frames} frames, {converged} converged, mean {iters:.2} iterations, \
-         {rate:.1} fits/s ({ms:.3} ms per fit), {} re-initialisations, {} lost, {} re-acquisitions, \
-         {rechecks} second opinions ({kept} kept), fit scale {:.3} -> {}",
+         {rate:.1} fits/s ({ms:.3} ms per fit), {} re-initialisations, {unsure} unsure, {} lost, \
+         {} re-acquisitions, {rechecks} second opinions ({kept} kept), fit scale {:.3} -> {}",
         tracker.resets(),
         seq.lost_count(),
         seq.reacquisitions(),
@@ -222,4 +235,22 @@ fn write_csv(a: &Args, model: &Model, results: &[(FitResult, Similarity)]) -> Re
         );
     }
     std::fs::write(&a.out, csv).map_err(|e| Error::Io(format!("{}: {e}", a.out.display())))
+}
+
+/// Writes each frame's status (`frame,status,reasons`; reasons separated by `;`).
+fn write_status(
+    path: &std::path::Path,
+    frames: &[PathBuf],
+    results: &[(FitResult, Similarity)],
+) -> Result<()> {
+    let mut csv = String::from("frame,status,reasons\n");
+    for ((r, _), p) in results.iter().zip(frames) {
+        let name = p
+            .file_name()
+            .map(|s| s.to_string_lossy().replace([',', '"', '\n'], "_"))
+            .unwrap_or_default();
+        let reasons: Vec<&str> = r.reasons.names().collect();
+        let _ = writeln!(csv, "{name},{},{}", r.status, reasons.join(";"));
+    }
+    std::fs::write(path, csv).map_err(|e| Error::Io(format!("{}: {e}", path.display())))
 }

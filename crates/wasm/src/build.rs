@@ -12,8 +12,8 @@ use super::install_panic_hook;
 use super::model::JsModel;
 use super::surface::describe;
 use facemimic::{
-    enrol, EnrolFinder, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, DEFAULT_MIN_SCORE,
-    ENROL_BOXES, MAX_REFINE_ROUNDS,
+    enrol, EnrolFinder, EnrolFrame, EnrolOptions, EnrolProgress, EnrolStage, FrameProblem,
+    FrameQuality, QualityScope, DEFAULT_MIN_SCORE, ENROL_BOXES, MAX_REFINE_ROUNDS,
 };
 use facemimic::{BuildOptions, ReferenceChoice};
 use facemimic::{Image, ImageRef};
@@ -61,10 +61,19 @@ export interface BuildModelOptions {
   /** The face finder's score (0..1) a face needs to be used, for frames given without
    *  landmarks (default 0: every face the finder accepts). */
   minScore?: number;
-  /** Fewest frames with a face to build from (default 2, at least 2); fewer throws, naming the
-   *  frames skipped. */
+  /** Fewest usable frames to build from (default 2, at least 2); fewer throws, naming the
+   *  frames skipped and the frames rejected with their reasons. */
   minFrames?: number;
+  /** Which frames the quality checks judge: "found" (default: those whose landmarks the face
+   *  finder placed), "all" (also frames given with landmarks, as the page's guide passes them)
+   *  or "off". A frame whose face is occluded (a hand, a cup, hair), blurred, dark, turned too
+   *  far or partly outside the picture is not built from; it is listed in the progress's
+   *  `rejected`. */
+  quality?: "found" | "all" | "off";
 }
+/** Why a frame is not used: its face is covered, blurred, too dark or flat, turned too far, or
+ *  partly outside the picture. */
+export type FrameReason = "occluded" | "blurred" | "dark" | "turned" | "outside";
 /** Build progress. `stage` "landmarks": the face finder has searched `done` of the `total`
  *  frames given without landmarks, `skipped` lists the indices (into `frames`) of those where it
  *  found no confident face so far. `stage` "model": `done` of `total` build steps. Return
@@ -78,9 +87,14 @@ export interface EnrolFace {
   score: number;
   /** How much the passes disagreed (mean point distance to their average / eye distance). */
   spread: number;
+  /** The per-frame quality checks' verdict: null for a good frame, else why it should not be
+   *  built from (the check of faces against each other is `buildModel`'s). */
+  reason: FrameReason | null;
 }
 export type BuildProgressCallback = (progress: {
   stage: "landmarks" | "model"; done: number; total: number; skipped: number[];
+  /** The frames rejected so far by the quality checks (indices into `frames`), with why. */
+  rejected: { frame: number; reason: FrameReason }[];
 }) => boolean | void;
 "##;
 
@@ -189,6 +203,7 @@ pub fn build_model(
         let _ = js_sys::Reflect::set(&arg, &"total".into(), &(p.total as f64).into());
         let list: js_sys::Array = p.skipped.iter().map(|&i| JsValue::from(i as f64)).collect();
         let _ = js_sys::Reflect::set(&arg, &"skipped".into(), &list);
+        let _ = js_sys::Reflect::set(&arg, &"rejected".into(), &rejected_list(p.rejected));
         match f.call1(&JsValue::NULL, &arg) {
             Ok(r) => r.as_bool() != Some(false),
             Err(e) => {
@@ -221,6 +236,19 @@ pub fn build_model(
             None => Err(build_err(e)),
         },
     }
+}
+
+/// `[{ frame, reason }]` of the frames the quality checks rejected.
+fn rejected_list(rejected: &[(usize, FrameProblem)]) -> js_sys::Array {
+    rejected
+        .iter()
+        .map(|&(i, why)| {
+            let o = js_sys::Object::new();
+            let _ = js_sys::Reflect::set(&o, &"frame".into(), &(i as f64).into());
+            let _ = js_sys::Reflect::set(&o, &"reason".into(), &why.code().into());
+            JsValue::from(o)
+        })
+        .collect()
 }
 
 /// The frames of `buildModel`'s options, each with its landmarks or `None` (the finder's).
@@ -365,6 +393,16 @@ fn read_options(options: &JsValue, frames: usize) -> Result<EnrolOptions, JsErro
             ))
         }
     };
+    let quality = match get(options, "quality")?.as_string().as_deref() {
+        None | Some("found") => QualityScope::Found,
+        Some("all") => QualityScope::All,
+        Some("off") => QualityScope::Off,
+        Some(q) => {
+            return Err(JsError::new(&format!(
+                "buildModel: 'quality' must be \"found\", \"all\" or \"off\", got \"{q}\""
+            )))
+        }
+    };
     let mut build = BuildOptions {
         name,
         reference: match reference_index {
@@ -385,6 +423,7 @@ fn read_options(options: &JsValue, frames: usize) -> Result<EnrolOptions, JsErro
         min_frames,
         select,
         refine_rounds,
+        quality,
         ..EnrolOptions::default()
     })
 }
@@ -469,7 +508,9 @@ pub fn shape_coverage_js(
 /// The face to enrol in one RGBA frame: the finder's most confident face if its score reaches
 /// `minScore` (default 0: every face the finder accepts), its landmarks averaged over passes on the image and its mirror
 /// (the same landmarks `buildModel` uses for frames given without any); `null` when there is
-/// none. Returns `{ landmarks, score, spread }`.
+/// none. Returns `{ landmarks, score, spread, reason }`: `reason` is the per-frame quality
+/// checks' verdict ("occluded", "blurred", "dark", "turned", "outside", or null for a good
+/// frame).
 #[wasm_bindgen(js_name = enrolFace, unchecked_return_type = "EnrolFace | null")]
 pub fn enrol_face(
     #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] rgba: &[u8],
@@ -516,5 +557,12 @@ pub(super) fn enrol_with(
     )?;
     set("score", &face.score.into())?;
     set("spread", &face.spread.into())?;
+    let reason = FrameQuality::measure(&img, &face.landmarks, Some(face.spread))
+        .map_err(|e| JsError::new(&format!("{what}: {e}")))?
+        .problem();
+    set(
+        "reason",
+        &reason.map_or(JsValue::NULL, |r| JsValue::from_str(r.code())),
+    )?;
     Ok(o.into())
 }

@@ -43,6 +43,10 @@ struct TrackJs<'a> {
     lost: bool,
     /// The face was (re-)acquired from the face finder on this frame.
     reacquired: bool,
+    /// "tracking", "unsure" or "lost" (`TrackStatus::name`).
+    status: &'static str,
+    /// Why the fit is unsure or lost (`Reasons::names`); empty while tracking.
+    reasons: Vec<&'static str>,
 }
 
 fn to_js(r: &FitResult, seq: &Sequence, scale: f32) -> Result<JsValue, JsError> {
@@ -58,6 +62,8 @@ fn to_js(r: &FitResult, seq: &Sequence, scale: f32) -> Result<JsValue, JsError> 
         converged: r.converged,
         lost: r.lost,
         reacquired: r.reacquired,
+        status: r.status.name(),
+        reasons: r.reasons.names().collect(),
     };
     serde_wasm_bindgen::to_value(&v).map_err(|e| JsError::core("tracker", e))
 }
@@ -134,6 +140,13 @@ export interface FitResult {
   lost: boolean;
   /** The face was found (again) by the face finder on this frame. */
   reacquired: boolean;
+  /** How far the fit can be trusted: "tracking"; "unsure" (the tracker's checks doubt it:
+   *  collapsed, folded, slid off the finder's face, an unlikely shape, a residual or pose jump;
+   *  drive nothing with it, hold the last good expression); "lost" (as `lost`). */
+  status: "tracking" | "unsure" | "lost";
+  /** Why the fit is unsure or lost, by stable name: "collapsed", "folded", "shape",
+   *  "residual", "jump", "finder", "contrast", "outside", "no-face"; empty while tracking. */
+  reasons: string[];
 }
 /** How a `Tracker` resamples frames and bounds what it reports (`Tracker.policy`). */
 export interface TrackPolicy {
@@ -270,7 +283,8 @@ impl WasmTracker {
     /// Fits or follows the next frame (RGBA bytes at the frame's own size, e.g.
     /// `ImageData.data`, `width * height * 4`), `dt` seconds after the previous one (default
     /// 1/30; the pose anchor's time step, and the landmark smoothing's). Returns `{ landmarks,
-    /// pose, placed, scale, shape, appearance, error, iterations, converged, lost, reacquired }`,
+    /// pose, placed, scale, shape, appearance, error, iterations, converged, lost, reacquired,
+    /// status, reasons }` (`status`: "tracking", "unsure" or "lost"; `reasons`: why not tracking),
     /// landmarks and poses in the frame's pixels; `placed` is the pose re-centred on the
     /// model's mean pose (what to drive the source face with). `error`: the AAM's RMS grey
     /// residual, or for the landmark path 1 minus the mesh's face score; `iterations`: the
