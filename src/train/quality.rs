@@ -242,12 +242,12 @@ fn normalised_faces(faces: &[(ImageRef, &[f32])]) -> Result<Vec<Vec<f32>>> {
 /// Occlusion scores of faces (each a picture and its 68 landmarks) compared with each other.
 /// Each face is sampled into the canonical frame (luminance normalised to zero mean and unit
 /// deviation) and compared with the per-pixel median of the faces nearest it in yaw (a third
-/// of them, at least [`MIN_CONSENSUS_FRAMES`]; a turned head is compared with turned heads);
+/// of them, at least `MIN_CONSENSUS_FRAMES` (6); a turned head is compared with turned heads);
 /// its score is the largest, over the cells of a grid on the frame, of its mean absolute
 /// difference from that median in the cell. Occlusion is local: a hand, a cup or a bar over
 /// the eyes makes one cell differ by about 1 (in deviations of the face's luminance); a face
 /// like the others stays under about 0.6 (webcam-dev). With fewer than
-/// [`MIN_CONSENSUS_FRAMES`] faces every score is 0 (nothing to compare with).
+/// `MIN_CONSENSUS_FRAMES` (6) faces every score is 0 (nothing to compare with).
 pub fn occlusion_scores(faces: &[(ImageRef, &[f32])]) -> Result<Vec<f32>> {
     if faces.len() < MIN_CONSENSUS_FRAMES {
         return Ok(vec![0.0; faces.len()]);
