@@ -227,7 +227,7 @@ test('bad files show an error naming the file and the reason; the page keeps ren
 });
 
 test('a model built in another reference frame is refused as a target', async (t) => {
-  const bin = path.join(ROOT, 'target', 'release', 'facemimic');
+  const bin = path.join(process.env.CARGO_TARGET_DIR || path.join(ROOT, 'target'), 'release', 'facemimic');
   if (!fs.existsSync(bin)) {
     t.skip('target/release/facemimic not built (scripts/build-models.sh builds it)');
     return;
