@@ -189,8 +189,8 @@ test('selection, cancelling and bad input', async () => {
     [{ ...base(), frames: [] }, /at least 2/],
     [{ ...base(), frames: base().frames.slice(0, 1) }, /at least 2/],
     // No landmarks: the face finder looks for faces; these textured frames have none.
-    [{ ...base(), frames: base().frames.map((f) => ({ ...f, landmarks: undefined })) }, /a face in 0 of 10 frames, at least 2 are needed; no confident face in frames 0, 1, 2, 3/],
-    [{ ...base(), frames: base().frames.map((f, i) => ({ ...f, landmarks: i < 3 ? f.landmarks : undefined })), minFrames: 8 }, /a face in 3 of 10 frames, at least 8 are needed; no confident face in frames 3, 4/],
+    [{ ...base(), frames: base().frames.map((f) => ({ ...f, landmarks: undefined })) }, /a usable face in 0 of 10 frames, at least 2 are needed; no confident face in frames 0, 1, 2, 3/],
+    [{ ...base(), frames: base().frames.map((f, i) => ({ ...f, landmarks: i < 3 ? f.landmarks : undefined })), minFrames: 8 }, /a usable face in 3 of 10 frames, at least 8 are needed; no confident face in frames 3, 4/],
     [{ ...base(), minScore: 2 }, /minScore/],
     [{ ...base(), minFrames: 1 }, /minFrames/],
     [{ ...base(), frames: base().frames.map((f, i) => (i === 3 ? { ...f, width: 100 } : f)) }, /frames\[3\]\.rgba has/],
