@@ -384,7 +384,7 @@ test('enrolment bad input: no face, too few frames, camera refused or stopping, 
         return e.message;
       }
     });
-    assert.equal(msg, 'buildModel: a face in 0 of 3 frames, at least 2 are needed; no confident face in frames 0, 1, 2');
+    assert.equal(msg, 'buildModel: a usable face in 0 of 3 frames, at least 2 are needed; no confident face in frames 0, 1, 2');
 
     // Too few usable photos (no .pts files: the finder places them).
     const photos = [0, 150, 300].map((i) => path.join(DATA, `${String(i).padStart(6, '0')}.jpg`));
