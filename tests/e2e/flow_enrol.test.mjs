@@ -8,11 +8,11 @@
 //
 //   node --test --test-concurrency=1 tests/e2e/flow_enrol.test.mjs
 
-import { test, before, after } from 'node:test';
+import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, screenshot, fakeCameraFile, fakeCameraArgs, assertPageBuilt, openPage, dropFiles, assertTargetsMove } from './lib.mjs';
+import { ROOT, screenshot, openPage, dropFiles, assertTargetsMove, pageSuite } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const MANIFEST = JSON.parse(fs.readFileSync(path.join(WWW, 'models', 'manifest.json'), 'utf8'));
@@ -20,22 +20,7 @@ const CLIP = JSON.parse(fs.readFileSync(path.join(WWW, 'media', 'spk07-clip.json
 const CLIP_VIDEO = path.join(WWW, 'media', CLIP.video);
 const CAMERA_CLIP = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
 
-const cleanups = [];
-let server;
-let browser;
-
-before(async () => {
-  assertPageBuilt(WWW);
-  server = await serveStatic(WWW);
-  const camera = await fakeCameraFile({ after: (fn) => cleanups.push(fn) }, CAMERA_CLIP, { name: 'flow-enrol' });
-  browser = await launchBrowser(fakeCameraArgs(camera));
-});
-
-after(async () => {
-  await browser?.close();
-  await server?.close();
-  for (const fn of cleanups) fn();
-});
+const suite = pageSuite(WWW, { camera: { frames: CAMERA_CLIP, name: 'flow-enrol' } });
 
 /** The live source as the page runs it. */
 const live = (page) =>
@@ -64,7 +49,7 @@ async function fitsMore(page, n) {
 }
 
 test('"Use as source" after Create a face keeps the webcam as the source, now fitted with the own model; a video file stays too', async (t) => {
-  const { page, errors } = await openPage(t, browser, server, {
+  const { page, errors } = await openPage(t, suite.browser, suite.server, {
     context: { viewport: { width: 1440, height: 1200 } },
     ready: ['body[data-shelf="ready"]'],
   });

@@ -7,33 +7,18 @@
 //
 //   node --test --test-concurrency=1 tests/e2e/flow_transport.test.mjs
 
-import { test, before, after } from 'node:test';
+import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, screenshot, fakeCameraFile, fakeCameraArgs, assertPageBuilt, openPage } from './lib.mjs';
+import { ROOT, screenshot, openPage, pageSuite } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const CLIP = JSON.parse(fs.readFileSync(path.join(WWW, 'media', 'spk07-clip.json'), 'utf8'));
 const CLIP_VIDEO = path.join(WWW, 'media', CLIP.video);
 const CAMERA_CLIP = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
 
-const cleanups = [];
-let server;
-let browser;
-
-before(async () => {
-  assertPageBuilt(WWW);
-  server = await serveStatic(WWW);
-  const camera = await fakeCameraFile({ after: (fn) => cleanups.push(fn) }, CAMERA_CLIP, { name: 'flow-transport' });
-  browser = await launchBrowser(fakeCameraArgs(camera));
-});
-
-after(async () => {
-  await browser?.close();
-  await server?.close();
-  for (const fn of cleanups) fn();
-});
+const suite = pageSuite(WWW, { camera: { frames: CAMERA_CLIP, name: 'flow-transport' } });
 
 /** What the transport bar shows (only what is visible counts). */
 function transport(page) {
@@ -58,7 +43,7 @@ const NOTHING = { play: false, scrub: false, counter: null };
 const pick = (t, keys) => Object.fromEntries(keys.map((k) => [k, t[k]]));
 
 test('the transport shows only what drives the source: the track, nothing for the sliders or the webcam, the video for a file or the clip', async (t) => {
-  const { page, errors } = await openPage(t, browser, server, { context: { viewport: { width: 1440, height: 1300 } } });
+  const { page, errors } = await openPage(t, suite.browser, suite.server, { context: { viewport: { width: 1440, height: 1300 } } });
 
   // The recorded track (the page opens playing it): its Play and frame counter.
   let s = await transport(page);

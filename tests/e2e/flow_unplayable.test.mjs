@@ -9,12 +9,12 @@
 //
 //   node --test --test-concurrency=1 tests/e2e/flow_unplayable.test.mjs
 
-import { test, before, after } from 'node:test';
+import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import crypto from 'node:crypto';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, screenshot, fakeCameraFile, fakeCameraArgs, assertPageBuilt, openPage, dropFiles } from './lib.mjs';
+import { ROOT, screenshot, openPage, dropFiles, pageSuite } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const CLIP = JSON.parse(fs.readFileSync(path.join(WWW, 'media', 'spk07-clip.json'), 'utf8'));
@@ -32,25 +32,10 @@ function unknownCodec() {
   return { name: 'interview.webm', bytes: b, type: 'video/webm' };
 }
 
-const cleanups = [];
-let server;
-let browser;
-
-before(async () => {
-  assertPageBuilt(WWW);
-  server = await serveStatic(WWW);
-  const camera = await fakeCameraFile({ after: (fn) => cleanups.push(fn) }, CAMERA_CLIP, { name: 'flow-unplayable' });
-  browser = await launchBrowser(fakeCameraArgs(camera));
-});
-
-after(async () => {
-  await browser?.close();
-  await server?.close();
-  for (const fn of cleanups) fn();
-});
+const suite = pageSuite(WWW, { camera: { frames: CAMERA_CLIP, name: 'flow-unplayable' } });
 
 const open = (t) =>
-  openPage(t, browser, server, { context: { viewport: { width: 1440, height: 1100 }, permissions: ['clipboard-read', 'clipboard-write'] } });
+  openPage(t, suite.browser, suite.server, { context: { viewport: { width: 1440, height: 1100 }, permissions: ['clipboard-read', 'clipboard-write'] } });
 
 /** The notice about `name`, once it shows: its visible text, its commands and its details. */
 async function notice(page, name) {

@@ -9,7 +9,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import assert from 'node:assert/strict';
 import { before, after } from 'node:test';
-import { ROOT, pkg, CHROMIUM, serveStatic, launchBrowser, haveChromium, fakeCameraArgs } from '../../scripts/lib/browser.mjs';
+import { ROOT, pkg, CHROMIUM, serveStatic, launchBrowser, haveChromium, fakeCameraArgs, fakeCameraFile } from '../../scripts/lib/browser.mjs';
 
 export {
   ROOT, pkg, ARTIFACTS, CHROMIUM, CHROMIUM_ARGS, serveStatic, launchBrowser, haveChromium, screenshot,
@@ -186,19 +186,26 @@ export async function webcamLog(page, timeout) {
 /**
  * A test file's page in `www` (the page's folder): before its tests, checks that the page is
  * built, serves `www` and launches a browser; after them, closes both. Returns `{ server,
- * browser, manifest }` (`manifest`: the default models' manifest.json), set by then.
+ * browser, manifest }` (`manifest`: the default models' manifest.json), set by then. With
+ * `camera: { frames, name }` the browser's fake camera plays that folder of JPEG frames
+ * (`fakeCameraFile`; its file is removed afterwards).
  */
-export function pageSuite(www) {
+export function pageSuite(www, { camera } = {}) {
   const suite = {};
+  const cleanups = [];
   before(async () => {
     assertPageBuilt(www);
     suite.manifest = JSON.parse(fs.readFileSync(path.join(www, 'models', 'manifest.json'), 'utf8'));
     suite.server = await serveStatic(www);
-    suite.browser = await launchBrowser();
+    const args = camera
+      ? fakeCameraArgs(await fakeCameraFile({ after: (fn) => cleanups.push(fn) }, camera.frames, { name: camera.name }))
+      : [];
+    suite.browser = await launchBrowser(args);
   });
   after(async () => {
     await suite.browser?.close();
     await suite.server?.close();
+    for (const fn of cleanups) fn();
   });
   return suite;
 }
