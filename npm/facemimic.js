@@ -171,7 +171,7 @@ const isDetached = (buf) => buf.detached === true
 function htmlCheck(bytes, where) {
   // A dev server answering a missing file with its index page is the commonest mistake.
   const head = new TextDecoder().decode(bytes.subarray(0, 64)).trimStart().toLowerCase();
-  if (head.startsWith("<!doctype") || head.startsWith("<html") || head.startsWith("<")) {
+  if (head.startsWith("<")) {
     throw new FacemimicError("bad-model", `${where}: got HTML, not a model file (check the URL and the server's MIME setup)`);
   }
   return bytes;
