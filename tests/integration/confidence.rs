@@ -319,27 +319,7 @@ fn hand_under_the_chin_is_flagged_without_second_opinions() {
     let Some(dir) = shared_data("webcam-dev") else {
         return;
     };
-    const PICKED: [usize; 20] = [
-        4, 78, 111, 167, 172, 183, 230, 304, 346, 479, 490, 501, 514, 519, 529, 540, 557, 562, 573,
-        592,
-    ];
-    let mut enrol = EnrolFinder::new(1).unwrap();
-    enrol.finder().set_local_correction(false);
-    let images: Vec<TrainingImage> = PICKED
-        .iter()
-        .map(|&i| {
-            let mut f = frame(&dir, i);
-            let face = enrol.find(&f.image.view().unwrap(), 0.0).unwrap();
-            f.landmarks = face.expect("a face on an enrolled frame").landmarks;
-            f
-        })
-        .collect();
-    let model = Builder::new(BuildOptions {
-        name: "webcam man".into(),
-        ..BuildOptions::default()
-    })
-    .build(&varied(&images, 20), None)
-    .unwrap();
+    let model = crate::enrol_webcam::hand_under_the_chin_model(&dir);
     let test: Vec<TrainingImage> = (1100..1337).map(|i| frame(&dir, i)).collect();
     let policy = TrackPolicy {
         recheck_frames: 0,

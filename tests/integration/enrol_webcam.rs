@@ -49,6 +49,31 @@ fn build(name: &str, images: &[TrainingImage]) -> Model {
     .unwrap()
 }
 
+/// The webcam-dev model that reads a hand under the chin as an open mouth without second
+/// opinions (`a_second_opinion_brings_the_fit_back_from_the_hand_under_the_chin`, and the
+/// tracker's confidence checks in `confidence`): 20 frames of 0-599 with the enrolment
+/// finder's points, placed as when CI enrolled it, before the finder's local correction.
+pub(crate) fn hand_under_the_chin_model(dir: &std::path::Path) -> Model {
+    const PICKED: [usize; 20] = [
+        4, 78, 111, 167, 172, 183, 230, 304, 346, 479, 490, 501, 514, 519, 529, 540, 557, 562, 573,
+        592,
+    ];
+    let mut enrol = EnrolFinder::new(1).unwrap();
+    // With the corrected points these frames give a model that does not drift (0.0230
+    // without second opinions), and the tests are about catching the drift.
+    enrol.finder().set_local_correction(false);
+    let images: Vec<TrainingImage> = PICKED
+        .iter()
+        .map(|&i| {
+            let mut f = frame(dir, i);
+            let face = enrol.find(&f.image.view().unwrap(), 0.0).unwrap();
+            f.landmarks = face.expect("a face on an enrolled frame").landmarks;
+            f
+        })
+        .collect();
+    build("webcam man", &images)
+}
+
 /// How one model tracked the measured frames.
 #[derive(Debug)]
 struct Track {
@@ -228,25 +253,7 @@ fn a_second_opinion_brings_the_fit_back_from_the_hand_under_the_chin() {
     let Some(dir) = shared_data("webcam-dev") else {
         return;
     };
-    const PICKED: [usize; 20] = [
-        4, 78, 111, 167, 172, 183, 230, 304, 346, 479, 490, 501, 514, 519, 529, 540, 557, 562, 573,
-        592,
-    ];
-    let mut enrol = EnrolFinder::new(1).unwrap();
-    // The points as the finder placed them when CI enrolled this model, before its local
-    // correction: with the corrected points these frames give a model that does not drift
-    // (0.0230 without second opinions), and the test is about the tracker's second opinions.
-    enrol.finder().set_local_correction(false);
-    let images: Vec<TrainingImage> = PICKED
-        .iter()
-        .map(|&i| {
-            let mut f = frame(&dir, i);
-            let face = enrol.find(&f.image.view().unwrap(), 0.0).unwrap();
-            f.landmarks = face.expect("a face on an enrolled frame").landmarks;
-            f
-        })
-        .collect();
-    let model = build("webcam man", &images);
+    let model = hand_under_the_chin_model(&dir);
     let test: Vec<TrainingImage> = (1100..1337).map(|i| frame(&dir, i)).collect();
     let run = |recheck_frames: u32, bounds: ConfidenceBounds| {
         let mut finder = facemimic::FaceFinder::new().unwrap();
