@@ -19,8 +19,6 @@
 //! Skips with a visible message when ../shared is absent; fails then under CI.
 //! `cargo test --release --test integration enrol_quality:: -- --nocapture` prints the figures.
 
-use facemimic::find::convention_free_errors;
-use facemimic::fit::{FaceTracker, FitOptions, Tracker};
 use facemimic::{
     enrol, BuildOptions, EnrolFrame, EnrolOptions, Enrolment, FrameProblem, Image, Model,
     TrainingImage,
@@ -196,26 +194,10 @@ fn enrol_clip(frames: &[TrainingImage]) -> Enrolment {
     enrol(given, &enrol_options(), None, None, &mut |_| true).unwrap()
 }
 
-/// Mean convention-free error of `model` over `test`, started from the finder's face.
+/// Mean convention-free error of `model` over `test`, started from the finder's face (the
+/// enrolment measure's tracking, `enrol_webcam::track`).
 fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> f32 {
-    let mut t = Tracker::new(model, FitOptions::default()).unwrap();
-    t.start_from_landmarks(init).unwrap();
-    let tracked: Vec<Vec<f32>> = test
-        .iter()
-        .map(|f| {
-            t.track(&f.image.view().unwrap(), facemimic::fit::DEFAULT_TIME_STEP)
-                .unwrap()
-                .landmarks
-                .clone()
-        })
-        .collect();
-    let pairs: Vec<(&[f32], &[f32])> = tracked
-        .iter()
-        .zip(test)
-        .map(|(l, f)| (l.as_slice(), f.landmarks.as_slice()))
-        .collect();
-    let free = convention_free_errors(&pairs);
-    free.iter().sum::<f32>() / free.len() as f32
+    crate::enrol_webcam::track(model, test, init).free
 }
 
 fn reasons(e: &Enrolment) -> String {

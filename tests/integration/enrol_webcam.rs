@@ -76,13 +76,13 @@ pub(crate) fn hand_under_the_chin_model(dir: &std::path::Path) -> Model {
 
 /// How one model tracked the measured frames.
 #[derive(Debug)]
-struct Track {
+pub(crate) struct Track {
     /// Mean raw error against dlib.
     raw: f32,
     /// Frames over 0.1, raw.
     raw_over: usize,
     /// Mean convention-free error.
-    free: f32,
+    pub(crate) free: f32,
     /// Frames over 0.1, convention-free.
     free_over: usize,
     /// Frames reported lost.
@@ -102,7 +102,7 @@ impl std::fmt::Display for Track {
     }
 }
 
-fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> Track {
+pub(crate) fn track(model: &Model, test: &[TrainingImage], init: &[f32]) -> Track {
     let mut t = Tracker::new(model, FitOptions::default()).unwrap();
     t.start_from_landmarks(init).unwrap();
     let tracked: Vec<Vec<f32>> = test
