@@ -30,7 +30,7 @@ step "wasm tests (Node, then headless Chromium)"
 cargo test -p facemimic -p facemimic-wasm --target wasm32-unknown-unknown
 
 step "signalling server tests (the call page's WebSocket endpoint, hostile clients)"
-node --test --test-concurrency=1 tests/server/
+node --test --test-concurrency=1 --test-force-exit --test-timeout=600000 tests/server/
 
 step "end-to-end browser tests"
-node --test --test-concurrency=1 tests/e2e/
+node --test --test-concurrency=1 --test-force-exit --test-timeout=600000 tests/e2e/

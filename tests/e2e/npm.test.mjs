@@ -167,20 +167,29 @@ async function freePort() {
   });
 }
 
-/** Vite's dev server in `dir`, resolved once it prints its URL. */
+/** Vite's dev server in `dir`, resolved once it prints its URL. Colour is off, and escape codes are
+ * stripped anyway (a CI terminal may force colour, which splits the port with escapes); the
+ * server is killed if it does not start, so no child outlives the test. */
 async function viteDev(dir) {
   const port = await freePort();
+  const env = { ...process.env, NO_COLOR: '1', FORCE_COLOR: '0' };
   const child = spawn(process.execPath, [VITE, '--host', '127.0.0.1', '--port', String(port), '--strictPort'],
-    { cwd: dir, stdio: ['ignore', 'pipe', 'pipe'] });
+    { cwd: dir, env, stdio: ['ignore', 'pipe', 'pipe'] });
   let log = '';
-  await new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`vite did not start:\n${log}`)), 60000);
-    const on = (d) => { log += d; if (log.includes(`:${port}`)) { clearTimeout(timer); resolve(); } };
-    child.stdout.on('data', on);
-    child.stderr.on('data', on);
-    child.on('exit', (c) => reject(new Error(`vite exited ${c}:\n${log}`)));
-  });
-  return { url: `http://127.0.0.1:${port}/`, close: () => child.kill(), log: () => log };
+  const plain = () => log.replace(/\x1b\[[0-9;]*[A-Za-z]/g, '');
+  try {
+    await new Promise((resolve, reject) => {
+      const timer = setTimeout(() => reject(new Error(`vite did not start:\n${plain()}`)), 60000);
+      const on = (d) => { log += d; if (plain().includes(`127.0.0.1:${port}`)) { clearTimeout(timer); resolve(); } };
+      child.stdout.on('data', on);
+      child.stderr.on('data', on);
+      child.on('exit', (c) => { clearTimeout(timer); reject(new Error(`vite exited ${c}:\n${plain()}`)); });
+    });
+  } catch (e) {
+    child.kill();
+    throw e;
+  }
+  return { url: `http://127.0.0.1:${port}/`, close: () => child.kill(), log: plain };
 }
 
 /** The quick start's page: both canvases show faces, and the target moves. */
