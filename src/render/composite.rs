@@ -35,21 +35,25 @@ const RING_INNER: f32 = 0.45;
 const RING_UP: f32 = 0.55;
 /// Width of the fall-off outside the inner ring, in eye distances: the head's motion fades
 /// smoothly (smoothstep) to none over it, on [`FALL_LOOPS`] loops; the last loop stays where
-/// it is and beyond it the picture is untouched (1.45 eye distances from the face at the sides
-/// and below, 2 above).
-const FALL_OFF: f32 = 1.0;
+/// it is and beyond it the picture is untouched (1.15 eye distances from the face at the sides
+/// and below, 1.7 above). Chosen by the webcam-dev room measure: 1 eye distance moved the room
+/// (-0.86 dB), 0.8 was at the edge of the 0.5 dB aim (-0.49), 0.7 -0.26; narrower damps
+/// strong poses more (the strong-pose golden's share of its pose: 1 -> 0.82, 0.7 -> 0.60).
+const FALL_OFF: f32 = 0.7;
 /// Loops of the fall-off (the last one fixed).
 const FALL_LOOPS: usize = 4;
-/// Depth inside the picture's edges, in eye distances, over which the motion fades to none:
-/// no point on an edge moves, so the warp never pulls what lies beyond the picture into it
-/// (the clamped reads that bent the edge into a notch).
+/// Depth inside the picture's edges, in eye distances, over which the motion away from the
+/// nearest edges fades to none: no point on an edge moves inwards off it, so the warp never
+/// pulls what lies beyond the picture into it (the clamped reads that bent the edge into a
+/// notch); along an edge and outwards (what it shows leaves the picture) points move freely.
 const EDGE_FADE: f32 = 0.3;
 /// The most a triangle of the warp outside the face may grow in area; follow-pose is damped
 /// (the head's motion scaled back towards the backdrop's pose) until none grows more.
 const MAX_STRETCH: f32 = 2.0;
-/// The most a triangle of the warp outside the face may shrink in area (a quarter: a margin
-/// before a fold); damped likewise.
-const MAX_SQUASH: f32 = 0.25;
+/// The least area a triangle of the warp outside the face may keep (a small margin before a
+/// fold: the issue limits folds, not squashing; the 1/4 this was first damped the strong
+/// poses to a few degrees of roll); damped likewise.
+const MAX_SQUASH: f32 = 0.02;
 /// Bisection steps of the damping (the applied share of the pose change within 1/256).
 const DAMP_STEPS: usize = 8;
 /// Width of the feathered edge of the face, in eye distances of the reference frame.
@@ -149,14 +153,16 @@ fn face_up(points: &[f32]) -> Vec2 {
 /// vertex of the face mesh's boundary loop, outwards along the boundary's normal there, cut
 /// at the picture's edges): the inner ring, then the fall-off's loops, the last one fixed.
 /// Each loop point has a weight: the share of the head's motion it takes (1 on the inner
-/// ring, falling smoothly to 0 on the last loop, and to 0 at the picture's edges). Triangles:
+/// ring, falling smoothly to 0 on the last loop; loops cut at the picture's edge take the
+/// weight of where they were cut, so points cut onto one move as one), and per axis a share
+/// the picture's edges leave its motion away from them (0 on an edge). Triangles:
 /// the face's own (the reference frame's, over the landmarks) plus annuli of quads split in
 /// two between consecutive loops, less those of no area in the backdrop (at the picture's
 /// edges).
 /// Ensures: [`ExtendedMesh::place`] never folds an annulus triangle, nor grows one by more than
 /// [`MAX_STRETCH`] or shrinks it below [`MAX_SQUASH`] in area, when the head's motion can be
-/// damped to a placement that keeps them (at the backdrop's pose at the worst); no point on
-/// the picture's edges or beyond them moves.
+/// damped to a placement that keeps them (the backdrop's pose and, at the worst, the
+/// backdrop's landmarks); no point on the picture's edges moves inwards off it.
 #[derive(Clone, Debug)]
 pub struct ExtendedMesh {
     points: Vec<f32>,
@@ -170,8 +176,11 @@ pub struct ExtendedMesh {
     /// Per loop point, where it lies across the fall-off (0 on the inner ring, 1 on the last
     /// loop).
     falls: Vec<f32>,
-    /// Per loop point, the share of the motion the picture's edges leave it (1 away from them).
-    edges: Vec<f32>,
+    /// Per loop point, the shares of the motion across and down the picture's edges leave it
+    /// (1 away from them; none square to an edge on it).
+    edges: Vec<Vec2>,
+    /// The picture's extent (`-0.5` to `size - 0.5`: no point is placed beyond it).
+    size: Vec2,
     /// Per annulus triangle, its signed area in the backdrop.
     areas: Vec<f32>,
     /// The centre of the backdrop's landmarks (the damping's pivot).
@@ -192,14 +201,14 @@ fn inside_along(p: Vec2, dir: Vec2, want: f32, (w, h): (f32, f32)) -> f32 {
     t.max(0.0)
 }
 
-/// The share of motion a point `q` takes near the picture's edges: 0 on them, rising
-/// (smoothstep) to 1 at `depth` pixels inside.
-fn edge_share(q: Vec2, (w, h): (f32, f32), depth: f32) -> f32 {
-    let d = (q.x + 0.5)
-        .min(w - 0.5 - q.x)
-        .min(q.y + 0.5)
-        .min(h - 0.5 - q.y);
-    smoothstep(d / depth.max(1e-6))
+/// The shares of motion across (x) and down (y) a point `q` takes near the picture's edges:
+/// none square to an edge on it, rising (smoothstep) to all at `depth` pixels inside. Along an
+/// edge a point may slide (what it reads stays inside the picture); at a corner it cannot.
+fn edge_share(q: Vec2, (w, h): (f32, f32), depth: f32) -> Vec2 {
+    let depth = depth.max(1e-6);
+    let x = (q.x + 0.5).min(w - 0.5 - q.x);
+    let y = (q.y + 0.5).min(h - 0.5 - q.y);
+    Vec2::new(smoothstep(x / depth), smoothstep(y / depth))
 }
 
 fn smoothstep(s: f32) -> f32 {
@@ -270,9 +279,14 @@ impl ExtendedMesh {
                 // Inside the picture's edges, but never inside the landmark itself (a face at
                 // the edge: its loops sit on the landmark, fixed).
                 let q = p(i).clamp(Vec2::splat(-0.5), Vec2::new(picture.0, picture.1) - 0.5);
-                let q = q + dir * inside_along(q, dir, out, picture);
+                let t = inside_along(q, dir, out, picture);
+                let q = q + dir * t;
                 points.extend_from_slice(&[q.x, q.y]);
-                falls.push(fall);
+                // Where the point lies across the fall-off once cut at the edge: the loops
+                // cut onto one point move as one (their triangles of no area stay so).
+                let start = out - d * FALL_OFF * fall;
+                let cut = ((t - start) / (d * FALL_OFF)).clamp(0.0, fall);
+                falls.push(if t < out { cut } else { fall });
                 edges.push(edge_share(q, picture, d * EDGE_FADE));
             }
         }
@@ -313,6 +327,7 @@ impl ExtendedMesh {
             hull,
             falls,
             edges,
+            size: Vec2::new(picture.0, picture.1),
             areas,
             centre,
         })
@@ -333,13 +348,17 @@ impl ExtendedMesh {
     /// backdrop's landmarks onto `image_shape`; applied whole, the landmarks go to
     /// `image_shape` and every loop point `q` to `q + w (H(q) - q + e)`, `e` its spoke's
     /// landmark's motion beyond `H` (the expression: a dropped jaw takes the neck along) and
-    /// `w` its weight: its edge share times `1 - smoothstep(f / b)`, `f` where it lies across
+    /// `w` its weight, `1 - smoothstep(f / b)` (times, per axis, its edge share when the motion
+    /// is away from its nearest edges), `f` where it lies across
     /// the fall-off and `b` the narrowest fall-off (at least a quarter of it) that keeps every
     /// triangle: a small motion moves the room no further out than it must. When even the
     /// whole fall-off folds, grows or shrinks a triangle past the limits, the motion is scaled
     /// back (translation, rotation and the logarithm of the scale, about the face's centre, by
     /// the largest share in `[0, 1]` that keeps every triangle) and the landmarks with it: the
-    /// face is drawn where its head can go. Both found by bisection. Writes `out` (same length
+    /// face is drawn where its head can go. When even the backdrop's pose tears (the expression
+    /// does: a jaw dropped at gain 2 towards the picture's edge), the expression is scaled back
+    /// likewise, the landmarks drawn towards the backdrop's. All found by bisection. Writes
+    /// `out` (same length
     /// as [`ExtendedMesh::points`]; its first `2n` values are the face's landmarks as drawn)
     /// and returns the share of the motion applied (1: all of it).
     pub fn place(&self, image_shape: &[f32], out: &mut [f32]) -> f32 {
@@ -363,6 +382,23 @@ impl ExtendedMesh {
             );
             self.place_share(image_shape, &head, 1.0, width, out);
             return 1.0;
+        }
+        self.place_share(image_shape, &head, 0.0, 1.0, out);
+        if !self.untorn(out) {
+            // Even the backdrop's pose tears: the expression itself (a jaw dropped at gain 2
+            // past the picture's fixed edge) does. Damp it too (the landmarks drawn towards
+            // the backdrop's; at none, nothing moves).
+            let expr = self.bisect(
+                1.0,
+                0.0,
+                |e, out| {
+                    self.place_expr(image_shape, &head, 0.0, 1.0, e, out);
+                    self.untorn(out)
+                },
+                out,
+            );
+            self.place_expr(image_shape, &head, 0.0, 1.0, expr, out);
+            return 0.0;
         }
         let share = self.bisect(
             1.0,
@@ -408,6 +444,20 @@ impl ExtendedMesh {
         width: f32,
         out: &mut [f32],
     ) {
+        self.place_expr(image_shape, head, share, width, 1.0, out);
+    }
+
+    /// [`ExtendedMesh::place_share`] with `expr` of the expression applied: the landmarks
+    /// drawn from the backdrop's (0) to `image_shape`'s (1), both moved by the damped head.
+    fn place_expr(
+        &self,
+        image_shape: &[f32],
+        head: &Similarity,
+        share: f32,
+        width: f32,
+        expr: f32,
+        out: &mut [f32],
+    ) {
         let n2 = 2 * self.n;
         let c = self.centre;
         let (hx, hy) = head.apply_point(c.x, c.y);
@@ -422,14 +472,20 @@ impl ExtendedMesh {
         };
         // The landmarks: `damped o head^-1` on `image_shape` (exactly `image_shape` whole).
         let back = head.inverse().map(|h| damped.compose(&h));
-        for (o, s) in out[..n2]
+        for ((o, s), b0) in out[..n2]
             .chunks_exact_mut(2)
             .zip(image_shape.chunks_exact(2))
+            .zip(self.points[..n2].chunks_exact(2))
         {
-            let (x, y) = match (share >= 1.0, back) {
+            let (mut x, mut y) = match (share >= 1.0, back) {
                 (false, Some(b)) => b.apply_point(s[0], s[1]),
                 _ => (s[0], s[1]),
             };
+            if expr < 1.0 {
+                let (bx, by) = damped.apply_point(b0[0], b0[1]);
+                x = bx + expr * (x - bx);
+                y = by + expr * (y - by);
+            }
             o[0] = x;
             o[1] = y;
         }
@@ -440,16 +496,28 @@ impl ExtendedMesh {
             .zip(self.points[n2..].chunks_exact(2))
             .enumerate()
         {
-            let w = (1.0 - smoothstep(self.falls[m] / width)) * self.edges[m];
-            if w == 0.0 {
+            let fall = 1.0 - smoothstep(self.falls[m] / width);
+            if fall == 0.0 {
                 o.copy_from_slice(q);
                 continue;
             }
             let h = 2 * self.hull[m % r] as usize;
             let (lx, ly) = damped.apply_point(self.points[h], self.points[h + 1]);
             let (hx, hy) = damped.apply_point(q[0], q[1]);
-            o[0] = q[0] + w * (hx - q[0] + face[h] - lx);
-            o[1] = q[1] + w * (hy - q[1] + face[h + 1] - ly);
+            let q = Vec2::new(q[0], q[1]);
+            let motion = fall * Vec2::new(hx - q.x + face[h] - lx, hy - q.y + face[h + 1] - ly);
+            // Towards its nearest edges a point moves freely (what it shows leaves the
+            // picture); away from them only as far as their shares let it (nothing from
+            // beyond the picture comes in).
+            let outwards = (q * 2.0 - self.size).signum();
+            let share = Vec2::select(
+                (motion * outwards).cmpgt(Vec2::ZERO),
+                Vec2::ONE,
+                self.edges[m],
+            );
+            let moved = q + share * motion;
+            o[0] = moved.x;
+            o[1] = moved.y;
         }
     }
 
