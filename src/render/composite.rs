@@ -21,34 +21,41 @@ use crate::model::frame::ReferenceFrame;
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
-// The constants below were chosen by the webcam-dev self-reenactment measure
-// (tests/integration/composite_measure.rs, docs/compositing.md), within the folding bounds of
-// tests/integration/composite.rs.
+// The constants below were chosen by the webcam-dev and franck-dev2 self-reenactment measures
+// (tests/integration/composite_measure.rs and composite.rs, docs/compositing.md), within the
+// tearing bounds of tests/integration/composite.rs.
 
-/// Distance of the inner ring (moving with the head) outside the face's hull, in eye
-/// distances, at the sides and below; above the brows it is pushed further by
-/// [`RING_UP`] to take the forehead and the hair along.
+/// Distance of the inner ring (moving rigidly with the head) outside the face's hull, in eye
+/// distances, at the sides and below; above the brows it is pushed further by [`RING_UP`] to
+/// take the forehead and the hair along whole.
 const RING_INNER: f32 = 0.45;
-/// Extra distance of the inner ring above the brows, in eye distances.
-const RING_UP: f32 = 0.25;
-/// Width of the band between the rings (where the motion fades out), in eye distances. The
-/// outer ring then lies 1.15-1.4 eye distances outside the face: beyond it the picture is
-/// untouched.
-const RING_BAND: f32 = 0.7;
-/// Motion of the inner ring towards the outer ring (along their spoke), in eye distances, that
-/// the band absorbs alone: up to it the outer ring stays where it is, and so does the picture
-/// beyond it. A larger motion towards it moves the outer ring too (see [`RING_SHARE`]); a
-/// motion away from it (the band stretches) never does.
-const RING_SLACK: f32 = 0.1;
-/// The outer ring's share of the inner ring's motion beyond [`RING_SLACK`], taken along the
-/// whole motion (not only the spoke's part: at the corners of a long hull edge the spoke is
-/// not square to the edge, and moving along the spoke alone folded the band for a 15-degree
-/// roll with a 20% zoom). Measured on webcam-dev: the room beyond the rings keeps its PSNR
-/// (36.28 dB, against 35.1 when the outer ring followed every motion, both ways).
-const RING_SHARE: f32 = 0.65;
-/// Distance from the outer ring to the fixed anchors, in eye distances: the room the outer
-/// ring has to move in.
-const RING_ROOM: f32 = 0.8;
+/// Extra distance of the inner ring above the brows, in eye distances: the top of the inner
+/// ring lies an eye distance above the brows, over the hair of a GRID backdrop, so the hair
+/// moves with the head instead of being drawn out between the rings into a cone.
+const RING_UP: f32 = 0.55;
+/// Width of the fall-off outside the inner ring, in eye distances: the head's motion fades
+/// smoothly (smoothstep) to none over it, on [`FALL_LOOPS`] loops; the last loop stays where
+/// it is and beyond it the picture is untouched (1.15 eye distances from the face at the sides
+/// and below, 1.7 above). Chosen by the webcam-dev room measure: 1 eye distance moved the room
+/// (-0.86 dB), 0.8 was at the edge of the 0.5 dB aim (-0.49), 0.7 -0.26; narrower damps
+/// strong poses more (the strong-pose golden's share of its pose: 1 -> 0.82, 0.7 -> 0.60).
+const FALL_OFF: f32 = 0.7;
+/// Loops of the fall-off (the last one fixed).
+const FALL_LOOPS: usize = 4;
+/// Depth inside the picture's edges, in eye distances, over which the motion away from the
+/// nearest edges fades to none: no point on an edge moves inwards off it, so the warp never
+/// pulls what lies beyond the picture into it (the clamped reads that bent the edge into a
+/// notch); along an edge and outwards (what it shows leaves the picture) points move freely.
+const EDGE_FADE: f32 = 0.3;
+/// The most a triangle of the warp outside the face may grow in area; follow-pose is damped
+/// (the head's motion scaled back towards the backdrop's pose) until none grows more.
+const MAX_STRETCH: f32 = 2.0;
+/// The least area a triangle of the warp outside the face may keep (a small margin before a
+/// fold: the issue limits folds, not squashing; the 1/4 this was first damped the strong
+/// poses to a few degrees of roll); damped likewise.
+const MAX_SQUASH: f32 = 0.02;
+/// Bisection steps of the damping (the applied share of the pose change within 1/256).
+const DAMP_STEPS: usize = 8;
 /// Width of the feathered edge of the face, in eye distances of the reference frame.
 const FEATHER: f32 = 0.07;
 /// Depth, in eye distances of the reference frame, over which the colour offset fades from
@@ -140,16 +147,22 @@ fn face_up(points: &[f32]) -> Vec2 {
     Vec2::new(0.0, -1.0)
 }
 
-/// The face mesh extended by two rings around the head, in the backdrop.
+/// The face mesh extended by loops around the head, in the backdrop.
 ///
-/// Represents: `n` landmarks, then `r` inner-ring points, `r` outer-ring points and `r` anchors
-/// (one of each per vertex of the face mesh's boundary loop, outwards along the boundary's
-/// normal there), and triangles: the face's own (the reference frame's, over the landmarks)
-/// plus three annuli of quads split in two (boundary to inner ring, inner to outer ring, outer
-/// ring to anchors).
-/// Ensures: the annuli's triangles all have the same orientation in the backdrop, and keep it
-/// for the head motions of a conversation (tested: roll within 15 degrees, scale within 20%,
-/// translation within 20% of the face width).
+/// Represents: `n` landmarks, then `1 + FALL_LOOPS` loops of `r` points each (one point per
+/// vertex of the face mesh's boundary loop, outwards along the boundary's normal there, cut
+/// at the picture's edges): the inner ring, then the fall-off's loops, the last one fixed.
+/// Each loop point has a weight: the share of the head's motion it takes (1 on the inner
+/// ring, falling smoothly to 0 on the last loop; loops cut at the picture's edge take the
+/// weight of where they were cut, so points cut onto one move as one), and per axis a share
+/// the picture's edges leave its motion away from them (0 on an edge). Triangles:
+/// the face's own (the reference frame's, over the landmarks) plus annuli of quads split in
+/// two between consecutive loops, less those of no area in the backdrop (at the picture's
+/// edges).
+/// Ensures: [`ExtendedMesh::place`] never folds an annulus triangle, nor grows one by more than
+/// [`MAX_STRETCH`] or shrinks it below [`MAX_SQUASH`] in area, when the head's motion can be
+/// damped to a placement that keeps them (the backdrop's pose and, at the worst, the
+/// backdrop's landmarks); no point on the picture's edges moves inwards off it.
 #[derive(Clone, Debug)]
 pub struct ExtendedMesh {
     points: Vec<f32>,
@@ -158,15 +171,88 @@ pub struct ExtendedMesh {
     ring: usize,
     /// Index of the annuli's first triangle (the face's own come first).
     annuli: usize,
-    /// Motion of the inner ring the band absorbs alone ([`RING_SLACK`] eye distances).
-    slack: f32,
-    /// Per boundary vertex, the unit direction of its spoke (boundary -> inner -> outer ring).
-    spokes: Vec<Vec2>,
+    /// The boundary loop's landmarks (the spokes' roots).
+    hull: Vec<u32>,
+    /// Per loop point, where it lies across the fall-off (0 on the inner ring, 1 on the last
+    /// loop).
+    falls: Vec<f32>,
+    /// Per loop point, the shares of the motion across and down the picture's edges leave it
+    /// (1 away from them; none square to an edge on it).
+    edges: Vec<Vec2>,
+    /// The picture's extent (`-0.5` to `size - 0.5`: no point is placed beyond it).
+    size: Vec2,
+    /// Per annulus triangle, its signed area in the backdrop.
+    areas: Vec<f32>,
+    /// The centre of the backdrop's landmarks (the damping's pivot).
+    centre: Vec2,
+}
+
+/// The largest `t <= want` at which `p + t dir` is still in the picture `[-0.5, w - 0.5] x
+/// [-0.5, h - 0.5]` (`p` inside it).
+fn inside_along(p: Vec2, dir: Vec2, want: f32, (w, h): (f32, f32)) -> f32 {
+    let mut t = want;
+    for (x, d, hi) in [(p.x, dir.x, w - 0.5), (p.y, dir.y, h - 0.5)] {
+        if d > 1e-6 {
+            t = t.min((hi - x) / d);
+        } else if d < -1e-6 {
+            t = t.min((-0.5 - x) / d);
+        }
+    }
+    t.max(0.0)
+}
+
+/// The shares of motion across (x) and down (y) a point `q` takes near the picture's edges:
+/// none square to an edge on it, rising (smoothstep) to all at `depth` pixels inside. Along an
+/// edge a point may slide (what it reads stays inside the picture); at a corner it cannot.
+fn edge_share(q: Vec2, (w, h): (f32, f32), depth: f32) -> Vec2 {
+    let depth = depth.max(1e-6);
+    let x = (q.x + 0.5).min(w - 0.5 - q.x);
+    let y = (q.y + 0.5).min(h - 0.5 - q.y);
+    Vec2::new(smoothstep(x / depth), smoothstep(y / depth))
+}
+
+fn smoothstep(s: f32) -> f32 {
+    let s = s.clamp(0.0, 1.0);
+    s * s * (3.0 - 2.0 * s)
+}
+
+fn signed_area(pts: &[f32], t: &[u32; 3]) -> f32 {
+    let p = |i: u32| Vec2::new(pts[2 * i as usize], pts[2 * i as usize + 1]);
+    (p(t[1]) - p(t[0])).perp_dot(p(t[2]) - p(t[0]))
+}
+
+/// Per vertex of the hull loop, the unit direction outwards along the boundary's normal (the
+/// bisector of its two edges' normals): spokes square to the loops keep every annulus
+/// triangle the right way round when the head rolls (radial spokes from the centre met an
+/// elongated face's jaw at a slant, and a 15-degree roll folded them).
+fn spokes(landmarks: &[f32], hull: &[u32], centre: Vec2) -> Vec<Vec2> {
+    let p = |i: u32| Vec2::new(landmarks[2 * i as usize], landmarks[2 * i as usize + 1]);
+    let r = hull.len();
+    (0..r)
+        .map(|k| {
+            let i = hull[k];
+            let n1 = (p(i) - p(hull[(k + r - 1) % r])).perp().normalize_or_zero();
+            let n2 = (p(hull[(k + 1) % r]) - p(i)).perp().normalize_or_zero();
+            let mut dir = (n1 + n2).normalize_or_zero();
+            if dir.dot(p(i) - centre) < 0.0 {
+                dir = -dir;
+            }
+            if dir == Vec2::ZERO {
+                dir = (p(i) - centre).normalize_or_zero();
+            }
+            dir
+        })
+        .collect()
 }
 
 impl ExtendedMesh {
-    /// Extends `frame`'s mesh placed on `landmarks` (the backdrop's) by the two rings.
-    pub fn new(frame: &ReferenceFrame, landmarks: &[f32]) -> Result<ExtendedMesh> {
+    /// Extends `frame`'s mesh placed on `landmarks` (the backdrop's, in a picture of `size`)
+    /// by the inner ring and the fall-off's loops.
+    pub fn new(
+        frame: &ReferenceFrame,
+        landmarks: &[f32],
+        size: (u32, u32),
+    ) -> Result<ExtendedMesh> {
         check_len("backdrop landmarks", landmarks, frame.vertices().len())?;
         check_finite("backdrop landmarks", landmarks)?;
         let hull = hull_loop(frame.triangles(), frame.vertices())?;
@@ -176,69 +262,78 @@ impl ExtendedMesh {
                 "the backdrop's landmarks have no extent".into(),
             ));
         }
+        let picture = (size.0 as f32, size.1 as f32);
         let p = |i: u32| Vec2::new(landmarks[2 * i as usize], landmarks[2 * i as usize + 1]);
         let centre = hull.iter().map(|&i| p(i)).sum::<Vec2>() / hull.len() as f32;
         let up = face_up(landmarks);
-        let n = landmarks.len() / 2;
-        let r = hull.len();
+        let (n, r) = (landmarks.len() / 2, hull.len());
+        let dirs = spokes(landmarks, &hull, centre);
         let mut points = landmarks.to_vec();
-        let mut outer = Vec::with_capacity(2 * r);
-        let mut anchor = Vec::with_capacity(2 * r);
-        let mut spokes = Vec::with_capacity(r);
-        for (k, &i) in hull.iter().enumerate() {
-            // Outwards along the boundary's normal at the vertex (the bisector of its two
-            // edges' normals): spokes square to the rings keep every annulus triangle the right
-            // way round when the head rolls (radial spokes from the centre met an elongated
-            // face's jaw at a slant, and a 15-degree roll folded them).
-            let prev = p(hull[(k + r - 1) % r]);
-            let next = p(hull[(k + 1) % r]);
-            let n1 = (p(i) - prev).perp().normalize_or_zero();
-            let n2 = (next - p(i)).perp().normalize_or_zero();
-            let mut dir = (n1 + n2).normalize_or_zero();
-            if dir.dot(p(i) - centre) < 0.0 {
-                dir = -dir;
+        let mut falls = Vec::with_capacity((FALL_LOOPS + 1) * r);
+        let mut edges = Vec::with_capacity((FALL_LOOPS + 1) * r);
+        for j in 0..=FALL_LOOPS {
+            let fall = j as f32 / FALL_LOOPS as f32;
+            for (k, &i) in hull.iter().enumerate() {
+                let dir = dirs[k];
+                let out = d * (RING_INNER + RING_UP * dir.dot(up).max(0.0) + FALL_OFF * fall);
+                // Inside the picture's edges, but never inside the landmark itself (a face at
+                // the edge: its loops sit on the landmark, fixed).
+                let q = p(i).clamp(Vec2::splat(-0.5), Vec2::new(picture.0, picture.1) - 0.5);
+                let t = inside_along(q, dir, out, picture);
+                let q = q + dir * t;
+                points.extend_from_slice(&[q.x, q.y]);
+                // Where the point lies across the fall-off once cut at the edge: the loops
+                // cut onto one point move as one (their triangles of no area stay so).
+                let start = out - d * FALL_OFF * fall;
+                let cut = ((t - start) / (d * FALL_OFF)).clamp(0.0, fall);
+                falls.push(if t < out { cut } else { fall });
+                edges.push(edge_share(q, picture, d * EDGE_FADE));
             }
-            if dir == Vec2::ZERO {
-                dir = (p(i) - centre).normalize_or_zero();
-            }
-            let inner = d * (RING_INNER + RING_UP * dir.dot(up).max(0.0));
-            let a = p(i) + dir * inner;
-            points.extend_from_slice(&[a.x, a.y]);
-            let b = p(i) + dir * (inner + d * RING_BAND);
-            outer.extend_from_slice(&[b.x, b.y]);
-            let c = b + dir * (d * RING_ROOM);
-            anchor.extend_from_slice(&[c.x, c.y]);
-            spokes.push(dir);
         }
-        points.extend_from_slice(&outer);
-        points.extend_from_slice(&anchor);
         let mut triangles = frame.triangles().to_vec();
         let annuli = triangles.len();
+        let ring = |j: usize, k: usize| (n + j * r + k % r) as u32;
         for k in 0..r {
-            let k1 = (k + 1) % r;
-            let (h0, h1) = (hull[k], hull[k1]);
-            let (i0, i1) = ((n + k) as u32, (n + k1) as u32);
-            let (o0, o1) = ((n + r + k) as u32, (n + r + k1) as u32);
-            let (a0, a1) = ((n + 2 * r + k) as u32, (n + 2 * r + k1) as u32);
-            triangles.push([h0, h1, i1]);
-            triangles.push([h0, i1, i0]);
-            triangles.push([i0, i1, o1]);
-            triangles.push([i0, o1, o0]);
-            triangles.push([o0, o1, a1]);
-            triangles.push([o0, a1, a0]);
+            let (h0, h1) = (hull[k], hull[(k + 1) % r]);
+            let quads = std::iter::once([h0, h1, ring(0, k + 1), ring(0, k)]).chain(
+                (0..FALL_LOOPS).map(|j| {
+                    [
+                        ring(j, k),
+                        ring(j, k + 1),
+                        ring(j + 1, k + 1),
+                        ring(j + 1, k),
+                    ]
+                }),
+            );
+            for [a, b, c, e] in quads {
+                for t in [[a, b, c], [a, c, e]] {
+                    // Triangles of no area (cut flat at the picture's edge) draw nothing.
+                    if signed_area(&points, &t).abs() > 0.5 {
+                        triangles.push(t);
+                    }
+                }
+            }
         }
+        let areas = triangles[annuli..]
+            .iter()
+            .map(|t| signed_area(&points, t))
+            .collect();
         Ok(ExtendedMesh {
             points,
             triangles,
             n,
             ring: r,
             annuli,
-            slack: d * RING_SLACK,
-            spokes,
+            hull,
+            falls,
+            edges,
+            size: Vec2::new(picture.0, picture.1),
+            areas,
+            centre,
         })
     }
 
-    /// All points in the backdrop (landmarks, inner ring, outer ring), interleaved.
+    /// All points in the backdrop (landmarks, inner ring, the fall-off's loops), interleaved.
     pub fn points(&self) -> &[f32] {
         &self.points
     }
@@ -248,58 +343,204 @@ impl ExtendedMesh {
         &self.triangles
     }
 
-    /// Where the points go when the face is at `image_shape`: the landmarks there, the inner
-    /// ring moved by the similarity that best takes the backdrop's landmarks onto
-    /// `image_shape`, the outer ring where it is unless its inner point moves towards it by
-    /// more than the slack (then it moves by 65% of that motion's excess, in the
-    /// motion's direction), the anchors where they are. Writes `out` (same length as
-    /// [`ExtendedMesh::points`]).
-    pub fn place(&self, image_shape: &[f32], out: &mut [f32]) {
+    /// Where the points go when the face is at `image_shape`, the head's motion damped where
+    /// the backdrop cannot show it. The head's motion is the similarity `H` that best takes the
+    /// backdrop's landmarks onto `image_shape`; applied whole, the landmarks go to
+    /// `image_shape` and every loop point `q` to `q + w (H(q) - q + e)`, `e` its spoke's
+    /// landmark's motion beyond `H` (the expression: a dropped jaw takes the neck along) and
+    /// `w` its weight, `1 - smoothstep(f / b)` (times, per axis, its edge share when the motion
+    /// is away from its nearest edges), `f` where it lies across
+    /// the fall-off and `b` the narrowest fall-off (at least a quarter of it) that keeps every
+    /// triangle: a small motion moves the room no further out than it must. When even the
+    /// whole fall-off folds, grows or shrinks a triangle past the limits, the motion is scaled
+    /// back (translation, rotation and the logarithm of the scale, about the face's centre, by
+    /// the largest share in `[0, 1]` that keeps every triangle) and the landmarks with it: the
+    /// face is drawn where its head can go. When even the backdrop's pose tears (the expression
+    /// does: a jaw dropped at gain 2 towards the picture's edge), the expression is scaled back
+    /// likewise, the landmarks drawn towards the backdrop's. All found by bisection. Writes
+    /// `out` (same length
+    /// as [`ExtendedMesh::points`]; its first `2n` values are the face's landmarks as drawn)
+    /// and returns the share of the motion applied (1: all of it).
+    pub fn place(&self, image_shape: &[f32], out: &mut [f32]) -> f32 {
         let n2 = 2 * self.n;
-        let r2 = 2 * self.ring;
-        self.place_rings(image_shape, out);
-        let at = |v: &[f32], i: usize| Vec2::new(v[i], v[i + 1]);
-        for k in 0..self.ring {
-            let (i, o) = (n2 + 2 * k, n2 + r2 + 2 * k);
-            let motion = at(out, i) - at(&self.points, i);
-            let towards = motion.dot(self.spokes[k]);
-            if towards > self.slack {
-                let moved =
-                    at(&self.points, o) + motion * (RING_SHARE * (towards - self.slack) / towards);
-                out[o] = moved.x;
-                out[o + 1] = moved.y;
-            }
+        let head = Similarity::align(&self.points[..n2], image_shape);
+        let narrow = 1.0 / FALL_LOOPS as f32;
+        self.place_share(image_shape, &head, 1.0, narrow, out);
+        if self.untorn(out) {
+            return 1.0;
         }
+        self.place_share(image_shape, &head, 1.0, 1.0, out);
+        if self.untorn(out) {
+            let width = self.bisect(
+                narrow,
+                1.0,
+                |b, out| {
+                    self.place_share(image_shape, &head, 1.0, b, out);
+                    self.untorn(out)
+                },
+                out,
+            );
+            self.place_share(image_shape, &head, 1.0, width, out);
+            return 1.0;
+        }
+        self.place_share(image_shape, &head, 0.0, 1.0, out);
+        if !self.untorn(out) {
+            // Even the backdrop's pose tears: the expression itself (a jaw dropped at gain 2
+            // past the picture's fixed edge) does. Damp it too (the landmarks drawn towards
+            // the backdrop's; at none, nothing moves).
+            let expr = self.bisect(
+                1.0,
+                0.0,
+                |e, out| {
+                    self.place_expr(image_shape, &head, 0.0, 1.0, e, out);
+                    self.untorn(out)
+                },
+                out,
+            );
+            self.place_expr(image_shape, &head, 0.0, 1.0, expr, out);
+            return 0.0;
+        }
+        let share = self.bisect(
+            1.0,
+            0.0,
+            |s, out| {
+                self.place_share(image_shape, &head, s, 1.0, out);
+                self.untorn(out)
+            },
+            out,
+        );
+        self.place_share(image_shape, &head, share, 1.0, out);
+        share
     }
 
-    fn place_rings(&self, image_shape: &[f32], out: &mut [f32]) {
+    /// The value between `bad` (failing `good`) and `ok` (passing it, or the fallback) closest
+    /// to `bad` that passes, within `1 / 2^DAMP_STEPS` of their distance.
+    fn bisect(
+        &self,
+        bad: f32,
+        ok: f32,
+        mut good: impl FnMut(f32, &mut [f32]) -> bool,
+        out: &mut [f32],
+    ) -> f32 {
+        let (mut bad, mut ok) = (bad, ok);
+        for _ in 0..DAMP_STEPS {
+            let mid = 0.5 * (bad + ok);
+            if good(mid, out) {
+                ok = mid;
+            } else {
+                bad = mid;
+            }
+        }
+        ok
+    }
+
+    /// [`ExtendedMesh::place`] with `share` of the head's motion `head` applied and the
+    /// fall-off `width` wide (a share of [`FALL_OFF`]).
+    fn place_share(
+        &self,
+        image_shape: &[f32],
+        head: &Similarity,
+        share: f32,
+        width: f32,
+        out: &mut [f32],
+    ) {
+        self.place_expr(image_shape, head, share, width, 1.0, out);
+    }
+
+    /// [`ExtendedMesh::place_share`] with `expr` of the expression applied: the landmarks
+    /// drawn from the backdrop's (0) to `image_shape`'s (1), both moved by the damped head.
+    fn place_expr(
+        &self,
+        image_shape: &[f32],
+        head: &Similarity,
+        share: f32,
+        width: f32,
+        expr: f32,
+        out: &mut [f32],
+    ) {
         let n2 = 2 * self.n;
-        let r2 = 2 * self.ring;
-        let head = Similarity::align(&self.points[..n2], image_shape);
-        out[..n2].copy_from_slice(image_shape);
-        for (o, s) in out[n2..n2 + r2]
+        let c = self.centre;
+        let (hx, hy) = head.apply_point(c.x, c.y);
+        let damped =
+            Similarity::from_parts(head.scale().powf(share), head.rotation() * share, 0.0, 0.0);
+        let (dx, dy) = damped.apply_point(c.x, c.y);
+        let moved = c + (Vec2::new(hx, hy) - c) * share;
+        let damped = Similarity {
+            tx: damped.tx + moved.x - dx,
+            ty: damped.ty + moved.y - dy,
+            ..damped
+        };
+        // The landmarks: `damped o head^-1` on `image_shape` (exactly `image_shape` whole).
+        let back = head.inverse().map(|h| damped.compose(&h));
+        for ((o, s), b0) in out[..n2]
             .chunks_exact_mut(2)
-            .zip(self.points[n2..n2 + r2].chunks_exact(2))
+            .zip(image_shape.chunks_exact(2))
+            .zip(self.points[..n2].chunks_exact(2))
         {
-            let (x, y) = head.apply_point(s[0], s[1]);
+            let (mut x, mut y) = match (share >= 1.0, back) {
+                (false, Some(b)) => b.apply_point(s[0], s[1]),
+                _ => (s[0], s[1]),
+            };
+            if expr < 1.0 {
+                let (bx, by) = damped.apply_point(b0[0], b0[1]);
+                x = bx + expr * (x - bx);
+                y = by + expr * (y - by);
+            }
             o[0] = x;
             o[1] = y;
         }
-        out[n2 + r2..].copy_from_slice(&self.points[n2 + r2..]);
+        let r = self.ring;
+        let (face, loops) = out.split_at_mut(n2);
+        for (m, (o, q)) in loops
+            .chunks_exact_mut(2)
+            .zip(self.points[n2..].chunks_exact(2))
+            .enumerate()
+        {
+            let fall = 1.0 - smoothstep(self.falls[m] / width);
+            if fall == 0.0 {
+                o.copy_from_slice(q);
+                continue;
+            }
+            let h = 2 * self.hull[m % r] as usize;
+            let (lx, ly) = damped.apply_point(self.points[h], self.points[h + 1]);
+            let (hx, hy) = damped.apply_point(q[0], q[1]);
+            let q = Vec2::new(q[0], q[1]);
+            let motion = fall * Vec2::new(hx - q.x + face[h] - lx, hy - q.y + face[h + 1] - ly);
+            // Towards its nearest edges a point moves freely (what it shows leaves the
+            // picture); away from them only as far as their shares let it (nothing from
+            // beyond the picture comes in).
+            let outwards = (q * 2.0 - self.size).signum();
+            let share = Vec2::select(
+                (motion * outwards).cmpgt(Vec2::ZERO),
+                Vec2::ONE,
+                self.edges[m],
+            );
+            let moved = q + share * motion;
+            o[0] = moved.x;
+            o[1] = moved.y;
+        }
+    }
+
+    /// Whether every annulus triangle of `placed` keeps its orientation and its area within
+    /// [`MAX_SQUASH`] and [`MAX_STRETCH`] of the backdrop's.
+    fn untorn(&self, placed: &[f32]) -> bool {
+        self.triangles[self.annuli..]
+            .iter()
+            .zip(&self.areas)
+            .all(|(t, &a0)| {
+                let ratio = signed_area(placed, t) / a0;
+                (MAX_SQUASH..=MAX_STRETCH).contains(&ratio)
+            })
     }
 
     /// How many of the annuli's triangles are folded (orientation reversed or collapsed)
     /// at `placed` (a [`ExtendedMesh::place`] output) compared with the backdrop.
     pub fn folded(&self, placed: &[f32]) -> usize {
-        let area = |pts: &[f32], t: &[u32; 3]| {
-            let p = |i: u32| Vec2::new(pts[2 * i as usize], pts[2 * i as usize + 1]);
-            (p(t[1]) - p(t[0])).perp_dot(p(t[2]) - p(t[0]))
-        };
         self.triangles[self.annuli..]
             .iter()
-            .filter(|t| {
-                let a0 = area(&self.points, t);
-                let a1 = area(placed, t);
+            .zip(&self.areas)
+            .filter(|(t, &a0)| {
+                let a1 = signed_area(placed, t);
                 !(a0 * a1 > 0.0) || a1.abs() < 1e-3 * a0.abs()
             })
             .count()
@@ -380,7 +621,10 @@ pub struct Compositor {
     drawer: FaceDrawer,
     /// Static backdrop under the last view: (view, width, height, pixels).
     cache: Option<(Similarity, u32, u32, Pixmap)>,
+    /// The extended mesh placed for the last frame (the face's landmarks as drawn first).
     placed: Vec<f32>,
+    /// The share of the head's motion the last frame applied.
+    damping: f32,
     dst: Vec<Vec2>,
     diff: Vec<f32>,
     smooth: Vec<f32>,
@@ -406,8 +650,8 @@ impl Compositor {
             ))
         })?;
         let frame = model.frame();
-        let mesh = ExtendedMesh::new(frame, b.landmarks())?;
         let (w, h) = (b.width(), b.height());
+        let mesh = ExtendedMesh::new(frame, b.landmarks(), (w, h))?;
         let mut backdrop =
             Pixmap::new(w, h).ok_or_else(|| Error::Image(format!("backdrop {w}x{h} too large")))?;
         backdrop.data_mut().copy_from_slice(b.rgba());
@@ -465,6 +709,7 @@ impl Compositor {
             backdrop,
             words,
             placed: vec![0.0; mesh.points().len()],
+            damping: 1.0,
             dst: Vec::with_capacity(mesh.points().len() / 2),
             mesh,
             diff: vec![0.0; 3 * border.len()],
@@ -493,6 +738,21 @@ impl Compositor {
     /// The extended mesh (for tests and tools).
     pub fn mesh(&self) -> &ExtendedMesh {
         &self.mesh
+    }
+
+    /// Places the extended mesh for a face at `image_shape` (its landmarks in the backdrop's
+    /// pixels) as [`Compositor::draw`] does ([`ExtendedMesh::place`]: the head's motion damped
+    /// where the backdrop cannot show it), and returns the placed points, the face's landmarks
+    /// as drawn first (for tests and tools).
+    pub fn place_head(&mut self, image_shape: &[f32]) -> &[f32] {
+        self.damping = self.mesh.place(image_shape, &mut self.placed);
+        &self.placed
+    }
+
+    /// The share of the head's motion the last frame applied (1: all of it; less where
+    /// follow-pose was damped so that the backdrop's warp neither folds nor stretches).
+    pub fn pose_share(&self) -> f32 {
+        self.damping
     }
 
     /// The drawing options.
@@ -562,10 +822,12 @@ impl Compositor {
         self.warp_head(image_shape, view, clip, target)?;
         self.colour_match(frame, appearance);
         let rgb = std::mem::take(&mut self.rgb);
+        // The face where the head went (follow-pose damped where the backdrop cannot show it).
+        let shape = &self.placed[..image_shape.len()];
         let r = self
             .drawer
             .upload_with_alpha(frame, &rgb, &self.alpha)
-            .and_then(|_| self.drawer.warp_in(frame, image_shape, view, clip, target));
+            .and_then(|_| self.drawer.warp_in(frame, shape, view, clip, target));
         self.rgb = rgb;
         r
     }
@@ -613,7 +875,7 @@ impl Compositor {
         clip: PixelRect,
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
-        self.mesh.place(image_shape, &mut self.placed);
+        self.damping = self.mesh.place(image_shape, &mut self.placed);
         self.dst.clear();
         for p in self.placed.chunks_exact(2) {
             let (x, y) = view.apply_point(p[0], p[1]);

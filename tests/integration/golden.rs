@@ -23,6 +23,11 @@
 //!   composited into spk02's backdrop letterboxed into a taller 288x360 canvas: the bands above
 //!   and below the picture stay the background (the mesh under the chin reaches past the
 //!   picture's bottom edge);
+//! - `composite_strong_gain1.png`, `composite_strong_gain2.png`: the same frame cloned onto
+//!   spk02 by `map` with follow-pose at gains 1 and 2, the source's head rolled by 20 degrees
+//!   and scaled by 1.25 about its face centre, composited into spk02's backdrop at its size:
+//!   the hair and the top of the head keep their proportions (no cone), nothing folds, and the
+//!   picture's edges stay straight (no notch);
 //! - `composite_photo.png`: the same frame cloned onto a one-photo target (spk03's first
 //!   training frame, `data/grid/spk03_lbax4n/train20.txt`), composited into the photo.
 //! - `expressive_laugh_grid.png`, `expressive_laugh_photo.png`: a laugh with teeth (the London
@@ -153,8 +158,14 @@ fn draw_composite(target: &Model, follow: bool) -> (Vec<u8>, (u32, u32)) {
 
 /// `pose` rolled by `roll` degrees about its face centre and moved by `(dx, dy)` pixels.
 fn moved(pose: &Similarity, roll: f32, (dx, dy): (f32, f32)) -> Similarity {
+    moved_scaled(pose, roll, 1.0, (dx, dy))
+}
+
+/// `pose` rolled by `roll` degrees and scaled by `scale` about its face centre, and moved by
+/// `(dx, dy)` pixels.
+fn moved_scaled(pose: &Similarity, roll: f32, scale: f32, (dx, dy): (f32, f32)) -> Similarity {
     let (cx, cy) = (pose.tx, pose.ty);
-    let turn = Similarity::from_parts(1.0, roll.to_radians(), 0.0, 0.0);
+    let turn = Similarity::from_parts(scale, roll.to_radians(), 0.0, 0.0);
     let (mx, my) = turn.apply_point(cx, cy);
     let about = Similarity {
         tx: cx - mx + dx,
@@ -167,16 +178,34 @@ fn moved(pose: &Similarity, roll: f32, (dx, dy): (f32, f32)) -> Similarity {
 /// A cloner of spk07 onto `target` that cloned `params` by `map` (with or without
 /// follow-pose).
 fn cloned(target: &Model, params: &Params, follow: bool) -> Cloner {
+    cloned_with_gain(target, params, follow, 1.0)
+}
+
+/// [`cloned`] at `gain`.
+fn cloned_with_gain(target: &Model, params: &Params, follow: bool, gain: f32) -> Cloner {
     let source = spk07();
     let mut cloner = Cloner::new(source.clone()).unwrap();
     cloner.add_target(target.clone()).unwrap();
     let options = CloneOptions {
         method: Method::Map,
         follow_pose: follow,
+        gain,
         ..CloneOptions::default()
     };
     cloner.clone_frame(params, &options).unwrap();
     cloner
+}
+
+/// spk07's unseen frame 24 cloned onto spk02 by `map` at `gain` with follow-pose, the source's
+/// head rolled by 20 degrees and scaled by 1.25 about its face centre (a strong pose: the
+/// backdrop's hair and the picture's edges must follow without a cone, a fold or a notch),
+/// composited into spk02's backdrop at its size (straight RGBA8, and the size).
+fn draw_strong_pose(gain: f32) -> (Vec<u8>, (u32, u32)) {
+    let mut params = source_params();
+    params.pose = moved_scaled(&params.pose, 20.0, 1.25, (0.0, 0.0));
+    let target = spk02_backdrop();
+    let cloner = cloned_with_gain(target, &params, true, gain);
+    composite(target, &cloner, picture_size(target))
 }
 
 /// spk07's unseen frame 24 cloned onto spk02 by `map` with follow-pose, the source's head
@@ -395,6 +424,16 @@ fn letterboxed_composite_matches_golden_image() {
         );
     }
     check_sized("composite_letterboxed", &got, size);
+}
+
+#[test]
+fn strong_pose_composites_match_golden_images() {
+    check_sized_pair("composite_strong_gain1", draw_strong_pose(1.0));
+    check_sized_pair("composite_strong_gain2", draw_strong_pose(2.0));
+}
+
+fn check_sized_pair(name: &str, (got, size): (Vec<u8>, (u32, u32))) {
+    check_sized(name, &got, size);
 }
 
 #[test]
