@@ -331,6 +331,7 @@ function framesOf(options) {
 
 export const buildModel = guard("buildModel", (options, onProgress) => glue.buildModel(framesOf(options), onProgress));
 export const enrolFace = guard("enrolFace", framed(glue.enrolFace));
+export const expressionCoverage = guard("expressionCoverage", glue.expressionCoverage);
 export const landmarkError = guard("landmarkError", glue.landmarkError);
 export const lerpPose = guard("lerpPose", glue.lerpPose);
 export const meanPose = guard("meanPose", glue.meanPose);
@@ -340,6 +341,7 @@ export const parsePts = guard("parsePts", glue.parsePts);
 export const policy = guard("policy", glue.policy);
 export const recentrePose = guard("recentrePose", glue.recentrePose);
 export const renderMode = guard("renderMode", glue.renderMode);
+export const samePicture = guard("samePicture", glue.samePicture);
 export const selectVaried = guard("selectVaried", glue.selectVaried);
 export const shapeCoverage = guard("shapeCoverage", glue.shapeCoverage);
 export const version = guard("version", glue.version);

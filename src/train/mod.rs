@@ -10,11 +10,14 @@
 //!   backdrop) that the CLI and the wasm layer both call.
 //! - `quality.rs`: which enrolment frames are good enough ([`crate::FrameQuality`]:
 //!   occluded, blurred, dark, turned, outside the picture).
+//! - `expression.rs`: which expressions the kept frames cover ([`crate::expression_coverage`]).
 //! - `photo.rs`: a target from a single photo.
 
 pub(crate) mod builder;
 pub mod canonical;
+pub(crate) mod consistency;
 pub(crate) mod enrol;
+pub(crate) mod expression;
 pub(crate) mod photo;
 pub(crate) mod pipeline;
 pub(crate) mod quality;

@@ -9,6 +9,10 @@
 //! 2. **quality**: frames whose face is outside the picture, turned too far, dark, blurred or
 //!    covered (a hand, a cup, hair) are rejected with their reason ([`crate::FrameQuality`],
 //!    [`crate::occlusion_scores`]; [`EnrolOptions::quality`] says which frames are checked);
+//!    A judged frame showing the same picture as the frame before is rejected as frozen (when
+//!    half the frames are, the camera froze: an error); judged faces that split into two
+//!    people (`train/consistency.rs`) are an error naming the frames of the smaller
+//!    group;
 //! 3. **select**: when asked, [`crate::select_varied`] keeps that many varied frames, always
 //!    keeping the named reference frame;
 //! 4. **build** (and **refine**): [`Builder::build_refined`];
@@ -17,7 +21,9 @@
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::model::Model;
+use crate::train::consistency::{identity_split, same_picture};
 use crate::train::enrol::EnrolFinder;
+use crate::train::expression::{expression_coverage, ExpressionCoverage};
 use crate::train::quality::{occlusion_scores, FrameProblem, FrameQuality, MAX_OCCLUSION};
 use crate::train::{BuildOptions, BuildProgress, Builder, ReferenceChoice, TrainingImage};
 
@@ -167,6 +173,8 @@ pub struct Enrolment {
     pub skipped: Vec<usize>,
     /// The frames with a face that the quality checks rejected (index, reason), by index.
     pub rejected: Vec<(usize, FrameProblem)>,
+    /// The expressions the usable frames (before the selection) show.
+    pub coverage: ExpressionCoverage,
 }
 
 /// Builds a model from `frames` through the pipeline's stages (see the module). `finder` is
@@ -196,8 +204,16 @@ pub fn enrol(
         _ => None,
     };
     let total = frames.len();
-    let mut placed = place_landmarks(frames, options, finder, progress)?;
+    let frozen = frozen_frames(&frames, options);
+    if frozen.len() >= 2 && frozen.len() * 2 >= total {
+        return Err(Error::Training(format!(
+            "the camera seems frozen: frames {} show the same picture as the frame before",
+            list_indices(&frozen)
+        )));
+    }
+    let mut placed = place_landmarks(frames, &frozen, options, finder, progress)?;
     reject_occluded(&mut placed, options)?;
+    check_one_person(&placed)?;
     let Placed {
         images,
         used,
@@ -225,6 +241,14 @@ pub fn enrol(
             unusable(&skipped, &rejected)
         )));
     }
+    let coverage = {
+        let shapes: Vec<&[f32]> = images
+            .iter()
+            .map(|t| t.landmarks.as_slice())
+            .filter(|l| l.len() == 136)
+            .collect();
+        expression_coverage(&shapes)?
+    };
     let (images, used) = select(images, used, options.select, reference)?;
     let model = Builder::new(options.build.clone()).build_refined(
         &images,
@@ -251,7 +275,66 @@ pub fn enrol(
         used,
         skipped,
         rejected,
+        coverage,
     })
+}
+
+/// Repeats of one picture in a row (after its first) that make a frozen camera: a live
+/// camera repeats a frame now and then (28 of webcam-dev's 120 frames sampled every 5th repeat
+/// the one before, at most 2 in a row), a frozen one for seconds.
+pub const FROZEN_RUN: usize = 4;
+
+/// The judged frames (see [`QualityScope`]) in runs of at least [`FROZEN_RUN`] frames showing
+/// the same picture as the frame before.
+fn frozen_frames(frames: &[EnrolFrame], options: &EnrolOptions) -> Vec<usize> {
+    let judged = |f: &EnrolFrame| match options.quality {
+        QualityScope::Off => false,
+        QualityScope::Found => f.landmarks.is_none(),
+        QualityScope::All => true,
+    };
+    let repeat: Vec<bool> = (0..frames.len())
+        .map(|i| {
+            i > 0
+                && judged(&frames[i])
+                && matches!(
+                    (frames[i - 1].image.view(), frames[i].image.view()),
+                    (Ok(a), Ok(b)) if same_picture(&a, &b)
+                )
+        })
+        .collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < repeat.len() {
+        let run = repeat[i..].iter().take_while(|&&r| r).count();
+        if run >= FROZEN_RUN {
+            out.extend(i..i + run);
+        }
+        i += run.max(1);
+    }
+    out
+}
+
+/// Fails when the judged faces look like two people, naming the smaller group's frames.
+fn check_one_person(p: &Placed) -> Result<()> {
+    if !p.judged.iter().any(|&j| j) || p.images.iter().any(|t| t.landmarks.len() != 136) {
+        return Ok(());
+    }
+    let faces: Vec<(crate::image::ImageRef, &[f32])> = p
+        .images
+        .iter()
+        .map(|t| Ok((t.image.view()?, t.landmarks.as_slice())))
+        .collect::<Result<_>>()?;
+    match identity_split(&faces)? {
+        None => Ok(()),
+        Some(group) => {
+            let frames: Vec<usize> = group.iter().map(|&k| p.used[k]).collect();
+            Err(Error::Training(format!(
+                "the frames show two different people: frames {} differ from the others; \
+                 enrol one person at a time",
+                list_indices(&frames)
+            )))
+        }
+    }
 }
 
 /// "; no confident face in frames 1, 4; rejected: frames 2, 3 occluded, 7 turned" (empty when
@@ -319,11 +402,16 @@ struct Placed {
 
 fn place_landmarks(
     frames: Vec<EnrolFrame>,
+    frozen: &[usize],
     options: &EnrolOptions,
     finder: Option<&mut EnrolFinder>,
     progress: &mut dyn FnMut(EnrolProgress<'_>) -> bool,
 ) -> Result<Placed> {
-    let to_find = frames.iter().filter(|f| f.landmarks.is_none()).count();
+    let to_find = frames
+        .iter()
+        .enumerate()
+        .filter(|(i, f)| f.landmarks.is_none() && !frozen.contains(i))
+        .count();
     // A finder of our own only when frames need one and none is given.
     let mut own = None;
     let mut finder = finder;
@@ -339,6 +427,10 @@ fn place_landmarks(
     };
     let mut searched = 0;
     for (i, frame) in frames.into_iter().enumerate() {
+        if frozen.contains(&i) {
+            p.rejected.push((i, FrameProblem::Frozen));
+            continue;
+        }
         let (landmarks, spread) = match frame.landmarks {
             Some(l) => (Some(l), None),
             None => {

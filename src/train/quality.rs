@@ -35,10 +35,13 @@ pub enum FrameProblem {
     Blurred,
     /// Something covers part of the face (a hand, a cup, hair).
     Occluded,
+    /// The same picture as the frame before (a frozen camera).
+    Frozen,
 }
 
 impl FrameProblem {
-    /// Its stable name: "no-face", "outside", "turned", "dark", "blurred", "occluded".
+    /// Its stable name: "no-face", "outside", "turned", "dark", "blurred", "occluded",
+    /// "frozen".
     pub fn code(self) -> &'static str {
         match self {
             FrameProblem::NoFace => "no-face",
@@ -47,6 +50,7 @@ impl FrameProblem {
             FrameProblem::Dark => "dark",
             FrameProblem::Blurred => "blurred",
             FrameProblem::Occluded => "occluded",
+            FrameProblem::Frozen => "frozen",
         }
     }
 }
@@ -154,7 +158,7 @@ impl FrameQuality {
 
 /// Where the nose tip (point 30) lies between the jaw's ends (points 0 and 16) along the eye
 /// line, -1..1 (0 frontal, 1 when the jaw's ends are not apart). Requires 68 points.
-fn yaw_of(landmarks: &[f32]) -> f32 {
+pub(crate) fn yaw_of(landmarks: &[f32]) -> f32 {
     let eye = crate::landmarks::eye_line(landmarks).unwrap_or([1.0, 0.0]);
     let along = |i: usize| landmarks[2 * i] * eye[0] + landmarks[2 * i + 1] * eye[1];
     let (a, b) = (along(30) - along(0), along(16) - along(30));
@@ -218,7 +222,7 @@ fn sharpness(g: &[f32]) -> f32 {
 
 /// Each face sampled into the canonical frame, its luminance normalised to zero mean and unit
 /// deviation.
-fn normalised_faces(faces: &[(ImageRef, &[f32])]) -> Result<Vec<Vec<f32>>> {
+pub(crate) fn normalised_faces(faces: &[(ImageRef, &[f32])]) -> Result<Vec<Vec<f32>>> {
     let frame = crate::train::canonical::canonical_frame();
     let mut rgb = vec![0.0f32; frame.n_pixels() * 3];
     faces
@@ -477,12 +481,14 @@ mod tests {
     fn enrolment_from_bad_frames_says_why() {
         use crate::{enrol, EnrolFrame, EnrolOptions, Image, QualityScope};
         let (rgba, lm) = face(200, 200);
+        // Each picture a little brighter than the one before (the same picture again is a
+        // frozen camera).
         let frame = |i: usize, lm: &[f32], rgba: &[u8]| EnrolFrame {
             name: format!("frame{i}"),
             image: Image {
                 width: 200,
                 height: 200,
-                data: rgba.to_vec(),
+                data: rgba.iter().map(|v| v.saturating_add(2 * i as u8)).collect(),
             },
             landmarks: Some(lm.to_vec()),
         };
@@ -513,5 +519,31 @@ mod tests {
                 .contains("a usable face in 2 of 6 frames, at least 4 are needed; rejected: frames 2, 3, 4, 5 outside"),
             "{e}"
         );
+        // A frozen camera: the same picture again and again.
+        let frozen = (0..6).map(|_| frame(0, &lm, &rgba)).collect();
+        let e = enrol(frozen, &options, None, None, &mut |_| true).unwrap_err();
+        assert!(
+            e.to_string().contains(
+                "the camera seems frozen: frames 1, 2, 3, 4, 5 show the same picture as the frame before"
+            ),
+            "{e}"
+        );
+        // A repeated frame now and then is a live camera's; four repeats in a row are frozen,
+        // rejected and named, and the rest is built from.
+        let mut frames: Vec<EnrolFrame> = (0..8).map(|i| frame(i, &lm, &rgba)).collect();
+        frames.insert(3, frame(2, &lm, &rgba));
+        let made = enrol(frames, &options, None, None, &mut |_| true).unwrap();
+        assert!(made.rejected.is_empty(), "{:?}", made.rejected);
+        let mut frames: Vec<EnrolFrame> = (0..8).map(|i| frame(i, &lm, &rgba)).collect();
+        for _ in 0..4 {
+            frames.insert(6, frame(5, &lm, &rgba));
+        }
+        let made = enrol(frames, &options, None, None, &mut |_| true).unwrap();
+        let frozen = |i| (i, FrameProblem::Frozen);
+        assert_eq!(
+            made.rejected,
+            vec![frozen(6), frozen(7), frozen(8), frozen(9)]
+        );
+        assert_eq!(made.used.len(), 8);
     }
 }

@@ -17,7 +17,8 @@ function startWorker() {
  * Builds a model off the main thread. `options` as for the package's buildModel (frames with
  * rgba buffers: they are transferred to the worker and unusable here afterwards; frames without
  * landmarks get the face finder's). `onProgress(done, total, stage, skipped)`. Resolves to
- * { bytes, info, skipped, ms } (`skipped`: indices of frames without a confident face); rejects
+ * { bytes, info, skipped, rejected, ms } (`skipped`: indices of frames without a confident
+ * face; `rejected`: [{ frame, reason }] the quality checks did not build from); rejects
  * with an Error (its message names the problem; "cancelled" when `signal` aborted it).
  */
 export function buildInWorker(options, { onProgress, signal } = {}) {
@@ -49,7 +50,7 @@ export function buildInWorker(options, { onProgress, signal } = {}) {
       if (m.type === 'progress') onProgress?.(m.done, m.total, m.stage, m.skipped);
       else if (m.type === 'done') {
         finish();
-        resolve({ bytes: new Uint8Array(m.bytes), info: m.info, skipped: m.skipped, ms: m.ms });
+        resolve({ bytes: new Uint8Array(m.bytes), info: m.info, skipped: m.skipped, rejected: m.rejected ?? [], ms: m.ms });
       } else if (m.type === 'error') {
         finish();
         reject(new Error(m.message));

@@ -27,7 +27,8 @@ export function enrolDialog(actions) {
     webcam: $('button', { type: 'button', className: 'btn', textContent: 'Webcam' }),
     photos: $('button', { type: 'button', className: 'btn', textContent: 'Photos or video…' }),
     file: $('input', { type: 'file', multiple: true, accept: 'image/*,video/*,.pts', hidden: true }),
-    guide: $('p', { className: 'hint enrol-guide' }),
+    guide: $('p', { className: 'hint enrol-guide', role: 'status' }),
+    checklist: $('ul', { className: 'enrol-checklist' }),
     video: $('video', { muted: true, playsInline: true, className: 'enrol-video', hidden: true }),
     status: $('p', { className: 'enrol-status', role: 'status' }),
     coverage: $('meter', { min: 0, max: 1, value: 0, className: 'enrol-coverage' }),
@@ -40,6 +41,8 @@ export function enrolDialog(actions) {
     preview: $('section', { className: 'enrol-preview', hidden: true }),
     strip: $('div', { className: 'enrol-strip' }),
   };
+  e.checklist.setAttribute('aria-label', 'Expressions the frames kept show');
+  Object.assign(e.checklist.style, { display: 'flex', flexWrap: 'wrap', gap: '6px', listStyle: 'none', padding: '0', margin: '4px 0 8px' });
   e.strip.setAttribute('aria-label', 'The frames the model will be built from, with their landmarks');
   e.coverage.setAttribute('aria-label', 'Expression coverage');
   e.name.setAttribute('aria-label', 'Name of the new face');
@@ -87,6 +90,7 @@ export function enrolDialog(actions) {
     }),
     $('div', { className: 'row buttons' }, e.webcam, e.photos, e.file),
     e.guide,
+    e.checklist,
     e.video,
     $('div', { className: 'row' }, $('span', { textContent: 'Coverage' }), e.coverage),
     e.strip,
@@ -175,4 +179,32 @@ export function faceThumbs(candidates, pick, H = 56) {
     }
     return canvas;
   });
+}
+
+/** The expressions the guide asks for: the core's names (`expressionCoverage`'s `missing`),
+ *  the count's key, the checklist's label and the guide's ask. */
+export const EXPRESSIONS = [
+  ['smile', 'smile', 'Smile', 'now smile'],
+  ['mouth-open', 'mouthOpen', 'Mouth open', 'open your mouth wide'],
+  ['brows', 'brows', 'Eyebrows up', 'raise your eyebrows'],
+  ['eyes-closed', 'eyesClosed', 'Eyes closed', 'close your eyes for a moment'],
+  ['turn-left', 'turnLeft', 'Look left', 'look a little left'],
+  ['turn-right', 'turnRight', 'Look right', 'look a little right'],
+];
+
+/** Fills the checklist `ul` from `counts` (expressionCoverage's counts, or empty): an item a
+ *  tick and the number of frames showing it, or an empty box. */
+export function drawChecklist(ul, counts) {
+  ul.replaceChildren(...EXPRESSIONS.map(([name, key, label]) => {
+    const n = counts?.[key] || 0;
+    const li = el('li', { textContent: `${n ? '\u2713' : '\u25CB'} ${label}${n ? ` (${n})` : ''}` });
+    li.dataset.expression = name;
+    li.dataset.done = n ? '1' : '0';
+    Object.assign(li.style, {
+      padding: '2px 9px', borderRadius: '999px', fontSize: '12.5px',
+      border: `1px solid ${n ? 'rgba(107, 220, 154, 0.7)' : 'rgba(255, 255, 255, 0.22)'}`,
+      color: n ? 'var(--ok, #6bdc9a)' : 'inherit', background: n ? 'rgba(107, 220, 154, 0.1)' : 'transparent',
+    });
+    return li;
+  }));
 }

@@ -1,23 +1,20 @@
 // "Create a face": enrolment of a person's model in the page, from photos, a video file or the
 // webcam. Frames are read as RGBA; each frame's 68 landmarks come from a `.pts` file dropped with
-// a photo, else from the package's face finder, run in the page's finder worker (finder-client.js
-// `enrolFace`, the worker the tracking sources use too) so the page keeps drawing while frames
-// are sampled; frames whose face was not found confidently
-// are skipped and counted. Out of the frames kept, about 20 varied ones
-// are chosen (farthest-point sampling of the aligned shapes, `selectVaried`; the coverage of the
-// expression space is shown while sampling), the model is built in a Web Worker
+// a photo, else from the package's face finder in the page's finder worker (finder-client.js
+// `enrolFace`) so the page keeps drawing; frames without a face, or rejected by the quality
+// checks, are counted by reason. A checklist shows the expressions the kept frames cover
+// (`expressionCoverage`), the live guide asks for the missing ones, and a live picture that stops
+// changing is a frozen camera, said in the guide. About 20 varied frames are chosen
+// (`selectVaried`; their coverage shown while sampling), the model is built in a Web Worker
 // (build-client.js) with a progress bar and a Cancel button, kept in this browser (store.js) and
-// shown in the page's inspector and, in the dialog itself (its view: enrol-dialog.js), in a
-// preview (a second `Inspector`:
-// the mean face and one mode animated, shape or appearance, picked from the bars; drawn by the
-// page's frame loop only while the dialog is open); then "Use as source", "Add as target" and
-// "Download .fmm".
-// Nothing is stored until the build has finished: a cancelled or failed build leaves nothing.
+// shown in the page's inspector and in the dialog's preview (enrol-dialog.js: the mean face and
+// one mode animated, drawn only while the dialog is open); then "Use as source", "Add as
+// target" and "Download .fmm". Nothing is stored until the build has finished.
 
 import { parsePts as parsePtsFile, policy } from '../pkg/facemimic.js';
 import { buildInWorker } from './build-client.js';
 import { enrolFace } from './finder-client.js';
-import { enrolDialog, enrolPreview, faceThumbs } from './enrol-dialog.js';
+import { enrolDialog, enrolPreview, faceThumbs, drawChecklist, EXPRESSIONS } from './enrol-dialog.js';
 import { openCamera, looksLikeImage, looksLikeVideo } from './media.js';
 
 // How frames are sampled (frames built from, fewest usable, kept in memory, frame side, ms
@@ -27,8 +24,9 @@ let sampling = null;
 const enrolPolicy = () => (sampling ??= policy().enrol);
 const MIN_SCORE = 0; // finder score to keep a face: any face it accepts (see buildModel's minScore)
 const GUIDE = 'Talk, smile, open your mouth wide, raise your eyebrows, look a little left and right.';
-const REASONS = { occluded: 'something covers the face', blurred: 'blurred', dark: 'too dark', turned: 'turned too far', outside: 'the face is partly out of the picture' };
-const PROMPTS = ['Talk', 'Smile', 'Open your mouth wide', 'Raise your eyebrows', 'Look a little left', 'Look a little right', 'Frown', 'Talk again'];
+const REASONS = { occluded: 'something covers the face', blurred: 'blurred', dark: 'too dark', turned: 'turned too far', outside: 'the face is partly out of the picture', frozen: 'the camera seems frozen' };
+// A live picture unchanged this long (ms) is a frozen camera (the core's samePicture decides "unchanged").
+const FROZEN_MS = 2000;
 
 /** Reads a .pts (iBUG, 1-based) into 0-based points (also used by photo-target.js). */
 export function parsePts(text) {
@@ -117,8 +115,13 @@ export class Enrolment {
     this.stopCapture();
     this.candidates = [];
     this.seen = 0;
-    this.rejected = 0;
+    this.rejected = {}; // frames not used, by reason
     this.lastReason = '';
+    this.counts = {}; // expressionCoverage's counts, never lowered in a session
+    this.enough = false;
+    this.frozen = false;
+    this.lastPicture = null;
+    drawChecklist(this.els.checklist, this.counts);
     this.hideResult();
     this.els.progress.hidden = true;
     this.els.guide.textContent = '';
@@ -129,14 +132,12 @@ export class Enrolment {
    *  null; a face the core's quality checks reject (occluded, blurred, dark, turned, outside)
    *  is null too, counted and its reason shown in the guide. A frame kept stays kept. */
   async findFace(frame) {
-    // The worker's Float32Array, transferred: this page's own copy.
-    const face = await enrolFace(frame, MIN_SCORE);
-    if (face?.reason) {
-      this.rejected = (this.rejected || 0) + 1;
-      this.lastReason = `frame not used: ${REASONS[face.reason] || face.reason}`;
-      return null;
-    }
-    return face ? face.landmarks : null;
+    const face = await enrolFace(frame, MIN_SCORE); // its Float32Array transferred: our own copy
+    const why = face ? face.reason && (REASONS[face.reason] || face.reason) : 'no face found';
+    if (!why) return face.landmarks;
+    this.rejected[why] = (this.rejected[why] || 0) + 1;
+    this.lastReason = `frame not used: ${why}`;
+    return null;
   }
 
   /** Adds a frame with its landmarks, pruning to the most varied when there are too many. */
@@ -160,11 +161,37 @@ export class Enrolment {
       cover = this.page.fm.shapeCoverage(shapes, pick);
     }
     this.drawStrip([...pick].sort((a, b) => a - b));
+    this.updateExpressions();
     this.els.coverage.value = cover;
     this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(enrolPolicy().want, n)} frames that would be used`;
-    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < enrolPolicy().minFrames ? ` (at least ${enrolPolicy().minFrames} are needed)` : ''}.${this.lastReason ? ` Last ${this.lastReason}.` : ''}`;
+    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < enrolPolicy().minFrames ? ` (at least ${enrolPolicy().minFrames} are needed)` : ''}.${this.notUsed()}`;
     this.els.build.disabled = n < enrolPolicy().minFrames || this.abort !== null || this.intake > 0;
     this.els.cancel.textContent = this.abort ? 'Cancel' : 'Close';
+  }
+
+  /** " Not used: 8 something covers the face, 2 no face found." (or empty). */
+  notUsed() {
+    const parts = Object.entries(this.rejected || {}).map(([why, n]) => `${n} ${why}`);
+    return parts.length ? ` Not used: ${parts.join(', ')}.` : '';
+  }
+
+  /** The checklist of expressions from the kept frames (the core's expressionCoverage); a
+   *  count never goes down, so an expression ticked stays ticked. */
+  updateExpressions() {
+    if (this.candidates.length < 5 || !this.page.fm.expressionCoverage) return;
+    const c = this.page.fm.expressionCoverage(this.candidates.map((f) => f.landmarks));
+    for (const [, key] of EXPRESSIONS) this.counts[key] = Math.max(this.counts[key] || 0, c[key]);
+    this.enough = EXPRESSIONS.every(([, key]) => this.counts[key] > 0);
+    drawChecklist(this.els.checklist, this.counts);
+    this.els.checklist.dataset.enough = this.enough ? '1' : '0';
+  }
+
+  /** What the guide asks for now: the next expression missing, or "enough". */
+  ask(k = 0) {
+    if (this.frozen) return 'The camera seems frozen: the picture has not changed for a few seconds. Check the camera (another app may be using it), or press Webcam again.';
+    if (this.enough) return 'Enough: every expression is covered. Press Build (or keep going for more variety).';
+    const missing = EXPRESSIONS.filter(([, key]) => !(this.counts[key] > 0));
+    return `${GUIDE} Now: ${missing[k % missing.length][3]}.`;
   }
 
   /** Thumbnails of the frames a build would use, with their landmarks (redrawn when they change). */
@@ -267,6 +294,7 @@ export class Enrolment {
     if (!video.videoWidth) return;
     const session = this.session;
     const frame = grab(video, video.videoWidth, video.videoHeight);
+    if (this.stream && this.isFrozen(frame)) return void (this.seen++, this.update());
     try {
       frame.landmarks = await this.findFace(frame);
     } catch (e) {
@@ -282,6 +310,26 @@ export class Enrolment {
     this.update();
   }
 
+  /** Whether a live frame shows the same picture as the last one (not searched then); after
+   *  FROZEN_MS of the same picture the camera is frozen and the guide says so. */
+  isFrozen(frame) {
+    const last = this.lastPicture;
+    const now = performance.now();
+    const same = last && last.width === frame.width && last.height === frame.height
+      && this.page.fm.samePicture?.(last.rgba, frame.rgba, frame.width, frame.height);
+    if (!same) {
+      this.lastPicture = { rgba: frame.rgba, width: frame.width, height: frame.height, since: now };
+      return (this.frozen = false);
+    }
+    if (now - last.since >= FROZEN_MS && !this.frozen) {
+      this.frozen = true;
+      this.els.guide.textContent = this.ask();
+    }
+    const why = this.frozen ? REASONS.frozen : 'the same picture as before';
+    this.rejected[why] = (this.rejected[why] || 0) + 1;
+    return true;
+  }
+
   /** Live sampling: one frame at a time, the next as soon as the finder is free again. */
   sampleLive(video) {
     const session = this.session;
@@ -293,7 +341,7 @@ export class Enrolment {
     this.timer = setTimeout(step, enrolPolicy().sampleMs);
     let k = 0;
     const prompt = () => {
-      this.els.guide.textContent = `${GUIDE} Now: ${PROMPTS[k++ % PROMPTS.length].toLowerCase()}.`;
+      this.els.guide.textContent = this.ask(k++);
     };
     prompt();
     this.promptTimer = setInterval(prompt, 2500);
@@ -335,7 +383,7 @@ export class Enrolment {
     this.stream = null;
     this.els.video.srcObject = null;
     this.els.video.hidden = true;
-    if (this.els.guide.textContent.startsWith(GUIDE)) this.els.guide.textContent = '';
+    if (!this.frozen) this.els.guide.textContent = '';
   }
 
   async build() {
@@ -378,7 +426,9 @@ export class Enrolment {
       this.page.inspect(model, info, name);
       this.els.done.hidden = false;
       this.showPreview(model, info, name);
-      this.update(`Built ${name} from ${frames.length} frames in ${((performance.now() - t0) / 1000).toFixed(1)} s: ${r.info.shapeModes} shape and ${r.info.appearanceModes} appearance modes. It is kept under Your models.`);
+      this.lastBuild = { frames: pick.map((i) => this.candidates[i].id), rejected: r.rejected };
+      const left = r.rejected.length ? `; ${r.rejected.length} not used (${[...new Set(r.rejected.map((x) => REASONS[x.reason] || x.reason))].join(', ')})` : '';
+      this.update(`Built ${name} from ${r.rejected.length ? `${frames.length - r.rejected.length} of ` : ''}${frames.length} frames${left} in ${((performance.now() - t0) / 1000).toFixed(1)} s: ${r.info.shapeModes} shape and ${r.info.appearanceModes} appearance modes. It is kept under Your models.`);
     } catch (e) {
       this.update(e.message === 'cancelled' ? 'Build cancelled; nothing was kept.' : `The build failed: ${e.message}`);
     } finally {

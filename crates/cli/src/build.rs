@@ -156,6 +156,10 @@ pub fn run(a: Args) -> Result<()> {
     for &(i, why) in &made.rejected {
         eprintln!("facemimic: rejected {} ({why})", paths[i].display());
     }
+    // The expressions the usable frames show (the page's guide shows the same checklist).
+    if a.find_faces {
+        eprintln!("facemimic: expressions: {}", made.coverage);
+    }
     if made.images.len() < paths.len() - made.skipped.len() - made.rejected.len() {
         eprintln!("facemimic: selected {} varied frames", made.images.len());
     }

@@ -73,7 +73,20 @@ export interface BuildModelOptions {
 }
 /** Why a frame is not used: its face is covered, blurred, too dark or flat, turned too far, or
  *  partly outside the picture. */
-export type FrameReason = "occluded" | "blurred" | "dark" | "turned" | "outside";
+export type FrameReason = "occluded" | "blurred" | "dark" | "turned" | "outside" | "frozen";
+/** An expression the enrolment guide asks for. */
+export type Expression = "smile" | "mouth-open" | "brows" | "eyes-closed" | "turn-left" | "turn-right";
+/** How many of the frames show each expression the guide asks for (`expressionCoverage`):
+ *  measured in the face frame against the faces' own median (docs/fitting.md). */
+export interface ExpressionCoverage {
+  smile: number; mouthOpen: number; brows: number; eyesClosed: number;
+  /** The person's own left (a mirrored preview shows it on the left) and right. */
+  turnLeft: number; turnRight: number;
+  /** Every expression shown. */
+  enough: boolean;
+  /** The expressions not shown yet, in the order the guide asks for them. */
+  missing: Expression[];
+}
 /** Build progress. `stage` "landmarks": the face finder has searched `done` of the `total`
  *  frames given without landmarks, `skipped` lists the indices (into `frames`) of those where it
  *  found no confident face so far. `stage` "model": `done` of `total` build steps. Return
@@ -503,6 +516,52 @@ pub fn shape_coverage_js(
     let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
     let chosen: Vec<usize> = chosen.into_iter().map(|i| i as usize).collect();
     facemimic::coverage(&refs, &chosen).map_err(|e| JsError::core("shapeCoverage", e))
+}
+
+/// How many of `shapes` (each a face's 68 landmarks, image pixels) show each expression the
+/// enrolment guide asks for (the core's `expression_coverage`): `{ smile, mouthOpen, brows,
+/// eyesClosed, turnLeft, turnRight, enough, missing }`. Fewer than 5 faces count nothing.
+#[wasm_bindgen(js_name = expressionCoverage, unchecked_return_type = "ExpressionCoverage")]
+pub fn expression_coverage_js(shapes: Vec<js_sys::Float32Array>) -> Result<JsValue, JsError> {
+    install_panic_hook();
+    let owned: Vec<Vec<f32>> = shapes.iter().map(|s| s.to_vec()).collect();
+    let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
+    let c = facemimic::expression_coverage(&refs)
+        .map_err(|e| JsError::core("expressionCoverage", e))?;
+    let o = js_sys::Object::new();
+    let set = |k: &str, v: JsValue| js_sys::Reflect::set(&o, &JsValue::from_str(k), &v);
+    let counts = [
+        ("smile", c.smile),
+        ("mouthOpen", c.mouth_open),
+        ("brows", c.brows),
+        ("eyesClosed", c.eyes_closed),
+        ("turnLeft", c.turn_left),
+        ("turnRight", c.turn_right),
+    ];
+    for (k, n) in counts {
+        let _ = set(k, (n as f64).into());
+    }
+    let _ = set("enough", c.enough.into());
+    let missing: js_sys::Array = c.missing().into_iter().map(JsValue::from_str).collect();
+    let _ = set("missing", missing.into());
+    Ok(o.into())
+}
+
+/// Whether two RGBA frames of one size show the same picture (a frozen camera: the core's
+/// `same_picture`, the rule `buildModel` rejects repeated frames by as "frozen").
+#[wasm_bindgen(js_name = samePicture)]
+pub fn same_picture_js(
+    #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] a: &[u8],
+    #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] b: &[u8],
+    width: u32,
+    height: u32,
+) -> Result<bool, JsError> {
+    install_panic_hook();
+    let a =
+        ImageRef::new(width, height, a).map_err(|e| JsError::new(&format!("samePicture: {e}")))?;
+    let b =
+        ImageRef::new(width, height, b).map_err(|e| JsError::new(&format!("samePicture: {e}")))?;
+    Ok(facemimic::same_picture(&a, &b))
 }
 
 /// The face to enrol in one RGBA frame: the finder's most confident face if its score reaches
