@@ -241,13 +241,15 @@ pub fn enrol(
             unusable(&skipped, &rejected)
         )));
     }
+    // Measured before the selection, reported after the build: a shape the builder refuses
+    // (non-finite points) gets the builder's own message, not the checklist's.
     let coverage = {
         let shapes: Vec<&[f32]> = images
             .iter()
             .map(|t| t.landmarks.as_slice())
             .filter(|l| l.len() == 136)
             .collect();
-        expression_coverage(&shapes)?
+        expression_coverage(&shapes)
     };
     let (images, used) = select(images, used, options.select, reference)?;
     let model = Builder::new(options.build.clone()).build_refined(
@@ -264,6 +266,7 @@ pub fn enrol(
             })
         },
     )?;
+    let coverage = coverage?;
     let model = if options.backdrop {
         crate::train::photo::with_default_backdrop(model, &images, None)?
     } else {
