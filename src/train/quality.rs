@@ -78,6 +78,19 @@ pub const MAX_OCCLUSION: f32 = 0.72;
 /// Fewest frames [`occlusion_scores`] compares; with fewer every score is 0.
 pub const MIN_CONSENSUS_FRAMES: usize = 6;
 
+/// Least [`FrameQuality::lips`] accepted.
+/// Measured (dlib's points on clean faces, the finder's on covered ones; `enrol_quality::
+/// print_lip_contrast`): clean faces 0.061 at the least (330 GRID frames, London's 120 photos,
+/// webcam-dev and franck-dev every 7th frame); a skin-coloured ellipse over the mouth 0.014 at
+/// the most; a synthetic hand over the mouth 0.012-0.13 (the rest is left to
+/// [`occlusion_scores`]).
+pub const MIN_LIP_CONTRAST: f32 = 0.03;
+/// The skin ring around the lips: between these scales of the outer lip contour about its
+/// centre.
+const LIP_RING: (f32, f32) = (1.2, 1.5);
+/// Samples across and down the ring's box for [`lip_contrast`].
+const LIP_SAMPLES: usize = 32;
+
 /// Side of the grid a face is resampled to for its luminance and sharpness.
 const GRID: usize = 48;
 /// Cells across and down the canonical frame for the occlusion scores.
@@ -101,6 +114,9 @@ pub struct FrameQuality {
     pub sharpness: f32,
     /// The finder's passes' disagreement, when the finder placed the points.
     pub spread: Option<f32>,
+    /// How far the lips' colour stands from the skin around them ([`lip_contrast`]): near 0
+    /// when something flat covers the mouth (a hand, a cup, a sleeve).
+    pub lips: f32,
 }
 
 impl FrameQuality {
@@ -134,11 +150,13 @@ impl FrameQuality {
             contrast,
             sharpness: sharpness(&grid),
             spread,
+            lips: lip_contrast(image, landmarks),
         })
     }
 
     /// The first problem the per-frame checks find, in the order outside, turned, dark,
-    /// blurred, occluded (the finder's passes disagreeing); `None` for a good frame.
+    /// blurred, occluded (the finder's passes disagreeing, or no lips to be seen); `None` for
+    /// a good frame.
     pub fn problem(&self) -> Option<FrameProblem> {
         if self.outside > MAX_OUTSIDE {
             Some(FrameProblem::Outside)
@@ -148,7 +166,7 @@ impl FrameQuality {
             Some(FrameProblem::Dark)
         } else if self.sharpness < MIN_SHARPNESS {
             Some(FrameProblem::Blurred)
-        } else if self.spread.is_some_and(|s| s > MAX_SPREAD) {
+        } else if self.spread.is_some_and(|s| s > MAX_SPREAD) || self.lips < MIN_LIP_CONTRAST {
             Some(FrameProblem::Occluded)
         } else {
             None
@@ -186,6 +204,81 @@ fn face_grid(image: &ImageRef, landmarks: &[f32]) -> Vec<f32> {
 
 fn luma(c: [f32; 3]) -> f32 {
     0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+}
+
+/// How much the lips stand out: the distance between the lips' mean colour and the mean colour
+/// of the skin ring around them ([`LIP_RING`]) in an opponent space (luminance, red-green,
+/// yellow-blue; 0..1 units), combined (root of the sum of squares) with the spread of the lips'
+/// luminance (the line between them, their shading). The lips are the outer lip contour (points
+/// 48-59) less the mouth's opening (60-67). Lips differ from skin in every face, darker or
+/// redder or both, and are never flat; a flat occluder over the mouth (a hand, a cup, a sleeve)
+/// is one colour inside and around, wherever the finder put the points on it. Depends on the
+/// light: a dim face scores lower (the dark check comes first). Requires 68 finite points.
+pub(crate) fn lip_contrast(image: &ImageRef, landmarks: &[f32]) -> f32 {
+    let pt = |i: usize| [landmarks[2 * i], landmarks[2 * i + 1]];
+    let outer: Vec<[f32; 2]> = (48..60).map(pt).collect();
+    let inner: Vec<[f32; 2]> = (60..68).map(pt).collect();
+    let c = outer
+        .iter()
+        .fold([0.0, 0.0], |a, p| [a[0] + p[0] / 12.0, a[1] + p[1] / 12.0]);
+    let scaled = |k: f32| -> Vec<[f32; 2]> {
+        outer
+            .iter()
+            .map(|p| [c[0] + k * (p[0] - c[0]), c[1] + k * (p[1] - c[1])])
+            .collect()
+    };
+    let (near, far) = (scaled(LIP_RING.0), scaled(LIP_RING.1));
+    let b = crate::geometry::BBox::of_points(&far.iter().flatten().copied().collect::<Vec<_>>());
+    let (mut lips, mut ring) = (([0.0f32; 3], 0usize), ([0.0f32; 3], 0usize));
+    let mut lips_sq = 0.0f32;
+    for gy in 0..LIP_SAMPLES {
+        for gx in 0..LIP_SAMPLES {
+            let x = b.x + b.width * (gx as f32 + 0.5) / LIP_SAMPLES as f32;
+            let y = b.y + b.height * (gy as f32 + 0.5) / LIP_SAMPLES as f32;
+            let on_lips = inside(&outer, x, y);
+            if (on_lips && inside(&inner, x, y))
+                || (!on_lips && (!inside(&far, x, y) || inside(&near, x, y)))
+            {
+                continue;
+            }
+            let [r, g, bl] = image.sample_rgb(x, y);
+            let o = [luma([r, g, bl]), r - g, 0.5 * (r + g) - bl];
+            let into = if on_lips {
+                lips_sq += o[0] * o[0];
+                &mut lips
+            } else {
+                &mut ring
+            };
+            for k in 0..3 {
+                into.0[k] += o[k];
+            }
+            into.1 += 1;
+        }
+    }
+    if lips.1 == 0 || ring.1 == 0 {
+        return 0.0;
+    }
+    let apart = (0..3)
+        .map(|k| (lips.0[k] / lips.1 as f32 - ring.0[k] / ring.1 as f32).powi(2))
+        .sum::<f32>()
+        .sqrt();
+    let mean = lips.0[0] / lips.1 as f32;
+    let spread = (lips_sq / lips.1 as f32 - mean * mean).max(0.0).sqrt();
+    apart.hypot(spread)
+}
+
+/// Whether `(x, y)` lies inside the polygon (even-odd rule).
+fn inside(poly: &[[f32; 2]], x: f32, y: f32) -> bool {
+    let mut odd = false;
+    let mut j = poly.len() - 1;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[j]);
+        if (a[1] > y) != (b[1] > y) && x < a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0]) {
+            odd = !odd;
+        }
+        j = i;
+    }
+    odd
 }
 
 /// The median and the 5-95 percentile range of `v`.

@@ -421,3 +421,72 @@ pub fn scaled(img: &Image, f: f32) -> Image {
     }
     out
 }
+
+/// The lip contrast ([`facemimic::FrameQuality::lips`]) of clean faces (dlib's points: London
+/// neutral and smiling, GRID, webcam-dev, franck-dev) and of covered ones (the finder's points),
+/// sorted, for choosing `MIN_LIP_CONTRAST` (`-- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn print_lip_contrast() {
+    let lips = |t: &TrainingImage, lm: &[f32]| {
+        facemimic::FrameQuality::measure(&t.image.view().unwrap(), lm, None)
+            .unwrap()
+            .lips
+    };
+    let show = |what: &str, mut v: Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        let q = |p: f32| v[((v.len() - 1) as f32 * p) as usize];
+        println!(
+            "{what:24} n {:4} min {:.4} p1 {:.4} p5 {:.4} p50 {:.4} max {:.4} lowest {:.4?}",
+            v.len(),
+            v[0],
+            q(0.01),
+            q(0.05),
+            q(0.5),
+            v[v.len() - 1],
+            &v[..v.len().min(6)]
+        );
+    };
+    for set in ["neutral", "smiling"] {
+        let dir = common::shared_data("london").unwrap().join(set);
+        let v = common::load(&common::clip_frames(&dir))
+            .iter()
+            .map(|t| lips(t, &t.landmarks))
+            .collect();
+        show(&format!("london {set}"), v);
+    }
+    let mut grid = Vec::new();
+    for e in std::fs::read_dir(common::repo("data/grid")).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            for t in common::load(&common::clip_frames(&p)) {
+                grid.push(lips(&t, &t.landmarks));
+            }
+        }
+    }
+    show("grid", grid);
+    let mut finder = facemimic::EnrolFinder::new(1).unwrap();
+    for clip in ["webcam-dev", "franck-dev"] {
+        let Some(dir) = common::shared_data(clip) else {
+            continue;
+        };
+        let n = common::clip_frames(&dir).len();
+        let mut clean = Vec::new();
+        let mut covered: Vec<Vec<f32>> = vec![Vec::new(); KINDS.len()];
+        for (k, i) in (0..n).step_by(7).enumerate() {
+            let t = common::frame(&dir, i);
+            clean.push(lips(&t, &t.landmarks));
+            let kind = k % KINDS.len();
+            let o = occlude(&t, KINDS[kind], k as u32);
+            if let Some(face) = finder.find(&o.image.view().unwrap(), 0.0).unwrap() {
+                covered[kind].push(lips(&o, &face.landmarks));
+            }
+        }
+        show(&format!("{clip} clean"), clean);
+        for (kind, v) in covered.into_iter().enumerate() {
+            if !v.is_empty() {
+                show(&format!("{clip} {:?}", KINDS[kind]), v);
+            }
+        }
+    }
+}
