@@ -192,61 +192,142 @@ export function readPts(file) {
   return Array.from(pkg().parsePts(fs.readFileSync(file, 'utf8')));
 }
 
+/** The flat skin tone of the drawn occluders ([r, g, b]). */
+export const OCCLUDER_SKIN = [201, 152, 124];
+/** Bits of the frame marker `clipFrames` draws (`marker`) and `readMarker` reads. */
+const MARKER_BITS = 12;
+/** Side of one marker block, in pixels (top-left corner, 4 px in). */
+const MARKER_BLOCK = 10;
+
 /**
- * Frames of a GRID clip folder (`NNNNNN.jpg`, with `000000.pts`) drawn by Chromium into a
+ * Frames of a GRID clip folder (`NNNNNN.jpg` with its `.pts`) drawn by Chromium into a
  * `width x height` picture with the face where the webcam guide is (0.95 of its height 0.5 H,
- * centred, 0.04 H below the middle; www/js/placement.js `placeDefault`), on a dark blue
- * background. Frames whose index is in `black` (a Set) are all black. Returns the JPEGs
- * (base64) in order.
+ * centred, 0.04 H below the middle, placed from frame 0; www/js/placement.js `placeDefault`),
+ * on a dark blue background. Each entry of `frames` is a clip frame index or
+ * `{ i, black, rotate, cover, marker }`: `black` draws an all-black picture; `rotate` turns the
+ * picture by that many degrees about the face's centre; `cover` paints a flat skin-coloured
+ * occluder (`OCCLUDER_SKIN`): "mouth" (a rectangle over the mouth), "lower" (everything from the
+ * nose tip down: a hand over the lower face), "hand" (a palm and four fingers entering from the
+ * left over the cheek and mouth), "eyes" (a bar); `marker` draws that number in `MARKER_BITS`
+ * black and white blocks in the top-left corner (`readMarker`). Returns `{ jpegs, truth }`:
+ * the JPEGs (Buffers) in order and each frame's 68 points where they now are (null for black).
  */
-async function guideFrames({ dir, count, width = 640, height = 480, black = new Set() }) {
+export async function clipFrames({ dir, frames, width = 640, height = 480 }) {
+  const names = fs.readdirSync(dir).filter((f) => /^\d{6}\.jpg$/.test(f)).sort();
+  const specs = (frames ?? names.map((_, i) => i)).map((f) => (typeof f === 'number' ? { i: f } : f));
+  const pts = specs.map((f) => (f.black ? null : readPts(path.join(dir, names[f.i].replace('.jpg', '.pts')))));
+  const v = readPts(path.join(dir, names[0].replace('.jpg', '.pts')));
+  const xs = v.filter((_, i) => i % 2 === 0);
+  const ys = v.filter((_, i) => i % 2 === 1);
+  const face = { cx: (Math.min(...xs) + Math.max(...xs)) / 2, cy: (Math.min(...ys) + Math.max(...ys)) / 2, h: Math.max(...ys) - Math.min(...ys) };
+  const scale = (0.5 * height * 0.95) / face.h;
+  const dx = width / 2 - face.cx * scale;
+  const dy = height / 2 + 0.04 * height - face.cy * scale;
   const browser = await launchBrowser();
-  const frames = await serveStatic(dir);
+  const server = await serveStatic(dir);
   try {
     const page = await browser.newPage();
-    await page.goto(`${frames.url}000000.jpg`);
-    const v = readPts(path.join(dir, '000000.pts'));
-    const xs = v.filter((_, i) => i % 2 === 0);
-    const ys = v.filter((_, i) => i % 2 === 1);
-    const face = { cx: (Math.min(...xs) + Math.max(...xs)) / 2, cy: (Math.min(...ys) + Math.max(...ys)) / 2, h: Math.max(...ys) - Math.min(...ys) };
-    const scale = (0.5 * height * 0.95) / face.h;
-    const dx = width / 2 - face.cx * scale;
-    const dy = height / 2 + 0.04 * height - face.cy * scale;
-    const n = count ?? fs.readdirSync(dir).filter((f) => /^\d{6}\.jpg$/.test(f)).length;
-    return await page.evaluate(
-      async ({ n, W, H, scale, dx, dy, black }) => {
+    await page.goto(`${server.url}${names[0]}`);
+    const list = specs.map((f, k) => ({ ...f, name: f.black ? null : names[f.i], lm: pts[k] }));
+    const out = await page.evaluate(
+      async ({ list, W, H, scale, dx, dy, SKIN, BITS, BLOCK }) => {
         const c = document.createElement('canvas');
         c.width = W;
         c.height = H;
         const g = c.getContext('2d');
-        const out = [];
-        for (let i = 0; i < n; i++) {
-          if (black.includes(i)) {
+        const res = [];
+        for (const f of list) {
+          let truth = null;
+          if (f.black) {
             g.fillStyle = '#000';
             g.fillRect(0, 0, W, H);
           } else {
             const img = new Image();
-            img.src = `${String(i).padStart(6, '0')}.jpg`;
+            img.src = f.name;
             await img.decode();
             g.fillStyle = '#203040';
             g.fillRect(0, 0, W, H);
+            // The face's centre in the picture, the pivot of the rotation.
+            const [px, py] = [W / 2, H / 2 + 0.04 * H];
+            const a = ((f.rotate || 0) * Math.PI) / 180;
+            const [cs, sn] = [Math.cos(a), Math.sin(a)];
+            const place = (x, y) => {
+              const [u, v] = [x * scale + dx - px, y * scale + dy - py];
+              return [px + cs * u - sn * v, py + sn * u + cs * v];
+            };
+            g.save();
+            g.translate(px, py);
+            g.rotate(a);
+            g.translate(-px, -py);
             g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
+            g.restore();
+            truth = [];
+            for (let k = 0; k < 68; k++) truth.push(...place(f.lm[2 * k], f.lm[2 * k + 1]));
+            const P = (k) => [truth[2 * k], truth[2 * k + 1]];
+            const box = (from, to) => {
+              const q = [];
+              for (let k = from; k <= to; k++) q.push(P(k));
+              const qx = q.map((p) => p[0]), qy = q.map((p) => p[1]);
+              return [Math.min(...qx), Math.max(...qx), Math.min(...qy), Math.max(...qy)];
+            };
+            const iod = Math.hypot(P(45)[0] - P(36)[0], P(45)[1] - P(36)[1]);
+            g.fillStyle = `rgb(${SKIN.join(',')})`;
+            if (f.cover === 'mouth') {
+              const [x0, x1, y0, y1] = box(48, 67);
+              const [w, h] = [(x1 - x0) * 1.6, (y1 - y0) * 2.2];
+              g.fillRect((x0 + x1) / 2 - w / 2, (y0 + y1) / 2 - h / 2, w, h);
+            } else if (f.cover === 'lower') {
+              const [x0, x1] = box(0, 16);
+              const top = P(30)[1];
+              g.fillRect(x0 - 0.3 * iod, top, x1 - x0 + 0.6 * iod, H - top);
+            } else if (f.cover === 'eyes') {
+              const [x0, x1, y0, y1] = box(36, 47);
+              g.fillRect(x0 - 0.3 * iod, y0 - 0.2 * iod, x1 - x0 + 0.6 * iod, y1 - y0 + 0.4 * iod);
+            } else if (f.cover === 'hand') {
+              const m = [(P(48)[0] + P(54)[0]) / 2, (P(51)[1] + P(57)[1]) / 2];
+              const palm = [P(3)[0] - 0.2 * iod, m[1] + 0.1 * iod];
+              const ell = (cx, cy, rx, ry, rot) => { g.beginPath(); g.ellipse(cx, cy, rx, ry, rot, 0, 2 * Math.PI); g.fill(); };
+              ell(palm[0], palm[1], 0.7 * iod, 0.55 * iod, 0);
+              ell(palm[0] - 1.2 * iod, palm[1] + 0.5 * iod, 1.2 * iod, 0.4 * iod, 0.3);
+              for (let k = 0; k < 4; k++) ell(palm[0] + 0.85 * iod, palm[1] - 0.45 * iod + 0.3 * iod * k, 0.5 * iod, 0.12 * iod, -0.1);
+            }
+          }
+          if (f.marker !== undefined) {
+            for (let b = 0; b < BITS; b++) {
+              g.fillStyle = (f.marker >> b) & 1 ? '#fff' : '#000';
+              g.fillRect(4 + b * BLOCK, 4, BLOCK, BLOCK);
+            }
           }
           const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.92));
           const bytes = new Uint8Array(await blob.arrayBuffer());
           let bin = '';
           for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
-          out.push(btoa(bin));
+          res.push({ jpeg: btoa(bin), truth });
         }
-        return out;
+        return res;
       },
-      { n, W: width, H: height, scale, dx, dy, black: [...black] },
+      { list, W: width, H: height, scale, dx, dy, SKIN: OCCLUDER_SKIN, BITS: MARKER_BITS, BLOCK: MARKER_BLOCK },
     );
+    return { jpegs: out.map((o) => Buffer.from(o.jpeg, 'base64')), truth: out.map((o) => o.truth) };
   } finally {
     await browser.close();
-    await frames.close();
+    await server.close();
   }
 }
+
+/**
+ * The source of a function (run in the page: `new Function` or `page.evaluate`) reading the
+ * marker `clipFrames` drew into RGBA pixels `data` of width `width`: `(data, width) => number`.
+ */
+export const READ_MARKER = `(data, width) => {
+  let n = 0;
+  for (let b = 0; b < ${MARKER_BITS}; b++) {
+    const x = 4 + b * ${MARKER_BLOCK} + ${MARKER_BLOCK / 2}, y = 4 + ${MARKER_BLOCK / 2};
+    const i = 4 * (y * width + x);
+    if (data[i] + data[i + 1] + data[i + 2] > 3 * 128) n |= 1 << b;
+  }
+  return n;
+}`;
 
 /** Chromium's switches for a fake camera the page may use without asking (and autoplay). */
 export const FAKE_CAMERA_ARGS = [
@@ -276,7 +357,9 @@ export function mjpegCamera(t, jpegs, name = 'camera') {
  * A fake camera (`mjpegCamera`) playing the frames of a GRID clip folder as a 640x480 MJPEG
  * with the face in the webcam guide. Returns the file's path.
  */
-export async function fakeCameraFile(t, dir, { name = 'camera', black } = {}) {
-  const jpegs = await guideFrames({ dir, black });
-  return mjpegCamera(t, jpegs.map((b) => Buffer.from(b, 'base64')), name);
+export async function fakeCameraFile(t, dir, { name = 'camera', black = new Set() } = {}) {
+  const n = fs.readdirSync(dir).filter((f) => /^\d{6}\.jpg$/.test(f)).length;
+  const frames = Array.from({ length: n }, (_, i) => (black.has(i) ? { i, black: true } : i));
+  const { jpegs } = await clipFrames({ dir, frames });
+  return mjpegCamera(t, jpegs, name);
 }

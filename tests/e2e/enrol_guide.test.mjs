@@ -15,12 +15,10 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { ROOT, serveStatic, launchBrowser, screenshot, mjpegCamera, readPts, assertPageBuilt, cameraBrowser, openPage } from './lib.mjs';
+import { ROOT, serveStatic, screenshot, mjpegCamera, clipFrames, OCCLUDER_SKIN as SKIN, assertPageBuilt, cameraBrowser, openPage } from './lib.mjs';
 
 const WWW = path.join(ROOT, 'www');
 const CLIP = path.join(ROOT, 'data', 'grid', 'spk07_id2_vcd_swwp2s');
-/** The colour of the occluder (a flat skin tone). */
-const SKIN = [201, 152, 124];
 
 let server;
 
@@ -31,57 +29,12 @@ before(async () => {
 
 after(() => server?.close());
 
-/**
- * The clip's frames as 640x480 JPEGs (the face about half the height, centred), drawn and
- * encoded by Chromium; `cover(i)`: a skin-coloured rectangle over frame i's mouth; `only`: the
- * frame repeated instead of the clip.
- */
+/** The clip's frames as the webcam would show them (`clipFrames`); `cover(i)`: a skin-coloured
+ * rectangle over frame i's mouth; `only`: that frame alone. */
 async function clipJpegs({ cover = () => false, only = null } = {}) {
-  const names = fs.readdirSync(CLIP).filter((f) => /^\d{6}\.jpg$/.test(f)).sort();
-  const pts = names.map((n) => readPts(path.join(CLIP, n.replace('.jpg', '.pts'))));
-  const browser = await launchBrowser();
-  const frames = await serveStatic(CLIP);
-  try {
-    const page = await browser.newPage();
-    await page.goto(`${frames.url}${names[0]}`);
-    const list = names.map((n, i) => ({ n, lm: pts[i], cover: cover(i) }));
-    const out = await page.evaluate(async ({ list, only, SKIN }) => {
-      const [W, H, scale] = [640, 480, 1.6];
-      const c = document.createElement('canvas');
-      c.width = W;
-      c.height = H;
-      const g = c.getContext('2d');
-      const res = [];
-      for (const f of only === null ? list : [list[only]]) {
-        const img = new Image();
-        img.src = f.n;
-        await img.decode();
-        g.fillStyle = '#203040';
-        g.fillRect(0, 0, W, H);
-        const [dx, dy] = [(W - img.width * scale) / 2, (H - img.height * scale) / 2];
-        g.drawImage(img, dx, dy, img.width * scale, img.height * scale);
-        if (f.cover) {
-          // The mouth's box (points 48-67) grown by 60%, in the picture's coordinates.
-          const xs = [], ys = [];
-          for (let k = 48; k < 68; k++) { xs.push(f.lm[2 * k] * scale + dx); ys.push(f.lm[2 * k + 1] * scale + dy); }
-          const [x0, x1, y0, y1] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
-          const [w, h] = [(x1 - x0) * 1.6, (y1 - y0) * 2.2];
-          g.fillStyle = `rgb(${SKIN.join(',')})`;
-          g.fillRect((x0 + x1) / 2 - w / 2, (y0 + y1) / 2 - h / 2, w, h);
-        }
-        const blob = await new Promise((r) => c.toBlob(r, 'image/jpeg', 0.92));
-        const bytes = new Uint8Array(await blob.arrayBuffer());
-        let bin = '';
-        for (let k = 0; k < bytes.length; k += 0x8000) bin += String.fromCharCode(...bytes.subarray(k, k + 0x8000));
-        res.push(btoa(bin));
-      }
-      return res;
-    }, { list, only, SKIN });
-    return out.map((b) => Buffer.from(b, 'base64'));
-  } finally {
-    frames.close();
-    await browser.close();
-  }
+  const n = fs.readdirSync(CLIP).filter((f) => /^\d{6}\.jpg$/.test(f)).length;
+  const frames = only === null ? Array.from({ length: n }, (_, i) => ({ i, cover: cover(i) ? 'mouth' : null })) : [only];
+  return (await clipFrames({ dir: CLIP, frames })).jpegs;
 }
 
 async function startWebcam(t, camera) {

@@ -13,7 +13,7 @@ import { ROOT, pkg, CHROMIUM, serveStatic, launchBrowser, haveChromium, fakeCame
 
 export {
   ROOT, pkg, ARTIFACTS, CHROMIUM, CHROMIUM_ARGS, serveStatic, launchBrowser, haveChromium, screenshot,
-  readPts, FAKE_CAMERA_ARGS, fakeCameraArgs, mjpegCamera, fakeCameraFile,
+  readPts, FAKE_CAMERA_ARGS, fakeCameraArgs, mjpegCamera, fakeCameraFile, clipFrames, READ_MARKER, OCCLUDER_SKIN,
 } from '../../scripts/lib/browser.mjs';
 
 /**

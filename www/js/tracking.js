@@ -361,6 +361,7 @@ class VideoSource {
     const wasLost = this.last?.lost;
     // An unsure fit (the core doubts it: r.status, r.reasons) drives nothing; never "tracking".
     const unsure = !r.lost && r.status === 'unsure';
+    const shownState = this.state;
     this.state = r.lost ? (this.lastGood ? 'lost' : this.searchStart ? 'searching' : 'lost') : unsure ? 'unsure' : resets > this.lastResets ? 'reinit' : 'tracking';
     this.lastResets = resets;
     this.last = r;
@@ -380,7 +381,10 @@ class VideoSource {
       if (r.lost && this.lastGood === null && this.searchStart) this.say('Looking for a face…');
       else if (r.lost) this.say('Face lost: looking for it again (it is tracked again as soon as it is found).');
       else if (r.reacquired) this.say(wasLost && this.log.length > 1 ? 'Face found again: tracking.' : 'Face found: tracking.');
-      else if (/^(Face lost|Looking for a face|Face found)/.test(this.panel.message)) this.say('Tracking.');
+      else if (unsure) this.say('Unsure of the fit: the targets hold the last good expression until the face is clear again.');
+      else if (/^(Face lost|Looking for a face|Face found|Unsure of the fit)/.test(this.panel.message)) this.say('Tracking.');
+      // The state's label changes with the message, not at the readout's next refresh.
+      if (this.state !== shownState) this.panel.showState();
     }
     this.panel?.showStats(t1);
   }
