@@ -170,7 +170,8 @@ fn crop_left_at(t: &TrainingImage, x: f32) -> TrainingImage {
     }
 }
 
-fn enrol_options() -> EnrolOptions {
+/// The enrolment measures' options: 20 varied frames selected, at least 8 usable.
+pub fn enrol_options() -> EnrolOptions {
     EnrolOptions {
         build: BuildOptions {
             name: "quality".into(),
@@ -182,7 +183,14 @@ fn enrol_options() -> EnrolOptions {
     }
 }
 
-fn enrol_clip(frames: &[TrainingImage]) -> Enrolment {
+/// `try_enrol_clip`, which must succeed.
+pub fn enrol_clip(frames: &[TrainingImage]) -> Enrolment {
+    try_enrol_clip(frames).unwrap()
+}
+
+/// `frames` through [`facemimic::enrol`] without landmarks (the finder's), quality checks on,
+/// selecting 20 varied frames.
+pub fn try_enrol_clip(frames: &[TrainingImage]) -> facemimic::Result<Enrolment> {
     let given = frames
         .iter()
         .map(|t| EnrolFrame {
@@ -191,7 +199,7 @@ fn enrol_clip(frames: &[TrainingImage]) -> Enrolment {
             landmarks: None,
         })
         .collect();
-    enrol(given, &enrol_options(), None, None, &mut |_| true).unwrap()
+    enrol(given, &enrol_options(), None, None, &mut |_| true)
 }
 
 /// Mean convention-free error of `model` over `test`, started from the finder's face (the

@@ -28,6 +28,8 @@ mod confidence;
 #[cfg(not(target_arch = "wasm32"))]
 mod enrol;
 #[cfg(not(target_arch = "wasm32"))]
+mod enrol_bad_input;
+#[cfg(not(target_arch = "wasm32"))]
 mod enrol_quality;
 #[cfg(not(target_arch = "wasm32"))]
 mod enrol_webcam;
