@@ -30,9 +30,7 @@ fn a_clip_with_every_frame_occluded_yields_no_model() {
         .enumerate()
         .map(|(k, t)| occlude(t, Occluder::Mouth, k as u32))
         .collect();
-    let e = try_enrol_clip(&frames)
-        .err()
-        .expect("a model from occluded frames");
+    let e = try_enrol_clip(&frames).expect_err("a model from occluded frames");
     let msg = e.to_string();
     assert!(msg.contains("occluded"), "{msg}");
     assert!(msg.contains("a usable face in"), "{msg}");
@@ -77,8 +75,7 @@ fn a_frozen_webcam_yields_no_model() {
     let one = clip("spk07_id2_vcd_swwp2s", 1).remove(0);
     let frames = vec![one; 16];
     let msg = try_enrol_clip(&frames)
-        .err()
-        .expect("a model from a frozen camera")
+        .expect_err("a model from a frozen camera")
         .to_string();
     assert!(msg.contains("the camera seems frozen"), "{msg}");
 }
@@ -89,8 +86,7 @@ fn frames_alternating_between_two_people_yield_no_model() {
     let b = clip("spk02_brbk7n", 10);
     let frames: Vec<_> = a.into_iter().zip(b).flat_map(|(x, y)| [x, y]).collect();
     let msg = try_enrol_clip(&frames)
-        .err()
-        .expect("a model from two people")
+        .expect_err("a model from two people")
         .to_string();
     assert!(msg.contains("two different people"), "{msg}");
 }
