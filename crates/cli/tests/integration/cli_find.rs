@@ -230,3 +230,63 @@ fn build_find_faces_is_the_core_pipeline() {
         "facemimic build --find-faces and enrol give different models"
     );
 }
+
+/// `build --find-faces` applies the core's enrolment rules (issue 33's bad input): a frozen
+/// camera (one picture 12 times) and two people alternating are errors that say so, and write
+/// nothing.
+#[test]
+fn build_find_faces_refuses_a_frozen_camera_and_two_people() {
+    let d = scratch("bad");
+    let frozen = frames(&d, &["spk07_pwij3p/000010"; 12]);
+    let out = d.join("frozen.fmm");
+    let mut args: Vec<&Path> = vec![
+        Path::new("build"),
+        Path::new("--find-faces"),
+        Path::new("--out"),
+        &out,
+    ];
+    args.extend(frozen.iter().map(PathBuf::as_path));
+    let o = run(&args);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the camera seems frozen"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+
+    let jpgs = |clip: &str| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(grid(clip))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "jpg"))
+            .map(|p| format!("{clip}/{}", p.file_stem().unwrap().to_string_lossy()))
+            .collect();
+        v.sort();
+        v.truncate(8);
+        v
+    };
+    let stems: Vec<String> = jpgs("spk07_pwij3p")
+        .into_iter()
+        .zip(jpgs("spk02_brbk7n"))
+        .flat_map(|(a, b)| [a, b])
+        .collect();
+    let stems: Vec<&str> = stems.iter().map(String::as_str).collect();
+    let two = frames(&d, &stems);
+    let out = d.join("two.fmm");
+    let mut args: Vec<&Path> = vec![
+        Path::new("build"),
+        Path::new("--find-faces"),
+        Path::new("--out"),
+        &out,
+    ];
+    args.extend(two.iter().map(PathBuf::as_path));
+    let o = run(&args);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("two different people"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}
