@@ -6,6 +6,8 @@
 //   around them; the finder's two looks agree on a flat rectangle, and the faces' median would
 //   learn a rectangle on half the frames), none is kept, and the model is built from none;
 // - a frozen camera (one JPEG repeated): the guide says the camera seems frozen;
+// - the usable count never goes down, also once the pool of kept frames (60) is pruned to its
+//   most varied (the issue's "usable faces" count that fell from 60 to 46);
 // - the checklist of expressions on the (speech) clip: shown, never ticking back, and the guide
 //   asks for what is missing (speech has no closed eyes and no turns, so "enough" is not reached;
 //   the core's unit tests cover "enough" on landmarks, src/train/expression.rs).
@@ -82,6 +84,31 @@ test('the checklist: shown, never ticking back, and the guide asks for what is m
   assert.match(guide, /Now: (now smile|open your mouth wide|raise your eyebrows|close your eyes for a moment|look a little left|look a little right)\./);
   assert.equal(await page.$eval('#enrol .enrol-checklist', (e) => e.dataset.enough), '0');
   await screenshot(page, 'enrol-guide-checklist', { fullPage: false });
+  assert.deepEqual(errors, []);
+});
+
+test('the usable count never goes down, also when the pool of frames is pruned to the most varied', async (t) => {
+  const camera = mjpegCamera(t, await clipJpegs(), 'pool-camera');
+  const { page, errors } = await startWebcam(t, camera);
+  const counts = [];
+  let pruned = null;
+  const until = Date.now() + 60_000;
+  while (Date.now() < until) {
+    const s = await text(page, '.enrol-status');
+    const m = s.match(/^(\d+) usable faces? out of (\d+) frames?/);
+    if (m) counts.push(Number(m[1]));
+    if (/most varied kept/.test(s)) {
+      pruned = s;
+      if (counts.at(-1) >= 70) break;
+    }
+    await page.waitForTimeout(200);
+  }
+  const pool = await page.evaluate(() => window.facemimicEnrol.candidates.length);
+  console.log(`# pool: counts ${counts[0]}..${counts.at(-1)} in ${counts.length} reads; pool ${pool}; "${pruned}"`);
+  assert.ok(pruned, `the pool was never pruned (counts up to ${counts.at(-1)})`);
+  assert.match(pruned, /^\d+ usable faces out of \d+ frames \(the \d+ most varied kept\)\./);
+  for (let k = 1; k < counts.length; k++) assert.ok(counts[k] >= counts[k - 1], `the count went from ${counts[k - 1]} to ${counts[k]}`);
+  assert.ok(counts.at(-1) > pool, `count ${counts.at(-1)}, pool ${pool}`);
   assert.deepEqual(errors, []);
 });
 

@@ -56,6 +56,7 @@ export class Enrolment {
     this.page = page;
     this.candidates = []; // { rgba, width, height, landmarks }
     this.seen = 0;
+    this.usable = 0; // usable faces seen: never lowered when the pool is pruned
     this.stream = null;
     this.timer = null;
     this.abort = null;
@@ -115,6 +116,7 @@ export class Enrolment {
     this.stopCapture();
     this.candidates = [];
     this.seen = 0;
+    this.usable = 0;
     this.rejected = {}; // frames not used, by reason
     this.lastReason = '';
     this.counts = {}; // expressionCoverage's counts, never lowered in a session
@@ -143,6 +145,7 @@ export class Enrolment {
   /** Adds a frame with its landmarks, pruning to the most varied when there are too many. */
   addCandidate(frame) {
     frame.id = this.nextId = (this.nextId || 0) + 1;
+    this.usable++;
     this.candidates.push(frame);
     if (this.candidates.length > enrolPolicy().maxCandidates) {
       const keep = this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.round(enrolPolicy().maxCandidates * 0.75));
@@ -164,7 +167,11 @@ export class Enrolment {
     this.updateExpressions();
     this.els.coverage.value = cover;
     this.els.coverage.title = `${Math.round(cover * 100)}% of the variety seen is covered by the ${Math.min(enrolPolicy().want, n)} frames that would be used`;
-    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${n} usable face${n === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${n < enrolPolicy().minFrames ? ` (at least ${enrolPolicy().minFrames} are needed)` : ''}.${this.notUsed()}`;
+    // The count is of usable faces seen, which never goes down; the pool they are chosen from
+    // keeps the most varied (enrolPolicy().maxCandidates), and says so once it is pruned.
+    const u = this.usable;
+    const pool = n < u ? ` (the ${n} most varied kept)` : '';
+    if (text !== undefined || !this.abort) this.els.status.textContent = text ?? `${u} usable face${u === 1 ? '' : 's'} out of ${this.seen} frame${this.seen === 1 ? '' : 's'}${pool}${n < enrolPolicy().minFrames ? ` (at least ${enrolPolicy().minFrames} are needed)` : ''}.${this.notUsed()}`;
     this.els.build.disabled = n < enrolPolicy().minFrames || this.abort !== null || this.intake > 0;
     this.els.cancel.textContent = this.abort ? 'Cancel' : 'Close';
   }
