@@ -741,7 +741,7 @@ impl Compositor {
     }
 
     /// Places the extended mesh for a face at `image_shape` (its landmarks in the backdrop's
-    /// pixels) as [`Compositor::draw`] does ([`ExtendedMesh::place`]: the head's motion damped
+    /// pixels) as [`Compositor::draw`] does (`ExtendedMesh::place`: the head's motion damped
     /// where the backdrop cannot show it), and returns the placed points, the face's landmarks
     /// as drawn first (for tests and tools).
     pub fn place_head(&mut self, image_shape: &[f32]) -> &[f32] {

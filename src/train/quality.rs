@@ -114,7 +114,7 @@ pub struct FrameQuality {
     pub sharpness: f32,
     /// The finder's passes' disagreement, when the finder placed the points.
     pub spread: Option<f32>,
-    /// How far the lips' colour stands from the skin around them ([`lip_contrast`]): near 0
+    /// How far the lips' colour stands from the skin around them (`lip_contrast`): near 0
     /// when something flat covers the mouth (a hand, a cup, a sleeve).
     pub lips: f32,
 }
