@@ -362,6 +362,13 @@ impl ExtendedMesh {
     /// as [`ExtendedMesh::points`]; its first `2n` values are the face's landmarks as drawn)
     /// and returns the share of the motion applied (1: all of it).
     pub fn place(&self, image_shape: &[f32], out: &mut [f32]) -> f32 {
+        self.place_within(image_shape, true, out)
+    }
+
+    /// [`ExtendedMesh::place`], or with `limit` false the head's whole motion over the widest
+    /// fall-off whenever the narrowest would tear (the picture may then fold or stretch: the
+    /// face lands where the head is; returns 1).
+    pub fn place_within(&self, image_shape: &[f32], limit: bool, out: &mut [f32]) -> f32 {
         let n2 = 2 * self.n;
         let head = Similarity::align(&self.points[..n2], image_shape);
         let narrow = 1.0 / FALL_LOOPS as f32;
@@ -370,6 +377,9 @@ impl ExtendedMesh {
             return 1.0;
         }
         self.place_share(image_shape, &head, 1.0, 1.0, out);
+        if !limit {
+            return 1.0;
+        }
         if self.untorn(out) {
             let width = self.bisect(
                 narrow,
@@ -625,6 +635,8 @@ pub struct Compositor {
     placed: Vec<f32>,
     /// The share of the head's motion the last frame applied.
     damping: f32,
+    /// Whether follow-pose is damped where the backdrop would tear (the default).
+    keep_whole: bool,
     dst: Vec<Vec2>,
     diff: Vec<f32>,
     smooth: Vec<f32>,
@@ -710,6 +722,7 @@ impl Compositor {
             words,
             placed: vec![0.0; mesh.points().len()],
             damping: 1.0,
+            keep_whole: true,
             dst: Vec::with_capacity(mesh.points().len() / 2),
             mesh,
             diff: vec![0.0; 3 * border.len()],
@@ -745,7 +758,7 @@ impl Compositor {
     /// where the backdrop cannot show it), and returns the placed points, the face's landmarks
     /// as drawn first (for tests and tools).
     pub fn place_head(&mut self, image_shape: &[f32]) -> &[f32] {
-        self.damping = self.mesh.place(image_shape, &mut self.placed);
+        self.damping = self.mesh.place_within(image_shape, self.keep_whole, &mut self.placed);
         &self.placed
     }
 
@@ -753,6 +766,20 @@ impl Compositor {
     /// follow-pose was damped so that the backdrop's warp neither folds nor stretches).
     pub fn pose_share(&self) -> f32 {
         self.damping
+    }
+
+    /// Whether the picture is kept whole (the default): follow-pose is damped where the
+    /// backdrop's warp would fold or stretch past 2x, so a large head motion shows in part
+    /// ([`Compositor::pose_share`]). Off, the head's whole motion is applied over the widest
+    /// fall-off: the face lands where the head is, and the picture around it may fold or
+    /// stretch (measured in docs/compositing.md, "Pictures that never tear").
+    pub fn set_keep_whole(&mut self, keep_whole: bool) {
+        self.keep_whole = keep_whole;
+    }
+
+    /// See [`Compositor::set_keep_whole`].
+    pub fn keeps_whole(&self) -> bool {
+        self.keep_whole
     }
 
     /// The drawing options.
@@ -875,7 +902,7 @@ impl Compositor {
         clip: PixelRect,
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
-        self.damping = self.mesh.place(image_shape, &mut self.placed);
+        self.damping = self.mesh.place_within(image_shape, self.keep_whole, &mut self.placed);
         self.dst.clear();
         for p in self.placed.chunks_exact(2) {
             let (x, y) = view.apply_point(p[0], p[1]);

@@ -185,11 +185,24 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
         Some((&b600.image.view().unwrap(), &b600.landmarks)),
     )
     .unwrap();
-    let mut c = Compositor::new(&model, DrawOptions::default()).unwrap();
-    let (w, h) = c.size();
+    // Two compositors: the default keeps the picture whole (follow-pose damped where the
+    // backdrop would fold or stretch past 2x); the other applies the head's whole motion.
+    let mut whole = Compositor::new(&model, DrawOptions::default()).unwrap();
+    let mut full = Compositor::new(&model, DrawOptions::default()).unwrap();
+    full.set_keep_whole(false);
+    assert!(whole.keeps_whole() && !full.keeps_whole());
+    let (w, h) = whole.size();
     let mut pixmap = Pixmap::new(w, h).unwrap();
     let unmoved = model.backdrop().unwrap().rgba().to_vec();
-    let (mut ours, mut rigid, mut still) = (Acc::default(), Acc::default(), Acc::default());
+    let (mut ours, mut kept, mut rigid, mut still) = (
+        Acc::default(),
+        Acc::default(),
+        Acc::default(),
+        Acc::default(),
+    );
+    // The default's frames with the whole motion applied, and the same frames of the other.
+    let (mut undamped, mut undamped_full) = (Acc::default(), Acc::default());
+    let mut shares = Vec::new();
     let mut frames = 0;
     for i in (601..1337).step_by(4) {
         if !dir.join(format!("{i:06}.pts")).exists() {
@@ -198,11 +211,22 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
         let f = common::frame(&dir, i);
         let view = f.image.view().unwrap();
         let params = model.project(&view, &f.landmarks).unwrap();
-        if let Err(e) = c.render(&model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut()) {
-            panic!("frame {i}: {e}");
-        }
-        let out = straight(&pixmap);
+        let mut draw = |c: &mut Compositor| {
+            if let Err(e) = c.render(&model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut()) {
+                panic!("frame {i}: {e}");
+            }
+            straight(&pixmap)
+        };
+        let out = draw(&mut full);
+        let out_whole = draw(&mut whole);
+        assert_eq!(full.pose_share(), 1.0);
+        shares.push(whole.pose_share());
         accumulate(&mut ours, &out, &f.image.data, w, h, &f.landmarks);
+        accumulate(&mut kept, &out_whole, &f.image.data, w, h, &f.landmarks);
+        if whole.pose_share() >= 0.99 {
+            accumulate(&mut undamped, &out_whole, &f.image.data, w, h, &f.landmarks);
+            accumulate(&mut undamped_full, &out, &f.image.data, w, h, &f.landmarks);
+        }
         let r = rigid_photo(&model, &f.landmarks);
         accumulate(&mut rigid, &r, &f.image.data, w, h, &f.landmarks);
         accumulate(&mut still, &unmoved, &f.image.data, w, h, &f.landmarks);
@@ -210,20 +234,32 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
     }
     let row = |name: &str, a: &Acc| {
         eprintln!(
-            "{name:<12} face {:6.2}  band {:6.2}  head {:6.2}  rest {:6.2}",
+            "{name:<26} face {:6.2}  band {:6.2}  head {:6.2}  rest {:6.2}",
             a.psnr(FACE),
             a.psnr(BAND),
             a.psnr(HEAD),
             a.psnr(REST)
         )
     };
+    shares.sort_by(f32::total_cmp);
+    let damped = shares.iter().filter(|&&s| s < 0.99).count();
     eprintln!(
         "webcam-dev self-reenactment, {frames} frames of 601-1336 (every 4th), luma PSNR dB:"
     );
-    row("composite", &ours);
+    row("composite, whole motion", &ours);
+    row("composite, picture whole", &kept);
+    row("  its undamped frames", &undamped);
+    row("  the same, whole motion", &undamped_full);
     row("rigid photo", &rigid);
     row("unmoved", &still);
+    eprintln!(
+        "picture whole: follow-pose damped on {damped} of {frames} frames (share: least {:.2}, 10th percentile {:.2}, median {:.2})",
+        shares[0],
+        shares[shares.len() / 10],
+        shares[shares.len() / 2]
+    );
     assert!(frames > 150);
+    // With the head's whole motion: the face, head and band beat a rigidly moved photo.
     assert!(ours.psnr(FACE) >= 32.0, "face {}", ours.psnr(FACE));
     assert!(
         ours.psnr(HEAD) >= rigid.psnr(HEAD) + 1.0,
@@ -238,9 +274,24 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
         rigid.psnr(BAND)
     );
     assert!(
-        ours.psnr(REST) >= still.psnr(REST) - 0.5,
+        ours.psnr(REST) >= still.psnr(REST) - 1.0,
         "rest {} against the unmoved backdrop's {}",
         ours.psnr(REST),
+        still.psnr(REST)
+    );
+    // Keeping the picture whole (the default) costs the face only where the pose is damped:
+    // on the undamped frames it is the whole motion's (within 0.3 dB), and the room stays
+    // within 0.5 dB of the unmoved picture.
+    assert!(
+        undamped.psnr(FACE) >= undamped_full.psnr(FACE) - 0.3,
+        "undamped frames: face {} against {}",
+        undamped.psnr(FACE),
+        undamped_full.psnr(FACE)
+    );
+    assert!(
+        kept.psnr(REST) >= still.psnr(REST) - 0.5,
+        "rest {} against the unmoved backdrop's {}",
+        kept.psnr(REST),
         still.psnr(REST)
     );
 }
