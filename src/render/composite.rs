@@ -758,7 +758,9 @@ impl Compositor {
     /// where the backdrop cannot show it), and returns the placed points, the face's landmarks
     /// as drawn first (for tests and tools).
     pub fn place_head(&mut self, image_shape: &[f32]) -> &[f32] {
-        self.damping = self.mesh.place_within(image_shape, self.keep_whole, &mut self.placed);
+        self.damping = self
+            .mesh
+            .place_within(image_shape, self.keep_whole, &mut self.placed);
         &self.placed
     }
 
@@ -902,7 +904,9 @@ impl Compositor {
         clip: PixelRect,
         target: &mut PixmapMut<'_>,
     ) -> Result<()> {
-        self.damping = self.mesh.place_within(image_shape, self.keep_whole, &mut self.placed);
+        self.damping = self
+            .mesh
+            .place_within(image_shape, self.keep_whole, &mut self.placed);
         self.dst.clear();
         for p in self.placed.chunks_exact(2) {
             let (x, y) = view.apply_point(p[0], p[1]);
