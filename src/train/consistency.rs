@@ -122,7 +122,8 @@ pub fn identity_ratio(faces: &[(ImageRef, &[f32])]) -> Result<Option<(f32, Vec<u
     Ok(Some((separation / spread.max(1e-6), group)))
 }
 
-#[cfg(test)]
+// Native only: the tests read GRID frames from disk.
+#[cfg(all(test, not(target_arch = "wasm32")))]
 mod tests {
     use super::*;
     use crate::image::Image;

@@ -196,7 +196,8 @@ pub fn expression_coverage(shapes: &[&[f32]]) -> Result<ExpressionCoverage> {
     Ok(c)
 }
 
-#[cfg(test)]
+// Native only: the tests read landmark files from disk.
+#[cfg(all(test, not(target_arch = "wasm32")))]
 mod tests {
     use super::*;
 
