@@ -117,6 +117,12 @@ pub struct SourceSide {
     eyes: [Vec<u32>; 2],
     /// Each eye pixel's weight, as `mouth_w`.
     eyes_w: [Vec<f32>; 2],
+    /// The frame pixels a closing lid covers, per eye: the eye and a margin around it
+    /// ([`LID_MARGIN`]), the lid margin's lashes and the sclera's edge on the target's picture
+    /// lying just outside the landmarks' outline.
+    lids: [Vec<u32>; 2],
+    /// Each of those pixels' weight: 1 inside the eye, falling to 0 across the margin.
+    lids_w: [Vec<f32>; 2],
     /// The face's downward direction in model coordinates (from the eyes to the mouth).
     down: [f32; 2],
     /// The inter-ocular distance of the source base (model units).
@@ -319,6 +325,13 @@ impl SourceSide {
         let y0: Vec<f32> = a0.chunks_exact(3).map(luma).collect();
         let mut skin_pixels = Vec::new();
         let mut inner = vec![0u8; frame.n_pixels()];
+        let (mut lids, mut lids_w) = ([Vec::new(), Vec::new()], [Vec::new(), Vec::new()]);
+        let margin = if scheme68 {
+            let c = eye_centres(frame.vertices());
+            LID_MARGIN * (c[1][0] - c[0][0]).hypot(c[1][1] - c[0][1])
+        } else {
+            0.0
+        };
         for (k, px) in frame.pixels().iter().enumerate() {
             let t = tris[px.triangle as usize];
             let mut w = [0f32; 3];
@@ -336,6 +349,22 @@ impl SourceSide {
             // The appearance lives on the frame's mesh, so its polygons are the frame's.
             let inside =
                 |r: std::ops::Range<usize>| scheme68 && inside_polygon(at, frame.vertices(), r);
+            for (e, r) in [36..42, 42..48].into_iter().enumerate() {
+                if !scheme68 || inside(60..68) {
+                    continue;
+                }
+                let w = if inside(r.clone()) {
+                    1.0
+                } else {
+                    let d = distance_to_polygon(at, frame.vertices(), r) / margin.max(1e-3);
+                    let t = (1.0 - d).clamp(0.0, 1.0);
+                    t * t * (3.0 - 2.0 * t)
+                };
+                if w > 0.0 {
+                    lids[e].push(k as u32);
+                    lids_w[e].push(w);
+                }
+            }
             if inside(60..68) {
                 mouth.push(k as u32);
                 mouth_w.push(edge(at, 60..68));
@@ -387,6 +416,8 @@ impl SourceSide {
             skin_pixels,
             eyes,
             eyes_w,
+            lids,
+            lids_w,
             down,
             iod,
             gaps0,
@@ -545,6 +576,57 @@ fn chroma(rgb: [f32; 3]) -> [f32; 3] {
     }
 }
 
+/// Each eye's lid skin colour on `target`: the per-channel median of the skin just above the
+/// eye (between [`LID_BAND`] eye distances from the eye's outline, above its centre), where the
+/// upper lid lies when the eye is open. The lid margin itself (lashes, the sclera's edge) and
+/// the brow are left out: a mean over every triangle touching the eye took them in, and a
+/// closed eye on a dark-skinned target showed a pale almond.
+fn lid_colours(side: &SourceSide, target: &Model) -> [[f32; 3]; 2] {
+    let mut lid = [[0.5f32; 3]; 2];
+    if !side.scheme68 {
+        return lid;
+    }
+    let frame = target.frame();
+    let a0 = target.appearance().base();
+    let centres = eye_centres(frame.vertices());
+    let (ex, ey) = (centres[1][0] - centres[0][0], centres[1][1] - centres[0][1]);
+    let iod = (ex * ex + ey * ey).sqrt().max(1e-3);
+    let down = [-ey / iod, ex / iod];
+    let mut band: Vec<[f32; 3]> = Vec::new();
+    for (e, range) in [36..42, 42..48].into_iter().enumerate() {
+        band.clear();
+        for (k, px) in frame.pixels().iter().enumerate() {
+            if side.inner[k] != 0 {
+                continue;
+            }
+            let at = [
+                px.x as f32 - frame.origin()[0],
+                px.y as f32 - frame.origin()[1],
+            ];
+            let above = (at[0] - centres[e][0]) * down[0] + (at[1] - centres[e][1]) * down[1] < 0.0;
+            let d = distance_to_polygon(at, frame.vertices(), range.clone()) / iod;
+            if above && (LID_BAND[0]..=LID_BAND[1]).contains(&d) {
+                band.push([a0[3 * k], a0[3 * k + 1], a0[3 * k + 2]]);
+            }
+        }
+        if band.is_empty() {
+            continue;
+        }
+        for c in 0..3 {
+            band.sort_unstable_by(|a, b| a[c].total_cmp(&b[c]));
+            lid[e][c] = band[band.len() / 2][c];
+        }
+    }
+    lid
+}
+
+/// The margin around each eye that a closing lid covers too, in eye distances of the frame.
+pub const LID_MARGIN: f32 = 0.08;
+
+/// The band above each eye whose skin colours a closed lid, in eye distances from the eye's
+/// outline.
+pub const LID_BAND: [f32; 2] = [0.06, 0.18];
+
 impl ExpressiveTarget {
     /// Precomputes the method for one source-target pair in one frame.
     pub fn new(side: &SourceSide, source: &Model, target: &Model) -> Result<ExpressiveTarget> {
@@ -563,13 +645,7 @@ impl ExpressiveTarget {
             side.scheme68 && in_tri(k, &|v| (48..=59).contains(&v)) && side.inner[k] == 0
         });
         let lip = chroma(mean_rgb(a0, lips, [0.6, 0.35, 0.35]));
-        let mut lid = [[0.5f32; 3]; 2];
-        for (e, (lo, hi)) in [(36u32, 41u32), (42, 47)].into_iter().enumerate() {
-            let ring = (0..n).filter(|&k| {
-                side.scheme68 && in_tri(k, &|v| (lo..=hi).contains(&v)) && side.inner[k] == 0
-            });
-            lid[e] = mean_rgb(a0, ring, [0.5; 3]);
-        }
+        let lid = lid_colours(side, target);
         // Teeth: a neutral white warmed 40% of the way towards the target's skin's hue, so they
         // sit in the picture's warm light (0.2, 0.35, 0.5 tried on London pairs: the mouth's
         // colour error fell with warmth; cooler teeth looked pasted in).
@@ -791,7 +867,7 @@ pub fn expressive_appearance(
     for e in 0..2 {
         let w0 = frame.closed[e] * style;
         if w0 > 0.0 {
-            for (&k, &edge) in side.eyes[e].iter().zip(&side.eyes_w[e]) {
+            for (&k, &edge) in side.lids[e].iter().zip(&side.lids_w[e]) {
                 let (k, w) = (k as usize, w0 * edge);
                 for c in 0..3 {
                     let v = (t.lid[e][c] * frame.ratio[k]).clamp(0.0, 1.0);

@@ -191,6 +191,8 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
     let unmoved = model.backdrop().unwrap().rgba().to_vec();
     let (mut ours, mut rigid, mut still) = (Acc::default(), Acc::default(), Acc::default());
     let mut frames = 0;
+    let mut shares = Vec::new();
+    let mut full = Acc::default();
     for i in (601..1337).step_by(4) {
         if !dir.join(format!("{i:06}.pts")).exists() {
             continue;
@@ -201,8 +203,12 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
         if let Err(e) = c.render(&model, &params, &Similarity::IDENTITY, &mut pixmap.as_mut()) {
             panic!("frame {i}: {e}");
         }
+        shares.push(c.pose_share());
         let out = straight(&pixmap);
         accumulate(&mut ours, &out, &f.image.data, w, h, &f.landmarks);
+        if c.pose_share() >= 0.99 {
+            accumulate(&mut full, &out, &f.image.data, w, h, &f.landmarks);
+        }
         let r = rigid_photo(&model, &f.landmarks);
         accumulate(&mut rigid, &r, &f.image.data, w, h, &f.landmarks);
         accumulate(&mut still, &unmoved, &f.image.data, w, h, &f.landmarks);
@@ -220,7 +226,16 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
     eprintln!(
         "webcam-dev self-reenactment, {frames} frames of 601-1336 (every 4th), luma PSNR dB:"
     );
+    shares.sort_by(f32::total_cmp);
+    eprintln!(
+        "pose share: min {:.2} p10 {:.2} p50 {:.2}, under 0.99: {}",
+        shares[0],
+        shares[shares.len() / 10],
+        shares[shares.len() / 2],
+        shares.iter().filter(|&&s| s < 0.99).count()
+    );
     row("composite", &ours);
+    row("undamped", &full);
     row("rigid photo", &rigid);
     row("unmoved", &still);
     assert!(frames > 150);
