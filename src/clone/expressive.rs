@@ -117,6 +117,12 @@ pub struct SourceSide {
     eyes: [Vec<u32>; 2],
     /// Each eye pixel's weight, as `mouth_w`.
     eyes_w: [Vec<f32>; 2],
+    /// The frame pixels a closing lid covers, per eye: the eye and a margin around it
+    /// ([`LID_MARGIN`]), the lid margin's lashes and the sclera's edge on the target's picture
+    /// lying just outside the landmarks' outline.
+    lids: [Vec<u32>; 2],
+    /// Each of those pixels' weight: 1 inside the eye, falling to 0 across the margin.
+    lids_w: [Vec<f32>; 2],
     /// The face's downward direction in model coordinates (from the eyes to the mouth).
     down: [f32; 2],
     /// The inter-ocular distance of the source base (model units).
@@ -126,6 +132,14 @@ pub struct SourceSide {
     grid: Vec<u32>,
     /// The source base's inner-lip gap and eyelid gaps.
     gaps0: [f32; 3],
+    /// Each eye pixel's place in the frame (as `eyes`).
+    eyes_at: [Vec<[f32; 2]>; 2],
+    /// Where each eye's iris lies in the source's base appearance ([`iris_centre`]).
+    iris0: [[f32; 2]; 2],
+    /// The largest gaze shift carried, in frame pixels ([`MAX_GAZE`] of the eye's width).
+    max_gaze: f32,
+    /// The frame's origin (a pixel's grid cell is its place plus the origin).
+    origin: (f32, f32),
 }
 
 /// The source's side of one frame for the expressive method, shared by every target.
@@ -144,6 +158,9 @@ pub struct SourceFrame {
     open: f32,
     /// How closed each source eye is beyond its neutral (0..1).
     closed: [f32; 2],
+    /// The source's gaze: its irises' shift from where they are in its base appearance, in
+    /// frame pixels (both eyes' mean), limited to `max_gaze`.
+    pub gaze: [f32; 2],
 }
 
 fn point(s: &[f32], i: usize) -> [f32; 2] {
@@ -319,6 +336,14 @@ impl SourceSide {
         let y0: Vec<f32> = a0.chunks_exact(3).map(luma).collect();
         let mut skin_pixels = Vec::new();
         let mut inner = vec![0u8; frame.n_pixels()];
+        let (mut lids, mut lids_w) = ([Vec::new(), Vec::new()], [Vec::new(), Vec::new()]);
+        let mut eyes_at: [Vec<[f32; 2]>; 2] = [Vec::new(), Vec::new()];
+        let margin = if scheme68 {
+            let c = eye_centres(frame.vertices());
+            LID_MARGIN * (c[1][0] - c[0][0]).hypot(c[1][1] - c[0][1])
+        } else {
+            0.0
+        };
         for (k, px) in frame.pixels().iter().enumerate() {
             let t = tris[px.triangle as usize];
             let mut w = [0f32; 3];
@@ -336,16 +361,34 @@ impl SourceSide {
             // The appearance lives on the frame's mesh, so its polygons are the frame's.
             let inside =
                 |r: std::ops::Range<usize>| scheme68 && inside_polygon(at, frame.vertices(), r);
+            for (e, r) in [36..42, 42..48].into_iter().enumerate() {
+                if !scheme68 || inside(60..68) {
+                    continue;
+                }
+                let w = if inside(r.clone()) {
+                    1.0
+                } else {
+                    let d = distance_to_polygon(at, frame.vertices(), r) / margin.max(1e-3);
+                    let t = (1.0 - d).clamp(0.0, 1.0);
+                    t * t * (3.0 - 2.0 * t)
+                };
+                if w > 0.0 {
+                    lids[e].push(k as u32);
+                    lids_w[e].push(w);
+                }
+            }
             if inside(60..68) {
                 mouth.push(k as u32);
                 mouth_w.push(edge(at, 60..68));
                 inner[k] = 1;
             } else if inside(36..42) {
                 eyes[0].push(k as u32);
+                eyes_at[0].push(at);
                 eyes_w[0].push(edge(at, 36..42));
                 inner[k] = 2;
             } else if inside(42..48) {
                 eyes[1].push(k as u32);
+                eyes_at[1].push(at);
                 eyes_w[1].push(edge(at, 42..48));
                 inner[k] = 3;
             } else if !t.iter().any(|v| (36..=67).contains(v)) || !scheme68 {
@@ -370,7 +413,18 @@ impl SourceSide {
         for (k, px) in frame.pixels().iter().enumerate() {
             grid[px.y as usize * grid_width + px.x as usize] = k as u32;
         }
+        let iris0 = [0, 1].map(|e| iris_centre(a0, &eyes[e], &eyes_at[e]).unwrap_or([0.0; 2]));
+        let max_gaze = if scheme68 {
+            let v = frame.vertices();
+            MAX_GAZE * (v[2 * 39] - v[2 * 36]).hypot(v[2 * 39 + 1] - v[2 * 36 + 1])
+        } else {
+            0.0
+        };
         SourceSide {
+            eyes_at,
+            iris0,
+            max_gaze,
+            origin: (frame.origin()[0], frame.origin()[1]),
             grid_width,
             grid,
             scheme68,
@@ -387,6 +441,8 @@ impl SourceSide {
             skin_pixels,
             eyes,
             eyes_w,
+            lids,
+            lids_w,
             down,
             iod,
             gaps0,
@@ -403,6 +459,7 @@ impl SourceSide {
             tmp: vec![0.0; 2 * self.grid.len()],
             open: 0.0,
             closed: [0.0; 2],
+            gaze: [0.0; 2],
         }
     }
 }
@@ -489,6 +546,29 @@ impl SourceFrame {
                 let g0 = side.gaps0[e + 1].max(1e-3);
                 self.closed[e] = (1.0 - g[e + 1] / g0).clamp(0.0, 1.0);
             }
+            // The gaze: both irises' shift (an eye half closed or more says nothing of it).
+            let (mut sum, mut n) = ([0f32; 2], 0.0);
+            for e in 0..2 {
+                if self.closed[e] < 0.5 {
+                    if let Some(c) = iris_centre(&self.app, &side.eyes[e], &side.eyes_at[e]) {
+                        sum[0] += c[0] - side.iris0[e][0];
+                        sum[1] += c[1] - side.iris0[e][1];
+                        n += 1.0;
+                    }
+                }
+            }
+            self.gaze = if n > 0.0 {
+                let g = [sum[0] / n, sum[1] / n];
+                let len = g[0].hypot(g[1]);
+                let k = if len > side.max_gaze {
+                    side.max_gaze / len
+                } else {
+                    1.0
+                };
+                [g[0] * k, g[1] * k]
+            } else {
+                [0.0; 2]
+            };
         }
     }
 }
@@ -545,6 +625,82 @@ fn chroma(rgb: [f32; 3]) -> [f32; 3] {
     }
 }
 
+/// Each eye's lid skin colour on `target`: the per-channel median of the skin just above the
+/// eye (between [`LID_BAND`] eye distances from the eye's outline, above its centre), where the
+/// upper lid lies when the eye is open. The lid margin itself (lashes, the sclera's edge) and
+/// the brow are left out: a mean over every triangle touching the eye took them in, and a
+/// closed eye on a dark-skinned target showed a pale almond.
+fn lid_colours(side: &SourceSide, target: &Model) -> [[f32; 3]; 2] {
+    let mut lid = [[0.5f32; 3]; 2];
+    if !side.scheme68 {
+        return lid;
+    }
+    let frame = target.frame();
+    let a0 = target.appearance().base();
+    let centres = eye_centres(frame.vertices());
+    let (ex, ey) = (centres[1][0] - centres[0][0], centres[1][1] - centres[0][1]);
+    let iod = (ex * ex + ey * ey).sqrt().max(1e-3);
+    let down = [-ey / iod, ex / iod];
+    let mut band: Vec<[f32; 3]> = Vec::new();
+    for (e, range) in [36..42, 42..48].into_iter().enumerate() {
+        band.clear();
+        for (k, px) in frame.pixels().iter().enumerate() {
+            if side.inner[k] != 0 {
+                continue;
+            }
+            let at = [
+                px.x as f32 - frame.origin()[0],
+                px.y as f32 - frame.origin()[1],
+            ];
+            let above = (at[0] - centres[e][0]) * down[0] + (at[1] - centres[e][1]) * down[1] < 0.0;
+            let d = distance_to_polygon(at, frame.vertices(), range.clone()) / iod;
+            if above && (LID_BAND[0]..=LID_BAND[1]).contains(&d) {
+                band.push([a0[3 * k], a0[3 * k + 1], a0[3 * k + 2]]);
+            }
+        }
+        if band.is_empty() {
+            continue;
+        }
+        for c in 0..3 {
+            band.sort_unstable_by(|a, b| a[c].total_cmp(&b[c]));
+            lid[e][c] = band[band.len() / 2][c];
+        }
+    }
+    lid
+}
+
+/// The largest gaze shift carried onto a target, as a share of the eye's width (corner to
+/// corner): an iris moved further would leave the eye.
+pub const MAX_GAZE: f32 = 0.2;
+
+/// Where the iris lies in one eye of appearance `app` (`3N`): the centroid of the eye's
+/// pixels `px` (at `at`) weighted by how much darker than the eye's mean each is, squared (the
+/// iris and pupil are the eye's darkest part, the sclera its brightest). `None` when the eye
+/// is flat (closed, or no eye pixels).
+fn iris_centre(app: &[f32], px: &[u32], at: &[[f32; 2]]) -> Option<[f32; 2]> {
+    if px.is_empty() {
+        return None;
+    }
+    let y = |k: u32| luma(&app[3 * k as usize..3 * k as usize + 3]);
+    let mean = px.iter().map(|&k| y(k)).sum::<f32>() / px.len() as f32;
+    let (mut sx, mut sy, mut sw) = (0f32, 0f32, 0f32);
+    for (&k, p) in px.iter().zip(at) {
+        let d = (mean - y(k)).max(0.0);
+        let w = d * d;
+        sx += w * p[0];
+        sy += w * p[1];
+        sw += w;
+    }
+    (sw > 1e-6).then(|| [sx / sw, sy / sw])
+}
+
+/// The margin around each eye that a closing lid covers too, in eye distances of the frame.
+pub const LID_MARGIN: f32 = 0.08;
+
+/// The band above each eye whose skin colours a closed lid, in eye distances from the eye's
+/// outline.
+pub const LID_BAND: [f32; 2] = [0.06, 0.18];
+
 impl ExpressiveTarget {
     /// Precomputes the method for one source-target pair in one frame.
     pub fn new(side: &SourceSide, source: &Model, target: &Model) -> Result<ExpressiveTarget> {
@@ -563,13 +719,7 @@ impl ExpressiveTarget {
             side.scheme68 && in_tri(k, &|v| (48..=59).contains(&v)) && side.inner[k] == 0
         });
         let lip = chroma(mean_rgb(a0, lips, [0.6, 0.35, 0.35]));
-        let mut lid = [[0.5f32; 3]; 2];
-        for (e, (lo, hi)) in [(36u32, 41u32), (42, 47)].into_iter().enumerate() {
-            let ring = (0..n).filter(|&k| {
-                side.scheme68 && in_tri(k, &|v| (lo..=hi).contains(&v)) && side.inner[k] == 0
-            });
-            lid[e] = mean_rgb(a0, ring, [0.5; 3]);
-        }
+        let lid = lid_colours(side, target);
         // Teeth: a neutral white warmed 40% of the way towards the target's skin's hue, so they
         // sit in the picture's warm light (0.2, 0.35, 0.5 tried on London pairs: the mouth's
         // colour error fell with warmth; cooler teeth looked pasted in).
@@ -744,6 +894,40 @@ pub fn expressive_shape(
     t.x = x;
 }
 
+/// Appearance `a0` sampled bilinearly at frame point `(x, y)` (frame coordinates, the
+/// origin removed) when all four grid cells around it are pixels of the eye `own` (the
+/// `inner` code), else `None`.
+fn sample_eye(side: &SourceSide, a0: &[f32], own: u8, x: f32, y: f32) -> Option<[f32; 3]> {
+    let (ox, oy) = side.origin;
+    let (gx, gy) = (x + ox, y + oy);
+    if !(gx >= 0.0 && gy >= 0.0) {
+        return None;
+    }
+    let (x0, y0) = (gx.floor() as usize, gy.floor() as usize);
+    let (fx, fy) = (gx - x0 as f32, gy - y0 as f32);
+    let w = side.grid_width;
+    if x0 + 1 >= w || (y0 + 1) * w + x0 + 1 >= side.grid.len() {
+        return None;
+    }
+    let at = |x: usize, y: usize| {
+        let k = side.grid[y * w + x];
+        (k != u32::MAX && side.inner[k as usize] == own).then_some(k as usize)
+    };
+    let (a, b, c, d) = (
+        at(x0, y0)?,
+        at(x0 + 1, y0)?,
+        at(x0, y0 + 1)?,
+        at(x0 + 1, y0 + 1)?,
+    );
+    let mut out = [0f32; 3];
+    for (ch, o) in out.iter_mut().enumerate() {
+        let top = a0[3 * a + ch] * (1.0 - fx) + a0[3 * b + ch] * fx;
+        let bot = a0[3 * c + ch] * (1.0 - fx) + a0[3 * d + ch] * fx;
+        *o = top * (1.0 - fy) + bot * fy;
+    }
+    Some(out)
+}
+
 /// The expressive appearance (see the module docs) into `out` (`3N`): the target's base
 /// appearance times the ratio image; in the inner mouth, as the mouth opens, the source's
 /// mouth shading in the target's colours; in the eyes, as they close, the target's lid skin.
@@ -772,6 +956,29 @@ pub fn expressive_appearance(
     if !side.scheme68 {
         return;
     }
+    // The gaze: each eye's texture moved by the source's iris shift, sampled from the
+    // target's own eye (bilinear over the frame's grid); a sample reaching outside the eye
+    // keeps the pixel's own colour, and the shift fades out at the eye's outline.
+    let [gx, gy] = frame.gaze;
+    if gx != 0.0 || gy != 0.0 {
+        for e in 0..2 {
+            let own = 2 + e as u8;
+            for ((&k, p), &edge) in side.eyes[e]
+                .iter()
+                .zip(&side.eyes_at[e])
+                .zip(&side.eyes_w[e])
+            {
+                let Some(rgb) = sample_eye(side, a0, own, p[0] - gx, p[1] - gy) else {
+                    continue;
+                };
+                let w = edge * style;
+                let k = k as usize;
+                for c in 0..3 {
+                    out[3 * k + c] += w * (rgb[c] - out[3 * k + c]);
+                }
+            }
+        }
+    }
     if frame.open > 0.0 {
         let w0 = frame.open * style;
         for (&k, &edge) in side.mouth.iter().zip(&side.mouth_w) {
@@ -791,7 +998,7 @@ pub fn expressive_appearance(
     for e in 0..2 {
         let w0 = frame.closed[e] * style;
         if w0 > 0.0 {
-            for (&k, &edge) in side.eyes[e].iter().zip(&side.eyes_w[e]) {
+            for (&k, &edge) in side.lids[e].iter().zip(&side.lids_w[e]) {
                 let (k, w) = (k as usize, w0 * edge);
                 for c in 0..3 {
                     let v = (t.lid[e][c] * frame.ratio[k]).clamp(0.0, 1.0);
