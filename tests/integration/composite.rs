@@ -930,6 +930,20 @@ fn clip_params(
     out
 }
 
+/// webcam-dev's model of docs/compositing.md's split: 20 varied frames of 0-599 (every 6th).
+pub fn webcam_model(webcam: &std::path::Path) -> facemimic::Model {
+    let pool: Vec<_> = (0..600)
+        .step_by(6)
+        .map(|i| common::frame(webcam, i))
+        .collect();
+    facemimic::Builder::new(facemimic::BuildOptions {
+        name: "webcam".into(),
+        ..facemimic::BuildOptions::default()
+    })
+    .build(&common::varied(&pool, 20), None)
+    .unwrap()
+}
+
 #[test]
 fn the_backdrop_warp_neither_folds_nor_stretches_for_the_poses_of_real_clips() {
     let (Some(franck), Some(webcam)) = (
@@ -941,24 +955,11 @@ fn the_backdrop_warp_neither_folds_nor_stretches_for_the_poses_of_real_clips() {
     let Some(franck2) = common::shared_data("franck-dev2") else {
         return;
     };
-    let train: Vec<_> = io::read_list(&franck.join("train20.txt"))
-        .unwrap()
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
-    let model = facemimic::Builder::new(facemimic::BuildOptions::default())
-        .build(&train, None)
-        .unwrap();
-    let params = clip_params(&model, &franck2, 3800..4800, 10);
+    let model = common::path_list_model(&franck.join("train20.txt"), "franck", false);
+    let params = clip_params(model, &franck2, 3800..4800, 10);
     assert!(params.len() > 80, "{} franck-dev2 frames", params.len());
-    assert_untorn("franck-dev2 3800-4799, every 10th", sweep(&model, &params));
-    let pool: Vec<_> = (0..600)
-        .step_by(6)
-        .map(|i| common::frame(&webcam, i))
-        .collect();
-    let model = facemimic::Builder::new(facemimic::BuildOptions::default())
-        .build(&common::varied(&pool, 20), None)
-        .unwrap();
+    assert_untorn("franck-dev2 3800-4799, every 10th", sweep(model, &params));
+    let model = webcam_model(&webcam);
     let params = clip_params(&model, &webcam, 601..1337, 8);
     assert!(params.len() > 60, "{} webcam-dev frames", params.len());
     assert_untorn("webcam-dev 601-1336, every 8th", sweep(&model, &params));
@@ -1093,30 +1094,16 @@ fn the_room_stays_still_on_clips_with_large_head_motion() {
     // franck-dev2: the model of franck-dev/train20.txt (frames 0-999) with its default backdrop
     // (the training frame closest to the mean); measured on every 4th frame of 3800-4799
     // (head turns), none used to build.
-    let train: Vec<_> = io::read_list(&franck.join("train20.txt"))
-        .unwrap()
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
-    let model = facemimic::Builder::new(facemimic::BuildOptions::default())
-        .build(&train, None)
-        .unwrap();
-    let model = facemimic::with_default_backdrop(model, &train, None).unwrap();
+    let model = common::path_list_model(&franck.join("train20.txt"), "franck", true);
     let franck_drop = room_measure(
         "franck-dev2 3800-4799 every 4th",
-        &model,
+        model,
         &franck2,
         (3800..4800).step_by(4),
     );
     // webcam-dev: docs/compositing.md's split (20 varied frames of 0-599, frame 600 the
     // backdrop; every 4th frame of 601-1336 measured).
-    let pool: Vec<_> = (0..600)
-        .step_by(6)
-        .map(|i| common::frame(&webcam, i))
-        .collect();
-    let model = facemimic::Builder::new(facemimic::BuildOptions::default())
-        .build(&common::varied(&pool, 20), None)
-        .unwrap();
+    let model = webcam_model(&webcam);
     let b600 = common::frame(&webcam, 600);
     let model = facemimic::with_default_backdrop(
         model,

@@ -172,12 +172,7 @@ fn webcam_self_reenactment_beats_the_rigid_photo() {
         return;
     };
     // Split: models from frames 0-599 only; frame 600 is the backdrop; 601-1336 are measured.
-    let pool: Vec<TrainingImage> = (0..600)
-        .step_by(6)
-        .map(|i| common::frame(&dir, i))
-        .collect();
-    let train = common::varied(&pool, 20);
-    let model = build(&train, "webcam");
+    let model = crate::composite::webcam_model(&dir);
     let b600 = common::frame(&dir, 600);
     let model = with_default_backdrop(
         model,

@@ -499,16 +499,7 @@ fn franck_expressions_arrive_on_speech_only_targets() {
         return;
     };
     let list = io::read_list(&dev.join("train20.txt")).unwrap();
-    let train: Vec<_> = list
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
-    let franck = facemimic::Builder::new(facemimic::BuildOptions {
-        name: "franck".into(),
-        ..facemimic::BuildOptions::default()
-    })
-    .build(&train, None)
-    .unwrap();
+    let franck = common::path_list_model(&dev.join("train20.txt"), "franck", false);
     let stems: Vec<String> = list
         .iter()
         .map(|p| p.file_stem().unwrap().to_string_lossy().into())
@@ -535,7 +526,7 @@ fn franck_expressions_arrive_on_speech_only_targets() {
     }
     let source: Vec<[f32; 6]> = frames
         .iter()
-        .map(|p| features(&instance(&franck, p)))
+        .map(|p| features(&instance(franck, p)))
         .collect();
     println!(
         "\n| method | target | mouth width | lip-corner lift | jaw drop | brow height | r eyes |"
@@ -837,16 +828,7 @@ fn the_gaze_follows_the_source() {
         return;
     };
     let list = io::read_list(&dev.join("train20.txt")).unwrap();
-    let train: Vec<_> = list
-        .iter()
-        .map(|p| io::read_training_image(p).unwrap())
-        .collect();
-    let franck = facemimic::Builder::new(facemimic::BuildOptions {
-        name: "franck".into(),
-        ..facemimic::BuildOptions::default()
-    })
-    .build(&train, None)
-    .unwrap();
+    let franck = common::path_list_model(&dev.join("train20.txt"), "franck", false);
     let stems: Vec<String> = list
         .iter()
         .map(|p| p.file_stem().unwrap().to_string_lossy().into())
@@ -875,7 +857,7 @@ fn the_gaze_follows_the_source() {
         }
         x
     };
-    let open = |p: &Params| features(&instance(&franck, p))[4];
+    let open = |p: &Params| features(&instance(franck, p))[4];
     let rest = open(&franck.base_params());
     let mut source = Vec::new();
     let mut kept = Vec::new();
@@ -888,7 +870,7 @@ fn the_gaze_follows_the_source() {
         franck
             .appearance()
             .instance_unchecked(&p.appearance, &mut app);
-        source.push(shift(&franck, &app));
+        source.push(shift(franck, &app));
         kept.push(p.clone());
         real.push(real_gaze(t));
     }

@@ -97,14 +97,25 @@ pub fn list_images(list: &str) -> Vec<TrainingImage> {
 /// repository path), with its default backdrop if `backdrop`: built once per test binary and
 /// kept for the binary's life.
 pub fn list_model(list: &str, name: &str, backdrop: bool) -> &'static Model {
-    type Built = Vec<((String, String, bool), &'static Model)>;
+    path_list_model(&repo(list), name, backdrop)
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+/// [`list_model`] of the list file at `list` (any path, e.g. a clip of `../shared`'s
+/// `train20.txt` from [`shared_data`]).
+pub fn path_list_model(list: &Path, name: &str, backdrop: bool) -> &'static Model {
+    type Built = Vec<((PathBuf, String, bool), &'static Model)>;
     static BUILT: std::sync::Mutex<Built> = std::sync::Mutex::new(Vec::new());
-    let key = (list.to_string(), name.to_string(), backdrop);
+    let key = (list.to_path_buf(), name.to_string(), backdrop);
     let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
     if let Some(&(_, m)) = built.iter().find(|(k, _)| *k == key) {
         return m;
     }
-    let train = list_images(list);
+    let train: Vec<TrainingImage> = io::read_list(list)
+        .unwrap()
+        .iter()
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect();
     let m = Builder::new(BuildOptions {
         name: name.into(),
         ..BuildOptions::default()
