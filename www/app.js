@@ -202,7 +202,7 @@ function registerCanvases(c, opts, targetOpts) {
   // composite a frame, not two; its card gets a copy: js/output-page.js).
   const outputs = app.targets.map((e) => outputCanvas(e, targetOpts));
   const canvases = [app.source.canvas, ...app.targets.map((e, i) => outputs[i]?.canvas ?? e.canvas), ...compare.map((v) => v.canvas)];
-  const key = [opts.background, opts.raster, opts.mesh, targetOpts.composite, ci, ...compare.map((v) => v.method)].join('|');
+  const key = [opts.background, opts.raster, opts.mesh, targetOpts.composite, targetOpts.keepWhole, ci, ...compare.map((v) => v.method)].join('|');
   const same =
     registered.cloner === c &&
     registered.key === key &&

@@ -65,6 +65,7 @@ impl Painter {
             // The backdrop letterboxed to the pixmap ([`picture_view`]), the head and the face in it.
             Some(c) => {
                 c.set_options(options.draw);
+                c.set_keep_whole(options.keep_whole);
                 let (bw, bh) = c.size();
                 let view = picture_view(bw, bh, pixmap.width(), pixmap.height());
                 c.draw(face.model, face.appearance, face.shape, &view, pixmap)

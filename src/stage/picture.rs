@@ -39,6 +39,10 @@ pub struct PictureOptions {
     pub composite: bool,
     /// Where a face drawn alone goes ([`Framing`]).
     pub framing: Framing,
+    /// Keep the composited picture whole (default true): follow-pose is damped where the
+    /// backdrop's warp would fold or stretch past 2x ([`crate::Compositor::set_keep_whole`]); false
+    /// applies the head's whole motion.
+    pub keep_whole: bool,
 }
 
 impl Default for PictureOptions {
@@ -49,6 +53,7 @@ impl Default for PictureOptions {
             draw: DrawOptions::default(),
             composite: false,
             framing: Framing::Fitted,
+            keep_whole: true,
         }
     }
 }

@@ -538,3 +538,36 @@ fn an_unsure_fit_holds_the_last_good_expression() {
     assert!(s.source_from_fit(&fit, good.pose).unwrap());
     assert_eq!(s.source_params().shape, broken.shape);
 }
+
+/// A picture's `keep_whole` reaches its compositor: with follow-pose and a head turned and
+/// moved far from the source's mean pose, the picture kept whole (the default) applies part of
+/// the motion and the other all of it, so the two differ.
+#[test]
+fn keep_whole_reaches_the_compositor() {
+    let mut s = stage();
+    s.set_options(CloneOptions {
+        follow_pose: true,
+        ..CloneOptions::default()
+    })
+    .unwrap();
+    let p = s.target_picture_mut(2).unwrap();
+    p.set_options(PictureOptions {
+        composite: true,
+        keep_whole: false,
+        ..PictureOptions::default()
+    });
+    let mut params = source_params(24);
+    let pose = s.cloner.source().home_pose();
+    params.pose = crate::Similarity::from_parts(
+        pose.scale() * 1.3,
+        pose.rotation() + 0.45,
+        pose.tx + 40.0,
+        pose.ty - 30.0,
+    );
+    s.frame_from_params(&params).unwrap();
+    let whole = s.targets[1].compositor.as_ref().unwrap();
+    let full = s.targets[2].compositor.as_ref().unwrap();
+    assert!(whole.keeps_whole() && !full.keeps_whole());
+    assert_eq!(full.pose_share(), 1.0);
+    assert!(whole.pose_share() < 1.0, "share {}", whole.pose_share());
+}

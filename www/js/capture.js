@@ -19,7 +19,7 @@ export function wireCapture() {
 /** The options the faces are drawn with: the source's, and the targets' (composited unless "Face only"). */
 export function renderOptions() {
   const face = { background: FACE_BG, mesh: app.settings.mesh, raster: app.settings.fast ? 'scanline' : 'tiny-skia' };
-  return { face, target: { ...face, composite: !app.settings.faceOnly } };
+  return { face, target: { ...face, composite: !app.settings.faceOnly, keepWhole: app.settings.keepWhole !== false } };
 }
 
 /** The faces to record, as shown: source then targets. `crisp`: render each afresh at the tile

@@ -42,6 +42,10 @@ export function buildControls() {
     app.cloner.setFollowPose(app.settings.followPose);
     app.dirty = true;
   });
+  $('keep-whole').addEventListener('change', () => {
+    app.settings.keepWhole = $('keep-whole').checked;
+    app.dirty = true;
+  });
   $('mesh').addEventListener('change', () => {
     app.settings.mesh = $('mesh').checked;
     app.dirty = true;
@@ -227,6 +231,7 @@ function syncControls() {
   $('clamp-k').disabled = !s.clamp;
   $('clamp-out').value = `±${s.k.toFixed(1)}σ`;
   $('follow-pose').checked = s.followPose;
+  $('keep-whole').checked = s.keepWhole !== false;
   $('mesh').checked = s.mesh;
   $('fast-raster').checked = s.fast;
   $('face-only').checked = s.faceOnly;

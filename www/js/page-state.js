@@ -18,7 +18,7 @@ export const MODELS = 'models/';
 // as the face alone (the paper's view) instead of composited into their picture (the model's
 // backdrop; models without one are drawn face only either way).
 export const DEFAULTS = {
-  method: null, gain: 1, clamp: true, k: 3, followPose: false, mesh: false, fast: true, faceOnly: false,
+  method: null, gain: 1, clamp: true, k: 3, followPose: false, keepWhole: true, mesh: false, fast: true, faceOnly: false,
   mouth: 1, eyes: 1, brows: 1, style: 1,
 };
 /** The expressive method's region gains, in `Cloner.setRegionGains`' order (settings' keys). */

@@ -186,6 +186,11 @@ export interface RenderOptions {
    *  face composited into it, the head moving with the face. Default false (the face alone,
    *  the paper's view). A model without a backdrop is drawn face only. */
   composite?: boolean;
+  /** Composited targets: keep the picture whole (default true): with `followPose`, the head's
+   *  motion is damped where the picture around it would fold or stretch past 2x. False applies
+   *  the head's whole motion (the face lands where the source's head is; the picture around
+   *  it may stretch). */
+  keepWhole?: boolean;
 }
 /** Milliseconds spent per stage since the last `update()` or `drawFrame()` (mapping, synthesis,
  *  rasterising, blitting). */

@@ -129,6 +129,8 @@ pub(crate) struct RenderOptions {
     pub draw: DrawOptions,
     /// Composite targets into their backdrops.
     pub composite: bool,
+    /// Keep a composited picture whole (follow-pose damped where it would tear).
+    pub keep_whole: bool,
 }
 
 /// The default background, `#202024`.
@@ -141,6 +143,7 @@ impl Default for RenderOptions {
             background: Color::from_rgba8(r, g, b, a),
             draw: DrawOptions::default(),
             composite: false,
+            keep_whole: true,
         }
     }
 }
@@ -159,6 +162,7 @@ impl RenderOptions {
             draw: self.draw,
             composite: self.composite,
             framing: Framing::Fitted,
+            keep_whole: self.keep_whole,
         }
     }
 
@@ -227,6 +231,9 @@ impl RenderOptions {
         }
         if let Some(composite) = flag("composite")? {
             o.composite = composite;
+        }
+        if let Some(keep) = flag("keepWhole")? {
+            o.keep_whole = keep;
         }
         let raster = get("raster")?;
         if !(raster.is_undefined() || raster.is_null()) {
