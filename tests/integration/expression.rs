@@ -484,6 +484,30 @@ fn spread(v: &[f32]) -> f32 {
     q(0.95) - q(0.05)
 }
 
+/// The franck model (from `franck-dev/train20.txt`) and every `step`-th frame of franck-dev and
+/// franck-dev2 that is not in that list (the measured, unseen frames); `None` without
+/// `../shared` (the test then skips, visibly through `shared_data`).
+fn franck_unseen(step: usize) -> Option<(&'static Model, Vec<std::path::PathBuf>)> {
+    let dev = common::shared_data("franck-dev")?;
+    let dev2 = common::shared_data("franck-dev2")?;
+    let list = dev.join("train20.txt");
+    let stems: Vec<String> = io::read_list(&list)
+        .unwrap()
+        .iter()
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into())
+        .collect();
+    let mut paths = Vec::new();
+    for dir in [&dev, &dev2] {
+        for (k, path) in common::clip_frames(dir).into_iter().enumerate() {
+            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+            if k % step == 0 && !stems.contains(&stem) {
+                paths.push(path);
+            }
+        }
+    }
+    Some((common::path_list_model(&list, "franck", false), paths))
+}
+
 /// Speech-only targets, an expressive source. Split: the franck model is built from
 /// `franck-dev/train20.txt`; measured on every second frame of franck-dev's other frames and of
 /// franck-dev2 (none in any training list). Each target's range of mouth width, lip-corner
@@ -492,32 +516,18 @@ fn spread(v: &[f32]) -> f32 {
 /// opening's correlation with the source's at least 0.8).
 #[test]
 fn franck_expressions_arrive_on_speech_only_targets() {
-    let (Some(dev), Some(dev2)) = (
-        common::shared_data("franck-dev"),
-        common::shared_data("franck-dev2"),
-    ) else {
+    let Some((franck, paths)) = franck_unseen(2) else {
         return;
     };
-    let list = io::read_list(&dev.join("train20.txt")).unwrap();
-    let franck = common::path_list_model(&dev.join("train20.txt"), "franck", false);
-    let stems: Vec<String> = list
+    let frames: Vec<Params> = paths
         .iter()
-        .map(|p| p.file_stem().unwrap().to_string_lossy().into())
+        .map(|path| {
+            let t = io::read_training_image(path).unwrap();
+            franck
+                .project(&t.image.view().unwrap(), &t.landmarks)
+                .unwrap()
+        })
         .collect();
-    let mut frames = Vec::new();
-    for dir in [&dev, &dev2] {
-        for (k, path) in common::clip_frames(dir).into_iter().enumerate() {
-            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-            if k % 2 == 0 && !stems.contains(&stem) {
-                let t = io::read_training_image(&path).unwrap();
-                frames.push(
-                    franck
-                        .project(&t.image.view().unwrap(), &t.landmarks)
-                        .unwrap(),
-                );
-            }
-        }
-    }
     assert!(frames.len() > 900, "{} frames", frames.len());
     let names = ["spk02", "spk03", "spk06", "spk10"];
     let mut c = Cloner::new(franck.clone()).unwrap();
@@ -821,33 +831,21 @@ fn iris(model: &Model, app: &[f32], r: std::ops::Range<usize>) -> [f32; 2] {
 /// with the irises in the real frames (printed; at least 0.25).
 #[test]
 fn the_gaze_follows_the_source() {
-    let (Some(dev), Some(dev2)) = (
-        common::shared_data("franck-dev"),
-        common::shared_data("franck-dev2"),
-    ) else {
+    let Some((franck, paths)) = franck_unseen(4) else {
         return;
     };
-    let list = io::read_list(&dev.join("train20.txt")).unwrap();
-    let franck = common::path_list_model(&dev.join("train20.txt"), "franck", false);
-    let stems: Vec<String> = list
+    let frames: Vec<_> = paths
         .iter()
-        .map(|p| p.file_stem().unwrap().to_string_lossy().into())
+        .map(|path| io::read_training_image(path).unwrap())
         .collect();
-    let (mut params, mut frames) = (Vec::new(), Vec::new());
-    for dir in [&dev, &dev2] {
-        for (k, path) in common::clip_frames(dir).into_iter().enumerate() {
-            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-            if k % 4 == 0 && !stems.contains(&stem) {
-                let t = io::read_training_image(&path).unwrap();
-                params.push(
-                    franck
-                        .project(&t.image.view().unwrap(), &t.landmarks)
-                        .unwrap(),
-                );
-                frames.push(t);
-            }
-        }
-    }
+    let params: Vec<Params> = frames
+        .iter()
+        .map(|t| {
+            franck
+                .project(&t.image.view().unwrap(), &t.landmarks)
+                .unwrap()
+        })
+        .collect();
     let mut app = vec![0.0; franck.appearance().len()];
     let shift = |model: &Model, a: &[f32]| {
         let base = model.appearance().base();
