@@ -65,6 +65,42 @@ pub(crate) fn is_usable_region(position: &[f32], sides: &[f32], min_side: f32) -
     position.iter().chain(sides).all(|v| v.is_finite()) && sides.iter().all(|&s| s >= min_side)
 }
 
+/// The distance from `p` to the outline of the polygon of points `range` of shape `s`.
+pub(crate) fn distance_to_polygon(p: [f32; 2], s: &[f32], range: std::ops::Range<usize>) -> f32 {
+    let mut best = f32::MAX;
+    let mut j = range.end - 1;
+    for i in range {
+        let (a, b) = ([s[2 * j], s[2 * j + 1]], [s[2 * i], s[2 * i + 1]]);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 {
+            (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (qx, qy) = (a[0] + t * dx - p[0], a[1] + t * dy - p[1]);
+        best = best.min((qx * qx + qy * qy).sqrt());
+        j = i;
+    }
+    best
+}
+
+/// True when `p` is inside the polygon of points `range` of shape `s` (even-odd rule).
+pub(crate) fn inside_polygon(p: [f32; 2], s: &[f32], range: std::ops::Range<usize>) -> bool {
+    let mut inside = false;
+    let mut j = range.end - 1;
+    for i in range {
+        let (a, b) = ([s[2 * i], s[2 * i + 1]], [s[2 * j], s[2 * j + 1]]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,6 +19,7 @@
 //!   picture, the dark parts in its lip tones); closed eyelids in the target's lid skin.
 
 use crate::error::Result;
+use crate::geometry::{distance_to_polygon, inside_polygon};
 use crate::model::Model;
 
 use super::prior::ExpressionPrior;
@@ -196,42 +197,6 @@ fn gaps_displaced(base: &[f32], d: &[f32], down: [f32; 2]) -> [f32; 3] {
 /// The width, in frame pixels, over which the inner mouth's and the eyes' own colours blend
 /// into their surroundings.
 pub const FEATHER: f32 = 1.5;
-
-/// The distance from `p` to the outline of the polygon of points `range` of shape `s`.
-fn distance_to_polygon(p: [f32; 2], s: &[f32], range: std::ops::Range<usize>) -> f32 {
-    let mut best = f32::MAX;
-    let mut j = range.end - 1;
-    for i in range {
-        let (a, b) = (point(s, j), point(s, i));
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 {
-            (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let (qx, qy) = (a[0] + t * dx - p[0], a[1] + t * dy - p[1]);
-        best = best.min((qx * qx + qy * qy).sqrt());
-        j = i;
-    }
-    best
-}
-
-/// True when `p` is inside the polygon of points `range` of shape `s` (even-odd rule).
-fn inside_polygon(p: [f32; 2], s: &[f32], range: std::ops::Range<usize>) -> bool {
-    let mut inside = false;
-    let mut j = range.end - 1;
-    for i in range {
-        let (a, b) = (point(s, i), point(s, j));
-        if (a[1] > p[1]) != (b[1] > p[1])
-            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
-        {
-            inside = !inside;
-        }
-        j = i;
-    }
-    inside
-}
 
 /// Smooths the ratio image with a 5 x 5 box over the frame's pixels (the mean of the
 /// neighbours that are frame pixels), as Liu et al. filter theirs: the expression's shading

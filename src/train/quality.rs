@@ -18,6 +18,7 @@
 //! frames").
 
 use crate::error::{Error, Result};
+use crate::geometry::inside_polygon;
 use crate::image::ImageRef;
 
 /// Why a frame is not used.
@@ -215,29 +216,34 @@ fn luma(c: [f32; 3]) -> f32 {
 /// is one colour inside and around, wherever the finder put the points on it. Depends on the
 /// light: a dim face scores lower (the dark check comes first). Requires 68 finite points.
 pub(crate) fn lip_contrast(image: &ImageRef, landmarks: &[f32]) -> f32 {
-    let pt = |i: usize| [landmarks[2 * i], landmarks[2 * i + 1]];
-    let outer: Vec<[f32; 2]> = (48..60).map(pt).collect();
-    let inner: Vec<[f32; 2]> = (60..68).map(pt).collect();
-    let c = outer
-        .iter()
-        .fold([0.0, 0.0], |a, p| [a[0] + p[0] / 12.0, a[1] + p[1] / 12.0]);
-    let scaled = |k: f32| -> Vec<[f32; 2]> {
-        outer
-            .iter()
-            .map(|p| [c[0] + k * (p[0] - c[0]), c[1] + k * (p[1] - c[1])])
-            .collect()
+    let outer = 48..60;
+    let c = outer.clone().fold([0.0, 0.0], |a, i| {
+        [
+            a[0] + landmarks[2 * i] / 12.0,
+            a[1] + landmarks[2 * i + 1] / 12.0,
+        ]
+    });
+    // The outer lip contour scaled by `k` about its centre (12 points, interleaved).
+    let scaled = |k: f32| -> [f32; 24] {
+        let mut out = [0.0; 24];
+        for (o, i) in out.chunks_exact_mut(2).zip(outer.clone()) {
+            o[0] = c[0] + k * (landmarks[2 * i] - c[0]);
+            o[1] = c[1] + k * (landmarks[2 * i + 1] - c[1]);
+        }
+        out
     };
     let (near, far) = (scaled(LIP_RING.0), scaled(LIP_RING.1));
-    let b = crate::geometry::BBox::of_points(&far.iter().flatten().copied().collect::<Vec<_>>());
+    let b = crate::geometry::BBox::of_points(&far);
     let (mut lips, mut ring) = (([0.0f32; 3], 0usize), ([0.0f32; 3], 0usize));
     let mut lips_sq = 0.0f32;
     for gy in 0..LIP_SAMPLES {
         for gx in 0..LIP_SAMPLES {
             let x = b.x + b.width * (gx as f32 + 0.5) / LIP_SAMPLES as f32;
             let y = b.y + b.height * (gy as f32 + 0.5) / LIP_SAMPLES as f32;
-            let on_lips = inside(&outer, x, y);
-            if (on_lips && inside(&inner, x, y))
-                || (!on_lips && (!inside(&far, x, y) || inside(&near, x, y)))
+            let inside = |s: &[f32], r| inside_polygon([x, y], s, r);
+            let on_lips = inside(landmarks, 48..60);
+            if (on_lips && inside(landmarks, 60..68))
+                || (!on_lips && (!inside(&far, 0..12) || inside(&near, 0..12)))
             {
                 continue;
             }
@@ -265,20 +271,6 @@ pub(crate) fn lip_contrast(image: &ImageRef, landmarks: &[f32]) -> f32 {
     let mean = lips.0[0] / lips.1 as f32;
     let spread = (lips_sq / lips.1 as f32 - mean * mean).max(0.0).sqrt();
     apart.hypot(spread)
-}
-
-/// Whether `(x, y)` lies inside the polygon (even-odd rule).
-fn inside(poly: &[[f32; 2]], x: f32, y: f32) -> bool {
-    let mut odd = false;
-    let mut j = poly.len() - 1;
-    for i in 0..poly.len() {
-        let (a, b) = (poly[i], poly[j]);
-        if (a[1] > y) != (b[1] > y) && x < a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0]) {
-            odd = !odd;
-        }
-        j = i;
-    }
-    odd
 }
 
 /// The median and the 5-95 percentile range of `v`.
