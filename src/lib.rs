@@ -62,6 +62,7 @@ pub use model::backdrop::{backdrop_budget, Backdrop, MAX_BACKDROP_BYTES, MAX_BAC
 pub use model::frame::{FramePixel, ReferenceFrame, MAX_FRAME_SIDE};
 pub use model::linear::LinearModel;
 pub use model::shape::ShapeModel;
+pub use model::warp::sample_rgb;
 pub use model::{bounds, format};
 pub use model::{LandmarkScheme, Model, ModelParts, Params, Reference};
 pub use render::{

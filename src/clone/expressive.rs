@@ -162,6 +162,9 @@ pub struct SourceFrame {
     /// The source's gaze: its irises' shift from where they are in its base appearance, in
     /// frame pixels (both eyes' mean), limited to `max_gaze`.
     pub gaze: [f32; 2],
+    /// The mean skin luminance of the source's neutral this frame (the model's base, or the
+    /// observed person's neutral), exposure-matched to `app`.
+    skin: f32,
 }
 
 fn point(s: &[f32], i: usize) -> [f32; 2] {
@@ -425,6 +428,18 @@ impl SourceSide {
             open: 0.0,
             closed: [0.0; 2],
             gaze: [0.0; 2],
+            skin: self.skin,
+        }
+    }
+}
+
+/// Scales each landmark's displacement in `d` by its region's gain.
+fn apply_region_gains(side: &SourceSide, d: &mut [f32], gains: &RegionGains) {
+    if side.scheme68 && !gains.is_unit() {
+        for (i, xy) in d.chunks_exact_mut(2).enumerate() {
+            let g = gains.of(region_of(i));
+            xy[0] *= g;
+            xy[1] *= g;
         }
     }
 }
@@ -444,6 +459,44 @@ impl SourceFrame {
         lambda: &[f32],
         gains: &RegionGains,
     ) {
+        self.displacement(side, source, p, gains);
+        source
+            .appearance()
+            .instance_unchecked(lambda, &mut self.app);
+        self.expression(side, &source.shape().base, None, gains, 1.0);
+    }
+
+    /// [`SourceFrame::prepare`] with the appearance observed in the frame's pixels instead of
+    /// synthesised, against the person's own neutral appearance instead of the model's base
+    /// (a followed face: [`crate::fit::ObservedAppearance`]), and `d` the observed whole
+    /// displacement (`2n`, times `gain` and the region gains) when it has one: its appearance
+    /// and neutral are `3N` RGB values on the source's frame pixels (the caller checks every
+    /// length); the
+    /// ratio is raised to the global `gain` too (the synthesis has it in `lambda`). A frame
+    /// equal to the neutral gives `rho = 1` exactly. Allocates nothing.
+    pub fn prepare_observed(
+        &mut self,
+        side: &SourceSide,
+        source: &Model,
+        p: &[f32],
+        observed: crate::fit::Observed<'_>,
+        gains: &RegionGains,
+        gain: f32,
+    ) {
+        let (neutral, displacement) = (observed.neutral, observed.displacement);
+        match displacement {
+            Some(d) => {
+                self.d.iter_mut().zip(d).for_each(|(o, &v)| *o = gain * v);
+                apply_region_gains(side, &mut self.d, gains);
+            }
+            None => self.displacement(side, source, p, gains),
+        }
+        self.app.copy_from_slice(observed.appearance);
+        self.expression(side, &source.shape().base, Some(neutral), gains, gain);
+    }
+
+    /// `d = G (S p)` into `self.d`.
+    fn displacement(&mut self, side: &SourceSide, source: &Model, p: &[f32], gains: &RegionGains) {
         let shape = source.shape();
         self.d.iter_mut().for_each(|v| *v = 0.0);
         for (&pi, mode) in p.iter().zip(shape.modes.chunks_exact(self.d.len().max(1))) {
@@ -451,45 +504,64 @@ impl SourceFrame {
                 self.d.iter_mut().zip(mode).for_each(|(o, &m)| *o += pi * m);
             }
         }
-        if side.scheme68 && !gains.is_unit() {
-            for (i, xy) in self.d.chunks_exact_mut(2).enumerate() {
-                let g = gains.of(region_of(i));
-                xy[0] *= g;
-                xy[1] *= g;
-            }
-        }
-        let app = source.appearance();
-        app.instance_unchecked(lambda, &mut self.app);
+        apply_region_gains(side, &mut self.d, gains);
+    }
+
+    /// The ratio image, the mouth's opening, the eyes' closing and the gaze of `self.app`
+    /// against `neutral` (the model's base appearance when `None`).
+    fn expression(
+        &mut self,
+        side: &SourceSide,
+        base: &[f32],
+        neutral: Option<&[f32]>,
+        gains: &RegionGains,
+        gain: f32,
+    ) {
+        let y0 = |k: usize| match neutral {
+            Some(n) => luma(&n[3 * k..3 * k + 3]),
+            None => side.y0[k],
+        };
         // The exposure of the source's frame against its neutral (a light switched on, a camera
         // adapting) is not expression: the ratio is taken against it.
         let (mut ys, mut y0s) = (0f64, 0f64);
         for &k in &side.skin_pixels {
             let k = k as usize;
             ys += luma(&self.app[3 * k..3 * k + 3]) as f64;
-            y0s += side.y0[k] as f64;
+            y0s += y0(k) as f64;
         }
         let exposure = if ys > 0.0 && y0s > 0.0 {
             (y0s / ys) as f32
         } else {
             1.0
         };
-        let unit = gains.is_unit();
+        // The neutral's skin luminance; the inner mouth compares the frame's with it in the
+        // frame's exposure (a model's synthesis has the base's).
+        let skin0 = match neutral {
+            Some(_) if !side.skin_pixels.is_empty() => (y0s / side.skin_pixels.len() as f64) as f32,
+            _ => side.skin,
+        };
+        self.skin = match neutral {
+            Some(_) => skin0 / exposure,
+            None => skin0,
+        };
+        let unit = gains.is_unit() && gain == 1.0;
         // Dark skin's luminance is small, so its ratios would swing with every highlight: the
         // offset grows with the source's skin.
-        let offset = RATIO_OFFSET + 0.6 * side.skin;
-        for ((r, rgb), (&y0, w)) in self
+        let offset = RATIO_OFFSET + 0.6 * skin0;
+        for (k, ((r, rgb), w)) in self
             .ratio
             .iter_mut()
             .zip(self.app.chunks_exact(3))
-            .zip(side.y0.iter().zip(&side.pixel_regions))
+            .zip(&side.pixel_regions)
+            .enumerate()
         {
-            let mut v = (exposure * luma(rgb) + offset) / (y0 + offset);
+            let mut v = (exposure * luma(rgb) + offset) / (y0(k) + offset);
             if !unit && v != 1.0 {
                 let g = 1.0
                     + w[0] * (gains.mouth - 1.0)
                     + w[1] * (gains.eyes - 1.0)
                     + w[2] * (gains.brows - 1.0);
-                v = v.max(1e-6).powf(g);
+                v = v.max(1e-6).powf(g * gain);
             }
             *r = v.clamp(RATIO_RANGE[0], RATIO_RANGE[1]);
         }
@@ -504,7 +576,7 @@ impl SourceFrame {
             }
         }
         if side.scheme68 {
-            let g = gaps_displaced(&shape.base, &self.d, side.down);
+            let g = gaps_displaced(base, &self.d, side.down);
             self.open =
                 ((g[0] - side.gaps0[0] - 0.03 * side.iod) / (0.09 * side.iod)).clamp(0.0, 1.0);
             for e in 0..2 {
@@ -515,9 +587,14 @@ impl SourceFrame {
             let (mut sum, mut n) = ([0f32; 2], 0.0);
             for e in 0..2 {
                 if self.closed[e] < 0.5 {
-                    if let Some(c) = iris_centre(&self.app, &side.eyes[e], &side.eyes_at[e]) {
-                        sum[0] += c[0] - side.iris0[e][0];
-                        sum[1] += c[1] - side.iris0[e][1];
+                    let at_rest = match neutral {
+                        Some(a) => iris_centre(a, &side.eyes[e], &side.eyes_at[e]),
+                        None => Some(side.iris0[e]),
+                    };
+                    let now = iris_centre(&self.app, &side.eyes[e], &side.eyes_at[e]);
+                    if let (Some(c), Some(c0)) = (now, at_rest) {
+                        sum[0] += c[0] - c0[0];
+                        sum[1] += c[1] - c0[1];
                         n += 1.0;
                     }
                 }
@@ -949,7 +1026,7 @@ pub fn expressive_appearance(
         for (&k, &edge) in side.mouth.iter().zip(&side.mouth_w) {
             let (k, w) = (k as usize, w0 * edge);
             let s = &frame.app[3 * k..3 * k + 3];
-            let b = luma(s) / side.skin.max(0.05);
+            let b = luma(s) / frame.skin.max(0.05);
             let teeth = ((b - 0.6) / 0.5).clamp(0.0, 1.0);
             let teeth = teeth * teeth * (3.0 - 2.0 * teeth);
             let y = luma(s);

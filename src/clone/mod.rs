@@ -50,7 +50,7 @@ pub use prior::{
 };
 pub use transfer::{transfer_displacement, transfer_operator};
 
-use crate::error::{Error, Result};
+use crate::error::{check_len, Error, Result};
 use crate::model::{Model, Params};
 use crate::similarity::Similarity;
 
@@ -728,6 +728,15 @@ struct Prepared {
     /// whether it holds anything yet.
     frame_key: Vec<f32>,
     frame_ready: bool,
+    /// The source's appearance observed in its frame's pixels and the person's neutral one
+    /// (`3N` each; [`Cloner::set_observed`]), used instead of the synthesised appearance
+    /// while `observed_on`.
+    observed: Vec<f32>,
+    observed_neutral: Vec<f32>,
+    observed_on: bool,
+    /// The observed whole shape displacement (`2n`), when `observed_shape`.
+    observed_displacement: Vec<f32>,
+    observed_shape: bool,
     /// The prior that bounds the expressive method's displacements.
     prior: ExpressionPrior,
 }
@@ -755,8 +764,13 @@ impl Cloner {
                 sub_appearance: vec![0.0; source.appearance().n_modes()],
                 side,
                 frame,
-                frame_key: vec![0.0; source.shape().n_modes() + source.appearance().n_modes() + 3],
+                frame_key: vec![0.0; source.shape().n_modes() + source.appearance().n_modes() + 4],
                 frame_ready: false,
+                observed: Vec::new(),
+                observed_neutral: Vec::new(),
+                observed_on: false,
+                observed_displacement: Vec::new(),
+                observed_shape: false,
                 prior: ExpressionPrior::builtin().clone(),
             },
             acc: vec![0.0; source.shape().base.len()],
@@ -779,6 +793,60 @@ impl Cloner {
     /// measure on them); kept across [`Cloner::set_source`].
     pub fn set_prior(&mut self, prior: ExpressionPrior) {
         self.scratch.prior = prior;
+    }
+
+    /// Gives [`Method::Expressive`] the source's face as observed in the frame
+    /// ([`crate::fit::Observed`], kept by a [`crate::fit::Follower`]): from the next frame the
+    /// ratio image, the inner mouth and the gaze are taken from the observed appearance
+    /// against the person's own neutral one instead of from the source model's synthesis
+    /// `A0 + A lambda` against `A0` (the person in front of the camera is not the source
+    /// model's person, and their appearance parameters are not read), and the displacement
+    /// `d` from the observed whole displacement when there is one (gained like `S p`) instead
+    /// of `S p` (a speech model's modes hold no smile). `None` returns to the parameters.
+    /// Other methods ignore it.
+    ///
+    /// Requires `3N` values each (the source model's frame pixels), all finite; otherwise
+    /// [`Error::Params`] and nothing changes. Allocates only the first time.
+    pub fn set_observed(&mut self, observed: Option<crate::fit::Observed<'_>>) -> Result<()> {
+        let s = &mut self.scratch;
+        let Some(o) = observed else {
+            s.frame_ready &= !s.observed_on;
+            s.observed_on = false;
+            return Ok(());
+        };
+        let n = self.source.appearance().len();
+        check_len("observed appearance", o.appearance, n)?;
+        check_len("observed neutral appearance", o.neutral, n)?;
+        let d = o.displacement.unwrap_or(&[]);
+        if o.displacement.is_some() {
+            check_len("observed displacement", d, self.source.shape().base.len())?;
+        }
+        if !o
+            .appearance
+            .iter()
+            .chain(o.neutral)
+            .chain(d)
+            .all(|v| v.is_finite())
+        {
+            return Err(Error::Params(
+                "the observed appearance has a value that is not a finite number".into(),
+            ));
+        }
+        s.observed.resize(n, 0.0);
+        s.observed_neutral.resize(n, 0.0);
+        s.observed.copy_from_slice(o.appearance);
+        s.observed_neutral.copy_from_slice(o.neutral);
+        s.observed_displacement.resize(d.len(), 0.0);
+        s.observed_displacement.copy_from_slice(d);
+        s.observed_shape = o.displacement.is_some();
+        s.observed_on = true;
+        s.frame_ready = false;
+        Ok(())
+    }
+
+    /// Whether the expressive method reads an observed appearance ([`Cloner::set_observed`]).
+    pub fn has_observed(&self) -> bool {
+        self.scratch.observed_on
     }
 
     /// Replaces the source model, recomputing every pair. On error (the new source is
@@ -965,17 +1033,32 @@ impl Cloner {
             // The same source frame again (the compare view after the main update): its
             // synthesis and ratio image are already there.
             let r = &options.regions;
-            let gains = [r.mouth, r.eyes, r.brows];
+            let gains = [r.mouth, r.eyes, r.brows, options.gain];
             let key = s.shape.iter().chain(&s.appearance).chain(&gains);
             if !(s.frame_ready && s.frame_key.iter().eq(key.clone())) {
                 s.frame_key.iter_mut().zip(key).for_each(|(k, v)| *k = *v);
-                s.frame.prepare(
-                    &s.side,
-                    &self.source,
-                    &s.shape,
-                    &s.appearance,
-                    &options.regions,
-                );
+                if s.observed_on {
+                    s.frame.prepare_observed(
+                        &s.side,
+                        &self.source,
+                        &s.shape,
+                        crate::fit::Observed {
+                            appearance: &s.observed,
+                            neutral: &s.observed_neutral,
+                            displacement: s.observed_shape.then_some(&s.observed_displacement[..]),
+                        },
+                        &options.regions,
+                        options.gain,
+                    );
+                } else {
+                    s.frame.prepare(
+                        &s.side,
+                        &self.source,
+                        &s.shape,
+                        &s.appearance,
+                        &options.regions,
+                    );
+                }
                 s.frame_ready = true;
             }
         }

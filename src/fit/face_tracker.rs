@@ -196,4 +196,12 @@ pub trait FaceTracker: std::fmt::Debug {
     /// `face_height` pixels tall, `current` the scale in use (0: none): the [`Tracker`](super::Tracker)'s rule
     /// ([`TrackPolicy::fit_scale`]); always 1 for the [`Follower`](super::Follower).
     fn fit_scale(&self, face_height: f32, width: u32, height: u32, current: f32) -> f32;
+
+    /// The last frame's appearance as observed in the frame's pixels, with the person's own
+    /// neutral one ([`super::ObservedAppearance`]), when the tracker keeps them: the
+    /// [`Follower`](super::Follower) does (its fits carry no appearance parameters); the [`Tracker`](super::Tracker) does
+    /// not (its fitted appearance parameters say it). `None` by default and before a face.
+    fn observed(&self) -> Option<super::Observed<'_>> {
+        None
+    }
 }

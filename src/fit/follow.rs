@@ -140,8 +140,13 @@ impl FollowOptions {
 ///    the deviation `x - n`. The neutral is the first face's shape, then the mean of the
 ///    first [`FollowOptions::warmup`] frames' shapes, then a running per-coordinate median
 ///    ([`FollowOptions::neutral_step`]), of the frames whose mouth is not more open than the
-///    neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`]), kept aligned to the
-///    model's `s0` ([`neutral_update`]).
+///    neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`]) and, after the warm-up,
+///    whose expression is at rest ([`super::neutral_like`]: a held smile does not become the
+///    neutral), kept aligned to the model's `s0` ([`neutral_update`]).
+///    **Appearance.** The frame is sampled into the model's reference frame at the smoothed
+///    points, and the person's neutral appearance kept from the frames at rest
+///    ([`super::ObservedAppearance`]); with the whole deviation `x - t - n` they are the
+///    [`FaceTracker::observed`] face the expressive method clones.
 /// 3. **Head turns.** The part of `x - n` that turning or nodding the head out of the image
 ///    plane explains, to first order, is split off as `t` ([`split_head_turn`],
 ///    [`FollowOptions::split_head_turns`]): a turn is pose, not expression.
@@ -192,6 +197,16 @@ pub struct Follower {
     followed: [f32; 136],
     /// Scratch: the displacement a head turn explains ([`split_head_turn`]).
     turn: [f32; 136],
+    /// The face's smoothed points in the frame (the head's turn kept, no mode projection):
+    /// where its appearance is observed.
+    seen_at: [f32; 136],
+    /// Whether the last frame's expression was neutral-like ([`super::neutral_like`]).
+    at_rest: bool,
+    /// The last frame's whole expression: its smoothed shape (the turn left out) less the
+    /// neutral, model coordinates ([`super::Observed::displacement`]).
+    deviation: [f32; 136],
+    /// The frame's appearance at the followed face and the person's neutral one.
+    observed: super::ObservedAppearance,
     /// Faces offered from elsewhere, used by the next search.
     offered: Option<Vec<Vec<f32>>>,
     /// Whether a search runs the finder on the frame (else it waits for offered faces).
@@ -248,6 +263,13 @@ impl FaceTracker for Follower {
             )));
         }
         self.step(frame, dt)?;
+        if !self.result.lost {
+            if self.result.reacquired {
+                // Found again after a loss: it may be someone else.
+                self.observed.reset();
+            }
+            self.observed.observe(frame, &self.seen_at, self.at_rest)?;
+        }
         // The follower reads the finder's face on every frame: it is tracking a face or has
         // none (a mesh score under the bound is a search, then no face).
         let r = &mut self.result;
@@ -262,6 +284,15 @@ impl FaceTracker for Follower {
         self.seq
             .frame(pose.as_ref(), dt, self.policy.recentre_tau, reacquired);
         Ok(&self.result)
+    }
+
+    /// The frame's appearance at the followed face, and the person's neutral one
+    /// ([`super::ObservedAppearance`]); `None` before the first face of the sequence.
+    fn observed(&self) -> Option<super::Observed<'_>> {
+        self.observed.get().map(|o| super::Observed {
+            displacement: Some(&self.deviation[..]),
+            ..o
+        })
     }
 
     /// The last frame's result, `None` before the follower's first frame.
@@ -312,6 +343,7 @@ impl FaceTracker for Follower {
         self.meshed = false;
         self.seen = false;
         self.neutral_frames = 0;
+        self.observed.reset();
         self.offered = None;
         self.start_box = None;
         self.result.lost = true;
@@ -425,6 +457,10 @@ impl Follower {
             shape: [0.0; 136],
             followed: [0.0; 136],
             turn: [0.0; 136],
+            seen_at: [0.0; 136],
+            at_rest: false,
+            deviation: [0.0; 136],
+            observed: super::ObservedAppearance::new(model.frame()),
             offered: None,
             search: true,
             start_box: None,
@@ -583,15 +619,25 @@ impl Follower {
         let o = self.options;
         self.filter
             .filter(&mut self.shape, dt, o.min_cutoff, o.beta, o.d_cutoff, iod);
-        let moved = neutral_update(
-            &mut self.neutral,
-            &self.shape,
-            &self.base,
-            &mut self.neutral_frames,
-            o.warmup,
-            o.neutral_step,
-            o.mouth_margin,
-        );
+        // After the warm-up only frames at rest move the neutral (a frame more closed than it
+        // still pulls it: a neutral begun talking): a smile with closed lips, held, no longer
+        // becomes the neutral and fades from the clone (super::neutral_like).
+        let expressive = self.neutral_frames >= o.warmup
+            && !super::neutral_like(&self.shape, &self.neutral)
+            && mouth_opening(&self.shape) >= mouth_opening(&self.neutral) - o.mouth_margin;
+        let moved = if expressive {
+            Similarity::IDENTITY
+        } else {
+            neutral_update(
+                &mut self.neutral,
+                &self.shape,
+                &self.base,
+                &mut self.neutral_frames,
+                o.warmup,
+                o.neutral_step,
+                o.mouth_margin,
+            )
+        };
         // The neutral was re-aligned to s0 by `moved`: the frame's shape and pose follow it.
         moved.apply_in_place(&mut self.shape);
         let pose = match moved.inverse() {
@@ -607,6 +653,21 @@ impl Follower {
             );
         } else {
             self.turn = [0.0; 136];
+        }
+        // Where the face is in the frame (smoothed, turned as it is), and whether it rests.
+        for ((o, s), t) in self.seen_at.iter_mut().zip(&self.shape).zip(&self.turn) {
+            *o = s + t;
+        }
+        pose.apply_in_place(&mut self.seen_at);
+        self.at_rest = mouth_opening(&self.shape) <= mouth_opening(&self.neutral) + o.mouth_margin
+            && super::neutral_like(&self.shape, &self.neutral);
+        for ((d, s), n) in self
+            .deviation
+            .iter_mut()
+            .zip(&self.shape)
+            .zip(&self.neutral)
+        {
+            *d = s - n;
         }
         let r = &mut self.result;
         expression_params(

@@ -26,6 +26,7 @@ mod follow;
 mod geometry;
 mod grey;
 mod linalg;
+mod observe;
 mod options;
 mod policy;
 mod precompute;
@@ -46,6 +47,9 @@ pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
 pub use follow::{
     close_mouth, expression_params, mouth_opening, neutral_update, split_head_turn, FollowOptions,
     Follower,
+};
+pub use observe::{
+    neutral_like, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE, NEUTRAL_STEP, NEUTRAL_WARMUP,
 };
 pub use options::{FitOptions, LevelSpec, TrackPolicy};
 pub use policy::{tracker_for, tracker_of_kind};

@@ -17,6 +17,7 @@ impl super::Stage {
     /// match the source model and finite values within its bounds
     /// ([`Model::check_params`]); on error the old ones stay. Allocates nothing.
     pub fn set_source_params(&mut self, params: &Params) -> Result<()> {
+        self.cloner.set_observed(None)?;
         take_params(
             self.cloner.source(),
             (params.pose, &params.shape, &params.appearance),
@@ -33,6 +34,7 @@ impl super::Stage {
     /// whether the fit was taken; fails (changing nothing) when the fit does not fit the
     /// source model.
     pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
+        self.cloner.set_observed(None)?;
         let placed = damped(&mut self.head, self.painter.clock, placed, !trusted(fit));
         take_fit(
             self.cloner.source(),
@@ -43,12 +45,19 @@ impl super::Stage {
     }
 
     /// Takes the source parameters from `tracker`'s last frame ([`super::Stage::source_from_fit`]
-    /// with its [`crate::fit::Sequence::placed`] pose); `false` before its first frame.
+    /// with its [`crate::fit::Sequence::placed`] pose), and, when taken, the appearance the
+    /// tracker observed ([`crate::fit::FaceTracker::observed`], a follower's: the expressive
+    /// method's ratio image and inner mouth come from it, [`crate::Cloner::set_observed`]);
+    /// `false` before its first frame.
     pub fn source_from_tracker(&mut self, tracker: &dyn FaceTracker) -> Result<bool> {
-        match tracker.last() {
-            Some(fit) => self.source_from_fit(fit, tracker.sequence().placed()),
-            None => Ok(false),
+        let taken = match tracker.last() {
+            Some(fit) => self.source_from_fit(fit, tracker.sequence().placed())?,
+            None => return Ok(false),
+        };
+        if taken {
+            self.cloner.set_observed(tracker.observed())?;
         }
+        Ok(taken)
     }
 
     /// Damps the head's motion in the poses taken from fits from now on
@@ -108,12 +117,18 @@ impl super::Stage {
         let (fit, placed) = (tracker.last(), tracker.sequence().placed());
         let lost = !fit.is_some_and(trusted);
         let placed = damped(&mut self.head, self.painter.clock, placed, lost);
-        take_fit(
+        let taken = take_fit(
             self.cloner.source(),
             (fit, placed),
             &mut self.pending,
             &mut self.params,
-        )
+        )?;
+        if taken {
+            // A followed face's appearance drives the expressive method (the fit has no
+            // appearance parameters of its own): held, like the parameters, while unsure.
+            self.cloner.set_observed(tracker.observed())?;
+        }
+        Ok(taken)
     }
 
     /// One frame from pixels: [`super::Stage::track`], [`super::Stage::update`],

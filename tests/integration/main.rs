@@ -48,6 +48,8 @@ mod hostile;
 #[cfg(not(target_arch = "wasm32"))]
 mod no_face;
 #[cfg(not(target_arch = "wasm32"))]
+mod observed;
+#[cfg(not(target_arch = "wasm32"))]
 mod realdata;
 #[cfg(not(target_arch = "wasm32"))]
 mod refine;

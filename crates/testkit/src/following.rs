@@ -102,3 +102,173 @@ pub fn follow(source: &Model, frames: &[TrainingImage], options: FollowOptions) 
         ms_per_frame: 1e3 * secs / frames.len() as f64,
     }
 }
+
+/// A real mouth counts as open from this inner-lip gap (outer eye corners' distances).
+pub const OPEN_MOUTH: f32 = 0.08;
+
+/// One measured frame of [`follow_expressions`].
+pub struct FollowedFrame {
+    /// The frame's index in the clip.
+    pub index: usize,
+    /// The real frame's inner mouth over its skin (mean luminances, the frame sampled into the
+    /// reference frame at dlib's points), when its mouth is open ([`OPEN_MOUTH`]).
+    pub teeth: Option<f32>,
+    /// The real mouth's width and lip-corner lift ([`mouth_features`]).
+    pub real_mouth: [f32; 2],
+    /// Per target, the clone's inner mouth over its skin, observed off and on.
+    pub target_teeth: Vec<[f32; 2]>,
+    /// Per target, the clone's mouth width and lift, observed off and on.
+    pub target_mouth: Vec<[[f32; 2]; 2]>,
+}
+
+/// What [`follow_expressions`] measured.
+pub struct FollowedExpressions {
+    /// The measured frames.
+    pub frames: Vec<FollowedFrame>,
+}
+
+/// p95 - p5 of `v`.
+pub fn spread(mut v: Vec<f32>) -> f32 {
+    v.sort_by(f32::total_cmp);
+    let at = |q: f32| v[((v.len() - 1) as f32 * q).round() as usize];
+    at(0.95) - at(0.05)
+}
+
+impl FollowedExpressions {
+    /// Target `t`'s inner mouth against the real one, over the frames whose mouth is open
+    /// (Pearson r), observed off and on.
+    pub fn teeth_r(&self, t: usize) -> [f32; 2] {
+        let open: Vec<&FollowedFrame> = self.frames.iter().filter(|f| f.teeth.is_some()).collect();
+        let real: Vec<f32> = open.iter().map(|f| f.teeth.unwrap_or(0.0)).collect();
+        [0, 1].map(|on| {
+            let v: Vec<f32> = open.iter().map(|f| f.target_teeth[t][on]).collect();
+            pearson(&real, &v)
+        })
+    }
+
+    /// Target `t`'s spread (p95 - p5) of mouth feature `k` (0 width, 1 lift) over the real
+    /// frames', observed off and on.
+    pub fn spread_ratio(&self, t: usize, k: usize) -> [f32; 2] {
+        let real = spread(self.frames.iter().map(|f| f.real_mouth[k]).collect());
+        [0, 1].map(|on| {
+            spread(
+                self.frames
+                    .iter()
+                    .map(|f| f.target_mouth[t][on][k])
+                    .collect(),
+            ) / real
+        })
+    }
+
+    /// The clip indices of the tenth of measured frames that laugh most (real mouth width plus
+    /// lift), strongest first.
+    pub fn laughing(&self) -> Vec<usize> {
+        let score = |f: &FollowedFrame| f.real_mouth[0] + f.real_mouth[1];
+        let mut idx: Vec<usize> = (0..self.frames.len()).collect();
+        idx.sort_by(|&a, &b| score(&self.frames[b]).total_cmp(&score(&self.frames[a])));
+        idx.truncate(self.frames.len().div_ceil(10));
+        idx.into_iter().map(|k| self.frames[k].index).collect()
+    }
+}
+
+/// Mouth width and lip-corner lift of 68 points (how far the corners lie above the lips'
+/// centre along the face's up direction), in outer eye corners' distances.
+pub fn mouth_features(p: &[f32]) -> [f32; 2] {
+    let (ex, ey) = (p[90] - p[72], p[91] - p[73]);
+    let iod = ex.hypot(ey).max(1e-3);
+    let (ux, uy) = (ey / iod, -ex / iod);
+    let width = (p[108] - p[96]).hypot(p[109] - p[97]) / iod;
+    let corners = [(p[96] + p[108]) / 2.0, (p[97] + p[109]) / 2.0];
+    let centre = [(p[102] + p[114]) / 2.0, (p[103] + p[115]) / 2.0];
+    let lift = ((corners[0] - centre[0]) * ux + (corners[1] - centre[1]) * uy) / iod;
+    [width, lift]
+}
+
+/// Whether `p` lies inside the polygon of `points`' landmarks `ring` (crossing number).
+fn inside(p: [f32; 2], points: &[f32], ring: std::ops::Range<usize>) -> bool {
+    let idx: Vec<usize> = ring.collect();
+    let mut c = false;
+    for k in 0..idx.len() {
+        let (a, b) = (idx[k], idx[(k + 1) % idx.len()]);
+        let (ax, ay) = (points[2 * a], points[2 * a + 1]);
+        let (bx, by) = (points[2 * b], points[2 * b + 1]);
+        if (ay > p[1]) != (by > p[1]) && p[0] < ax + (p[1] - ay) / (by - ay) * (bx - ax) {
+            c = !c;
+        }
+    }
+    c
+}
+
+/// Mean luminance of `app` over `pixels`.
+fn mean_luma(app: &[f32], pixels: &[usize]) -> f32 {
+    let sum: f32 = pixels
+        .iter()
+        .map(|&k| facemimic::clone::luma(&app[3 * k..3 * k + 3]))
+        .sum();
+    sum / pixels.len().max(1) as f32
+}
+
+/// Follows the clip `paths` (every frame, in order, at 25 fps) with `source`'s model, and on
+/// every `every`-th frame clones it onto `cloner`'s targets with `options`, without and with
+/// the follower's observed face ([`Cloner::set_observed`]); measures the real frame (dlib's
+/// points) against the clones.
+pub fn follow_expressions(
+    paths: &[std::path::PathBuf],
+    every: usize,
+    source: &Model,
+    cloner: &mut Cloner,
+    options: &CloneOptions,
+) -> FollowedExpressions {
+    let mut follower = Follower::new(source, FollowOptions::default()).unwrap();
+    let frame = source.frame();
+    let v = frame.vertices();
+    let (mut mouth, mut skin) = (Vec::new(), Vec::new());
+    for (k, px) in frame.pixels().iter().enumerate() {
+        let at = [
+            px.x as f32 - frame.origin()[0],
+            px.y as f32 - frame.origin()[1],
+        ];
+        if inside(at, v, 60..68) {
+            mouth.push(k);
+        } else if !inside(at, v, 36..42) && !inside(at, v, 42..48) && !inside(at, v, 48..60) {
+            skin.push(k);
+        }
+    }
+    let target_skin: Vec<f32> = (0..cloner.n_targets())
+        .map(|t| mean_luma(cloner.target(t).appearance().base(), &skin))
+        .collect();
+    let mut real = vec![0f32; source.appearance().len()];
+    let mut frames = Vec::new();
+    for (i, path) in paths.iter().enumerate() {
+        let t = facemimic::io::read_training_image(path).unwrap();
+        let view = t.image.view().unwrap();
+        let fit = follower.track(&view, 1.0 / 25.0).unwrap().clone();
+        if i % every != 0 || fit.lost {
+            continue;
+        }
+        let teeth = (mouth_opening(&t.landmarks) >= OPEN_MOUTH).then(|| {
+            facemimic::sample_rgb(frame, &view, &t.landmarks, &mut real).unwrap();
+            mean_luma(&real, &mouth) / mean_luma(&real, &skin)
+        });
+        let n = cloner.n_targets();
+        let (mut target_teeth, mut target_mouth) = (vec![[0f32; 2]; n], vec![[[0f32; 2]; 2]; n]);
+        for (on, observed) in [(0, None), (1, follower.observed())] {
+            cloner.set_observed(observed).unwrap();
+            cloner.clone_frame(&fit.params, options).unwrap();
+            for k in 0..n {
+                target_teeth[k][on] =
+                    mean_luma(cloner.target_appearance(k), &mouth) / target_skin[k];
+                target_mouth[k][on] = mouth_features(cloner.target_shape(k));
+            }
+        }
+        frames.push(FollowedFrame {
+            index: i,
+            teeth,
+            real_mouth: mouth_features(&t.landmarks),
+            target_teeth,
+            target_mouth,
+        });
+    }
+    cloner.set_observed(None).unwrap();
+    FollowedExpressions { frames }
+}

@@ -15,6 +15,8 @@ pub mod fuzz;
 pub mod js;
 pub mod pixels;
 mod rng;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod sheet;
 pub mod synthetic;
 
 pub use rng::Rng;

@@ -1,0 +1,279 @@
+//! Anyone without a model of their own: a person followed by the landmark follower (the page's
+//! default source, spk07's model, as the page uses it), cloned by the expressive method onto
+//! the page's default GRID targets, with the appearance observed in the frame's pixels against
+//! the person's running neutral (`Cloner::set_observed`, on) and without it (the source
+//! model's mean appearance, off: what the follower drove before).
+//!
+//! - **Clip**: franck-dev2 (frames 3800-4799, in no training list) by default, or franck-dev
+//!   (`--clip`); every frame is followed in order at 25 fps, every `--every`-th measured.
+//!   Nothing here is built from franck: spk07 and the targets are GRID models, and the
+//!   follower's neutral thresholds were chosen on franck-dev (measure on franck-dev2).
+//! - **Teeth**: on frames whose real mouth is open (dlib's inner lips at least 0.08 of the eye
+//!   corners' distance apart), the real frame sampled into the frame at dlib's points: the
+//!   inner mouth's mean luminance over the skin's (its teeth showing or not); the same ratio of
+//!   each target's cloned appearance. Printed: their correlation per target, on and off.
+//! - **Laughs**: the tenth of measured frames with the widest, most lifted real mouths:
+//!   `--dump-dir` writes the source frames and the targets' composited clones (on and off) with
+//!   a manifest for `scripts/eval/fer_judge.py`; `--sheet` draws four of them (targets only:
+//!   franck's frames are research data and are never published).
+//!
+//! ```text
+//! cargo run --release --example follow_expressions -- [--clip franck-dev2] [--every 2]
+//!     [--sheet docs/img/follow-expressive.jpg] [--dump-dir /tmp/follow-fer]
+//! ```
+#![cfg_attr(target_arch = "wasm32", no_main)]
+#![allow(clippy::needless_range_loop)]
+
+/// Native only: the example reads files.
+#[cfg(not(any(target_arch = "wasm32", test)))]
+fn main() -> std::process::ExitCode {
+    match native::run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("follow_expressions: {e}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(not(any(target_arch = "wasm32", test)))]
+mod native {
+    use std::path::{Path, PathBuf};
+
+    use clap::Parser;
+    use facemimic::clone::{CloneOptions, Cloner};
+    use facemimic::fit::{FaceTracker, FollowOptions, Follower};
+    use facemimic::{io, picture_view, Compositor, DrawOptions, Error, Result};
+    use facemimic_testkit as common;
+    use facemimic_testkit::following::{follow_expressions, OPEN_MOUTH};
+    use facemimic_testkit::sheet;
+
+    /// The page's default targets (`www/models/manifest.json`).
+    const TARGETS: &str = "spk02,spk03,spk06,spk10";
+    /// A contact-sheet cell (width, height).
+    const CELL: (u32, u32) = (128, 160);
+
+    /// Followed expressions with and without the observed appearance.
+    #[derive(Parser, Debug)]
+    #[command(name = "follow_expressions")]
+    struct Args {
+        /// The shared data folder (default: ../shared/data beside the repository).
+        #[arg(long, value_name = "DIR")]
+        data: Option<PathBuf>,
+        /// The clip: franck-dev2 or franck-dev.
+        #[arg(long, default_value = "franck-dev2")]
+        clip: String,
+        /// Measure every K-th frame (all are followed).
+        #[arg(long, default_value_t = 2, value_name = "K")]
+        every: usize,
+        /// Write a contact sheet of four laughs (targets only: off, on).
+        #[arg(long, value_name = "PATH")]
+        sheet: Option<PathBuf>,
+        /// Write the laughing frames, their clones and a manifest for fer_judge.py here.
+        #[arg(long, value_name = "DIR")]
+        dump_dir: Option<PathBuf>,
+        /// Clone without the constraint (the expression prior's bound and the modes' limit).
+        #[arg(long)]
+        no_clamp: bool,
+    }
+
+    pub fn run() -> Result<()> {
+        let args = Args::parse();
+        if args.every == 0 {
+            return Err(Error::Params("--every must be at least 1".into()));
+        }
+        let data = args
+            .data
+            .clone()
+            .unwrap_or_else(|| common::repo("../shared/data"));
+        let dir = data.join(&args.clip);
+        let paths = common::clip_frames(&dir);
+        if paths.is_empty() {
+            return Err(Error::Io(format!("{}: no frames", dir.display())));
+        }
+        let source = common::following::spk07();
+        let mut cloner = Cloner::new(source.clone())?;
+        for name in TARGETS.split(',') {
+            let list = grid_list(name)?;
+            cloner.add_target(common::path_list_model(&list, name, true).clone())?;
+        }
+        let options = CloneOptions {
+            clamp: if args.no_clamp {
+                None
+            } else {
+                CloneOptions::default().clamp
+            },
+            ..CloneOptions::default()
+        };
+        let m = follow_expressions(&paths, args.every, &source, &mut cloner, &options);
+        let open = m.frames.iter().filter(|f| f.teeth.is_some()).count();
+        println!(
+            "{}: {} frames measured, {open} with the real mouth open (inner lips >= {OPEN_MOUTH} apart)",
+            args.clip,
+            m.frames.len()
+        );
+        println!("per target, observed off -> on:");
+        for t in 0..cloner.n_targets() {
+            let r = m.teeth_r(t);
+            let (w, l) = (m.spread_ratio(t, 0), m.spread_ratio(t, 1));
+            println!(
+                "  {}: inner mouth vs the real one r {:.2} -> {:.2}; spread over the real frames' (p95 - p5): width {:.2} -> {:.2}, lift {:.2} -> {:.2}",
+                cloner.target(t).name(),
+                r[0], r[1], w[0], w[1], l[0], l[1]
+            );
+        }
+        let laughs = m.laughing();
+        if let Some(out) = &args.sheet {
+            write_sheet(out, &paths, &laughs, &source, &mut cloner)?;
+        }
+        if let Some(out) = &args.dump_dir {
+            dump(out, &paths, &laughs, &source, &mut cloner)?;
+        }
+        Ok(())
+    }
+
+    /// The `train20.txt` of the last clip folder of `speaker` under data/grid.
+    fn grid_list(speaker: &str) -> Result<PathBuf> {
+        let grid = common::repo("data/grid");
+        let mut clips: Vec<PathBuf> = std::fs::read_dir(&grid)
+            .map_err(|e| Error::Io(format!("{}: {e}", grid.display())))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with(&format!("{speaker}_")))
+                    && p.join("train20.txt").exists()
+            })
+            .collect();
+        clips.sort();
+        clips
+            .pop()
+            .map(|c| c.join("train20.txt"))
+            .ok_or_else(|| Error::Io(format!("no GRID clip of {speaker}")))
+    }
+
+    /// Follows the clip again up to each frame of `picks` (in order) and yields, per pick,
+    /// the targets' (off, on) clones as (appearance, shape) pairs.
+    fn replay(
+        paths: &[PathBuf],
+        picks: &[usize],
+        source: &facemimic::Model,
+        cloner: &mut Cloner,
+        mut each: impl FnMut(usize, &mut Cloner, bool) -> Result<()>,
+    ) -> Result<()> {
+        let mut follower = Follower::new(source, FollowOptions::default())?;
+        let last = picks.iter().copied().max().unwrap_or(0);
+        let options = CloneOptions::default();
+        for (i, path) in paths.iter().enumerate().take(last + 1) {
+            let t = io::read_training_image(path)?;
+            let fit = follower.track(&t.image.view()?, 1.0 / 25.0)?.clone();
+            if !picks.contains(&i) {
+                continue;
+            }
+            for on in [false, true] {
+                cloner.set_observed(if on { follower.observed() } else { None })?;
+                cloner.clone_frame(&fit.params, &options)?;
+                each(i, cloner, on)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Four laughs at least a second apart: a row each, per target off then on.
+    fn write_sheet(
+        out: &Path,
+        paths: &[PathBuf],
+        laughs: &[usize],
+        source: &facemimic::Model,
+        cloner: &mut Cloner,
+    ) -> Result<()> {
+        let mut rows: Vec<usize> = Vec::new();
+        for &i in laughs {
+            if rows.len() < 4 && rows.iter().all(|&r| r.abs_diff(i) >= 25) {
+                rows.push(i);
+            }
+        }
+        rows.sort_unstable();
+        let nt = cloner.n_targets() as u32;
+        let mut page = sheet::canvas(CELL.0 * 2 * nt + 6 * nt, CELL.1 * rows.len() as u32)?;
+        let mut comps: Vec<Compositor> = (0..cloner.n_targets())
+            .map(|t| Compositor::new(cloner.target(t), DrawOptions::default()))
+            .collect::<Result<_>>()?;
+        replay(paths, &rows, source, cloner, |i, c, on| {
+            let row = rows.iter().position(|&r| r == i).unwrap_or(0) as u32;
+            for t in 0..c.n_targets() {
+                let b = facemimic::BBox::of_points(c.target_shape(t));
+                let view = sheet::cell_view([b.x, b.y, b.right(), b.bottom()], CELL);
+                let cell = sheet::target_cell(
+                    &mut comps[t],
+                    c.target(t),
+                    (c.target_appearance(t), c.target_shape(t)),
+                    &view,
+                    CELL,
+                )?;
+                let x = t as u32 * (2 * CELL.0 + 6) + on as u32 * CELL.0;
+                sheet::put(&mut page, (x, row * CELL.1), &cell);
+            }
+            Ok(())
+        })?;
+        sheet::save(out, &page)?;
+        println!("sheet: frames {rows:?} -> {}", out.display());
+        Ok(())
+    }
+
+    /// The laughing frames, each target's composited clone off and on, and `manifest.csv` for
+    /// `fer_judge.py` (the face boxes left empty: the judge finds them).
+    fn dump(
+        out: &Path,
+        paths: &[PathBuf],
+        laughs: &[usize],
+        source: &facemimic::Model,
+        cloner: &mut Cloner,
+    ) -> Result<()> {
+        std::fs::create_dir_all(out).map_err(|e| Error::Io(format!("{}: {e}", out.display())))?;
+        let mut comps: Vec<Compositor> = (0..cloner.n_targets())
+            .map(|t| Compositor::new(cloner.target(t), DrawOptions::default()))
+            .collect::<Result<_>>()?;
+        let mut manifest = String::from("id,source,target\n");
+        replay(paths, laughs, source, cloner, |i, c, on| {
+            let src = format!("src-{i:06}.png");
+            if !on {
+                let t = io::read_training_image(&paths[i])?;
+                image::save_buffer(
+                    out.join(&src),
+                    &t.image.data,
+                    t.image.width,
+                    t.image.height,
+                    image::ExtendedColorType::Rgba8,
+                )
+                .map_err(|e| Error::Io(e.to_string()))?;
+            }
+            for t in 0..c.n_targets() {
+                let (w, h) = comps[t].size();
+                let mut picture = sheet::canvas(w, h)?;
+                comps[t].draw(
+                    c.target(t),
+                    c.target_appearance(t),
+                    c.target_shape(t),
+                    &picture_view(w, h, w, h),
+                    &mut picture.as_mut(),
+                )?;
+                let id = format!(
+                    "{i:06}-{}-{}",
+                    c.target(t).name(),
+                    if on { "on" } else { "off" }
+                );
+                sheet::save(&out.join(format!("{id}.png")), &picture)?;
+                manifest.push_str(&format!("{id},{src},{id}.png\n"));
+            }
+            Ok(())
+        })?;
+        std::fs::write(out.join("manifest.csv"), manifest).map_err(|e| Error::Io(e.to_string()))?;
+        println!(
+            "dump: {} laughing frames -> {}",
+            laughs.len(),
+            out.display()
+        );
+        Ok(())
+    }
+}

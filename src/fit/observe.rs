@@ -1,0 +1,151 @@
+//! What a landmark follower sees of a face's appearance (issue 30, item 2): the frame sampled
+//! into the source model's reference frame at the followed points, and the person's own
+//! running neutral appearance. A [`super::Follower`] reads no appearance parameters (the
+//! source model's appearance modes describe another person), so without this the expressive
+//! method had nothing to take a laugh's teeth, creases or closing lids from: the targets of
+//! anyone without a model of their own smiled with closed, unshaded lips. The expressive
+//! method takes its ratio image, inner mouth and gaze from the pair (the frame against the
+//! person's own neutral: identity-free, as the issue asks, "the source's neutral is ... the
+//! running neutral the follower already keeps").
+
+use crate::error::Result;
+use crate::image::ImageRef;
+use crate::model::frame::ReferenceFrame;
+use crate::model::warp::sample_rgb;
+
+/// Frames whose appearance is averaged for the first neutral.
+pub const NEUTRAL_WARMUP: u32 = 10;
+/// After the warm-up, each neutral-like frame moves every value of the neutral appearance
+/// by at most this (RGB in `0..=1`): a running median that a lasting change of light follows
+/// in a second or two and a brief expression does not pull.
+pub const NEUTRAL_STEP: f32 = 0.01;
+/// A frame is neutral-like when no landmark of its expression (its shape in model
+/// coordinates, the head's turn left out, against the person's neutral shape) lies further
+/// from the neutral than this fraction of the outer eye corners' distance, and its mouth is no more open
+/// than the neutral's (the follower's own neutral rule). Chosen on franck-dev's frames
+/// 0-999 (docs/cloning.md, "Anyone, without a model").
+pub const NEUTRAL_MAX_MOVE: f32 = 0.07;
+
+/// The observed appearance of a followed face and its running neutral.
+///
+/// Represents: the source model's reference frame, the last frame's appearance sampled there
+/// (`3N` RGB in `0..=1`, the frame's pixel order) and the person's neutral appearance (the
+/// first frame's until a neutral-like frame comes; then the mean of the first
+/// [`NEUTRAL_WARMUP`] neutral-like frames; then a running median, [`NEUTRAL_STEP`]).
+///
+/// Ensures: [`ObservedAppearance::get`] gives both once a frame was observed; each
+/// observation allocates nothing.
+#[derive(Clone, Debug)]
+pub struct ObservedAppearance {
+    frame: ReferenceFrame,
+    app: Vec<f32>,
+    neutral: Vec<f32>,
+    neutral_frames: u32,
+    seen: bool,
+}
+
+/// One frame's face as observed: its appearance and the person's neutral one, on the source
+/// model's frame pixels (`3N` RGB each), and, when the tracker has it, the expression's whole
+/// shape displacement.
+#[derive(Clone, Copy, Debug)]
+pub struct Observed<'a> {
+    /// The frame's appearance.
+    pub appearance: &'a [f32],
+    /// The person's neutral appearance.
+    pub neutral: &'a [f32],
+    /// The frame's shape less the person's neutral shape, in the source model's coordinates
+    /// (aligned to its `s0`, the head's turn left out; `2n`): the whole expression, where the
+    /// fit's `S p` is its projection onto the source model's modes (a speech model's modes
+    /// hold no smile). `None` when the tracker has only the projection.
+    pub displacement: Option<&'a [f32]>,
+}
+
+impl ObservedAppearance {
+    /// Observes faces into `frame` (the source model's reference frame).
+    pub fn new(frame: &ReferenceFrame) -> ObservedAppearance {
+        let n = 3 * frame.n_pixels();
+        ObservedAppearance {
+            frame: frame.clone(),
+            app: vec![0.0; n],
+            neutral: vec![0.0; n],
+            neutral_frames: 0,
+            seen: false,
+        }
+    }
+
+    /// Forgets the person (a new sequence, or a face found again after a loss, which may be
+    /// someone else): the next frame starts a new neutral.
+    pub fn reset(&mut self) {
+        self.seen = false;
+        self.neutral_frames = 0;
+    }
+
+    /// Samples `image` at `points` (the frame's landmarks in image coordinates, `2n`) and,
+    /// when the frame is `neutral_like`, moves the neutral towards it. Fails with
+    /// [`crate::Error::Params`] (changing nothing) when `points` has another length.
+    /// Allocates nothing.
+    pub fn observe(
+        &mut self,
+        image: &ImageRef<'_>,
+        points: &[f32],
+        neutral_like: bool,
+    ) -> Result<()> {
+        sample_rgb(&self.frame, image, points, &mut self.app)?;
+        if !self.seen || self.neutral_frames == 0 {
+            // Until a neutral-like frame comes, the frame is its own neutral (no expression).
+            self.neutral.copy_from_slice(&self.app);
+            self.seen = true;
+            if neutral_like {
+                self.neutral_frames = 1;
+            }
+            return Ok(());
+        }
+        if !neutral_like {
+            return Ok(());
+        }
+        if self.neutral_frames < NEUTRAL_WARMUP {
+            self.neutral_frames += 1;
+            let w = 1.0 / self.neutral_frames as f32;
+            for (n, a) in self.neutral.iter_mut().zip(&self.app) {
+                *n += w * (a - *n);
+            }
+        } else {
+            for (n, a) in self.neutral.iter_mut().zip(&self.app) {
+                *n += (a - *n).clamp(-NEUTRAL_STEP, NEUTRAL_STEP);
+            }
+        }
+        Ok(())
+    }
+
+    /// The last frame's appearance and the neutral, `None` before the first observation.
+    pub fn get(&self) -> Option<Observed<'_>> {
+        self.seen.then_some(Observed {
+            appearance: &self.app,
+            neutral: &self.neutral,
+            displacement: None,
+        })
+    }
+
+    /// Neutral-like frames taken into the neutral so far.
+    pub fn neutral_frames(&self) -> u32 {
+        self.neutral_frames
+    }
+}
+
+/// Whether a frame's expression is neutral-like ([`NEUTRAL_MAX_MOVE`]): `shape` and `neutral`
+/// are 68-point shapes in one coordinate frame (the follower's model coordinates). Its
+/// mouth opening is checked by the caller.
+pub fn neutral_like(shape: &[f32], neutral: &[f32]) -> bool {
+    let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
+        return false;
+    };
+    let iod = (ex * ex + ey * ey).sqrt();
+    if !(iod > 0.0) {
+        return false;
+    }
+    let lim = NEUTRAL_MAX_MOVE * iod;
+    shape
+        .chunks_exact(2)
+        .zip(neutral.chunks_exact(2))
+        .all(|(s, n)| (s[0] - n[0]).hypot(s[1] - n[1]) <= lim)
+}
