@@ -224,9 +224,11 @@ function render(t) {
   app.params = p;
   const c = app.cloner;
   // A tracked source's parameters stay in wasm: the cloner reads the tracker's last good fit
-  // (the same parameters as `p`); otherwise (sliders, the track, no good fit yet) they are set.
+  // (the same parameters as `p`) and, from a follower, the face it observed; an unsure or lost
+  // fit is not taken and the cloner holds the last good expression, appearance included.
+  // Otherwise (sliders, the track, no good fit yet) they are set.
   const tracker = app.active.tracker;
-  if (!(tracker && c.sourceFromTracker(tracker))) c.setSourceParams(p);
+  if (!(tracker && (c.sourceFromTracker(tracker) || app.active.lastGood))) c.setSourceParams(p);
   // "Fast raster" (on by default) rasterises with the package's fixed-point scanline warp into
   // the same tiny-skia pixmap (~3x faster, within ~1.5 levels); off, tiny-skia's pattern fills
   // (the reference renderer of the CLI and the npm package) draw every triangle.

@@ -35,6 +35,11 @@ impl super::Stage {
     /// source model.
     pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
         self.cloner.set_observed(None)?;
+        self.take_from_fit(fit, placed)
+    }
+
+    /// [`super::Stage::source_from_fit`] keeping the observed face the cloner holds.
+    fn take_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
         let placed = damped(&mut self.head, self.painter.clock, placed, !trusted(fit));
         take_fit(
             self.cloner.source(),
@@ -48,10 +53,11 @@ impl super::Stage {
     /// with its [`crate::fit::Sequence::placed`] pose), and, when taken, the appearance the
     /// tracker observed ([`crate::fit::FaceTracker::observed`], a follower's: the expressive
     /// method's ratio image and inner mouth come from it, [`crate::Cloner::set_observed`]);
-    /// `false` before its first frame.
+    /// `false` before its first frame. A fit not taken keeps the last good parameters and
+    /// observed face (the targets hold the whole expression).
     pub fn source_from_tracker(&mut self, tracker: &dyn FaceTracker) -> Result<bool> {
         let taken = match tracker.last() {
-            Some(fit) => self.source_from_fit(fit, tracker.sequence().placed())?,
+            Some(fit) => self.take_from_fit(fit, tracker.sequence().placed())?,
             None => return Ok(false),
         };
         if taken {

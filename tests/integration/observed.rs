@@ -243,6 +243,14 @@ fn the_stage_clones_what_its_follower_observes() {
     }
     assert!(stage.cloner().has_observed());
     assert!(stage.tracker().unwrap().observed().is_some());
+    // A frame with no face is not taken: the last good expression is held, its look included.
+    let black = facemimic::Image {
+        width: 360,
+        height: 288,
+        data: vec![0; 360 * 288 * 4],
+    };
+    assert!(!stage.track(&black.view().unwrap(), 0.04).unwrap());
+    assert!(stage.cloner().has_observed());
     // Parameters given directly are the model's: the observed face is dropped.
     stage.set_source_params(&spk07().base_params()).unwrap();
     assert!(!stage.cloner().has_observed());

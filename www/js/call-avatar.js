@@ -254,7 +254,9 @@ export class Avatar {
     this.params = params; // the frame log's copy (the tracking source has it already)
     // The parameters stay in wasm: the cloner reads the tracker's fit and damps the head itself.
     const tracker = this.video?.tracker;
-    if (!(tracker && this.cloner.sourceFromTracker(tracker))) this.cloner.setSourceParams(params);
+    // Not taken (an unsure fit): the cloner holds the last good expression, appearance included.
+    const held = tracker && (this.cloner.sourceFromTracker(tracker) || this.video?.lastGood);
+    if (!held) this.cloner.setSourceParams(params);
     this.drawCurrent(captured, r.pose);
   }
 

@@ -7,7 +7,9 @@
 //                bundled clip, which shows the bundled person
 //   "landmarks"  anyone is followed at once with the bundled source model: the face finder's
 //                landmarks, smoothed, read as expression relative to the person's own neutral
-//                face and mapped onto the model's shape modes; the appearance stays the model's.
+//                face and mapped onto the model's shape modes; the change of appearance (teeth,
+//                creases, lids) observed against the person's own neutral drives the expressive
+//                method (the core's FaceTracker::observed).
 //                The panel says so and offers "Create a face".
 //
 // Both are the package's one `Tracker` class (`Tracker.fromModel` / `Tracker.follower`), with
