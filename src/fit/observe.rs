@@ -24,7 +24,7 @@ pub const NEUTRAL_STEP: f32 = 0.01;
 /// from the neutral than this fraction of the outer eye corners' distance, and its mouth is no more open
 /// than the neutral's (the follower's own neutral rule). Chosen on franck-dev's frames
 /// 0-999 (docs/cloning.md, "Anyone, without a model").
-pub const NEUTRAL_MAX_MOVE: f32 = 0.07;
+pub const NEUTRAL_MAX_MOVE: f32 = 0.05;
 
 /// The observed appearance of a followed face and its running neutral.
 ///
