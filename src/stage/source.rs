@@ -15,7 +15,8 @@ impl super::Stage {
 
     /// Sets the source parameters for the next [`super::Stage::update`]. Requires lengths that
     /// match the source model and finite values within its bounds
-    /// ([`Model::check_params`]); on error the old ones stay. Allocates nothing.
+    /// ([`Model::check_params`]); on error the old ones stay. The parameters are the model's:
+    /// an observed face ([`crate::Cloner::set_observed`]) is dropped. Allocates nothing.
     pub fn set_source_params(&mut self, params: &Params) -> Result<()> {
         self.cloner.set_observed(None)?;
         take_params(

@@ -242,8 +242,9 @@ impl JsCloner {
         }
     }
 
-    /// Sets the source parameters for the next `update()`. Throws (and keeps the old ones)
-    /// unless the lengths match the source model and every value is finite.
+    /// Sets the source parameters for the next `update()` (the model's: a face a follower
+    /// observed is dropped). Throws (and keeps the old ones) unless the lengths match the
+    /// source model and every value is finite.
     #[wasm_bindgen(js_name = setSourceParams)]
     pub fn set_source_params(
         &mut self,
@@ -257,9 +258,11 @@ impl JsCloner {
 
     /// Takes the source parameters from a `Tracker`'s last frame (either path), inside wasm
     /// (no parameters object crosses to JS and back): its shape and appearance and its
-    /// `placed` pose. A lost
-    /// frame, or none yet, is not taken (the parameters stay the last good ones). Returns
-    /// whether the fit was taken. Throws when the tracker's model does not fit the source.
+    /// `placed` pose, and from a follower the face it observed (the expressive method's look
+    /// and whole expression against the person's own neutral). A lost or unsure
+    /// frame, or none yet, is not taken (the parameters and observed face stay the last good
+    /// ones). Returns whether the fit was taken. Throws when the tracker's model does not fit
+    /// the source.
     #[wasm_bindgen(js_name = sourceFromTracker)]
     pub fn source_from_tracker(&mut self, tracker: &WasmTracker) -> Result<bool, JsError> {
         self.stage
