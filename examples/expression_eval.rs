@@ -132,6 +132,12 @@ mod native {
         /// Seed of the random frames of --dump-dir.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// In the contact sheet and the dump, give the expressive method each frame's pixels
+        /// sampled at its landmarks against the model's mean appearance
+        /// (`Cloner::set_observed`, as a follower's face is given), instead of the model's
+        /// synthesis of the projected appearance parameters.
+        #[arg(long)]
+        observed: bool,
         /// Measure every K-th frame only (quick runs; the split is unchanged).
         #[arg(long, default_value_t = 1, value_name = "K")]
         every: usize,
@@ -192,7 +198,7 @@ mod native {
                 &frames,
                 &setups,
                 &picks,
-                (path, args.no_source),
+                (path, args.no_source, args.observed),
             )?;
         }
         if let Some(dir) = &args.dump_dir {
@@ -202,7 +208,7 @@ mod native {
                 &source.series,
                 &setups,
                 args.seed,
-                dir,
+                (dir, args.observed),
             )?;
         }
         println!(
@@ -1118,7 +1124,7 @@ mod native {
         frames: &[Frame],
         setups: &[CloneOptions],
         picks: &[(usize, String)],
-        (path, no_source): (&Path, bool),
+        (path, no_source, observed): (&Path, bool, bool),
     ) -> Result<()> {
         let (nt, nm) = (cloner.n_targets() as u32, setups.len() as u32);
         let first = u32::from(!no_source);
@@ -1157,6 +1163,7 @@ mod native {
                 cell.draw_pixmap(0, 0, picture.as_ref(), &paint, to_cell, None);
                 put(&mut sheet, 0, y, &cell);
             }
+            observe(cloner, f, observed)?;
             for (m, options) in setups.iter().enumerate() {
                 cloner.clone_frame(&f.params, options)?;
                 for t in 0..cloner.n_targets() {
@@ -1280,6 +1287,24 @@ mod native {
         out
     }
 
+    /// With `on`, gives `cloner` frame `f`'s pixels sampled at its landmarks against the source
+    /// model's mean appearance as the observed face; else none.
+    fn observe(cloner: &mut Cloner, f: &Frame, on: bool) -> Result<()> {
+        if !on {
+            return cloner.set_observed(None);
+        }
+        let image = io::read_image(&f.path)?;
+        let source = cloner.source();
+        let mut app = vec![0.0; source.appearance().len()];
+        facemimic::sample_rgb(source.frame(), &image.view()?, &f.landmarks, &mut app)?;
+        let neutral = source.appearance().base().to_vec();
+        cloner.set_observed(Some(facemimic::fit::Observed {
+            appearance: &app,
+            neutral: &neutral,
+            displacement: None,
+        }))
+    }
+
     /// Writes one frame's source picture and every target's composited clone per method into
     /// `dir`; returns the manifest rows.
     fn dump_frame(
@@ -1287,9 +1312,10 @@ mod native {
         comps: &mut [Compositor],
         f: &Frame,
         setups: &[CloneOptions],
-        dir: &Path,
+        (dir, observed): (&Path, bool),
     ) -> Result<Vec<String>> {
         let image = io::read_image(&f.path)?;
+        observe(cloner, f, observed)?;
         let source_png = format!("{}-{:06}.png", f.clip, f.number);
         save_png(&dir.join(&source_png), &pixmap_of(&image)?)?;
         let s = clip_box(face_box(&f.landmarks), image.width, image.height);
@@ -1330,7 +1356,7 @@ mod native {
         source: &Series,
         setups: &[CloneOptions],
         seed: u64,
-        dir: &Path,
+        (dir, observed): (&Path, bool),
     ) -> Result<()> {
         make_dir(dir)?;
         let chosen = dump_frames(source, seed);
@@ -1339,7 +1365,7 @@ mod native {
         let mut groups = String::from("clip,frame,group,mouth_width,lift,source\n");
         for &(i, group) in &chosen {
             let f = &frames[i];
-            for row in dump_frame(cloner, &mut comps, f, setups, dir)? {
+            for row in dump_frame(cloner, &mut comps, f, setups, (dir, observed))? {
                 manifest.push_str(&row);
                 manifest.push('\n');
             }
