@@ -16,7 +16,7 @@ impl super::Stage {
     /// Sets the source parameters for the next [`super::Stage::update`]. Requires lengths that
     /// match the source model and finite values within its bounds
     /// ([`Model::check_params`]); on error the old ones stay. The parameters are the model's:
-    /// an observed face ([`crate::Cloner::set_observed`]) is dropped. Allocates nothing.
+    /// an observed face ([`crate::clone::Cloner::set_observed`]) is dropped. Allocates nothing.
     pub fn set_source_params(&mut self, params: &Params) -> Result<()> {
         self.cloner.set_observed(None)?;
         take_params(
@@ -53,7 +53,7 @@ impl super::Stage {
     /// Takes the source parameters from `tracker`'s last frame ([`super::Stage::source_from_fit`]
     /// with its [`crate::fit::Sequence::placed`] pose), and, when taken, the appearance the
     /// tracker observed ([`crate::fit::FaceTracker::observed`], a follower's: the expressive
-    /// method's ratio image and inner mouth come from it, [`crate::Cloner::set_observed`]);
+    /// method's ratio image and inner mouth come from it, [`crate::clone::Cloner::set_observed`]);
     /// `false` before its first frame. A fit not taken keeps the last good parameters and
     /// observed face (the targets hold the whole expression).
     pub fn source_from_tracker(&mut self, tracker: &dyn FaceTracker) -> Result<bool> {

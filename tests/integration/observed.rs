@@ -12,7 +12,7 @@
 use facemimic_testkit as common;
 
 use facemimic::clone::{luma, CloneOptions, Cloner};
-use facemimic::fit::{FaceTracker, FollowOptions, Follower, Observed, ObservedAppearance};
+use facemimic::fit::{FollowOptions, Follower, Observed, ObservedAppearance};
 use facemimic::{io, sample_rgb, Model, Stage, TrainingImage};
 
 fn spk07() -> &'static Model {
