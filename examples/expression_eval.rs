@@ -60,11 +60,12 @@ mod native {
     use facemimic::clone::{CloneOptions, Cloner, Method};
     use facemimic::format::{read_model, write_model_checked_as, Storage};
     use facemimic::glam::Vec2;
-    use facemimic::tiny_skia::{Color, FilterQuality, IntSize, Pixmap, PixmapPaint, Transform};
+    use facemimic::tiny_skia::{FilterQuality, IntSize, Pixmap, PixmapPaint, Transform};
     use facemimic::{
         enrol, io, picture_view, BuildOptions, Compositor, DrawOptions, EnrolFrame, EnrolOptions,
         Error, Model, Params, Result, Similarity,
     };
+    use facemimic_testkit::sheet::{canvas, put, save};
 
     /// The page's default targets (`www/models/manifest.json`).
     const DEFAULT_TARGETS: &str = "spk02,spk03,spk06,spk10";
@@ -992,49 +993,6 @@ mod native {
             .ok_or_else(|| Error::Image(format!("{}x{} picture", image.width, image.height)))
     }
 
-    /// A `width x height` pixmap filled with the CLI's dark grey.
-    fn canvas(width: u32, height: u32) -> Result<Pixmap> {
-        let mut p = Pixmap::new(width, height)
-            .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
-        p.fill(Color::from_rgba8(32, 32, 36, 255));
-        Ok(p)
-    }
-
-    /// Writes a pixmap as a PNG with the `image` crate.
-    fn save_png(path: &Path, pixmap: &Pixmap) -> Result<()> {
-        let rgba = facemimic::demultiply(pixmap);
-        image::RgbaImage::from_raw(pixmap.width(), pixmap.height(), rgba)
-            .ok_or_else(|| Error::Image(format!("{}: bad pixel buffer", path.display())))?
-            .save_with_format(path, image::ImageFormat::Png)
-            .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
-    }
-
-    /// Writes a pixmap (opaque) as JPEG at quality 90 when `path` ends in `.jpg` or `.jpeg`,
-    /// else as PNG.
-    fn save_picture(path: &Path, pixmap: &Pixmap) -> Result<()> {
-        let jpeg = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
-        if !jpeg {
-            return save_png(path, pixmap);
-        }
-        let rgb: Vec<u8> = facemimic::demultiply(pixmap)
-            .chunks_exact(4)
-            .flat_map(|p| [p[0], p[1], p[2]])
-            .collect();
-        let file = std::fs::File::create(path)
-            .map_err(|e| Error::Io(format!("{}: {e}", path.display())))?;
-        image::codecs::jpeg::JpegEncoder::new_with_quality(std::io::BufWriter::new(file), 90)
-            .encode(
-                &rgb,
-                pixmap.width(),
-                pixmap.height(),
-                image::ExtendedColorType::Rgb8,
-            )
-            .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
-    }
-
     /// Creates the folder `dir` (and its parents).
     fn make_dir(dir: &Path) -> Result<()> {
         std::fs::create_dir_all(dir).map_err(|e| Error::Io(format!("{}: {e}", dir.display())))
@@ -1138,16 +1096,6 @@ mod native {
                 cell_view([b[0] - 0.15 * w, b[1] - 0.25 * h, 1.3 * w, 1.35 * h])
             })
             .collect();
-        let put = |sheet: &mut Pixmap, x: u32, y: u32, cell: &Pixmap| {
-            sheet.draw_pixmap(
-                x as i32,
-                y as i32,
-                cell.as_ref(),
-                &PixmapPaint::default(),
-                Transform::identity(),
-                None,
-            );
-        };
         for (row, (i, why)) in picks.iter().enumerate() {
             let f = &frames[*i];
             let y = row as u32 * CELL.1;
@@ -1161,7 +1109,7 @@ mod native {
                 };
                 let to_cell = Transform::from_row(v.a, 0.0, 0.0, v.a, v.tx, v.ty);
                 cell.draw_pixmap(0, 0, picture.as_ref(), &paint, to_cell, None);
-                put(&mut sheet, 0, y, &cell);
+                put(&mut sheet, (0, y), &cell);
             }
             observe(cloner, f, observed)?;
             for (m, options) in setups.iter().enumerate() {
@@ -1176,7 +1124,7 @@ mod native {
                     comps[t].draw(model, app, shape, &views[t], &mut cell.as_mut())?;
                     let t = t as u32;
                     let x = (first + t * nm + m as u32) * CELL.0 + GAP * (first + t);
-                    put(&mut sheet, x, y, &cell);
+                    put(&mut sheet, (x, y), &cell);
                 }
             }
             if no_source {
@@ -1187,7 +1135,7 @@ mod native {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             make_dir(dir)?;
         }
-        save_picture(path, &sheet)?;
+        save(path, &sheet)?;
         let methods: Vec<String> = setups.iter().map(|s| s.method.to_string()).collect();
         println!(
             "sheet: {} ({} rows; columns: {}per target in order, the methods {})",
@@ -1317,7 +1265,7 @@ mod native {
         let image = io::read_image(&f.path)?;
         observe(cloner, f, observed)?;
         let source_png = format!("{}-{:06}.png", f.clip, f.number);
-        save_png(&dir.join(&source_png), &pixmap_of(&image)?)?;
+        save(&dir.join(&source_png), &pixmap_of(&image)?)?;
         let s = clip_box(face_box(&f.landmarks), image.width, image.height);
         let mut rows = Vec::new();
         for options in setups {
@@ -1336,7 +1284,7 @@ mod native {
                     &mut picture.as_mut(),
                 )?;
                 let id = format!("{}-{:06}-{}-{method}", f.clip, f.number, model.name());
-                save_png(&dir.join(format!("{id}.png")), &picture)?;
+                save(&dir.join(format!("{id}.png")), &picture)?;
                 let b = clip_box(face_box(cloner.target_shape(t)), w, h);
                 rows.push(format!(
                     "{id},{source_png},{id}.png,{},{},{},{},{},{},{},{}",

@@ -179,6 +179,13 @@ mod native {
         Ok(())
     }
 
+    /// A compositor per target.
+    fn compositors(cloner: &Cloner) -> Result<Vec<Compositor>> {
+        (0..cloner.n_targets())
+            .map(|t| Compositor::new(cloner.target(t), DrawOptions::default()))
+            .collect()
+    }
+
     /// Four laughs at least a second apart: a row each, per target off then on.
     fn write_sheet(
         out: &Path,
@@ -196,9 +203,7 @@ mod native {
         rows.sort_unstable();
         let nt = cloner.n_targets() as u32;
         let mut page = sheet::canvas(CELL.0 * 2 * nt + 6 * nt, CELL.1 * rows.len() as u32)?;
-        let mut comps: Vec<Compositor> = (0..cloner.n_targets())
-            .map(|t| Compositor::new(cloner.target(t), DrawOptions::default()))
-            .collect::<Result<_>>()?;
+        let mut comps = compositors(cloner)?;
         replay(paths, &rows, source, cloner, |i, c, on| {
             let row = rows.iter().position(|&r| r == i).unwrap_or(0) as u32;
             for t in 0..c.n_targets() {
@@ -231,9 +236,7 @@ mod native {
         cloner: &mut Cloner,
     ) -> Result<()> {
         std::fs::create_dir_all(out).map_err(|e| Error::Io(format!("{}: {e}", out.display())))?;
-        let mut comps: Vec<Compositor> = (0..cloner.n_targets())
-            .map(|t| Compositor::new(cloner.target(t), DrawOptions::default()))
-            .collect::<Result<_>>()?;
+        let mut comps = compositors(cloner)?;
         let mut manifest = String::from("id,source,target\n");
         replay(paths, laughs, source, cloner, |i, c, on| {
             let src = format!("src-{i:06}.png");

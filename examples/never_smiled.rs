@@ -40,18 +40,17 @@ mod native {
 
     use clap::Parser;
     use facemimic::clone::{CloneOptions, Cloner, ExpressionPrior, Method};
-    use facemimic::tiny_skia::{Color, FilterQuality, IntSize, Pixmap, PixmapPaint, Transform};
+    use facemimic::tiny_skia::{FilterQuality, IntSize, Pixmap, PixmapPaint, Transform};
     use facemimic::{
         io, with_default_backdrop, BuildOptions, Builder, Compositor, DrawOptions, Error, Model,
         Params, ReferenceChoice, Result, Similarity, TrainingImage,
     };
+    use facemimic_testkit::sheet::{canvas, cell_view, put, save, target_cell};
 
     /// A cell (width, height) in pixels.
     const CELL: (u32, u32) = (160, 200);
     /// Gap between the sheet's groups of columns (the source, each target), in pixels.
     const GAP: u32 = 6;
-    /// JPEG quality of a `.jpg` sheet.
-    const JPEG_QUALITY: u8 = 90;
 
     /// GRID targets driven by London smiles: a contact sheet per cloning method.
     #[derive(Parser)]
@@ -206,42 +205,6 @@ mod native {
         facemimic::clone::learn_prior(&london, &speakers, facemimic::canonical_frame().vertices())
     }
 
-    /// The view (picture pixels -> cell pixels) showing the box `[x0, y0, x1, y1]` widened by
-    /// 15% each side, raised by 25% and lowered by 10% of its height (room for a dropped jaw),
-    /// centred in a [`CELL`] and grown to its aspect.
-    fn cell_view(b: [f32; 4]) -> Similarity {
-        let (w, h) = (b[2] - b[0], b[3] - b[1]);
-        let (x, y, w, h) = (b[0] - 0.15 * w, b[1] - 0.25 * h, 1.3 * w, 1.35 * h);
-        let (cw, ch) = (CELL.0 as f32, CELL.1 as f32);
-        let k = ch / h.max(w * ch / cw);
-        Similarity {
-            a: k,
-            b: 0.0,
-            tx: 0.5 * cw - k * (x + 0.5 * w),
-            ty: 0.5 * ch - k * (y + 0.5 * h),
-        }
-    }
-
-    /// A `width x height` pixmap filled with dark grey.
-    fn canvas(width: u32, height: u32) -> Result<Pixmap> {
-        let mut p = Pixmap::new(width, height)
-            .ok_or_else(|| Error::Image(format!("cannot make a {width}x{height} canvas")))?;
-        p.fill(Color::from_rgba8(32, 32, 36, 255));
-        Ok(p)
-    }
-
-    /// Draws `cell` onto the sheet with its top-left corner at `(x, y)`.
-    fn put(sheet: &mut Pixmap, (x, y): (u32, u32), cell: &Pixmap) {
-        sheet.draw_pixmap(
-            x as i32,
-            y as i32,
-            cell.as_ref(),
-            &PixmapPaint::default(),
-            Transform::identity(),
-            None,
-        );
-    }
-
     /// The cell of a source: its smiling photo around its landmarks.
     fn source_cell(s: &Source) -> Result<Pixmap> {
         let image = &s.smile.image;
@@ -249,7 +212,7 @@ mod native {
             .and_then(|size| Pixmap::from_vec(image.data.clone(), size))
             .ok_or_else(|| Error::Image(format!("{}x{} photo", image.width, image.height)))?;
         let b = facemimic::BBox::of_points(&s.smile.landmarks);
-        let v = cell_view([b.x, b.y, b.right(), b.bottom()]);
+        let v = cell_view([b.x, b.y, b.right(), b.bottom()], CELL);
         let mut cell = canvas(CELL.0, CELL.1)?;
         let paint = PixmapPaint {
             quality: FilterQuality::Bilinear,
@@ -257,19 +220,6 @@ mod native {
         };
         let to_cell = Transform::from_row(v.a, 0.0, 0.0, v.a, v.tx, v.ty);
         cell.draw_pixmap(0, 0, picture.as_ref(), &paint, to_cell, None);
-        Ok(cell)
-    }
-
-    /// The cell of a target face (`appearance` on its frame, `shape` in its picture's pixels)
-    /// composited into its backdrop, at `view`.
-    fn target_cell(
-        compositor: &mut Compositor,
-        model: &Model,
-        (appearance, shape): (&[f32], &[f32]),
-        view: &Similarity,
-    ) -> Result<Pixmap> {
-        let mut cell = canvas(CELL.0, CELL.1)?;
-        compositor.draw(model, appearance, shape, view, &mut cell.as_mut())?;
         Ok(cell)
     }
 
@@ -305,7 +255,7 @@ mod native {
             .collect::<Result<Vec<_>>>()?;
         let views: Vec<Similarity> = targets
             .iter()
-            .map(|t| cell_view(facemimic::base_box(t)))
+            .map(|t| cell_view(facemimic::base_box(t), CELL))
             .collect();
         let x_of = |t: u32, col: u32| CELL.0 * (1 + t * (1 + nm) + col) + GAP * (t + 1);
         for (row, s) in sources.iter().enumerate() {
@@ -323,6 +273,7 @@ mod native {
                     target,
                     (&appearance, &shape),
                     &views[t],
+                    CELL,
                 )?;
                 put(&mut sheet, (x_of(t as u32, 0), y), &cell);
             }
@@ -334,7 +285,7 @@ mod native {
                 cloner.clone_frame(&s.params, &options)?;
                 for (t, target) in targets.iter().enumerate() {
                     let face = (cloner.target_appearance(t), cloner.target_shape(t));
-                    let cell = target_cell(&mut compositors[t], target, face, &views[t])?;
+                    let cell = target_cell(&mut compositors[t], target, face, &views[t], CELL)?;
                     put(&mut sheet, (x_of(t as u32, 1 + m as u32), y), &cell);
                 }
             }
@@ -350,36 +301,5 @@ mod native {
             names.join(" | ")
         );
         Ok(())
-    }
-
-    /// Writes the sheet (opaque) as JPEG when `path` ends in `.jpg` or `.jpeg`, else as PNG,
-    /// making its folder.
-    fn save(path: &Path, sheet: &Pixmap) -> Result<()> {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| Error::Io(format!("{}: {e}", dir.display())))?;
-        }
-        let io_error = |e: &dyn std::fmt::Display| Error::Io(format!("{}: {e}", path.display()));
-        let rgb: Vec<u8> = facemimic::demultiply(sheet)
-            .chunks_exact(4)
-            .flat_map(|p| [p[0], p[1], p[2]])
-            .collect();
-        let (w, h) = (sheet.width(), sheet.height());
-        let jpeg = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
-        if jpeg {
-            let file = std::fs::File::create(path).map_err(|e| io_error(&e))?;
-            image::codecs::jpeg::JpegEncoder::new_with_quality(
-                std::io::BufWriter::new(file),
-                JPEG_QUALITY,
-            )
-            .encode(&rgb, w, h, image::ExtendedColorType::Rgb8)
-            .map_err(|e| io_error(&e))
-        } else {
-            image::save_buffer(path, &rgb, w, h, image::ExtendedColorType::Rgb8)
-                .map_err(|e| io_error(&e))
-        }
     }
 }

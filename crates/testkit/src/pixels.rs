@@ -67,3 +67,32 @@ pub fn in_triangle(
     let l0 = 1.0 - l1 - l2;
     l0 >= -margin && l1 >= -margin && l2 >= -margin
 }
+
+/// The largest absolute difference of two appearances (or any values) of equal length.
+pub fn worst_diff(a: &[f32], b: &[f32]) -> f32 {
+    assert_eq!(a.len(), b.len(), "values of different lengths");
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+/// How many values of `a` differ from `b`'s by more than `tolerance`.
+pub fn count_changed(a: &[f32], b: &[f32], tolerance: f32) -> usize {
+    assert_eq!(a.len(), b.len(), "values of different lengths");
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| (*x - *y).abs() > tolerance)
+        .count()
+}
+
+/// Asserts that two clones `out` of one expression, from a person and from the same person
+/// tinted (a colour offset of zero luminance), are the same (the tint never reaches the target,
+/// within 1e-4), and that the expression changed the target's `base` appearance (more than 500
+/// values by more than 0.02).
+pub fn assert_tint_left_out(out: &[Vec<f32>], base: &[f32], who: &str) {
+    let worst = worst_diff(&out[0], &out[1]);
+    assert!(worst < 1e-4, "{who}'s tint reached the target: {worst}");
+    let changed = count_changed(&out[0], base, 0.02);
+    assert!(changed > 500, "{changed} values changed");
+}
