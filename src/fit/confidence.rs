@@ -68,12 +68,16 @@ impl Reasons {
     pub const OUTSIDE: Reasons = Reasons(1 << 7);
     /// "no-face": no face acquired yet (a search under way).
     pub const NO_FACE: Reasons = Reasons(1 << 8);
+    /// "covered": the lips do not stand out from the skin around them (a hand, a cup or a
+    /// mask over the mouth; the enrolment's lip check, `MIN_LIP_CONTRAST`): the follower's
+    /// landmarks there are guesses, and its observed look would be the cover's.
+    pub const COVERED: Reasons = Reasons(1 << 9);
 
     /// What is wrong with the mesh itself (collapsed, folded, an unlikely shape): the tracker
     /// fits such a frame again from the last good fit, and starts the next from it.
     pub(crate) const STRUCTURAL: Reasons = Reasons(1 | 1 << 1 | 1 << 2);
 
-    const ALL: [(Reasons, &'static str); 9] = [
+    const ALL: [(Reasons, &'static str); 10] = [
         (Reasons::COLLAPSED, "collapsed"),
         (Reasons::FOLDED, "folded"),
         (Reasons::SHAPE, "shape"),
@@ -83,6 +87,7 @@ impl Reasons {
         (Reasons::CONTRAST, "contrast"),
         (Reasons::OUTSIDE, "outside"),
         (Reasons::NO_FACE, "no-face"),
+        (Reasons::COVERED, "covered"),
     ];
 
     /// Whether there is no reason.
@@ -101,7 +106,7 @@ impl Reasons {
     }
 
     /// The reasons' stable names, in a fixed order ("collapsed", "folded", "shape",
-    /// "residual", "jump", "finder", "contrast", "outside", "no-face").
+    /// "residual", "jump", "finder", "contrast", "outside", "no-face", "covered").
     pub fn names(self) -> impl Iterator<Item = &'static str> {
         Reasons::ALL
             .into_iter()

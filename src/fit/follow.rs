@@ -263,18 +263,28 @@ impl FaceTracker for Follower {
             )));
         }
         self.step(frame, dt)?;
+        // Something over the mouth (its lips do not stand out from the skin around them):
+        // the finder's mouth there is a guess and the frame's look the cover's.
+        let covered = !self.result.lost
+            && crate::train::quality::lip_contrast(frame, &self.seen_at)
+                < crate::train::quality::MIN_LIP_CONTRAST;
         if !self.result.lost {
             if self.result.reacquired {
                 // Found again after a loss: it may be someone else.
                 self.observed.reset();
             }
-            self.observed.observe(frame, &self.seen_at, self.at_rest)?;
+            if !covered {
+                self.observed.observe(frame, &self.seen_at, self.at_rest)?;
+            }
         }
-        // The follower reads the finder's face on every frame: it is tracking a face or has
-        // none (a mesh score under the bound is a search, then no face).
+        // The follower reads the finder's face on every frame: it is tracking a face, unsure
+        // of it (the mouth covered: the targets hold the last good expression), or has none
+        // (a mesh score under the bound is a search, then no face).
         let r = &mut self.result;
         (r.status, r.reasons) = if r.lost {
             (super::TrackStatus::Lost, super::Reasons::NO_FACE)
+        } else if covered {
+            (super::TrackStatus::Unsure, super::Reasons::COVERED)
         } else {
             (super::TrackStatus::Tracking, super::Reasons::NONE)
         };

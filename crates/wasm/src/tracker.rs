@@ -145,7 +145,8 @@ export interface FitResult {
    *  drive nothing with it, hold the last good expression); "lost" (as `lost`). */
   status: "tracking" | "unsure" | "lost";
   /** Why the fit is unsure or lost, by stable name: "collapsed", "folded", "shape",
-   *  "residual", "jump", "finder", "contrast", "outside", "no-face"; empty while tracking. */
+   *  "residual", "jump", "finder", "contrast", "outside", "no-face", "covered" (the follower:
+   *  the lips do not stand out from the skin, something covers the mouth); empty while tracking. */
   reasons: string[];
 }
 /** How a `Tracker` resamples frames and bounds what it reports (`Tracker.policy`). */
