@@ -116,10 +116,11 @@ mod native {
         for t in 0..cloner.n_targets() {
             let r = m.teeth_r(t);
             let (w, l) = (m.spread_ratio(t, 0), m.spread_ratio(t, 1));
+            let c = m.change(t);
             println!(
-                "  {}: inner mouth vs the real one r {:.2} -> {:.2}; spread over the real frames' (p95 - p5): width {:.2} -> {:.2}, lift {:.2} -> {:.2}",
+                "  {}: inner mouth vs the real one r {:.2} -> {:.2}; spread over the real frames' (p95 - p5): width {:.2} -> {:.2}, lift {:.2} -> {:.2}; appearance change between measured frames {:.4} -> {:.4}",
                 cloner.target(t).name(),
-                r[0], r[1], w[0], w[1], l[0], l[1]
+                r[0], r[1], w[0], w[1], l[0], l[1], c[0], c[1]
             );
         }
         let laughs = m.laughing();

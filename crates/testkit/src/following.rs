@@ -119,6 +119,9 @@ pub struct FollowedFrame {
     pub target_teeth: Vec<[f32; 2]>,
     /// Per target, the clone's mouth width and lift, observed off and on.
     pub target_mouth: Vec<[[f32; 2]; 2]>,
+    /// Per target, the mean absolute change of the clone's appearance from the previous
+    /// measured frame (0 on the first), observed off and on: how much it flickers.
+    pub target_change: Vec<[f32; 2]>,
 }
 
 /// What [`follow_expressions`] measured.
@@ -157,6 +160,18 @@ impl FollowedExpressions {
                     .map(|f| f.target_mouth[t][on][k])
                     .collect(),
             ) / real
+        })
+    }
+
+    /// Target `t`'s mean frame-to-frame appearance change, observed off and on.
+    pub fn change(&self, t: usize) -> [f32; 2] {
+        let n = self.frames.len().saturating_sub(1).max(1) as f32;
+        [0, 1].map(|on| {
+            self.frames
+                .iter()
+                .map(|f| f.target_change[t][on])
+                .sum::<f32>()
+                / n
         })
     }
 
@@ -220,6 +235,19 @@ pub fn follow_expressions(
     options: &CloneOptions,
 ) -> FollowedExpressions {
     let mut follower = Follower::new(source, FollowOptions::default()).unwrap();
+    track_expressions(paths, every, &mut follower, source, cloner, options)
+}
+
+/// [`follow_expressions`] with any started tracker of `source`'s model (an AAM `Tracker` of
+/// the person's own model, or a `Follower`).
+pub fn track_expressions(
+    paths: &[std::path::PathBuf],
+    every: usize,
+    follower: &mut dyn FaceTracker,
+    source: &Model,
+    cloner: &mut Cloner,
+    options: &CloneOptions,
+) -> FollowedExpressions {
     let frame = source.frame();
     let v = frame.vertices();
     let (mut mouth, mut skin) = (Vec::new(), Vec::new());
@@ -239,11 +267,14 @@ pub fn follow_expressions(
         .collect();
     let mut real = vec![0f32; source.appearance().len()];
     let mut frames = Vec::new();
+    let mut previous: Vec<[Vec<f32>; 2]> = (0..cloner.n_targets())
+        .map(|_| [Vec::new(), Vec::new()])
+        .collect();
     for (i, path) in paths.iter().enumerate() {
         let t = facemimic::io::read_training_image(path).unwrap();
         let view = t.image.view().unwrap();
         let fit = follower.track(&view, 1.0 / 25.0).unwrap().clone();
-        if i % every != 0 || fit.lost {
+        if i % every != 0 || fit.status != facemimic::fit::TrackStatus::Tracking {
             continue;
         }
         let teeth = (mouth_opening(&t.landmarks) >= OPEN_MOUTH).then(|| {
@@ -252,6 +283,7 @@ pub fn follow_expressions(
         });
         let n = cloner.n_targets();
         let (mut target_teeth, mut target_mouth) = (vec![[0f32; 2]; n], vec![[[0f32; 2]; 2]; n]);
+        let mut target_change = vec![[0f32; 2]; n];
         for (on, observed) in [(0, None), (1, follower.observed())] {
             cloner.set_observed(observed).unwrap();
             cloner.clone_frame(&fit.params, options).unwrap();
@@ -259,6 +291,13 @@ pub fn follow_expressions(
                 target_teeth[k][on] =
                     mean_luma(cloner.target_appearance(k), &mouth) / target_skin[k];
                 target_mouth[k][on] = mouth_features(cloner.target_shape(k));
+                let app = cloner.target_appearance(k);
+                let prev = &mut previous[k][on];
+                if prev.len() == app.len() {
+                    target_change[k][on] = crate::pixels::mean_abs_diff_f32(prev, app);
+                }
+                prev.clear();
+                prev.extend_from_slice(app);
             }
         }
         frames.push(FollowedFrame {
@@ -267,6 +306,7 @@ pub fn follow_expressions(
             real_mouth: mouth_features(&t.landmarks),
             target_teeth,
             target_mouth,
+            target_change,
         });
     }
     cloner.set_observed(None).unwrap();

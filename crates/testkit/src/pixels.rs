@@ -96,3 +96,9 @@ pub fn assert_tint_left_out(out: &[Vec<f32>], base: &[f32], who: &str) {
     let changed = count_changed(&out[0], base, 0.02);
     assert!(changed > 500, "{changed} values changed");
 }
+
+/// The mean absolute difference of two appearances (or any values) of equal length.
+pub fn mean_abs_diff_f32(a: &[f32], b: &[f32]) -> f32 {
+    assert_eq!(a.len(), b.len(), "values of different lengths");
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum::<f32>() / a.len().max(1) as f32
+}
