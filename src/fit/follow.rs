@@ -146,7 +146,9 @@ impl FollowOptions {
 ///    **Appearance.** The frame is sampled into the model's reference frame at the smoothed
 ///    points, and the person's neutral appearance kept from the frames at rest
 ///    ([`super::ObservedAppearance`]); with the whole deviation `x - t - n` they are the
-///    [`FaceTracker::observed`] face the expressive method clones.
+///    [`FaceTracker::observed`] face the expressive method clones. A frame whose mouth is
+///    covered (then "unsure", reason "covered") or whose face is partly outside the picture
+///    keeps the last look.
 /// 3. **Head turns.** The part of `x - n` that turning or nodding the head out of the image
 ///    plane explains, to first order, is split off as `t` ([`split_head_turn`],
 ///    [`FollowOptions::split_head_turns`]): a turn is pose, not expression.
@@ -273,7 +275,14 @@ impl FaceTracker for Follower {
                 // Found again after a loss: it may be someone else.
                 self.observed.reset();
             }
-            if !covered {
+            // A face partly outside the picture has no look there (the samples would repeat
+            // the picture's edge): the last whole one is kept.
+            let (w, h) = (frame.width() as f32 - 1.0, frame.height() as f32 - 1.0);
+            let whole = self
+                .seen_at
+                .chunks_exact(2)
+                .all(|p| p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= w && p[1] <= h);
+            if !covered && whole {
                 self.observed.observe(frame, &self.seen_at, self.at_rest)?;
             }
         }

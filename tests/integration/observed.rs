@@ -347,3 +347,50 @@ fn clean_real_faces_are_never_called_covered() {
         assert!(covered * 100 <= n, "{clip}: {covered} of {n}");
     }
 }
+
+/// A face partly outside the picture keeps the last whole look (its samples there would repeat
+/// the picture's edge), while its expression is still followed. spk07's unseen GRID clip, the
+/// picture cropped on frames 40-49 so that the face's right third is outside it.
+#[test]
+fn a_face_leaving_the_picture_keeps_its_last_whole_look() {
+    let dir = common::repo("data/grid/spk07_id2_vcd_swwp2s");
+    let mut f = Follower::new(spk07(), FollowOptions::default()).unwrap();
+    let mut before: Vec<f32> = Vec::new();
+    let (mut partial, mut held) = (0, 0);
+    for (i, p) in common::clip_frames(&dir).iter().enumerate() {
+        let t = io::read_training_image(p).unwrap();
+        let image = if (40..50).contains(&i) {
+            // Cropped on the right (the rest keeps its place): the face's right third (dlib's
+            // points) falls outside.
+            let xs = t.landmarks.iter().step_by(2);
+            let (x0, x1) = xs.fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+            let w = (x1 - (x1 - x0) / 3.0) as u32;
+            let h = t.image.height;
+            let mut data = Vec::with_capacity((w * h * 4) as usize);
+            for y in 0..h {
+                let row = (y * t.image.width) as usize * 4;
+                data.extend_from_slice(&t.image.data[row..row + w as usize * 4]);
+            }
+            facemimic::Image {
+                width: w,
+                height: h,
+                data,
+            }
+        } else {
+            t.image.clone()
+        };
+        let r = f.track(&image.view().unwrap(), 0.04).unwrap();
+        if r.lost {
+            continue;
+        }
+        let now = f.observed().unwrap().appearance.to_vec();
+        if (40..50).contains(&i) {
+            partial += 1;
+            held += usize::from(now == before);
+        }
+        before = now;
+    }
+    eprintln!("  frames with the face partly outside: {partial} followed, {held} kept the last whole look");
+    assert!(partial >= 5, "{partial} partial frames followed");
+    assert_eq!(held, partial);
+}
