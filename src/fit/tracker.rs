@@ -155,6 +155,77 @@ pub struct Tracker {
     doubtful: bool,
     /// Why the last fit judged was implausible (a lost frame's reasons).
     why: Reasons,
+    /// The person's look on their trusted frames, against their own neutral look kept from
+    /// frames at rest ([`FaceTracker::observed`]); 68-landmark models only.
+    observed: Option<Observed>,
+}
+
+/// What the AAM tracker observes of a 68-landmark face: the frame's pixels at the fit against a
+/// neutral look kept from the frames at rest, as the [`super::Follower`] keeps one; the
+/// neutral shape is the fitted shapes' (model coordinates), moved as the follower's.
+#[derive(Clone, Debug)]
+struct Observed {
+    look: super::ObservedAppearance,
+    shape_model: crate::model::shape::ShapeModel,
+    /// Scratch: the fit's shape in model coordinates.
+    shape: Vec<f32>,
+    /// The person's neutral shape, and the frames that entered it.
+    neutral: Vec<f32>,
+    count: u32,
+}
+
+impl Observed {
+    fn new(model: &Model) -> Option<Observed> {
+        (model.landmarks() == 68).then(|| Observed {
+            look: super::ObservedAppearance::new(model.frame()),
+            shape_model: model.shape().clone(),
+            shape: vec![0.0; 136],
+            neutral: vec![0.0; 136],
+            count: 0,
+        })
+    }
+
+    fn reset(&mut self) {
+        self.look.reset();
+        self.count = 0;
+    }
+
+    /// A trusted frame: its look, and its shape's part in the neutral (the follower's rules:
+    /// [`super::neutral_update`] after [`super::neutral_like`] once warmed up).
+    fn observe(&mut self, frame: &ImageRef<'_>, fit: &FitResult) {
+        if self
+            .shape_model
+            .instance(&fit.params.shape, &mut self.shape)
+            .is_err()
+        {
+            return;
+        }
+        let o = super::FollowOptions::default();
+        if self.count == 0 {
+            self.neutral.copy_from_slice(&self.shape);
+        }
+        let open = |s: &[f32]| super::mouth_opening(s);
+        let at_rest = self.count > 0
+            && super::neutral_like(&self.shape, &self.neutral)
+            && open(&self.shape) <= open(&self.neutral) + o.mouth_margin;
+        let expressive = self.count >= o.warmup
+            && !super::neutral_like(&self.shape, &self.neutral)
+            && open(&self.shape) >= open(&self.neutral) - o.mouth_margin;
+        if !expressive {
+            super::neutral_update(
+                &mut self.neutral,
+                &self.shape,
+                &self.shape_model.base,
+                &mut self.count,
+                o.warmup,
+                o.neutral_step,
+                o.mouth_margin,
+            );
+        }
+        if self.look.observe(frame, &fit.landmarks, at_rest).is_err() {
+            self.look.reset();
+        }
+    }
 }
 
 impl Tracker {
@@ -203,6 +274,7 @@ impl Tracker {
             rechecks: (0, 0),
             tracked: empty_result(),
             confidence: Confidence::new(model),
+            observed: Observed::new(model),
             finder_face: vec![0.0; n2],
             has_finder_face: false,
             doubtful: false,
@@ -239,6 +311,9 @@ impl Tracker {
         self.doubtful = false;
         self.has_finder_face = false;
         self.why = Reasons::NONE;
+        if let Some(o) = &mut self.observed {
+            o.reset();
+        }
     }
 
     /// Gives the tracker a source of faces (a face finder): it is asked when a face is lost
@@ -456,6 +531,9 @@ impl Tracker {
                 r.error
             };
             self.seq.frame(Some(&r.params.pose), dt, tau, r.reacquired);
+            if let Some(o) = &mut self.observed {
+                o.observe(frame, &r);
+            }
             store(&mut self.last_good, &r);
             // The face grew or shrank a lot (moving to or from the camera): the next frame is
             // fitted at a new scale.
@@ -688,6 +766,14 @@ impl FaceTracker for Tracker {
         }
         self.was_lost = !ok;
         Ok(self.last.as_ref().expect("just set"))
+    }
+
+    /// The last trusted frame's pixels sampled at its fit, against the person's neutral look
+    /// kept from their frames at rest (a 68-landmark model; as the follower's, so a change of
+    /// light since the enrolment does not read as expression); no displacement (the fit's
+    /// `S p` is the person's own). `None` before the sequence's first trusted frame.
+    fn observed(&self) -> Option<super::Observed<'_>> {
+        self.observed.as_ref().and_then(|o| o.look.get())
     }
 
     /// The last frame's result.

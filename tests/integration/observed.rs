@@ -394,3 +394,103 @@ fn a_face_leaving_the_picture_keeps_its_last_whole_look() {
     assert!(partial >= 5, "{partial} partial frames followed");
     assert_eq!(held, partial);
 }
+
+/// franck tracked by his own model (the AAM tracker, model from `franck-dev/train20.txt`) on
+/// franck-dev2 (in no list), started from its first frame's dlib points, every 4th frame
+/// measured: with the frame's own look against his neutral look kept from his frames at rest,
+/// the targets' inner mouths follow his real one closer than through the model's synthesis.
+#[test]
+fn a_tracked_person_shows_their_own_teeth() {
+    let (Some(dev), Some(dir)) = (
+        common::shared_data("franck-dev"),
+        common::shared_data("franck-dev2"),
+    ) else {
+        return;
+    };
+    let franck = common::path_list_model(&dev.join("train20.txt"), "franck", false);
+    let paths = common::clip_frames(&dir);
+    let first = io::read_training_image(&paths[0]).unwrap();
+    let mut tracker = facemimic::fit::tracker_for(franck, facemimic::fit::Whose::Own).unwrap();
+    tracker.start_from_landmarks(&first.landmarks).unwrap();
+    let mut cloner = Cloner::new(franck.clone()).unwrap();
+    for name in ["spk02", "spk03", "spk06", "spk10"] {
+        cloner.add_target(target(name).clone()).unwrap();
+    }
+    let m = common::following::track_expressions(
+        &paths,
+        4,
+        &mut *tracker,
+        franck,
+        &mut cloner,
+        &CloneOptions::default(),
+    );
+    let open = m.frames.iter().filter(|f| f.teeth.is_some()).count();
+    eprintln!(
+        "  franck-dev2 tracked by his model, every 4th frame: {} measured, {open} with the mouth open",
+        m.frames.len()
+    );
+    assert!(open >= 50, "{open}");
+    for t in 0..cloner.n_targets() {
+        let (r, c) = (m.teeth_r(t), m.change(t));
+        let name = cloner.target(t).name();
+        eprintln!(
+            "  {name}: inner mouth r {:.2} -> {:.2}; appearance change between measured frames {:.4} -> {:.4} (synthesis -> observed)",
+            r[0], r[1], c[0], c[1]
+        );
+        assert!(r[1] > r[0] && r[1] >= 0.85, "{name}: r {r:?}");
+    }
+}
+
+/// A change of light during the session (the left half of the picture darkened by a quarter
+/// from frame 25 of spk07's unseen clip, tracked by spk07's own model) reads on the targets at
+/// first, then fades as the person's neutral look follows it on their frames at rest.
+#[test]
+fn a_change_of_light_fades_from_the_targets() {
+    let dir = common::repo("data/grid/spk07_id2_vcd_swwp2s");
+    let frames: Vec<TrainingImage> = common::clip_frames(&dir)
+        .iter()
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect();
+    let run = |shadow: bool| -> Vec<Vec<f32>> {
+        let mut stage = Stage::new(spk07().clone()).unwrap();
+        stage.add_target(target("spk06").clone()).unwrap();
+        let mut tracker = facemimic::fit::tracker_for(spk07(), facemimic::fit::Whose::Own).unwrap();
+        tracker.start_from_landmarks(&frames[0].landmarks).unwrap();
+        stage.set_tracker(Some(tracker));
+        let options = CloneOptions::default();
+        stage.set_options(options).unwrap();
+        let mut out = Vec::new();
+        for (i, t) in frames.iter().enumerate() {
+            let mut image = t.image.clone();
+            if shadow && i >= 25 {
+                let w = image.width as usize;
+                for (k, px) in image.data.chunks_exact_mut(4).enumerate() {
+                    if k % w < w / 2 {
+                        for c in &mut px[..3] {
+                            *c = (*c as f32 * 0.75) as u8;
+                        }
+                    }
+                }
+            }
+            stage.track(&image.view().unwrap(), 0.04).unwrap();
+            stage.update().unwrap();
+            out.push(stage.cloner().target_appearance(0).to_vec());
+        }
+        out
+    };
+    let (clean, shaded) = (run(false), run(true));
+    let gap = |r: std::ops::Range<usize>| {
+        let n = r.len() as f32;
+        r.map(|i| common::pixels::mean_abs_diff_f32(&clean[i], &shaded[i]))
+            .sum::<f32>()
+            / n
+    };
+    let windows: Vec<String> = (25..frames.len())
+        .step_by(10)
+        .map(|a| format!("{:.4}", gap(a..(a + 10).min(frames.len()))))
+        .collect();
+    eprintln!("  by 10 frames from frame 25: {}", windows.join(", "));
+    let (early, late) = (gap(26..36), gap(frames.len() - 10..frames.len()));
+    eprintln!("  the light's trace on the target: frames 26-35 {early:.4}, the last 10 {late:.4}");
+    assert!(late < 0.5 * early, "{early} -> {late}");
+}
