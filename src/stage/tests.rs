@@ -208,10 +208,16 @@ fn pixels_in_through_a_tracker() {
     assert_eq!(got.shape, fit.params.shape);
     assert_eq!(got.appearance, fit.params.appearance);
     let tracked = pictures(&s);
-    // The same parameters given directly draw the same pictures.
+    // The same fit taken from the tracker (its parameters and the look it observed) draws the
+    // same pictures; its parameters alone draw the model's synthesis instead.
     let mut again = stage();
-    again.frame_from_params(&got).unwrap();
+    assert!(again.source_from_tracker(s.tracker().unwrap()).unwrap());
+    again.update().unwrap();
+    again.draw().unwrap();
     assert!(pictures(&again) == tracked);
+    let mut params_only = stage();
+    params_only.frame_from_params(&got).unwrap();
+    assert!(pictures(&params_only) != tracked, "the observed look shows");
     // A lost fit is not taken.
     let mut lost = fit.clone();
     lost.lost = true;
