@@ -1198,7 +1198,7 @@ mod native {
                 people[y].id
             );
         }
-        save_rgb(path, &sheet, (sw, sh))?;
+        facemimic_testkit::sheet::save_rgb(path, &sheet, (sw, sh))?;
         let names: Vec<String> = methods.iter().map(|m| m.to_string()).collect();
         println!(
             "wrote {} (columns: X smiling | Y neutral | {} | Y smiling, aligned)",
@@ -1206,26 +1206,6 @@ mod native {
             names.join(" | ")
         );
         Ok(())
-    }
-
-    /// Writes an RGB picture, making its folder: JPEG at quality 90 when `path` ends in `.jpg`
-    /// or `.jpeg`, else PNG.
-    fn save_rgb(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> Result<()> {
-        make_parent(path)?;
-        let io_error = |e: &dyn std::fmt::Display| Error::Io(format!("{}: {e}", path.display()));
-        let jpeg = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
-        if jpeg {
-            let file = std::fs::File::create(path).map_err(|e| io_error(&e))?;
-            image::codecs::jpeg::JpegEncoder::new_with_quality(std::io::BufWriter::new(file), 90)
-                .encode(rgb, w, h, image::ExtendedColorType::Rgb8)
-                .map_err(|e| io_error(&e))
-        } else {
-            image::save_buffer(path, rgb, w, h, image::ExtendedColorType::Rgb8)
-                .map_err(|e| io_error(&e))
-        }
     }
 
     /// A face box `[x, y, w, h]` (whole pixels, inside a `w x h` picture): the landmarks' box

@@ -471,9 +471,8 @@ impl SourceFrame {
     /// (a followed face: [`crate::fit::ObservedAppearance`]), and `d` the observed whole
     /// displacement (`2n`, times `gain` and the region gains) when it has one: its appearance
     /// and neutral are `3N` RGB values on the source's frame pixels (the caller checks every
-    /// length); the
-    /// ratio is raised to the global `gain` too (the synthesis has it in `lambda`). A frame
-    /// equal to the neutral gives `rho = 1` exactly. Allocates nothing.
+    /// length); the ratio is raised to the global `gain` too (the synthesis has it in
+    /// `lambda`). A frame equal to the neutral gives `rho = 1` exactly. Allocates nothing.
     pub fn prepare_observed(
         &mut self,
         side: &SourceSide,

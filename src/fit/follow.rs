@@ -638,25 +638,15 @@ impl Follower {
         let o = self.options;
         self.filter
             .filter(&mut self.shape, dt, o.min_cutoff, o.beta, o.d_cutoff, iod);
-        // After the warm-up only frames at rest move the neutral (a frame more closed than it
-        // still pulls it: a neutral begun talking): a smile with closed lips, held, no longer
-        // becomes the neutral and fades from the clone (super::neutral_like).
-        let expressive = self.neutral_frames >= o.warmup
-            && !super::neutral_like(&self.shape, &self.neutral)
-            && mouth_opening(&self.shape) >= mouth_opening(&self.neutral) - o.mouth_margin;
-        let moved = if expressive {
-            Similarity::IDENTITY
-        } else {
-            neutral_update(
-                &mut self.neutral,
-                &self.shape,
-                &self.base,
-                &mut self.neutral_frames,
-                o.warmup,
-                o.neutral_step,
-                o.mouth_margin,
-            )
-        };
+        let moved = neutral_update(
+            &mut self.neutral,
+            &self.shape,
+            &self.base,
+            &mut self.neutral_frames,
+            o.warmup,
+            o.neutral_step,
+            o.mouth_margin,
+        );
         // The neutral was re-aligned to s0 by `moved`: the frame's shape and pose follow it.
         moved.apply_in_place(&mut self.shape);
         let pose = match moved.inverse() {
@@ -678,8 +668,7 @@ impl Follower {
             *o = s + t;
         }
         pose.apply_in_place(&mut self.seen_at);
-        self.at_rest = mouth_opening(&self.shape) <= mouth_opening(&self.neutral) + o.mouth_margin
-            && super::neutral_like(&self.shape, &self.neutral);
+        self.at_rest = super::at_rest(&self.shape, &self.neutral, o.mouth_margin);
         for ((d, s), n) in self
             .deviation
             .iter_mut()
@@ -750,11 +739,13 @@ pub fn mouth_opening(points: &[f32]) -> f32 {
 /// - a frame whose mouth ([`mouth_opening`]) is more open than the neutral's by more than
 ///   `mouth_margin` leaves it as it is (speech and smiles do not open the neutral's mouth);
 /// - during the first `warmup` frames that enter, the neutral is their mean;
-/// - then each coordinate moves at most `step` towards the frame's (a running median:
-///   `n += clamp(x - n, -step, step)`, which settles where half the frames lie on either
-///   side), or a fifth of the way at once when the frame's mouth is more closed than the
+/// - then it moves a fifth of the way at once when the frame's mouth is more closed than the
 ///   neutral's by more than `mouth_margin` (a neutral that started with an open mouth closes
-///   within a few frames);
+///   within a few frames); else only a frame whose expression is at rest
+///   ([`super::neutral_like`]) moves it, each coordinate at most `step` towards the frame's
+///   (a running median: `n += clamp(x - n, -step, step)`, which settles where half the frames
+///   lie on either side): a smile with closed lips, held, does not become the neutral and
+///   fade from the clone;
 /// - finally the neutral is re-aligned to `base` by a similarity so it cannot drift in pose.
 ///
 /// `count` counts the frames that entered the mean. Returns the re-aligning similarity (the
@@ -785,6 +776,8 @@ pub fn neutral_update(
             .iter_mut()
             .zip(shape)
             .for_each(|(n, x)| *n += 0.2 * (x - *n));
+    } else if !super::neutral_like(shape, neutral) {
+        return Similarity::IDENTITY;
     } else {
         neutral
             .iter_mut()
@@ -1090,17 +1083,25 @@ mod tests {
         neutral_update(&mut n, &base, &base, &mut count, 2, 0.01, 0.02);
         assert_eq!(count, 2);
         assert!(n.iter().zip(&base).all(|(a, b)| (a - b).abs() < 1e-3));
-        // A far-off shape moves each coordinate by at most the step (before re-alignment).
-        let mut far = base.clone();
-        far[5] += 10.0;
+        // A shape at rest moves each coordinate by at most the step (before re-alignment).
+        let mut near = base.clone();
+        near[5] += 1.0;
+        assert!(crate::fit::neutral_like(&near, &n));
         let before = n.clone();
-        neutral_update(&mut n, &far, &base, &mut count, 2, 0.01, 0.02);
+        neutral_update(&mut n, &near, &base, &mut count, 2, 0.01, 0.02);
         let moved = n
             .iter()
             .zip(&before)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f32::max);
-        assert!(moved < 0.05, "{moved}");
+        assert!(moved > 0.0 && moved < 0.05, "{moved}");
+        // An expression (a point far off) does not enter once warmed up.
+        let mut far = base.clone();
+        far[5] += 10.0;
+        assert!(!crate::fit::neutral_like(&far, &n));
+        let before = n.clone();
+        neutral_update(&mut n, &far, &base, &mut count, 2, 0.01, 0.02);
+        assert_eq!(n, before);
         // An open mouth does not enter.
         let mut open = base.clone();
         for l in [67, 66, 65] {

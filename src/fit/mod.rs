@@ -49,7 +49,8 @@ pub use follow::{
     Follower,
 };
 pub use observe::{
-    neutral_like, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE, NEUTRAL_STEP, NEUTRAL_WARMUP,
+    at_rest, neutral_like, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE, NEUTRAL_STEP,
+    NEUTRAL_WARMUP,
 };
 pub use options::{FitOptions, LevelSpec, TrackPolicy};
 pub use policy::{tracker_for, tracker_of_kind};

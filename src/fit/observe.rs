@@ -134,7 +134,7 @@ impl ObservedAppearance {
 
 /// Whether a frame's expression is neutral-like ([`NEUTRAL_MAX_MOVE`]): `shape` and `neutral`
 /// are 68-point shapes in one coordinate frame (the follower's model coordinates). Its
-/// mouth opening is checked by the caller.
+/// mouth opening is not checked here ([`at_rest`] does both).
 pub fn neutral_like(shape: &[f32], neutral: &[f32]) -> bool {
     let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
         return false;
@@ -148,4 +148,12 @@ pub fn neutral_like(shape: &[f32], neutral: &[f32]) -> bool {
         .chunks_exact(2)
         .zip(neutral.chunks_exact(2))
         .all(|(s, n)| (s[0] - n[0]).hypot(s[1] - n[1]) <= lim)
+}
+
+/// Whether a frame is at rest: its expression neutral-like ([`neutral_like`]) and its mouth no
+/// more open than the neutral's plus `mouth_margin` ([`super::mouth_opening`]): the frames
+/// whose look enters the person's neutral look.
+pub fn at_rest(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> bool {
+    super::mouth_opening(shape) <= super::mouth_opening(neutral) + mouth_margin
+        && neutral_like(shape, neutral)
 }

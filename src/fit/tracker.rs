@@ -157,14 +157,14 @@ pub struct Tracker {
     why: Reasons,
     /// The person's look on their trusted frames, against their own neutral look kept from
     /// frames at rest ([`FaceTracker::observed`]); 68-landmark models only.
-    observed: Option<Observed>,
+    observed: Option<Observer>,
 }
 
 /// What the AAM tracker observes of a 68-landmark face: the frame's pixels at the fit against a
 /// neutral look kept from the frames at rest, as the [`super::Follower`] keeps one; the
 /// neutral shape is the fitted shapes' (model coordinates), moved as the follower's.
 #[derive(Clone, Debug)]
-struct Observed {
+struct Observer {
     look: super::ObservedAppearance,
     shape_model: crate::model::shape::ShapeModel,
     /// Scratch: the fit's shape in model coordinates.
@@ -174,9 +174,9 @@ struct Observed {
     count: u32,
 }
 
-impl Observed {
-    fn new(model: &Model) -> Option<Observed> {
-        (model.landmarks() == 68).then(|| Observed {
+impl Observer {
+    fn new(model: &Model) -> Option<Observer> {
+        (model.landmarks() == 68).then(|| Observer {
             look: super::ObservedAppearance::new(model.frame()),
             shape_model: model.shape().clone(),
             shape: vec![0.0; 136],
@@ -190,8 +190,8 @@ impl Observed {
         self.count = 0;
     }
 
-    /// A trusted frame: its look, and its shape's part in the neutral (the follower's rules:
-    /// [`super::neutral_update`] after [`super::neutral_like`] once warmed up).
+    /// A trusted frame: its look, and its shape's part in the neutral (the follower's rules,
+    /// [`super::neutral_update`] and [`super::at_rest`]).
     fn observe(&mut self, frame: &ImageRef<'_>, fit: &FitResult) {
         if self
             .shape_model
@@ -204,24 +204,16 @@ impl Observed {
         if self.count == 0 {
             self.neutral.copy_from_slice(&self.shape);
         }
-        let open = |s: &[f32]| super::mouth_opening(s);
-        let at_rest = self.count > 0
-            && super::neutral_like(&self.shape, &self.neutral)
-            && open(&self.shape) <= open(&self.neutral) + o.mouth_margin;
-        let expressive = self.count >= o.warmup
-            && !super::neutral_like(&self.shape, &self.neutral)
-            && open(&self.shape) >= open(&self.neutral) - o.mouth_margin;
-        if !expressive {
-            super::neutral_update(
-                &mut self.neutral,
-                &self.shape,
-                &self.shape_model.base,
-                &mut self.count,
-                o.warmup,
-                o.neutral_step,
-                o.mouth_margin,
-            );
-        }
+        let at_rest = self.count > 0 && super::at_rest(&self.shape, &self.neutral, o.mouth_margin);
+        super::neutral_update(
+            &mut self.neutral,
+            &self.shape,
+            &self.shape_model.base,
+            &mut self.count,
+            o.warmup,
+            o.neutral_step,
+            o.mouth_margin,
+        );
         if self.look.observe(frame, &fit.landmarks, at_rest).is_err() {
             self.look.reset();
         }
@@ -274,7 +266,7 @@ impl Tracker {
             rechecks: (0, 0),
             tracked: empty_result(),
             confidence: Confidence::new(model),
-            observed: Observed::new(model),
+            observed: Observer::new(model),
             finder_face: vec![0.0; n2],
             has_finder_face: false,
             doubtful: false,

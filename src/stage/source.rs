@@ -18,13 +18,13 @@ impl super::Stage {
     /// ([`Model::check_params`]); on error the old ones stay. The parameters are the model's:
     /// an observed face ([`crate::clone::Cloner::set_observed`]) is dropped. Allocates nothing.
     pub fn set_source_params(&mut self, params: &Params) -> Result<()> {
-        self.cloner.set_observed(None)?;
         take_params(
             self.cloner.source(),
             (params.pose, &params.shape, &params.appearance),
             &mut self.pending,
             &mut self.params,
-        )
+        )?;
+        self.cloner.set_observed(None)
     }
 
     /// Takes the source parameters from a tracker's fit: its shape and appearance parameters
@@ -33,10 +33,15 @@ impl super::Stage {
     /// [`crate::fit::TrackStatus`]) is not taken: the parameters stay the last good ones, so
     /// the targets hold the last good expression instead of copying a broken shape. Returns
     /// whether the fit was taken; fails (changing nothing) when the fit does not fit the
-    /// source model.
+    /// source model. A fit taken drops a face observed earlier
+    /// ([`crate::clone::Cloner::set_observed`]): its parameters are the model's.
     pub fn source_from_fit(&mut self, fit: &FitResult, placed: Similarity) -> Result<bool> {
-        self.cloner.set_observed(None)?;
-        self.take_from_fit(fit, placed)
+        let taken = self.take_from_fit(fit, placed)?;
+        if taken {
+            // The fit's parameters alone: a face observed with an earlier fit is dropped.
+            self.cloner.set_observed(None)?;
+        }
+        Ok(taken)
     }
 
     /// [`super::Stage::source_from_fit`] keeping the observed face the cloner holds.

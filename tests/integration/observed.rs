@@ -13,9 +13,18 @@ use facemimic_testkit as common;
 
 use facemimic::clone::{luma, CloneOptions, Cloner};
 use facemimic::fit::{FaceTracker, FollowOptions, Follower, Observed, ObservedAppearance};
-use facemimic::{io, sample_rgb, Stage, TrainingImage};
+use facemimic::{io, sample_rgb, Model, Stage, TrainingImage};
 
 use super::expression::{spk07, target};
+
+/// A cloner of `source` onto the page's four default GRID targets.
+fn onto_default_targets(source: &Model) -> Cloner {
+    let mut cloner = Cloner::new(source.clone()).unwrap();
+    for name in ["spk02", "spk03", "spk06", "spk10"] {
+        cloner.add_target(target(name).clone()).unwrap();
+    }
+    cloner
+}
 
 /// spk07's unseen clip's frames with the most closed and the most open mouth.
 fn closed_and_open() -> (TrainingImage, TrainingImage) {
@@ -225,6 +234,11 @@ fn the_stage_clones_what_its_follower_observes() {
     };
     assert!(!stage.track(&black.view().unwrap(), 0.04).unwrap());
     assert!(stage.cloner().has_observed());
+    // Bad parameters change nothing, the observed face included.
+    let mut bad = spk07().base_params();
+    bad.shape[0] = f32::NAN;
+    assert!(stage.set_source_params(&bad).is_err());
+    assert!(stage.cloner().has_observed());
     // Parameters given directly are the model's: the observed face is dropped.
     stage.set_source_params(&spk07().base_params()).unwrap();
     assert!(!stage.cloner().has_observed());
@@ -240,10 +254,7 @@ fn a_followed_laugh_arrives_with_the_persons_teeth_and_smile() {
         return;
     };
     let paths = common::clip_frames(&dir);
-    let mut cloner = Cloner::new(spk07().clone()).unwrap();
-    for name in ["spk02", "spk03", "spk06", "spk10"] {
-        cloner.add_target(target(name).clone()).unwrap();
-    }
+    let mut cloner = onto_default_targets(spk07());
     let m = common::following::follow_expressions(
         &paths,
         4,
@@ -412,10 +423,7 @@ fn a_tracked_person_shows_their_own_teeth() {
     let first = io::read_training_image(&paths[0]).unwrap();
     let mut tracker = facemimic::fit::tracker_for(franck, facemimic::fit::Whose::Own).unwrap();
     tracker.start_from_landmarks(&first.landmarks).unwrap();
-    let mut cloner = Cloner::new(franck.clone()).unwrap();
-    for name in ["spk02", "spk03", "spk06", "spk10"] {
-        cloner.add_target(target(name).clone()).unwrap();
-    }
+    let mut cloner = onto_default_targets(franck);
     let m = common::following::track_expressions(
         &paths,
         4,

@@ -60,15 +60,19 @@ pub fn target_cell(
 /// Writes `sheet` (opaque) as JPEG at [`JPEG_QUALITY`] when `path` ends in `.jpg` or `.jpeg`,
 /// else as PNG, making its folder.
 pub fn save(path: &Path, sheet: &Pixmap) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| Error::Io(format!("{}: {e}", dir.display())))?;
-    }
-    let io_error = |e: &dyn std::fmt::Display| Error::Io(format!("{}: {e}", path.display()));
     let rgb: Vec<u8> = facemimic::demultiply(sheet)
         .chunks_exact(4)
         .flat_map(|p| [p[0], p[1], p[2]])
         .collect();
-    let (w, h) = (sheet.width(), sheet.height());
+    save_rgb(path, &rgb, (sheet.width(), sheet.height()))
+}
+
+/// Writes a `w x h` RGB picture as [`save`] does.
+pub fn save_rgb(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::Io(format!("{}: {e}", dir.display())))?;
+    }
+    let io_error = |e: &dyn std::fmt::Display| Error::Io(format!("{}: {e}", path.display()));
     let jpeg = path
         .extension()
         .and_then(|e| e.to_str())
@@ -79,10 +83,10 @@ pub fn save(path: &Path, sheet: &Pixmap) -> Result<()> {
             std::io::BufWriter::new(file),
             JPEG_QUALITY,
         )
-        .encode(&rgb, w, h, image::ExtendedColorType::Rgb8)
+        .encode(rgb, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| io_error(&e))
     } else {
-        image::save_buffer(path, &rgb, w, h, image::ExtendedColorType::Rgb8)
+        image::save_buffer(path, rgb, w, h, image::ExtendedColorType::Rgb8)
             .map_err(|e| io_error(&e))
     }
 }
