@@ -141,6 +141,8 @@ pub struct SourceSide {
     max_gaze: f32,
     /// The frame's origin (a pixel's grid cell is its place plus the origin).
     origin: (f32, f32),
+    /// The source base's eye whites' luminance ([`sclera_luma`]).
+    sclera: f32,
 }
 
 /// The source's side of one frame for the expressive method, shared by every target.
@@ -165,6 +167,51 @@ pub struct SourceFrame {
     /// The mean skin luminance of the source's neutral this frame (the model's base, or the
     /// observed person's neutral), exposure-matched to `app`.
     skin: f32,
+    /// The luminance of the eye whites of the source's neutral ([`sclera_luma`]), exposure-matched
+    /// to `app` as `skin`.
+    sclera: f32,
+    /// Scratch for [`sclera_luma`] (one value per eye pixel).
+    eye_luma: Vec<f32>,
+}
+
+/// How much brighter than its skin a light-coloured thing (teeth, an eye's white) may be drawn
+/// on the target than on the source, and how much darker: the limits of the lights' ratio
+/// taken from the eye whites.
+pub const LIGHT_RATIO: [f32; 2] = [0.67, 1.5];
+
+/// The luminance of the eyes' whites in appearance `app`: the 90th percentile of the luminance
+/// of the pixels inside both eyes' outlines (the sclera is the brightest thing there; the iris,
+/// the lashes and the lids' shadow are darker). Teeth and eye whites reflect much the same
+/// from person to person, whatever their skin, so the ratio of two faces' sclera is the ratio
+/// of their lights. `scratch` holds one value per eye pixel; `None` when there is none.
+fn sclera_luma(app: &[f32], eyes: &[Vec<u32>; 2], scratch: &mut Vec<f32>) -> Option<f32> {
+    scratch.clear();
+    scratch.extend(
+        eyes.iter()
+            .flatten()
+            .map(|&k| luma(&app[3 * k as usize..3 * k as usize + 3])),
+    );
+    if scratch.is_empty() {
+        return None;
+    }
+    let at = (scratch.len() - 1) * 9 / 10;
+    let (_, v, _) = scratch.select_nth_unstable_by(at, |a, b| a.total_cmp(b));
+    Some(*v).filter(|v| v.is_finite() && *v > 0.0)
+}
+
+/// Where [`highlight_knee`] starts to bend.
+pub const KNEE: f32 = 0.8;
+
+/// Brings values above [`KNEE`] smoothly under 1 (the slope 1 at the knee, approaching 1
+/// exponentially): teeth brightened into a brighter light keep their separations instead of
+/// clipping into a white blob. Values in `[0, KNEE]` are kept, negative ones are 0.
+pub fn highlight_knee(v: f32) -> f32 {
+    if v <= KNEE {
+        v.max(0.0)
+    } else {
+        let room = 1.0 - KNEE;
+        KNEE + room * (1.0 - (-(v - KNEE) / room).exp())
+    }
 }
 
 fn point(s: &[f32], i: usize) -> [f32; 2] {
@@ -382,6 +429,7 @@ impl SourceSide {
             grid[px.y as usize * grid_width + px.x as usize] = k as u32;
         }
         let iris0 = [0, 1].map(|e| iris_centre(a0, &eyes[e], &eyes_at[e]).unwrap_or([0.0; 2]));
+        let sclera = sclera_luma(a0, &eyes, &mut Vec::new()).unwrap_or(0.0);
         let max_gaze = if scheme68 {
             let v = frame.vertices();
             MAX_GAZE * (v[2 * 39] - v[2 * 36]).hypot(v[2 * 39 + 1] - v[2 * 36 + 1])
@@ -389,6 +437,7 @@ impl SourceSide {
             0.0
         };
         SourceSide {
+            sclera,
             eyes_at,
             iris0,
             max_gaze,
@@ -429,6 +478,8 @@ impl SourceSide {
             closed: [0.0; 2],
             gaze: [0.0; 2],
             skin: self.skin,
+            sclera: self.sclera,
+            eye_luma: Vec::with_capacity(self.eyes[0].len() + self.eyes[1].len()),
         }
     }
 }
@@ -533,6 +584,7 @@ impl SourceFrame {
         } else {
             1.0
         };
+
         // The neutral's skin luminance; the inner mouth compares the frame's with it in the
         // frame's exposure (a model's synthesis has the base's).
         let skin0 = match neutral {
@@ -542,6 +594,10 @@ impl SourceFrame {
         self.skin = match neutral {
             Some(_) => skin0 / exposure,
             None => skin0,
+        };
+        self.sclera = match neutral {
+            Some(n) => sclera_luma(n, &side.eyes, &mut self.eye_luma).unwrap_or(0.0) / exposure,
+            None => side.sclera,
         };
         let unit = gains.is_unit() && gain == 1.0;
         // Dark skin's luminance is small, so its ratios would swing with every highlight: the
@@ -625,6 +681,8 @@ pub struct ExpressiveTarget {
     lip: [f32; 3],
     /// Each eye's lid skin colour (RGB).
     lid: [[f32; 3]; 2],
+    /// The target base's eye whites' luminance ([`sclera_luma`]).
+    sclera: f32,
     /// The signed area of every frame triangle on the target's base.
     area0: Vec<f32>,
     /// The target's shape sigmas.
@@ -770,6 +828,7 @@ impl ExpressiveTarget {
         // The mouth's dark parts: the lips' colour, a little paler.
         let lip = chroma([0, 1, 2].map(|c| 0.7 * lip[c] + 0.3 * white[c]));
         Ok(ExpressiveTarget {
+            sclera: sclera_luma(a0, &side.eyes, &mut Vec::new()).unwrap_or(0.0),
             l,
             white,
             lip,
@@ -1022,16 +1081,22 @@ pub fn expressive_appearance(
     }
     if frame.open > 0.0 {
         let w0 = frame.open * style;
+        // The source's mouth in the target's light: scaled by the ratio of their eye whites.
+        let light = if t.sclera > 0.0 && frame.sclera > 0.0 {
+            (t.sclera / frame.sclera).clamp(LIGHT_RATIO[0], LIGHT_RATIO[1])
+        } else {
+            1.0
+        };
         for (&k, &edge) in side.mouth.iter().zip(&side.mouth_w) {
             let (k, w) = (k as usize, w0 * edge);
             let s = &frame.app[3 * k..3 * k + 3];
             let b = luma(s) / frame.skin.max(0.05);
             let teeth = ((b - 0.6) / 0.5).clamp(0.0, 1.0);
             let teeth = teeth * teeth * (3.0 - 2.0 * teeth);
-            let y = luma(s);
+            let y = light * luma(s);
             for c in 0..3 {
                 let chroma = t.lip[c] + teeth * (t.white[c] - t.lip[c]);
-                let v = (y * chroma).clamp(0.0, 1.0);
+                let v = highlight_knee(y * chroma);
                 out[3 * k + c] += w * (v - out[3 * k + c]);
             }
         }
@@ -1047,5 +1112,41 @@ pub fn expressive_appearance(
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_highlight_knee_keeps_the_range_smooth_and_ordered() {
+        assert_eq!(highlight_knee(-0.5), 0.0);
+        assert_eq!(highlight_knee(0.5), 0.5);
+        assert_eq!(highlight_knee(KNEE), KNEE);
+        let mut last = KNEE;
+        for i in 1..=200 {
+            let v = highlight_knee(KNEE + i as f32 * 0.01);
+            assert!(v > last || v == 1.0, "not increasing at {i}: {v} after {last}");
+            assert!(v <= 1.0);
+            last = v;
+        }
+        // The slope is 1 at the knee: no visible crease where the teeth's highlights start.
+        let slope = (highlight_knee(KNEE + 1e-3) - KNEE) / 1e-3;
+        assert!((slope - 1.0).abs() < 0.01, "slope {slope}");
+        // Separations above the knee survive: 1.0 and 1.2 stay 10 levels of 255 apart.
+        assert!(highlight_knee(1.2) - highlight_knee(1.0) > 10.0 / 255.0);
+    }
+
+    #[test]
+    fn the_sclera_is_the_bright_end_of_the_eyes() {
+        // 10 eye pixels with luminances 0.0..0.9: the 90th percentile is the 9th value.
+        let app: Vec<f32> = (0..10).flat_map(|i| [i as f32 / 10.0; 3]).collect();
+        let eyes = [(0..5).collect::<Vec<u32>>(), (5..10).collect()];
+        let v = sclera_luma(&app, &eyes, &mut Vec::new()).unwrap();
+        assert!((v - 0.8).abs() < 1e-5, "{v}");
+        assert_eq!(sclera_luma(&app, &[vec![], vec![]], &mut Vec::new()), None);
+        let dark = vec![0.0; 30];
+        assert_eq!(sclera_luma(&dark, &eyes, &mut Vec::new()), None);
     }
 }

@@ -40,9 +40,9 @@ mod prior;
 mod transfer;
 
 pub use expressive::{
-    expressive_appearance, expressive_shape, limit_mahalanobis, luma, region_of,
+    expressive_appearance, expressive_shape, highlight_knee, limit_mahalanobis, luma, region_of,
     residual_after_limit, ExpressiveOptions, ExpressiveTarget, RegionGains, SourceFrame,
-    SourceSide, RATIO_OFFSET, RATIO_RANGE,
+    SourceSide, KNEE, LIGHT_RATIO, RATIO_OFFSET, RATIO_RANGE,
 };
 pub use prior::{
     expression_displacement, learn_prior, ExpressionPrior, ShapePairs, SpeakerShapes,

@@ -143,6 +143,41 @@ fn a_constant_colour_offset_of_the_source_never_reaches_the_target() {
     common::pixels::assert_tint_left_out(&out, target("spk03").appearance().base(), "the source");
 }
 
+/// The inner mouth is drawn in the target's light: a target whose picture is a fifth darker
+/// (its eye whites too) gets teeth a fifth darker, so the whole clone is a fifth darker, pixel
+/// for pixel; the source's mouth's own luminance would otherwise be pasted into any light.
+#[test]
+fn the_inner_mouth_is_drawn_in_the_targets_light() {
+    const DARKER: f32 = 0.8;
+    let mut parts: ModelParts = target("spk03").clone().into_parts();
+    let (mut base, modes, variances) = parts.appearance.clone().into_arrays();
+    base.iter_mut().for_each(|v| *v *= DARKER);
+    parts.appearance = facemimic::AppearanceModel::new(base, modes, variances);
+    let darker = Model::new(parts).unwrap();
+    let params = open_mouth_params();
+    let mut out = Vec::new();
+    for t in [target("spk03").clone(), darker] {
+        let mut c = Cloner::new(spk07().clone()).unwrap();
+        c.add_target(t).unwrap();
+        c.clone_frame(&params, &expressive()).unwrap();
+        out.push(c.target_appearance(0).to_vec());
+    }
+    let (mut worst, mut changed) = (0f32, 0);
+    for (k, (a, b)) in out[0].iter().zip(&out[1]).enumerate() {
+        if *a < 0.999 {
+            worst = worst.max((DARKER * a - b).abs());
+        }
+        let own = target("spk03").appearance().base()[k];
+        changed += usize::from((a - own).abs() > 0.05);
+    }
+    // The mouth is open: the clone differs from the target's own picture.
+    assert!(changed > 100, "only {changed} values changed");
+    assert!(
+        worst < 2e-3,
+        "a pixel differs by {worst} from the darker light's"
+    );
+}
+
 #[test]
 fn the_residual_after_the_limit_is_zero_when_the_target_can_follow() {
     // Two orthonormal modes in 4 dimensions, sigmas 1 and 2.
