@@ -43,9 +43,9 @@ mod native {
     use clap::Parser;
     use facemimic::clone::{CloneOptions, Cloner};
     use facemimic::fit::{FaceTracker, FollowOptions, Follower};
-    use facemimic::{io, picture_view, Compositor, DrawOptions, Error, Result};
+    use facemimic::{io, picture_view, Compositor, DrawOptions, Error, Model, Result};
     use facemimic_testkit as common;
-    use facemimic_testkit::following::{follow_expressions, OPEN_MOUTH};
+    use facemimic_testkit::following::{track_expressions, OPEN_MOUTH};
     use facemimic_testkit::sheet;
 
     /// The page's default targets (`www/models/manifest.json`).
@@ -75,6 +75,24 @@ mod native {
         /// Clone without the constraint (the expression prior's bound and the modes' limit).
         #[arg(long)]
         no_clamp: bool,
+        /// Track with the person's own model instead of following with spk07's: franck's AAM
+        /// from `franck-dev/train20.txt` (the build part; measure on franck-dev2), the AAM
+        /// tracker started from the clip's first frame's landmarks. "off" is then the model's
+        /// synthesis, "on" the frame observed against the person's neutral look.
+        #[arg(long)]
+        own: bool,
+    }
+
+    /// The tracker of the run: the follower with `source` (spk07), or with `--own` the AAM
+    /// tracker of franck's own model, started on the clip's first frame's landmarks.
+    fn start_tracker(source: &Model, own: bool, paths: &[PathBuf]) -> Result<Box<dyn FaceTracker>> {
+        if !own {
+            return Ok(Box::new(Follower::new(source, FollowOptions::default())?));
+        }
+        let first = io::read_training_image(&paths[0])?;
+        let mut tracker = facemimic::fit::tracker_for(source, facemimic::fit::Whose::Own)?;
+        tracker.start_from_landmarks(&first.landmarks)?;
+        Ok(tracker)
     }
 
     pub fn run() -> Result<()> {
@@ -91,7 +109,12 @@ mod native {
         if paths.is_empty() {
             return Err(Error::Io(format!("{}: no frames", dir.display())));
         }
-        let source = common::following::spk07();
+        let source = if args.own {
+            let list = data.join("franck-dev/train20.txt");
+            common::path_list_model(&list, "franck", false).clone()
+        } else {
+            common::following::spk07()
+        };
         let mut cloner = Cloner::new(source.clone())?;
         for name in TARGETS.split(',') {
             let list = grid_list(name)?;
@@ -105,7 +128,15 @@ mod native {
             },
             ..CloneOptions::default()
         };
-        let m = follow_expressions(&paths, args.every, &source, &mut cloner, &options);
+        let mut tracker = start_tracker(&source, args.own, &paths)?;
+        let m = track_expressions(
+            &paths,
+            args.every,
+            &mut *tracker,
+            &source,
+            &mut cloner,
+            &options,
+        );
         let open = m.frames.iter().filter(|f| f.teeth.is_some()).count();
         println!(
             "{}: {} frames measured, {open} with the real mouth open (inner lips >= {OPEN_MOUTH} apart)",
@@ -125,10 +156,10 @@ mod native {
         }
         let laughs = m.laughing();
         if let Some(out) = &args.sheet {
-            write_sheet(out, &paths, &laughs, &source, &mut cloner)?;
+            write_sheet(out, &paths, &laughs, &source, args.own, &mut cloner)?;
         }
         if let Some(out) = &args.dump_dir {
-            dump(out, &paths, &laughs, &source, &mut cloner)?;
+            dump(out, &paths, &laughs, &source, args.own, &mut cloner)?;
         }
         Ok(())
     }
@@ -159,10 +190,11 @@ mod native {
         paths: &[PathBuf],
         picks: &[usize],
         source: &facemimic::Model,
+        own: bool,
         cloner: &mut Cloner,
         mut each: impl FnMut(usize, &mut Cloner, bool) -> Result<()>,
     ) -> Result<()> {
-        let mut follower = Follower::new(source, FollowOptions::default())?;
+        let mut follower = start_tracker(source, own, paths)?;
         let last = picks.iter().copied().max().unwrap_or(0);
         let options = CloneOptions::default();
         for (i, path) in paths.iter().enumerate().take(last + 1) {
@@ -193,6 +225,7 @@ mod native {
         paths: &[PathBuf],
         laughs: &[usize],
         source: &facemimic::Model,
+        own: bool,
         cloner: &mut Cloner,
     ) -> Result<()> {
         let mut rows: Vec<usize> = Vec::new();
@@ -205,7 +238,7 @@ mod native {
         let nt = cloner.n_targets() as u32;
         let mut page = sheet::canvas(CELL.0 * 2 * nt + 6 * nt, CELL.1 * rows.len() as u32)?;
         let mut comps = compositors(cloner)?;
-        replay(paths, &rows, source, cloner, |i, c, on| {
+        replay(paths, &rows, source, own, cloner, |i, c, on| {
             let row = rows.iter().position(|&r| r == i).unwrap_or(0) as u32;
             for t in 0..c.n_targets() {
                 let b = facemimic::BBox::of_points(c.target_shape(t));
@@ -234,12 +267,13 @@ mod native {
         paths: &[PathBuf],
         laughs: &[usize],
         source: &facemimic::Model,
+        own: bool,
         cloner: &mut Cloner,
     ) -> Result<()> {
         std::fs::create_dir_all(out).map_err(|e| Error::Io(format!("{}: {e}", out.display())))?;
         let mut comps = compositors(cloner)?;
         let mut manifest = String::from("id,source,target\n");
-        replay(paths, laughs, source, cloner, |i, c, on| {
+        replay(paths, laughs, source, own, cloner, |i, c, on| {
             let src = format!("src-{i:06}.png");
             if !on {
                 let t = io::read_training_image(&paths[i])?;

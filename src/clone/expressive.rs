@@ -1127,7 +1127,10 @@ mod tests {
         let mut last = KNEE;
         for i in 1..=200 {
             let v = highlight_knee(KNEE + i as f32 * 0.01);
-            assert!(v > last || v == 1.0, "not increasing at {i}: {v} after {last}");
+            assert!(
+                v > last || v == 1.0,
+                "not increasing at {i}: {v} after {last}"
+            );
             assert!(v <= 1.0);
             last = v;
         }

@@ -29,8 +29,9 @@ pub const NEUTRAL_MAX_MOVE: f32 = 0.05;
 /// The observed appearance of a followed face and its running neutral.
 ///
 /// Represents: the source model's reference frame, the last frame's appearance sampled there
-/// (`3N` RGB in `0..=1`, the frame's pixel order) and the person's neutral appearance (the
-/// first frame's until a neutral-like frame comes; then the mean of the first
+/// (`3N` RGB in `0..=1`, the frame's pixel order) and the person's neutral appearance (until a
+/// neutral-like frame comes, the prior look given to [`ObservedAppearance::with_prior`] (a
+/// person's own model's mean appearance) or else the frame's own; then the mean of the first
 /// [`NEUTRAL_WARMUP`] neutral-like frames; then a running median, [`NEUTRAL_STEP`]).
 ///
 /// Ensures: [`ObservedAppearance::get`] gives both once a frame was observed; each
@@ -42,6 +43,8 @@ pub struct ObservedAppearance {
     neutral: Vec<f32>,
     neutral_frames: u32,
     seen: bool,
+    /// The neutral until a neutral-like frame comes (empty: the frame's own).
+    prior: Vec<f32>,
 }
 
 /// One frame's face as observed: its appearance and the person's neutral one, on the source
@@ -70,7 +73,26 @@ impl ObservedAppearance {
             neutral: vec![0.0; n],
             neutral_frames: 0,
             seen: false,
+            prior: Vec::new(),
         }
+    }
+
+    /// Observes faces into `frame` with `prior` (`3N` RGB) as the neutral until the first
+    /// neutral-like frame comes, and again after each [`reset`](Self::reset): the mean look
+    /// of a person's own model, so a session that starts in a laugh shows the laugh (with the
+    /// frame as its own neutral, it showed nothing until the person rested). Fails with
+    /// [`crate::Error::Params`] when `prior` is not `3N` values.
+    pub fn with_prior(frame: &ReferenceFrame, prior: &[f32]) -> Result<ObservedAppearance> {
+        let mut o = ObservedAppearance::new(frame);
+        if prior.len() != o.neutral.len() {
+            return Err(crate::Error::Params(format!(
+                "the prior neutral appearance has {} values, the frame needs {}",
+                prior.len(),
+                o.neutral.len()
+            )));
+        }
+        o.prior = prior.to_vec();
+        Ok(o)
     }
 
     /// Forgets the person (a new sequence, or a face found again after a loss, which may be
@@ -92,11 +114,16 @@ impl ObservedAppearance {
     ) -> Result<()> {
         sample_rgb(&self.frame, image, points, &mut self.app)?;
         if !self.seen || self.neutral_frames == 0 {
-            // Until a neutral-like frame comes, the frame is its own neutral (no expression).
-            self.neutral.copy_from_slice(&self.app);
+            // Until a neutral-like frame comes, the prior is the neutral, or else the frame is
+            // its own (no expression).
             self.seen = true;
             if neutral_like {
+                self.neutral.copy_from_slice(&self.app);
                 self.neutral_frames = 1;
+            } else if self.prior.is_empty() {
+                self.neutral.copy_from_slice(&self.app);
+            } else {
+                self.neutral.copy_from_slice(&self.prior);
             }
             return Ok(());
         }
@@ -156,4 +183,55 @@ pub fn neutral_like(shape: &[f32], neutral: &[f32]) -> bool {
 pub fn at_rest(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> bool {
     super::mouth_opening(shape) <= super::mouth_opening(neutral) + mouth_margin
         && neutral_like(shape, neutral)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flat grey 400 x 400 picture of `level`, and the canonical frame's vertices moved into
+    /// it (the face's points).
+    fn picture(level: u8) -> (Vec<u8>, Vec<f32>) {
+        let v = crate::canonical_frame().vertices();
+        (
+            vec![level; 400 * 400 * 4],
+            v.iter().map(|c| c + 100.0).collect(),
+        )
+    }
+
+    #[test]
+    fn the_prior_is_the_neutral_until_the_person_rests() {
+        let frame = crate::canonical_frame();
+        let n = 3 * frame.n_pixels();
+        let prior = vec![0.25f32; n];
+        let (laugh, points) = picture(200);
+        let (rest, _) = picture(100);
+        let laugh = ImageRef::new(400, 400, &laugh).unwrap();
+        let rest = ImageRef::new(400, 400, &rest).unwrap();
+        let mut with = ObservedAppearance::with_prior(frame, &prior).unwrap();
+        let mut without = ObservedAppearance::new(frame);
+        for o in [&mut with, &mut without] {
+            o.observe(&laugh, &points, false).unwrap();
+        }
+        // A session that starts in a laugh: against the prior, the laugh shows...
+        assert_eq!(with.get().unwrap().neutral, &prior[..]);
+        // ...where the frame as its own neutral showed nothing.
+        let o = without.get().unwrap();
+        assert_eq!(o.neutral, o.appearance);
+        // A frame at rest takes over from the prior.
+        with.observe(&rest, &points, true).unwrap();
+        let o = with.get().unwrap();
+        assert_eq!(o.neutral, o.appearance);
+        assert!(
+            (o.neutral[0] - 100.0 / 255.0).abs() < 0.01,
+            "{}",
+            o.neutral[0]
+        );
+        // A new person: the prior again.
+        with.reset();
+        with.observe(&laugh, &points, false).unwrap();
+        assert_eq!(with.get().unwrap().neutral, &prior[..]);
+        // A prior of the wrong size is refused.
+        assert!(ObservedAppearance::with_prior(frame, &prior[1..]).is_err());
+    }
 }
