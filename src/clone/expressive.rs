@@ -170,27 +170,25 @@ pub struct SourceFrame {
     /// The luminance of the eye whites of the source's neutral ([`sclera_luma`]), exposure-matched
     /// to `app` as `skin`.
     sclera: f32,
-    /// Scratch for [`sclera_luma`] (one value per eye pixel).
+    /// Scratch for [`sclera_luma`] (one value per eye pixel) and [`blurred_luma`] (one per
+    /// frame pixel).
     eye_luma: Vec<f32>,
+    lum: Vec<f32>,
 }
 
-/// How much brighter than its skin a light-coloured thing (teeth, an eye's white) may be drawn
-/// on the target than on the source, and how much darker: the limits of the lights' ratio
-/// taken from the eye whites.
+/// The limits of the lights' ratio taken from the eye whites ([`sclera_luma`]): the source's
+/// mouth is drawn at most this much darker and brighter on the target than on the source.
 pub const LIGHT_RATIO: [f32; 2] = [0.67, 1.5];
 
-/// The luminance of the eyes' whites in appearance `app`: the 90th percentile of the luminance
-/// of the pixels inside both eyes' outlines (the sclera is the brightest thing there; the iris,
-/// the lashes and the lids' shadow are darker). Teeth and eye whites reflect much the same
-/// from person to person, whatever their skin, so the ratio of two faces' sclera is the ratio
-/// of their lights. `scratch` holds one value per eye pixel; `None` when there is none.
-fn sclera_luma(app: &[f32], eyes: &[Vec<u32>; 2], scratch: &mut Vec<f32>) -> Option<f32> {
+/// The luminance of the eyes' whites in `lum` (a luminance per frame pixel, as
+/// [`blurred_luma`] gives): the 90th percentile over the pixels inside both eyes' outlines (the
+/// sclera is the brightest thing there; the iris, the lashes and the lids' shadow are darker).
+/// Teeth and eye whites reflect much the same from person to person, whatever their skin, so
+/// the ratio of two faces' sclera is the ratio of their lights. `scratch` holds one value per
+/// eye pixel; `None` when there is none.
+fn sclera_luma(lum: &[f32], eyes: &[Vec<u32>; 2], scratch: &mut Vec<f32>) -> Option<f32> {
     scratch.clear();
-    scratch.extend(
-        eyes.iter()
-            .flatten()
-            .map(|&k| luma(&app[3 * k as usize..3 * k as usize + 3])),
-    );
+    scratch.extend(eyes.iter().flatten().map(|&k| lum[k as usize]));
     if scratch.is_empty() {
         return None;
     }
@@ -212,6 +210,43 @@ pub fn highlight_knee(v: f32) -> f32 {
         let room = 1.0 - KNEE;
         KNEE + room * (1.0 - (-(v - KNEE) / room).exp())
     }
+}
+
+/// Fills `lum` with the luminance of appearance `app` smoothed by a 5 x 5 box on the frame's
+/// grid: the eye whites of two pictures are compared at one resolution (a video's small,
+/// blurred eyes read darker at their brightest than a photo's sharp ones; unsmoothed, a London
+/// smile's teeth came out a dull blue-grey on spk03). `grid` and `tmp` are the frame's
+/// smoothing scratch.
+fn blurred_luma(
+    side: &SourceSide,
+    app: &[f32],
+    lum: &mut [f32],
+    grid: &mut [f32],
+    tmp: &mut [f32],
+) {
+    for (l, rgb) in lum.iter_mut().zip(app.chunks_exact(3)) {
+        *l = luma(rgb);
+    }
+    smooth_ratio(side, lum, grid, tmp);
+}
+
+/// [`sclera_luma`] of appearance `app` at the frame's common resolution, and the mean colour
+/// (RGB) of the eye pixels at least that bright (the eye whites: the colour of the picture's
+/// light on something white), allocating. `(0, None)` without eye pixels.
+fn sclera_of(side: &SourceSide, app: &[f32]) -> (f32, Option<[f32; 3]>) {
+    let mut lum = vec![0.0; side.y0.len()];
+    let (mut grid, mut tmp) = (
+        vec![0.0; 2 * side.grid.len()],
+        vec![0.0; 2 * side.grid.len()],
+    );
+    blurred_luma(side, app, &mut lum, &mut grid, &mut tmp);
+    let Some(level) = sclera_luma(&lum, &side.eyes, &mut Vec::new()) else {
+        return (0.0, None);
+    };
+    let whites = side.eyes.iter().flatten().map(|&k| k as usize);
+    let whites: Vec<usize> = whites.filter(|&k| lum[k] >= level).collect();
+    let rgb = (!whites.is_empty()).then(|| mean_rgb(app, whites.into_iter(), [1.0; 3]));
+    (level, rgb)
 }
 
 fn point(s: &[f32], i: usize) -> [f32; 2] {
@@ -429,15 +464,14 @@ impl SourceSide {
             grid[px.y as usize * grid_width + px.x as usize] = k as u32;
         }
         let iris0 = [0, 1].map(|e| iris_centre(a0, &eyes[e], &eyes_at[e]).unwrap_or([0.0; 2]));
-        let sclera = sclera_luma(a0, &eyes, &mut Vec::new()).unwrap_or(0.0);
         let max_gaze = if scheme68 {
             let v = frame.vertices();
             MAX_GAZE * (v[2 * 39] - v[2 * 36]).hypot(v[2 * 39 + 1] - v[2 * 36 + 1])
         } else {
             0.0
         };
-        SourceSide {
-            sclera,
+        let mut side = SourceSide {
+            sclera: 0.0,
             eyes_at,
             iris0,
             max_gaze,
@@ -463,7 +497,9 @@ impl SourceSide {
             down,
             iod,
             gaps0,
-        }
+        };
+        side.sclera = sclera_of(&side, a0).0;
+        side
     }
 
     /// An empty frame buffer for this source.
@@ -480,6 +516,7 @@ impl SourceSide {
             skin: self.skin,
             sclera: self.sclera,
             eye_luma: Vec::with_capacity(self.eyes[0].len() + self.eyes[1].len()),
+            lum: vec![0.0; self.y0.len()],
         }
     }
 }
@@ -596,7 +633,10 @@ impl SourceFrame {
             None => skin0,
         };
         self.sclera = match neutral {
-            Some(n) => sclera_luma(n, &side.eyes, &mut self.eye_luma).unwrap_or(0.0) / exposure,
+            Some(n) => {
+                blurred_luma(side, n, &mut self.lum, &mut self.grid, &mut self.tmp);
+                sclera_luma(&self.lum, &side.eyes, &mut self.eye_luma).unwrap_or(0.0) / exposure
+            }
             None => side.sclera,
         };
         let unit = gains.is_unit() && gain == 1.0;
@@ -819,16 +859,20 @@ impl ExpressiveTarget {
         });
         let lip = chroma(mean_rgb(a0, lips, [0.6, 0.35, 0.35]));
         let lid = lid_colours(side, target);
-        // Teeth: a neutral white warmed 40% of the way towards the target's skin's hue, so they
-        // sit in the picture's warm light (0.2, 0.35, 0.5 tried on London pairs: the mouth's
-        // colour error fell with warmth; cooler teeth looked pasted in).
+        // Teeth: the colour of the target's eye whites (the picture's light on something
+        // white) warmed 40% of the way towards the target's skin's hue, so they sit in the
+        // picture's warm light (0.2, 0.35, 0.5 tried on London pairs: the mouth's colour error
+        // fell with warmth; cooler teeth looked pasted in). A neutral white in place of the eye
+        // whites' colour drew a dim video's teeth a dull blue-grey beside its orange skin.
         let skin_rgb = mean_rgb(a0, side.skin_pixels.iter().map(|&k| k as usize), [0.5; 3]);
         let warm = chroma(skin_rgb);
-        let white = chroma([0, 1, 2].map(|c| 0.6 + 0.4 * warm[c]));
+        let (sclera, sclera_rgb) = sclera_of(side, a0);
+        let eye_white = sclera_rgb.map(chroma).unwrap_or([1.0; 3]);
+        let white = chroma([0, 1, 2].map(|c| 0.6 * eye_white[c] + 0.4 * warm[c]));
         // The mouth's dark parts: the lips' colour, a little paler.
         let lip = chroma([0, 1, 2].map(|c| 0.7 * lip[c] + 0.3 * white[c]));
         Ok(ExpressiveTarget {
-            sclera: sclera_luma(a0, &side.eyes, &mut Vec::new()).unwrap_or(0.0),
+            sclera,
             l,
             white,
             lip,
@@ -1144,12 +1188,12 @@ mod tests {
     #[test]
     fn the_sclera_is_the_bright_end_of_the_eyes() {
         // 10 eye pixels with luminances 0.0..0.9: the 90th percentile is the 9th value.
-        let app: Vec<f32> = (0..10).flat_map(|i| [i as f32 / 10.0; 3]).collect();
+        let app: Vec<f32> = (0..10).map(|i| i as f32 / 10.0).collect();
         let eyes = [(0..5).collect::<Vec<u32>>(), (5..10).collect()];
         let v = sclera_luma(&app, &eyes, &mut Vec::new()).unwrap();
         assert!((v - 0.8).abs() < 1e-5, "{v}");
         assert_eq!(sclera_luma(&app, &[vec![], vec![]], &mut Vec::new()), None);
-        let dark = vec![0.0; 30];
+        let dark = vec![0.0; 10];
         assert_eq!(sclera_luma(&dark, &eyes, &mut Vec::new()), None);
     }
 }
