@@ -176,8 +176,10 @@ pub struct SourceFrame {
     lum: Vec<f32>,
 }
 
-/// The limits of the lights' ratio taken from the eye whites ([`sclera_luma`]): the source's
-/// mouth is drawn at most this much darker and brighter on the target than on the source.
+/// The limits of the lights' ratio taken from the eye whites (the 90th percentile of the
+/// luminance inside both eyes, smoothed to one resolution, the target's over the source's
+/// neutral's): the source's mouth is drawn at most this much darker and brighter on the target
+/// than on the source.
 pub const LIGHT_RATIO: [f32; 2] = [0.67, 1.5];
 
 /// The luminance of the eyes' whites in `lum` (a luminance per frame pixel, as
@@ -621,7 +623,6 @@ impl SourceFrame {
         } else {
             1.0
         };
-
         // The neutral's skin luminance; the inner mouth compares the frame's with it in the
         // frame's exposure (a model's synthesis has the base's).
         let skin0 = match neutral {
