@@ -170,10 +170,8 @@ pub struct SourceFrame {
     /// The luminance of the eye whites of the source's neutral ([`sclera_luma`]), exposure-matched
     /// to `app` as `skin`.
     sclera: f32,
-    /// Scratch for [`sclera_luma`] (one value per eye pixel) and [`blurred_luma`] (one per
-    /// frame pixel).
+    /// Scratch for [`sclera_luma`] (one value per eye pixel).
     eye_luma: Vec<f32>,
-    lum: Vec<f32>,
 }
 
 /// The limits of the lights' ratio taken from the eye whites (the 90th percentile of the
@@ -182,21 +180,53 @@ pub struct SourceFrame {
 /// than on the source.
 pub const LIGHT_RATIO: [f32; 2] = [0.67, 1.5];
 
-/// The luminance of the eyes' whites in `lum` (a luminance per frame pixel, as
-/// [`blurred_luma`] gives): the 90th percentile over the pixels inside both eyes' outlines (the
-/// sclera is the brightest thing there; the iris, the lashes and the lids' shadow are darker).
-/// Teeth and eye whites reflect much the same from person to person, whatever their skin, so
-/// the ratio of two faces' sclera is the ratio of their lights. `scratch` holds one value per
-/// eye pixel; `None` when there is none.
-fn sclera_luma(lum: &[f32], eyes: &[Vec<u32>; 2], scratch: &mut Vec<f32>) -> Option<f32> {
-    scratch.clear();
-    scratch.extend(eyes.iter().flatten().map(|&k| lum[k as usize]));
-    if scratch.is_empty() {
+/// The 90th percentile of `values` (reordered), `None` when empty, not finite or not positive.
+fn upper_decile(values: &mut [f32]) -> Option<f32> {
+    if values.is_empty() {
         return None;
     }
-    let at = (scratch.len() - 1) * 9 / 10;
-    let (_, v, _) = scratch.select_nth_unstable_by(at, |a, b| a.total_cmp(b));
+    let at = (values.len() - 1) * 9 / 10;
+    let (_, v, _) = values.select_nth_unstable_by(at, |a, b| a.total_cmp(b));
     Some(*v).filter(|v| v.is_finite() && *v > 0.0)
+}
+
+/// Into `out`, one value per eye pixel (both eyes, in `side.eyes`' order): the mean luminance
+/// of appearance `app` over the frame pixels in the 5 x 5 grid box about it (the ratio image's
+/// box), so the eye whites of two pictures are compared at one resolution (a video's small,
+/// blurred eyes read darker at their brightest than a photo's sharp ones; unsmoothed, a London
+/// smile's teeth came out a dull blue-grey on spk03). Only the eyes' boxes are read.
+fn eye_lumas(side: &SourceSide, app: &[f32], out: &mut Vec<f32>) {
+    const R: i64 = 2;
+    out.clear();
+    let w = side.grid_width as i64;
+    let h = side.grid.len() as i64 / w.max(1);
+    for at in side.eyes_at.iter().flatten() {
+        let (cx, cy) = (
+            (at[0] + side.origin.0).round() as i64,
+            (at[1] + side.origin.1).round() as i64,
+        );
+        let (mut sum, mut n) = (0f32, 0f32);
+        for y in (cy - R).max(0)..=(cy + R).min(h - 1) {
+            for x in (cx - R).max(0)..=(cx + R).min(w - 1) {
+                let k = side.grid[(y * w + x) as usize];
+                if k != u32::MAX {
+                    sum += luma(&app[3 * k as usize..3 * k as usize + 3]);
+                    n += 1.0;
+                }
+            }
+        }
+        out.push(if n > 0.0 { sum / n } else { 0.0 });
+    }
+}
+
+/// The luminance of the eyes' whites in appearance `app`: the 90th percentile of
+/// [`eye_lumas`] over both eyes (the sclera is the brightest thing there; the iris, the lashes
+/// and the lids' shadow are darker). Teeth and eye whites reflect much the same from person to
+/// person, whatever their skin, so the ratio of two faces' sclera is the ratio of their
+/// lights. `scratch` holds one value per eye pixel; `None` when there is none.
+fn sclera_luma(side: &SourceSide, app: &[f32], scratch: &mut Vec<f32>) -> Option<f32> {
+    eye_lumas(side, app, scratch);
+    upper_decile(scratch)
 }
 
 /// Where [`highlight_knee`] starts to bend.
@@ -214,39 +244,21 @@ pub fn highlight_knee(v: f32) -> f32 {
     }
 }
 
-/// Fills `lum` with the luminance of appearance `app` smoothed by a 5 x 5 box on the frame's
-/// grid: the eye whites of two pictures are compared at one resolution (a video's small,
-/// blurred eyes read darker at their brightest than a photo's sharp ones; unsmoothed, a London
-/// smile's teeth came out a dull blue-grey on spk03). `grid` and `tmp` are the frame's
-/// smoothing scratch.
-fn blurred_luma(
-    side: &SourceSide,
-    app: &[f32],
-    lum: &mut [f32],
-    grid: &mut [f32],
-    tmp: &mut [f32],
-) {
-    for (l, rgb) in lum.iter_mut().zip(app.chunks_exact(3)) {
-        *l = luma(rgb);
-    }
-    smooth_ratio(side, lum, grid, tmp);
-}
-
 /// [`sclera_luma`] of appearance `app` at the frame's common resolution, and the mean colour
 /// (RGB) of the eye pixels at least that bright (the eye whites: the colour of the picture's
 /// light on something white), allocating. `(0, None)` without eye pixels.
 fn sclera_of(side: &SourceSide, app: &[f32]) -> (f32, Option<[f32; 3]>) {
-    let mut lum = vec![0.0; side.y0.len()];
-    let (mut grid, mut tmp) = (
-        vec![0.0; 2 * side.grid.len()],
-        vec![0.0; 2 * side.grid.len()],
-    );
-    blurred_luma(side, app, &mut lum, &mut grid, &mut tmp);
-    let Some(level) = sclera_luma(&lum, &side.eyes, &mut Vec::new()) else {
+    let mut lum = Vec::new();
+    eye_lumas(side, app, &mut lum);
+    let Some(level) = upper_decile(&mut lum.clone()) else {
         return (0.0, None);
     };
-    let whites = side.eyes.iter().flatten().map(|&k| k as usize);
-    let whites: Vec<usize> = whites.filter(|&k| lum[k] >= level).collect();
+    let pixels = side.eyes.iter().flatten().map(|&k| k as usize);
+    let whites: Vec<usize> = pixels
+        .zip(&lum)
+        .filter(|&(_, &l)| l >= level)
+        .map(|(k, _)| k)
+        .collect();
     let rgb = (!whites.is_empty()).then(|| mean_rgb(app, whites.into_iter(), [1.0; 3]));
     (level, rgb)
 }
@@ -518,7 +530,6 @@ impl SourceSide {
             skin: self.skin,
             sclera: self.sclera,
             eye_luma: Vec::with_capacity(self.eyes[0].len() + self.eyes[1].len()),
-            lum: vec![0.0; self.y0.len()],
         }
     }
 }
@@ -634,10 +645,7 @@ impl SourceFrame {
             None => skin0,
         };
         self.sclera = match neutral {
-            Some(n) => {
-                blurred_luma(side, n, &mut self.lum, &mut self.grid, &mut self.tmp);
-                sclera_luma(&self.lum, &side.eyes, &mut self.eye_luma).unwrap_or(0.0) / exposure
-            }
+            Some(n) => sclera_luma(side, n, &mut self.eye_luma).unwrap_or(0.0) / exposure,
             None => side.sclera,
         };
         let unit = gains.is_unit() && gain == 1.0;
@@ -1189,12 +1197,42 @@ mod tests {
     #[test]
     fn the_sclera_is_the_bright_end_of_the_eyes() {
         // 10 eye pixels with luminances 0.0..0.9: the 90th percentile is the 9th value.
-        let app: Vec<f32> = (0..10).map(|i| i as f32 / 10.0).collect();
-        let eyes = [(0..5).collect::<Vec<u32>>(), (5..10).collect()];
-        let v = sclera_luma(&app, &eyes, &mut Vec::new()).unwrap();
+        let mut lum: Vec<f32> = (0..10).rev().map(|i| i as f32 / 10.0).collect();
+        let v = upper_decile(&mut lum).unwrap();
         assert!((v - 0.8).abs() < 1e-5, "{v}");
-        assert_eq!(sclera_luma(&app, &[vec![], vec![]], &mut Vec::new()), None);
-        let dark = vec![0.0; 10];
-        assert_eq!(sclera_luma(&dark, &eyes, &mut Vec::new()), None);
+        assert_eq!(upper_decile(&mut []), None);
+        assert_eq!(upper_decile(&mut [0.0; 10]), None);
+    }
+
+    /// The eye pixels' box means are the ratio image's 5 x 5 box at those pixels (the
+    /// whole-grid smoothing), read only about the eyes.
+    #[test]
+    fn the_eyes_box_means_are_the_frames_smoothing_there() {
+        // A one-photo model of a flat grey picture with the canonical face's points in it.
+        let frame = crate::canonical_frame();
+        let points: Vec<f32> = frame.vertices().iter().map(|c| c + 100.0).collect();
+        let px = vec![128u8; 400 * 400 * 4];
+        let image = crate::ImageRef::new(400, 400, &px).unwrap();
+        let model = crate::photo_model("grey", &image, &points, frame).unwrap();
+        let side = SourceSide::new(&model);
+        assert!(!side.eyes[0].is_empty());
+        let app: Vec<f32> = (0..side.y0.len())
+            .flat_map(|k| [((k * 37) % 101) as f32 / 100.0; 3])
+            .collect();
+        let mut whole: Vec<f32> = app.chunks_exact(3).map(luma).collect();
+        let (mut grid, mut tmp) = (
+            vec![0.0; 2 * side.grid.len()],
+            vec![0.0; 2 * side.grid.len()],
+        );
+        smooth_ratio(&side, &mut whole, &mut grid, &mut tmp);
+        let mut eyes = Vec::new();
+        eye_lumas(&side, &app, &mut eyes);
+        for (&k, v) in side.eyes.iter().flatten().zip(&eyes) {
+            assert!(
+                (whole[k as usize] - v).abs() < 1e-4,
+                "{} vs {v}",
+                whole[k as usize]
+            );
+        }
     }
 }

@@ -172,6 +172,8 @@ struct Observer {
     /// The person's neutral shape, and the frames that entered it.
     neutral: Vec<f32>,
     count: u32,
+    /// The follower's neutral rules (warm-up, step, mouth margin).
+    rules: super::FollowOptions,
 }
 
 impl Observer {
@@ -191,6 +193,7 @@ impl Observer {
             shape: vec![0.0; 136],
             neutral: vec![0.0; 136],
             count: 0,
+            rules: super::FollowOptions::default(),
         };
         o.reset();
         Some(o)
@@ -201,7 +204,7 @@ impl Observer {
     fn reset(&mut self) {
         self.look.reset();
         self.neutral.copy_from_slice(&self.shape_model.base);
-        self.count = super::FollowOptions::default().warmup;
+        self.count = self.rules.warmup;
     }
 
     /// A trusted frame: its look, and its shape's part in the neutral (the follower's rules,
@@ -214,7 +217,7 @@ impl Observer {
         {
             return;
         }
-        let o = super::FollowOptions::default();
+        let o = &self.rules;
         let at_rest = super::at_rest(&self.shape, &self.neutral, o.mouth_margin);
         super::neutral_update(
             &mut self.neutral,
