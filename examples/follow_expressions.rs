@@ -17,9 +17,20 @@
 //!   a manifest for `scripts/eval/fer_judge.py`; `--sheet` draws four of them (targets only:
 //!   franck's frames are research data and are never published).
 //!
+//! - **Where the follower loses a laugh** (`--displacement`, with `--dump-dir`): the dumped
+//!   clones keep the follower's observed look but take their shape displacement from other
+//!   points, each against that convention's own face at rest (the per-coordinate median of
+//!   the clip's closed-mouth frontal frames, by dlib's points: the inner lips under 0.03 of
+//!   the eye corners' distance apart, the nose tip within 0.03 of it from their midpoint;
+//!   each aligned onto the follower's neutral by a similarity of all 68 points):
+//!   `dlib` (the clip's own landmarks: what a perfect landmarker would give), `finder` (the
+//!   face finder's points on each frame, unsmoothed). An oracle (the rest is taken from the
+//!   whole clip, future frames included), for measuring only.
+//!
 //! ```text
 //! cargo run --release --example follow_expressions -- [--clip franck-dev2] [--every 2]
 //!     [--sheet docs/img/follow-expressive.jpg] [--dump-dir /tmp/follow-fer]
+//!     [--displacement follower|dlib|finder]
 //! ```
 #![cfg_attr(target_arch = "wasm32", no_main)]
 #![allow(clippy::needless_range_loop)]
@@ -81,7 +92,30 @@ mod native {
         /// synthesis, "on" the frame observed against the person's neutral look.
         #[arg(long)]
         own: bool,
+        /// The dumped clones' shape displacement: the follower's own, or (an oracle, for
+        /// measuring where a laugh is lost) dlib's points or the finder's, each against its
+        /// convention's face at rest over the clip. Not with `--own`.
+        #[arg(long, value_enum, default_value_t = Displacement::Follower)]
+        displacement: Displacement,
     }
+
+    /// Whose points give the dumped clones their shape displacement.
+    #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+    enum Displacement {
+        /// The follower's (the product's path).
+        Follower,
+        /// The clip's dlib landmarks against their rest.
+        Dlib,
+        /// The face finder's points on each frame against theirs at rest.
+        Finder,
+    }
+
+    /// Shapes whose inner lips are less than this far apart (eye corners' distances, dlib's
+    /// points) are the clip's face at rest for `--displacement`.
+    const REST_OPENING: f32 = 0.03;
+    /// ... and whose nose tip lies within this fraction of the outer eye corners' distance of
+    /// their midpoint, along the eye line ([`frontal`]).
+    const REST_TURN: f32 = 0.03;
 
     /// The tracker of the run: the follower with `source` (spk07), or with `--own` the AAM
     /// tracker of franck's own model, started on the clip's first frame's landmarks.
@@ -99,6 +133,11 @@ mod native {
         let args = Args::parse();
         if args.every == 0 {
             return Err(Error::Params("--every must be at least 1".into()));
+        }
+        if args.own && args.displacement != Displacement::Follower {
+            return Err(Error::Params(
+                "--displacement is for the follower, not --own".into(),
+            ));
         }
         let data = args
             .data
@@ -156,12 +195,125 @@ mod native {
         }
         let laughs = m.laughing();
         if let Some(out) = &args.sheet {
-            write_sheet(out, &paths, &laughs, &source, args.own, &mut cloner)?;
+            write_sheet(out, &paths, &laughs, &source, args.own, None, &mut cloner)?;
         }
         if let Some(out) = &args.dump_dir {
-            dump(out, &paths, &laughs, &source, args.own, &mut cloner)?;
+            let oracle = match args.displacement {
+                Displacement::Follower => None,
+                d => Some(Oracle::new(&paths, &laughs, d == Displacement::Finder)?),
+            };
+            dump(
+                out,
+                &paths,
+                &laughs,
+                &source,
+                args.own,
+                oracle.as_ref(),
+                &mut cloner,
+            )?;
         }
         Ok(())
+    }
+
+    /// Whether a face (68 points) looks at the camera: its nose tip (30) lies within
+    /// [`REST_TURN`] of the eye corners' distance from their midpoint, along the eye line
+    /// (a turned head's rest is foreshortened: its mouth would read narrow).
+    fn frontal(p: &[f32]) -> bool {
+        let (ax, ay, bx, by) = (p[72], p[73], p[90], p[91]);
+        let (ex, ey) = (bx - ax, by - ay);
+        let d2 = ex * ex + ey * ey;
+        if d2.is_nan() || d2 <= 0.0 {
+            return false;
+        }
+        let (nx, ny) = (p[60] - 0.5 * (ax + bx), p[61] - 0.5 * (ay + by));
+        ((nx * ex + ny * ey) / d2).abs() <= REST_TURN
+    }
+
+    /// Shapes of the clip in one convention (dlib's or the finder's): each laughing frame's,
+    /// and the face at rest (the median of the closed-mouth frames').
+    struct Oracle {
+        /// The laughing frames' points (image coordinates), by frame index.
+        frames: Vec<(usize, Vec<f32>)>,
+        /// The face at rest, in the first rest frame's image coordinates.
+        rest: Vec<f32>,
+    }
+
+    impl Oracle {
+        /// Reads (or, with `finder`, finds) the points of `laughs` and of every closed-mouth
+        /// frame of the clip.
+        fn new(paths: &[PathBuf], laughs: &[usize], finder: bool) -> Result<Oracle> {
+            let mut find = if finder {
+                Some(facemimic::FaceFinder::new()?)
+            } else {
+                None
+            };
+            let mut points = |t: &facemimic::TrainingImage| -> Result<Option<Vec<f32>>> {
+                Ok(match &mut find {
+                    None => Some(t.landmarks.clone()),
+                    Some(f) => f
+                        .find(&t.image.view()?)
+                        .into_iter()
+                        .next()
+                        .map(|face| face.landmarks),
+                })
+            };
+            let (mut frames, mut rest) = (Vec::new(), Vec::new());
+            for (i, path) in paths.iter().enumerate() {
+                let t = io::read_training_image(path)?;
+                let closed = facemimic::fit::mouth_opening(&t.landmarks) < REST_OPENING
+                    && frontal(&t.landmarks);
+                if !closed && !laughs.contains(&i) {
+                    continue;
+                }
+                let Some(p) = points(&t)? else { continue };
+                if laughs.contains(&i) {
+                    frames.push((i, p.clone()));
+                }
+                if closed {
+                    rest.push(p);
+                }
+            }
+            let first = rest
+                .first()
+                .cloned()
+                .ok_or_else(|| Error::Params("no closed-mouth frame in the clip".into()))?;
+            // Each rest shape aligned onto the first, then the per-coordinate median.
+            let aligned: Vec<Vec<f32>> = rest
+                .iter()
+                .map(|r| {
+                    let mut o = vec![0f32; r.len()];
+                    facemimic::Similarity::align(r, &first).apply(r, &mut o);
+                    o
+                })
+                .collect();
+            let median: Vec<f32> = (0..first.len())
+                .map(|k| {
+                    let mut v: Vec<f32> = aligned.iter().map(|a| a[k]).collect();
+                    v.sort_by(f32::total_cmp);
+                    v[v.len() / 2]
+                })
+                .collect();
+            println!(
+                "oracle ({}): {} closed-mouth frames at rest, {} laughing frames",
+                if finder { "finder" } else { "dlib" },
+                aligned.len(),
+                frames.len()
+            );
+            Ok(Oracle {
+                frames,
+                rest: median,
+            })
+        }
+
+        /// Frame `i`'s displacement from the rest, both aligned onto `neutral` (model
+        /// coordinates) by a similarity of all their points; `None` when the frame has none.
+        fn displacement(&self, i: usize, neutral: &[f32]) -> Option<Vec<f32>> {
+            let (_, p) = self.frames.iter().find(|(j, _)| *j == i)?;
+            let (mut x, mut r) = (vec![0f32; p.len()], vec![0f32; p.len()]);
+            facemimic::Similarity::align(p, neutral).apply(p, &mut x);
+            facemimic::Similarity::align(&self.rest, neutral).apply(&self.rest, &mut r);
+            Some(x.iter().zip(&r).map(|(a, b)| a - b).collect())
+        }
     }
 
     /// The `train20.txt` of the last clip folder of `speaker` under data/grid.
@@ -191,6 +343,7 @@ mod native {
         picks: &[usize],
         source: &facemimic::Model,
         own: bool,
+        oracle: Option<&Oracle>,
         cloner: &mut Cloner,
         mut each: impl FnMut(usize, &mut Cloner, bool) -> Result<()>,
     ) -> Result<()> {
@@ -203,8 +356,18 @@ mod native {
             if !picks.contains(&i) {
                 continue;
             }
+            // With an oracle, the follower's look and the oracle's displacement, in the source
+            // model's coordinates (aligned onto its base, as the follower's neutral is).
+            let replaced = oracle.and_then(|o| o.displacement(i, &source.shape().base));
             for on in [false, true] {
-                cloner.set_observed(if on { follower.observed() } else { None })?;
+                let seen = follower.observed().map(|seen| match &replaced {
+                    Some(d) => facemimic::fit::Observed {
+                        displacement: Some(d),
+                        ..seen
+                    },
+                    None => seen,
+                });
+                cloner.set_observed(if on { seen } else { None })?;
                 cloner.clone_frame(&fit.params, &options)?;
                 each(i, cloner, on)?;
             }
@@ -226,6 +389,7 @@ mod native {
         laughs: &[usize],
         source: &facemimic::Model,
         own: bool,
+        oracle: Option<&Oracle>,
         cloner: &mut Cloner,
     ) -> Result<()> {
         let mut rows: Vec<usize> = Vec::new();
@@ -238,7 +402,7 @@ mod native {
         let nt = cloner.n_targets() as u32;
         let mut page = sheet::canvas(CELL.0 * 2 * nt + 6 * nt, CELL.1 * rows.len() as u32)?;
         let mut comps = compositors(cloner)?;
-        replay(paths, &rows, source, own, cloner, |i, c, on| {
+        replay(paths, &rows, source, own, oracle, cloner, |i, c, on| {
             let row = rows.iter().position(|&r| r == i).unwrap_or(0) as u32;
             for t in 0..c.n_targets() {
                 let b = facemimic::BBox::of_points(c.target_shape(t));
@@ -268,12 +432,13 @@ mod native {
         laughs: &[usize],
         source: &facemimic::Model,
         own: bool,
+        oracle: Option<&Oracle>,
         cloner: &mut Cloner,
     ) -> Result<()> {
         std::fs::create_dir_all(out).map_err(|e| Error::Io(format!("{}: {e}", out.display())))?;
         let mut comps = compositors(cloner)?;
         let mut manifest = String::from("id,source,target\n");
-        replay(paths, laughs, source, own, cloner, |i, c, on| {
+        replay(paths, laughs, source, own, oracle, cloner, |i, c, on| {
             let src = format!("src-{i:06}.png");
             if !on {
                 let t = io::read_training_image(&paths[i])?;
