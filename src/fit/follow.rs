@@ -41,7 +41,8 @@ pub struct FollowOptions {
     /// it a fifth of the way at once. A talking person's mouth is open half the time: a
     /// neutral with a half-open mouth would read closing it as an expression the source model
     /// draws as lips crossing. So the neutral settles on the person's closed mouth, in
-    /// whatever convention the finder places closed lips.
+    /// whatever convention the finder places closed lips. A first face with its mouth open
+    /// starts the neutral closed to this opening (or the model's base face's, if smaller).
     pub mouth_margin: f32,
     /// Mapped shape parameters are clamped to `+-max_sigmas` standard deviations of the
     /// source model's modes.
@@ -137,10 +138,10 @@ impl FollowOptions {
 ///    `x = P^-1(points)`, smoothed by a One-Euro filter (in model coordinates, so a moving
 ///    head is not lagged; speeds in eye distances per second, [`FollowOptions::min_cutoff`],
 ///    [`FollowOptions::beta`]; restarted when the face is acquired again); the expression is
-///    the deviation `x - n`. The neutral is the first face's shape, then the mean of the
-///    first [`FollowOptions::warmup`] frames' shapes, then a running per-coordinate median
-///    ([`FollowOptions::neutral_step`]), of the frames whose mouth is not more open than the
-///    neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`]) and, after the warm-up,
+///    the deviation `x - n`. The neutral is the first face's shape (its mouth closed), then
+///    the mean of the first [`FollowOptions::warmup`] frames' shapes, then a running
+///    per-coordinate median ([`FollowOptions::neutral_step`]), of the frames whose mouth is
+///    not more open than the neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`]) and, after the warm-up,
 ///    whose expression is at rest ([`super::neutral_like`]: a held smile does not become the
 ///    neutral), kept aligned to the model's `s0` ([`neutral_update`]).
 ///    **Appearance.** The frame is sampled into the model's reference frame at the smoothed
@@ -611,9 +612,15 @@ impl Follower {
             let to_base = Similarity::align(&self.points, &self.base);
             to_base.apply(&self.points, &mut self.neutral);
             // A person first seen talking or laughing: their neutral starts with the mouth
-            // closed (as the model's base face holds it), else the opening would read as no
-            // expression until they close their mouth.
-            let rest = mouth_opening(&self.base);
+            // closed, else the opening would read as no expression until they close their
+            // mouth. Closed: no more open than `mouth_margin`, or than the model's base face
+            // if it is more closed. A speech model's base is its frames' mean, half open
+            // (spk07's inner lips 0.084 of the eye corners' distance apart): closed only that
+            // far, a session that opened laughing let the laugh's parted tail into the
+            // neutral, whose wide, lifted, half-open mouth then hid the smiles that followed
+            // (franck-dev2's laughs on the targets: 0.19 of the source's "happy", 0.28
+            // closed; docs/cloning.md).
+            let rest = mouth_opening(&self.base).min(self.options.mouth_margin);
             if mouth_opening(&self.neutral) > rest + self.options.mouth_margin {
                 close_mouth(&mut self.neutral, &self.modes, rest);
             }
