@@ -200,7 +200,7 @@ mod native {
         if let Some(out) = &args.dump_dir {
             let oracle = match args.displacement {
                 Displacement::Follower => None,
-                d => Some(Oracle::new(&paths, &laughs, d == Displacement::Finder)?),
+                d => Some(Oracle::new(&paths, &laughs, d, &source.shape().base)?),
             };
             dump(
                 out,
@@ -230,18 +230,26 @@ mod native {
     }
 
     /// Shapes of the clip in one convention (dlib's or the finder's): each laughing frame's,
-    /// and the face at rest (the median of the closed-mouth frames').
+    /// and the face at rest (the median of the closed-mouth frontal frames').
     struct Oracle {
         /// The laughing frames' points (image coordinates), by frame index.
         frames: Vec<(usize, Vec<f32>)>,
-        /// The face at rest, in the first rest frame's image coordinates.
+        /// The face at rest, aligned onto the source model's base.
         rest: Vec<f32>,
+        /// The source model's base shape (model coordinates).
+        base: Vec<f32>,
     }
 
     impl Oracle {
-        /// Reads (or, with `finder`, finds) the points of `laughs` and of every closed-mouth
-        /// frame of the clip.
-        fn new(paths: &[PathBuf], laughs: &[usize], finder: bool) -> Result<Oracle> {
+        /// Reads (or, for [`Displacement::Finder`], finds) the points of `laughs` and of every
+        /// closed-mouth frontal frame of the clip; `base` is the source model's base shape.
+        fn new(
+            paths: &[PathBuf],
+            laughs: &[usize],
+            whose: Displacement,
+            base: &[f32],
+        ) -> Result<Oracle> {
+            let finder = whose == Displacement::Finder;
             let mut find = if finder {
                 Some(facemimic::FaceFinder::new()?)
             } else {
@@ -286,13 +294,17 @@ mod native {
                     o
                 })
                 .collect();
+            let mut column = vec![0f32; aligned.len()];
             let median: Vec<f32> = (0..first.len())
                 .map(|k| {
-                    let mut v: Vec<f32> = aligned.iter().map(|a| a[k]).collect();
-                    v.sort_by(f32::total_cmp);
-                    v[v.len() / 2]
+                    column.iter_mut().zip(&aligned).for_each(|(c, a)| *c = a[k]);
+                    let mid = column.len() / 2;
+                    *column.select_nth_unstable_by(mid, f32::total_cmp).1
                 })
                 .collect();
+            // Aligned once onto the source model's base, as every frame will be.
+            let mut rest = vec![0f32; median.len()];
+            facemimic::Similarity::align(&median, base).apply(&median, &mut rest);
             println!(
                 "oracle ({}): {} closed-mouth frames at rest, {} laughing frames",
                 if finder { "finder" } else { "dlib" },
@@ -301,18 +313,19 @@ mod native {
             );
             Ok(Oracle {
                 frames,
-                rest: median,
+                rest,
+                base: base.to_vec(),
             })
         }
 
-        /// Frame `i`'s displacement from the rest, both aligned onto `neutral` (model
-        /// coordinates) by a similarity of all their points; `None` when the frame has none.
-        fn displacement(&self, i: usize, neutral: &[f32]) -> Option<Vec<f32>> {
+        /// Frame `i`'s displacement from the rest, both aligned onto the source model's base
+        /// (its coordinates, as the follower's neutral) by a similarity of all their points;
+        /// `None` when the frame has none.
+        fn displacement(&self, i: usize) -> Option<Vec<f32>> {
             let (_, p) = self.frames.iter().find(|(j, _)| *j == i)?;
-            let (mut x, mut r) = (vec![0f32; p.len()], vec![0f32; p.len()]);
-            facemimic::Similarity::align(p, neutral).apply(p, &mut x);
-            facemimic::Similarity::align(&self.rest, neutral).apply(&self.rest, &mut r);
-            Some(x.iter().zip(&r).map(|(a, b)| a - b).collect())
+            let mut x = vec![0f32; p.len()];
+            facemimic::Similarity::align(p, &self.base).apply(p, &mut x);
+            Some(x.iter().zip(&self.rest).map(|(a, b)| a - b).collect())
         }
     }
 
@@ -358,7 +371,7 @@ mod native {
             }
             // With an oracle, the follower's look and the oracle's displacement, in the source
             // model's coordinates (aligned onto its base, as the follower's neutral is).
-            let replaced = oracle.and_then(|o| o.displacement(i, &source.shape().base));
+            let replaced = oracle.and_then(|o| o.displacement(i));
             for on in [false, true] {
                 let seen = follower.observed().map(|seen| match &replaced {
                     Some(d) => facemimic::fit::Observed {

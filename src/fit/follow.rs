@@ -141,9 +141,10 @@ impl FollowOptions {
 ///    the deviation `x - n`. The neutral is the first face's shape (its mouth closed), then
 ///    the mean of the first [`FollowOptions::warmup`] frames' shapes, then a running
 ///    per-coordinate median ([`FollowOptions::neutral_step`]), of the frames whose mouth is
-///    not more open than the neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`]) and, after the warm-up,
-///    whose expression is at rest ([`super::neutral_like`]: a held smile does not become the
-///    neutral), kept aligned to the model's `s0` ([`neutral_update`]).
+///    not more open than the neutral's ([`FollowOptions::mouth_margin`], [`mouth_opening`])
+///    and, after the warm-up, whose expression is at rest ([`super::neutral_like`]: a held
+///    smile does not become the neutral), kept aligned to the model's `s0`
+///    ([`neutral_update`]).
 ///    **Appearance.** The frame is sampled into the model's reference frame at the smoothed
 ///    points, and the person's neutral appearance kept from the frames at rest
 ///    ([`super::ObservedAppearance`]); with the whole deviation `x - t - n` they are the

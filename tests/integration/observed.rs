@@ -341,9 +341,10 @@ fn a_session_that_opens_laughing_starts_from_a_closed_mouth() {
     assert!(opened >= OPENING_LAUGH, "{opened}");
 }
 
-/// The least mean mouth opening (inner lips over the outer eye corners' distance) of the four
-/// targets beyond their base faces on franck-dev2's opening laugh (frames 10-50, every 5th):
-/// 0.116 measured (28 Nov), 0.059 when the first neutral was closed only to spk07's base face.
+/// The least accepted mouth opening (inner lips over the outer eye corners' distance) beyond
+/// their base faces, averaged over the four targets and franck-dev2's opening laugh (frames
+/// 10-50, every 5th): 0.116 measured (28 Nov), 0.059 when the first neutral was closed only to
+/// spk07's base face.
 const OPENING_LAUGH: f32 = 0.09;
 
 /// Follows `frames` (25 fps) and counts the frames the follower calls covered.
