@@ -612,19 +612,12 @@ impl Follower {
             // closed-mouth frames' mean as they come).
             let to_base = Similarity::align(&self.points, &self.base);
             to_base.apply(&self.points, &mut self.neutral);
-            // A person first seen talking or laughing: their neutral starts with the mouth
-            // closed, else the opening would read as no expression until they close their
-            // mouth. Closed: no more open than `mouth_margin`, or than the model's base face
-            // if it is more closed. A speech model's base is its frames' mean, half open
-            // (spk07's inner lips 0.084 of the eye corners' distance apart): closed only that
-            // far, a session that opened laughing let the laugh's parted tail into the
-            // neutral, whose wide, lifted, half-open mouth then hid the smiles that followed
-            // (franck-dev2's laughs on the targets: 0.19 of the source's "happy", 0.28
-            // closed; docs/cloning.md).
-            let rest = mouth_opening(&self.base).min(self.options.mouth_margin);
-            if mouth_opening(&self.neutral) > rest + self.options.mouth_margin {
-                close_mouth(&mut self.neutral, &self.modes, rest);
-            }
+            close_first_neutral(
+                &mut self.neutral,
+                &self.base,
+                &self.modes,
+                self.options.mouth_margin,
+            );
             self.neutral_frames = 0;
             self.seen = true;
         }
@@ -741,6 +734,26 @@ pub fn mouth_opening(points: &[f32]) -> f32 {
         (points[2 * i] - points[2 * j]).hypot(points[2 * i + 1] - points[2 * j + 1])
     };
     (d(61, 67) + d(62, 66) + d(63, 65)) / 3.0 / iod
+}
+
+/// Closes the mouth of a person's first neutral shape (68 points, model coordinates): to
+/// `mouth_margin`, or to the model's base face's opening `base` if that is smaller, along
+/// `modes` ([`close_mouth`]), when it is more open than that by more than `mouth_margin`.
+/// Both trackers start their neutral with it: the [`Follower`] from the first face it sees, the
+/// AAM tracker's observer from the person's model's mean shape.
+///
+/// Else a person first seen talking or laughing would read their opening as no expression
+/// until they closed their mouth; and closed only as far as the base face, which for a speech
+/// model is its frames' mean, half open (spk07's inner lips 0.084 of the eye corners' distance
+/// apart), a session that opened laughing let the laugh's parted tail into the neutral, whose
+/// wide, lifted, half-open mouth then hid the smiles that followed (franck-dev2's laughs on the
+/// targets through the follower: 0.19 of the source's "happy", 0.28 closed; through his own
+/// model 0.62, 0.68 closed; docs/cloning.md).
+pub fn close_first_neutral(neutral: &mut [f32], base: &[f32], modes: &[f32], mouth_margin: f32) {
+    let rest = mouth_opening(base).min(mouth_margin);
+    if mouth_opening(neutral) > rest + mouth_margin {
+        close_mouth(neutral, modes, rest);
+    }
 }
 
 /// The person's running neutral shape, updated with one frame's `shape` (model coordinates):
@@ -1079,6 +1092,46 @@ mod tests {
         let mut short = before[..100].to_vec();
         close_mouth(&mut short, &modes, 0.0);
         assert_eq!(short, before[..100].to_vec());
+    }
+
+    #[test]
+    fn a_first_neutral_closes_its_mouth_below_a_half_open_base() {
+        // A unit mode that opens the inner lips (the lower inner lip and chin down).
+        let mut open = [0.0f32; 136];
+        for i in [7, 8, 9, 55, 56, 57, 58, 59, 65, 66, 67] {
+            open[2 * i + 1] = 1.0;
+        }
+        let n = open.iter().map(|x| x * x).sum::<f32>().sqrt();
+        let mode: Vec<f32> = open.iter().map(|x| x / n).collect();
+        let opened =
+            |by: f32| -> Vec<f32> { ring().iter().zip(&mode).map(|(b, m)| b + by * m).collect() };
+        let margin = FollowOptions::default().mouth_margin;
+        // A speech model's base, half open: the neutral it starts from is closed to the margin,
+        // not to the base's opening.
+        let base = opened(25.0);
+        assert!(
+            mouth_opening(&base) > 3.0 * margin,
+            "{}",
+            mouth_opening(&base)
+        );
+        let mut neutral = base.clone();
+        close_first_neutral(&mut neutral, &base, &mode, margin);
+        assert!(
+            mouth_opening(&neutral) <= margin + 0.01,
+            "{}",
+            mouth_opening(&neutral)
+        );
+        // A base more closed than the margin: a laughing first face closes to the base's.
+        let closed = ring();
+        let mut laugh = opened(60.0);
+        close_first_neutral(&mut laugh, &closed, &mode, margin);
+        assert!(mouth_opening(&laugh) <= mouth_opening(&closed) + 0.01);
+        // A neutral no more open than the margin above that is left as it is.
+        let mut rest = opened(2.0);
+        let before = rest.clone();
+        assert!(mouth_opening(&rest) <= margin);
+        close_first_neutral(&mut rest, &base, &mode, margin);
+        assert_eq!(rest, before);
     }
 
     #[test]

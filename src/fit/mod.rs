@@ -45,8 +45,8 @@ pub use confidence::{ConfidenceBounds, Reasons, TrackStatus};
 pub use driver::Fitter;
 pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
 pub use follow::{
-    close_mouth, expression_params, mouth_opening, neutral_update, split_head_turn, FollowOptions,
-    Follower,
+    close_first_neutral, close_mouth, expression_params, mouth_opening, neutral_update,
+    split_head_turn, FollowOptions, Follower,
 };
 pub use observe::{
     at_rest, neutral_like, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE, NEUTRAL_STEP,

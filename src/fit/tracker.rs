@@ -199,11 +199,18 @@ impl Observer {
         Some(o)
     }
 
-    /// A new sequence: the neutral shape back to the model's mean (past the warm-up, so only
-    /// frames like it move it) and the look to the model's mean appearance.
+    /// A new sequence: the neutral shape back to the model's mean, its mouth closed
+    /// ([`super::close_first_neutral`]; past the warm-up, so only frames like it move it), and
+    /// the look to the model's mean appearance.
     fn reset(&mut self) {
         self.look.reset();
         self.neutral.copy_from_slice(&self.shape_model.base);
+        super::close_first_neutral(
+            &mut self.neutral,
+            &self.shape_model.base,
+            &self.shape_model.modes,
+            self.rules.mouth_margin,
+        );
         self.count = self.rules.warmup;
     }
 
