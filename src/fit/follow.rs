@@ -754,6 +754,138 @@ pub fn close_first_neutral(neutral: &mut [f32], base: &[f32], modes: &[f32], mou
     if mouth_opening(neutral) > rest + mouth_margin {
         close_mouth(neutral, modes, rest);
     }
+    bound_neutral_mouth(neutral);
+}
+
+/// The widest mouth of a face at rest, in outer eye corners' distances ([`mouth_shape`]'s
+/// width): where a face becomes likelier smiling than at rest, the two equally likely, with
+/// the London set's 60 people's neutral photos (0.578 +- 0.035) and smiling ones (0.674 +-
+/// 0.058) as normal distributions (dlib's points, `data/london`; [`rest_boundary`] finds it,
+/// and `tests/integration/follow.rs` learns it again from them). About one face at rest in
+/// ten is wider (6 of the 60).
+pub const REST_MOUTH_WIDTH: f32 = 0.6246;
+
+/// The highest lip corners of a face at rest ([`mouth_shape`]'s lift), found as
+/// [`REST_MOUTH_WIDTH`]: between the London set's neutral photos (0.001 +- 0.023) and its
+/// smiles (0.056 +- 0.034).
+pub const REST_CORNER_LIFT: f32 = 0.0285;
+
+/// Where two normal distributions `(mean, sd)` are equally likely, between their means: the
+/// bound between a measure's values at rest (`rest`) and in an expression (`expressed`), as
+/// [`REST_MOUTH_WIDTH`] and [`REST_CORNER_LIFT`] are found. `None` when the means coincide or
+/// a deviation is not positive.
+pub fn rest_boundary(rest: (f32, f32), expressed: (f32, f32)) -> Option<f32> {
+    let ((m1, s1), (m2, s2)) = (
+        (f64::from(rest.0), f64::from(rest.1)),
+        (f64::from(expressed.0), f64::from(expressed.1)),
+    );
+    if !(s1 > 0.0 && s2 > 0.0 && m1 != m2) {
+        return None;
+    }
+    // log N(x; m1, s1) = log N(x; m2, s2): a x^2 + b x + c = 0.
+    let a = 0.5 / (s2 * s2) - 0.5 / (s1 * s1);
+    let b = m1 / (s1 * s1) - m2 / (s2 * s2);
+    let c = 0.5 * m2 * m2 / (s2 * s2) - 0.5 * m1 * m1 / (s1 * s1) + (s2 / s1).ln();
+    let (lo, hi) = (m1.min(m2), m1.max(m2));
+    let roots = if a.abs() < 1e-12 {
+        vec![-c / b]
+    } else {
+        let d = b * b - 4.0 * a * c;
+        if d < 0.0 {
+            return None;
+        }
+        vec![(-b + d.sqrt()) / (2.0 * a), (-b - d.sqrt()) / (2.0 * a)]
+    };
+    roots
+        .into_iter()
+        .find(|x| (lo..=hi).contains(x))
+        .map(|x| x as f32)
+}
+
+/// Mouth width and lip-corner lift of 68 points, in outer eye corners' (36, 45) distances:
+/// `|p48 - p54|`, and how far the corners' midpoint lies above the midpoint of the lips' centre
+/// points 51 and 57 along the face's up direction (perpendicular to the eye line). `None` for
+/// another length or coinciding eye corners.
+pub fn mouth_shape(p: &[f32]) -> Option<[f32; 2]> {
+    let [ex, ey] = crate::landmarks::eye_line(p)?;
+    let iod = ex.hypot(ey);
+    if !(iod > 0.0) {
+        return None;
+    }
+    let (ux, uy) = (ey / iod, -ex / iod);
+    let width = (p[108] - p[96]).hypot(p[109] - p[97]) / iod;
+    let corners = [(p[96] + p[108]) / 2.0, (p[97] + p[109]) / 2.0];
+    let centre = [(p[102] + p[114]) / 2.0, (p[103] + p[115]) / 2.0];
+    let lift = ((corners[0] - centre[0]) * ux + (corners[1] - centre[1]) * uy) / iod;
+    Some([width, lift])
+}
+
+/// Brings a person's neutral shape (68 points) within the mouths of faces at rest: a mouth
+/// wider than [`REST_MOUTH_WIDTH`] is narrowed to it, the lips (points 48-67) drawn towards
+/// their centre along the eye line, and lip corners higher than [`REST_CORNER_LIFT`] are
+/// lowered to it, each lip point along the face's down direction by the excess times the
+/// square of its distance from the corners' midpoint along the eye line over half theirs (the
+/// corners by all of it, the middle of the lips hardly at all). Returns whether it moved anything.
+///
+/// Else a session that opens smiling, or a person who smiles as they talk, keeps a smile as
+/// their neutral, and every smile after it reads as no expression: franck-dev2's neutral
+/// through the follower was 0.70 wide with its corners 0.05 up through his first 600 frames,
+/// a smile (docs/cloning.md).
+pub fn bound_neutral_mouth(neutral: &mut [f32]) -> bool {
+    let Some([width, lift]) = mouth_shape(neutral) else {
+        return false;
+    };
+    let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
+        return false;
+    };
+    let iod = ex.hypot(ey);
+    let (ax, ay) = (ex / iod, ey / iod);
+    // Down the face: the eye line turned a quarter clockwise (y grows downwards).
+    let (dx, dy) = (-ay, ax);
+    let lips = 48..68;
+    let n = lips.len() as f32;
+    let (cx, cy) = lips.clone().fold((0.0, 0.0), |(x, y), i| {
+        (x + neutral[2 * i] / n, y + neutral[2 * i + 1] / n)
+    });
+    let mut moved = false;
+    // A ten-thousandth of the eye distance over a bound is within it (rounding).
+    if width > REST_MOUTH_WIDTH + 1e-4 {
+        // The corners' distance along the eye line scaled so that, with the part across it
+        // kept, they lie the bound apart.
+        let (wx, wy) = (neutral[108] - neutral[96], neutral[109] - neutral[97]);
+        let (along, across) = (wx * ax + wy * ay, wx * dx + wy * dy);
+        let target = (REST_MOUTH_WIDTH * iod).powi(2) - across * across;
+        let k = if target > 0.0 && along.abs() > 0.0 {
+            target.sqrt() / along.abs() - 1.0
+        } else {
+            REST_MOUTH_WIDTH / width - 1.0
+        };
+        for i in lips.clone() {
+            let a = (neutral[2 * i] - cx) * ax + (neutral[2 * i + 1] - cy) * ay;
+            neutral[2 * i] += k * a * ax;
+            neutral[2 * i + 1] += k * a * ay;
+        }
+        moved = true;
+    }
+    if lift > REST_CORNER_LIFT + 1e-4 {
+        let drop = (lift - REST_CORNER_LIFT) * iod;
+        // Along the eye line from the corners' midpoint, in half the corners' distance.
+        let (mx, my) = (
+            0.5 * (neutral[96] + neutral[108]),
+            0.5 * (neutral[97] + neutral[109]),
+        );
+        let along = |p: &[f32], i: usize| (p[2 * i] - mx) * ax + (p[2 * i + 1] - my) * ay;
+        let half = 0.5 * (along(neutral, 54) - along(neutral, 48)).abs();
+        if half > 0.0 {
+            for i in lips {
+                let w = (along(neutral, i).abs() / half).min(1.0).powi(2);
+                neutral[2 * i] += drop * w * dx;
+                neutral[2 * i + 1] += drop * w * dy;
+            }
+            moved = true;
+        }
+    }
+    moved
 }
 
 /// The person's running neutral shape, updated with one frame's `shape` (model coordinates):
@@ -805,6 +937,7 @@ pub fn neutral_update(
             .zip(shape)
             .for_each(|(n, x)| *n += (x - *n).clamp(-step, step));
     }
+    bound_neutral_mouth(neutral);
     let to_base = Similarity::align(neutral, base);
     if to_base.is_valid() {
         to_base.apply_in_place(neutral);
@@ -999,6 +1132,70 @@ mod tests {
         base
     }
 
+    /// The canonical frame's face (a mean face at rest), its inner lips closed.
+    fn face() -> Vec<f32> {
+        let mut f = crate::canonical_frame().vertices().to_vec();
+        for (u, l) in [(61, 67), (62, 66), (63, 65)] {
+            f[2 * l] = f[2 * u];
+            f[2 * l + 1] = f[2 * u + 1];
+        }
+        f
+    }
+
+    #[test]
+    fn a_smiling_neutral_is_brought_within_a_mouth_at_rest() {
+        let rest = face();
+        let [w0, l0] = mouth_shape(&rest).unwrap();
+        assert!(w0 < REST_MOUTH_WIDTH && l0 < REST_CORNER_LIFT, "{w0} {l0}");
+        // A face at rest is left as it is.
+        let mut n = rest.clone();
+        assert!(!bound_neutral_mouth(&mut n));
+        assert_eq!(n, rest);
+        // A smile: the lips 25% wider and their corners up by a tenth of the eye distance.
+        let [ex, ey] = crate::landmarks::eye_line(&rest).unwrap();
+        let iod = ex.hypot(ey);
+        let cx = (48..68).map(|i| rest[2 * i]).sum::<f32>() / 20.0;
+        let mut smile = rest.clone();
+        for i in 48..68 {
+            smile[2 * i] = cx + 1.25 * (rest[2 * i] - cx);
+        }
+        for i in [48, 54, 60, 64] {
+            smile[2 * i + 1] -= 0.1 * iod;
+        }
+        let [w1, l1] = mouth_shape(&smile).unwrap();
+        assert!(
+            w1 > REST_MOUTH_WIDTH + 0.05 && l1 > REST_CORNER_LIFT + 0.05,
+            "{w1} {l1}"
+        );
+        let mut n = smile.clone();
+        assert!(bound_neutral_mouth(&mut n));
+        let [w, l] = mouth_shape(&n).unwrap();
+        assert!((w - REST_MOUTH_WIDTH).abs() < 1e-3, "{w}");
+        assert!((l - REST_CORNER_LIFT).abs() < 1e-3, "{l}");
+        // Only the lips move, and the upper lip stays above the lower one.
+        assert_eq!(n[..96], smile[..96]);
+        for (u, lo) in [(50, 58), (51, 57), (52, 56), (61, 67), (63, 65)] {
+            assert!(n[2 * u + 1] <= n[2 * lo + 1], "{u} over {lo}");
+        }
+        // Bounded again, nothing moves.
+        let once = n.clone();
+        assert!(!bound_neutral_mouth(&mut n));
+        assert_eq!(n, once);
+    }
+
+    #[test]
+    fn the_rest_boundary_lies_where_both_are_equally_likely() {
+        // Equal deviations: halfway.
+        let x = rest_boundary((0.0, 1.0), (2.0, 1.0)).unwrap();
+        assert!((x - 1.0).abs() < 1e-6, "{x}");
+        let pdf = |x: f32, m: f32, s: f32| (-0.5 * ((x - m) / s).powi(2)).exp() / s;
+        let x = rest_boundary((0.578, 0.035), (0.674, 0.058)).unwrap();
+        assert!((pdf(x, 0.578, 0.035) - pdf(x, 0.674, 0.058)).abs() < 1e-3 * pdf(x, 0.578, 0.035));
+        assert!(x > 0.578 && x < 0.674);
+        assert_eq!(rest_boundary((0.5, 0.0), (0.6, 0.1)), None);
+        assert_eq!(rest_boundary((0.5, 0.1), (0.5, 0.1)), None);
+    }
+
     #[test]
     fn a_head_turn_is_split_off_and_the_rest_kept() {
         let n = ring();
@@ -1104,7 +1301,7 @@ mod tests {
         let n = open.iter().map(|x| x * x).sum::<f32>().sqrt();
         let mode: Vec<f32> = open.iter().map(|x| x / n).collect();
         let opened =
-            |by: f32| -> Vec<f32> { ring().iter().zip(&mode).map(|(b, m)| b + by * m).collect() };
+            |by: f32| -> Vec<f32> { face().iter().zip(&mode).map(|(b, m)| b + by * m).collect() };
         let margin = FollowOptions::default().mouth_margin;
         // A speech model's base, half open: the neutral it starts from is closed to the margin,
         // not to the base's opening.
@@ -1122,7 +1319,7 @@ mod tests {
             mouth_opening(&neutral)
         );
         // A base more closed than the margin: a laughing first face closes to the base's.
-        let closed = ring();
+        let closed = face();
         let mut laugh = opened(60.0);
         close_first_neutral(&mut laugh, &closed, &mode, margin);
         assert!(mouth_opening(&laugh) <= mouth_opening(&closed) + 0.01);
@@ -1136,7 +1333,7 @@ mod tests {
 
     #[test]
     fn neutral_is_a_mean_then_a_running_median() {
-        let base = ring();
+        let base = face();
         let mut n = base.clone();
         let mut count = 0;
         // Warm-up: the mean of two shapes.

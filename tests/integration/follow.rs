@@ -253,3 +253,61 @@ fn follows_another_speaker_and_recovers_after_a_blank_frame() {
     let r = f.track(&view, 0.04).unwrap();
     assert!(!r.lost && r.reacquired);
 }
+
+/// The bounds of a mouth at rest that a tracked person's neutral is held within
+/// ([`REST_MOUTH_WIDTH`], [`REST_CORNER_LIFT`], `fit::bound_neutral_mouth`) are learned again
+/// from the committed London landmarks (`data/london`, CC BY 4.0, 60 people's neutral and
+/// smiling photos, dlib's points): for the mouth's width and its corners' lift, where a face is
+/// as likely smiling as at rest, the two as normal distributions. Most smiles lie beyond one
+/// bound or the other, and most faces at rest within both.
+#[test]
+fn the_bounds_of_a_mouth_at_rest_are_learned_from_the_london_set() {
+    use facemimic::fit::{mouth_shape, rest_boundary, REST_CORNER_LIFT, REST_MOUTH_WIDTH};
+    let read = |kind: &str| -> Vec<[f32; 2]> {
+        let dir = repo("data/london").join(kind);
+        let mut paths: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "pts"))
+            .collect();
+        paths.sort();
+        paths
+            .iter()
+            .map(|p| {
+                let text = std::fs::read_to_string(p).unwrap();
+                mouth_shape(&facemimic::landmarks::parse_pts(&text).unwrap()).unwrap()
+            })
+            .collect()
+    };
+    let (rest, smiles) = (read("neutral"), read("smiling"));
+    assert_eq!((rest.len(), smiles.len()), (60, 60));
+    let normal = |v: &[[f32; 2]], k: usize| {
+        let n = v.len() as f32;
+        let m = v.iter().map(|x| x[k]).sum::<f32>() / n;
+        let s = (v.iter().map(|x| (x[k] - m).powi(2)).sum::<f32>() / n).sqrt();
+        (m, s)
+    };
+    for (k, name, bound) in [
+        (0, "width", REST_MOUTH_WIDTH),
+        (1, "lift", REST_CORNER_LIFT),
+    ] {
+        let learned = rest_boundary(normal(&rest, k), normal(&smiles, k)).unwrap();
+        eprintln!(
+            "  mouth {name}: at rest {:?}, smiling {:?}, boundary {learned:.4} (the constant {bound})",
+            normal(&rest, k),
+            normal(&smiles, k)
+        );
+        assert!(
+            (learned - bound).abs() <= 1e-4,
+            "mouth {name}: the London set gives {learned}, the constant is {bound}"
+        );
+    }
+    let beyond = |v: &[[f32; 2]]| {
+        v.iter()
+            .filter(|x| x[0] > REST_MOUTH_WIDTH || x[1] > REST_CORNER_LIFT)
+            .count()
+    };
+    let (r, s) = (beyond(&rest), beyond(&smiles));
+    eprintln!("  beyond a bound: {r} of 60 faces at rest, {s} of 60 smiles");
+    assert!(r <= 15 && s >= 45, "{r} faces at rest, {s} smiles beyond");
+}
