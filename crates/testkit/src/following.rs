@@ -187,16 +187,10 @@ impl FollowedExpressions {
 }
 
 /// Mouth width and lip-corner lift of 68 points (how far the corners lie above the lips'
-/// centre along the face's up direction), in outer eye corners' distances.
+/// centre along the face's up direction), in outer eye corners' distances: the core's
+/// [`facemimic::fit::mouth_shape`], zeros for a shape without them.
 pub fn mouth_features(p: &[f32]) -> [f32; 2] {
-    let (ex, ey) = (p[90] - p[72], p[91] - p[73]);
-    let iod = ex.hypot(ey).max(1e-3);
-    let (ux, uy) = (ey / iod, -ex / iod);
-    let width = (p[108] - p[96]).hypot(p[109] - p[97]) / iod;
-    let corners = [(p[96] + p[108]) / 2.0, (p[97] + p[109]) / 2.0];
-    let centre = [(p[102] + p[114]) / 2.0, (p[103] + p[115]) / 2.0];
-    let lift = ((corners[0] - centre[0]) * ux + (corners[1] - centre[1]) * uy) / iod;
-    [width, lift]
+    facemimic::fit::mouth_shape(p).unwrap_or([0.0; 2])
 }
 
 /// Whether `p` lies inside the polygon of `points`' landmarks `ring` (crossing number).
