@@ -825,13 +825,18 @@ pub fn mouth_shape(p: &[f32]) -> Option<[f32; 2]> {
 /// their centre along the eye line, and lip corners higher than [`REST_CORNER_LIFT`] are
 /// lowered to it, each lip point along the face's down direction by the excess times the
 /// square of its distance from the corners' midpoint along the eye line over half theirs (the
-/// corners by all of it, the middle of the lips hardly at all). Returns whether it moved anything.
+/// corners by all of it, the middle of the lips hardly at all). Returns whether it moved anything;
+/// a shape with a point that is not finite, or not of 68 points, is left as it is.
 ///
 /// Else a session that opens smiling, or a person who smiles as they talk, keeps a smile as
 /// their neutral, and every smile after it reads as no expression: franck-dev2's neutral
 /// through the follower was 0.70 wide with its corners 0.05 up through his first 600 frames,
 /// a smile (docs/cloning.md).
 pub fn bound_neutral_mouth(neutral: &mut [f32]) -> bool {
+    // A point that is not a number would spread to every lip through their centre.
+    if !neutral.iter().all(|v| v.is_finite()) {
+        return false;
+    }
     let Some([width, lift]) = mouth_shape(neutral) else {
         return false;
     };
@@ -1181,6 +1186,16 @@ mod tests {
         let once = n.clone();
         assert!(!bound_neutral_mouth(&mut n));
         assert_eq!(n, once);
+        // Bad shapes are left as they are: not a number, coinciding eye corners, a short one.
+        let mut bad = smile.clone();
+        bad[100] = f32::NAN;
+        assert!(!bound_neutral_mouth(&mut bad));
+        let mut flat = vec![1.0f32; 136];
+        assert!(!bound_neutral_mouth(&mut flat));
+        assert!(flat.iter().all(|&v| v == 1.0));
+        let mut short = vec![0.0f32; 40];
+        assert!(!bound_neutral_mouth(&mut short));
+        assert_eq!(mouth_shape(&short), None);
     }
 
     #[test]
