@@ -83,13 +83,20 @@ mod native {
                         found.push(shape(&f.landmarks));
                     }
                 }
-                let beyond = |v: &[[f32; 2]]| {
+                // `bound_neutral_mouth` holds a mouth wider than at rest, and then its lift.
+                let beyond = |v: &[[f32; 2]]| v.iter().filter(|x| x[0] > REST_MOUTH_WIDTH).count();
+                let lifted = |v: &[[f32; 2]]| {
                     v.iter()
-                        .filter(|x| x[0] > REST_MOUTH_WIDTH || x[1] > REST_CORNER_LIFT)
+                        .filter(|x| x[0] > REST_MOUTH_WIDTH && x[1] > REST_CORNER_LIFT)
                         .count()
                 };
                 println!(
-                    "{kind}: beyond a bound of a mouth at rest: dlib {} of {}, finder {} of {}",
+                    "{kind}: wider and also more lifted than at rest: dlib {}, finder {}",
+                    lifted(&dlib),
+                    lifted(&found)
+                );
+                println!(
+                    "{kind}: wider than a mouth at rest: dlib {} of {}, finder {} of {}",
                     beyond(&dlib),
                     dlib.len(),
                     beyond(&found),

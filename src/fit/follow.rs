@@ -762,12 +762,14 @@ pub fn close_first_neutral(neutral: &mut [f32], base: &[f32], modes: &[f32], mou
 /// the London set's 60 people's neutral photos (0.578 +- 0.035) and smiling ones (0.674 +-
 /// 0.058) as normal distributions (dlib's points, `data/london`; [`rest_boundary`] finds it,
 /// and `tests/integration/follow.rs` learns it again from them). About one face at rest in
-/// ten is wider (6 of the 60).
+/// ten is wider (6 of the 60 by dlib's points, 2 by the face finder's), three smiles in four
+/// (45).
 pub const REST_MOUTH_WIDTH: f32 = 0.6246;
 
 /// The highest lip corners of a face at rest ([`mouth_shape`]'s lift), found as
 /// [`REST_MOUTH_WIDTH`]: between the London set's neutral photos (0.001 +- 0.023) and its
-/// smiles (0.056 +- 0.034).
+/// smiles (0.056 +- 0.034). [`bound_neutral_mouth`] holds the lift only of a mouth wider than
+/// [`REST_MOUTH_WIDTH`]: a head bowed to the camera lifts the corners alone.
 pub const REST_CORNER_LIFT: f32 = 0.0285;
 
 /// Where two normal distributions `(mean, sd)` are equally likely, between their means: the
@@ -822,8 +824,11 @@ pub fn mouth_shape(p: &[f32]) -> Option<[f32; 2]> {
 
 /// Brings a person's neutral shape (68 points) within the mouths of faces at rest: a mouth
 /// wider than [`REST_MOUTH_WIDTH`] is narrowed to it, the lips (points 48-67) drawn towards
-/// their centre along the eye line, and lip corners higher than [`REST_CORNER_LIFT`] are
-/// lowered to it, each lip point along the face's down direction by the excess times the
+/// their centre along the eye line, and if it was wider, lip corners higher than
+/// [`REST_CORNER_LIFT`] are lowered to it (a smile widens the mouth and lifts its corners; a
+/// head bowed to the camera lifts them alone, and the eleven GRID clips' people at rest, by
+/// the follower, have corners up to 0.058 high: their mouths are left as they are), each lip
+/// point along the face's down direction by the excess times the
 /// square of its distance from the corners' midpoint along the eye line over half theirs (the
 /// corners by all of it, the middle of the lips hardly at all). Returns whether it moved anything;
 /// a shape with a point that is not finite, or not of 68 points, is left as it is.
@@ -853,7 +858,8 @@ pub fn bound_neutral_mouth(neutral: &mut [f32]) -> bool {
         (x + neutral[2 * i] / n, y + neutral[2 * i + 1] / n)
     });
     let mut moved = false;
-    // A ten-thousandth of the eye distance over a bound is within it (rounding).
+    // A ten-thousandth of the eye distance over a bound is within it (rounding). The lift is
+    // judged on the width before it is bounded.
     if width > REST_MOUTH_WIDTH + 1e-4 {
         // The corners' distance along the eye line scaled so that, with the part across it
         // kept, they lie the bound apart.
@@ -872,7 +878,9 @@ pub fn bound_neutral_mouth(neutral: &mut [f32]) -> bool {
         }
         moved = true;
     }
-    if lift > REST_CORNER_LIFT + 1e-4 {
+    // The lift only with the width: a head bowed to the camera lifts the corners of a mouth at
+    // rest in the picture (they lie deeper than the lips' middle), but does not widen it.
+    if width > REST_MOUTH_WIDTH + 1e-4 && lift > REST_CORNER_LIFT + 1e-4 {
         let drop = (lift - REST_CORNER_LIFT) * iod;
         // Along the eye line from the corners' midpoint, in half the corners' distance.
         let (mx, my) = (
@@ -1182,6 +1190,15 @@ mod tests {
         for (u, lo) in [(50, 58), (51, 57), (52, 56), (61, 67), (63, 65)] {
             assert!(n[2 * u + 1] <= n[2 * lo + 1], "{u} over {lo}");
         }
+        // Lifted corners alone (a bowed head) are left as they are.
+        let mut bowed = rest.clone();
+        for i in [48, 54, 60, 64] {
+            bowed[2 * i + 1] -= 0.1 * iod;
+        }
+        assert!(mouth_shape(&bowed).unwrap()[1] > REST_CORNER_LIFT + 0.05);
+        let before = bowed.clone();
+        assert!(!bound_neutral_mouth(&mut bowed));
+        assert_eq!(bowed, before);
         // Bounded again, nothing moves.
         let once = n.clone();
         assert!(!bound_neutral_mouth(&mut n));
