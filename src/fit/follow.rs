@@ -826,9 +826,9 @@ pub fn mouth_shape(p: &[f32]) -> Option<[f32; 2]> {
 /// wider than [`REST_MOUTH_WIDTH`] is narrowed to it, the lips (points 48-67) drawn towards
 /// their centre along the eye line, and if it was wider, lip corners higher than
 /// [`REST_CORNER_LIFT`] are lowered to it (a smile widens the mouth and lifts its corners; a
-/// head bowed to the camera lifts them alone, and the eleven GRID clips' people at rest, by
-/// the follower, have corners up to 0.058 high: their mouths are left as they are), each lip
-/// point along the face's down direction by the excess times the
+/// head bowed to the camera lifts them alone: followed through GRID's eleven committed clips,
+/// six neutrals end with corners 0.029-0.058 high, and one mouth is wide enough to be held),
+/// each lip point along the face's down direction by the excess times the
 /// square of its distance from the corners' midpoint along the eye line over half theirs (the
 /// corners by all of it, the middle of the lips hardly at all). Returns whether it moved anything;
 /// a shape with a point that is not finite, or not of 68 points, is left as it is.
