@@ -789,14 +789,12 @@ pub fn rest_boundary(rest: (f32, f32), expressed: (f32, f32)) -> Option<f32> {
     let b = m1 / (s1 * s1) - m2 / (s2 * s2);
     let c = 0.5 * m2 * m2 / (s2 * s2) - 0.5 * m1 * m1 / (s1 * s1) + (s2 / s1).ln();
     let (lo, hi) = (m1.min(m2), m1.max(m2));
+    // Equal deviations: one root (the other slot is not a number, inside no range).
     let roots = if a.abs() < 1e-12 {
-        vec![-c / b]
+        [-c / b, f64::NAN]
     } else {
-        let d = b * b - 4.0 * a * c;
-        if d < 0.0 {
-            return None;
-        }
-        vec![(-b + d.sqrt()) / (2.0 * a), (-b - d.sqrt()) / (2.0 * a)]
+        let d = (b * b - 4.0 * a * c).sqrt();
+        [(-b + d) / (2.0 * a), (-b - d) / (2.0 * a)]
     };
     roots
         .into_iter()
@@ -845,6 +843,12 @@ pub fn bound_neutral_mouth(neutral: &mut [f32]) -> bool {
     let Some([width, lift]) = mouth_shape(neutral) else {
         return false;
     };
+    // A ten-thousandth of the eye distance over a bound is within it (rounding). The lift is
+    // held only with the width: a head bowed to the camera lifts the corners of a mouth at
+    // rest in the picture (they lie deeper than the lips' middle), but does not widen it.
+    if !(width > REST_MOUTH_WIDTH + 1e-4) {
+        return false;
+    }
     let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
         return false;
     };
@@ -857,30 +861,22 @@ pub fn bound_neutral_mouth(neutral: &mut [f32]) -> bool {
     let (cx, cy) = lips.clone().fold((0.0, 0.0), |(x, y), i| {
         (x + neutral[2 * i] / n, y + neutral[2 * i + 1] / n)
     });
-    let mut moved = false;
-    // A ten-thousandth of the eye distance over a bound is within it (rounding). The lift is
-    // judged on the width before it is bounded.
-    if width > REST_MOUTH_WIDTH + 1e-4 {
-        // The corners' distance along the eye line scaled so that, with the part across it
-        // kept, they lie the bound apart.
-        let (wx, wy) = (neutral[108] - neutral[96], neutral[109] - neutral[97]);
-        let (along, across) = (wx * ax + wy * ay, wx * dx + wy * dy);
-        let target = (REST_MOUTH_WIDTH * iod).powi(2) - across * across;
-        let k = if target > 0.0 && along.abs() > 0.0 {
-            target.sqrt() / along.abs() - 1.0
-        } else {
-            REST_MOUTH_WIDTH / width - 1.0
-        };
-        for i in lips.clone() {
-            let a = (neutral[2 * i] - cx) * ax + (neutral[2 * i + 1] - cy) * ay;
-            neutral[2 * i] += k * a * ax;
-            neutral[2 * i + 1] += k * a * ay;
-        }
-        moved = true;
+    // The corners' distance along the eye line scaled so that, with the part across it kept,
+    // they lie the bound apart.
+    let (wx, wy) = (neutral[108] - neutral[96], neutral[109] - neutral[97]);
+    let (along, across) = (wx * ax + wy * ay, wx * dx + wy * dy);
+    let target = (REST_MOUTH_WIDTH * iod).powi(2) - across * across;
+    let k = if target > 0.0 && along.abs() > 0.0 {
+        target.sqrt() / along.abs() - 1.0
+    } else {
+        REST_MOUTH_WIDTH / width - 1.0
+    };
+    for i in lips.clone() {
+        let a = (neutral[2 * i] - cx) * ax + (neutral[2 * i + 1] - cy) * ay;
+        neutral[2 * i] += k * a * ax;
+        neutral[2 * i + 1] += k * a * ay;
     }
-    // The lift only with the width: a head bowed to the camera lifts the corners of a mouth at
-    // rest in the picture (they lie deeper than the lips' middle), but does not widen it.
-    if width > REST_MOUTH_WIDTH + 1e-4 && lift > REST_CORNER_LIFT + 1e-4 {
+    if lift > REST_CORNER_LIFT + 1e-4 {
         let drop = (lift - REST_CORNER_LIFT) * iod;
         // Along the eye line from the corners' midpoint, in half the corners' distance.
         let (mx, my) = (
@@ -895,10 +891,9 @@ pub fn bound_neutral_mouth(neutral: &mut [f32]) -> bool {
                 neutral[2 * i] += drop * w * dx;
                 neutral[2 * i + 1] += drop * w * dy;
             }
-            moved = true;
         }
     }
-    moved
+    true
 }
 
 /// The person's running neutral shape, updated with one frame's `shape` (model coordinates):

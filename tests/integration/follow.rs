@@ -179,9 +179,10 @@ fn follows_webcam_dev_with_spk07_as_the_source() {
 /// franck-dev2 (frames 3800-4799, never in any training list; spk07's model is GRID's): the
 /// same landmark aims (met: 0.0216 convention-free, raw 0.0329; 0 frames over 0.1), and the
 /// mouth, which moves here (speech, smiles, laughs, head turns): the cloned opening
-/// correlates with dlib's at 0.95 (29 Nov, the neutral held within a mouth at rest; 0.92 before; 0.86 earlier; the aim is 0.8; 0.79 before the follower started
-/// the person's neutral with a closed mouth and split head turns off the expression; the
-/// clip starts on a laugh). Asserted at 0.8.
+/// correlates with dlib's at 0.95 (29 Nov, the neutral held within a mouth at rest; 0.92
+/// before; 0.86 earlier; the aim is 0.8; 0.79 before the follower started the
+/// person's neutral with a closed mouth and split head turns off the expression; the clip
+/// starts on a laugh). Asserted at 0.8.
 #[test]
 fn follows_franck_dev2_with_spk07_as_the_source() {
     check_clip(
@@ -263,23 +264,15 @@ fn follows_another_speaker_and_recovers_after_a_blank_frame() {
 #[test]
 fn the_bounds_of_a_mouth_at_rest_are_learned_from_the_london_set() {
     use facemimic::fit::{mouth_shape, rest_boundary, REST_CORNER_LIFT, REST_MOUTH_WIDTH};
-    let read = |kind: &str| -> Vec<[f32; 2]> {
-        let dir = repo("data/london").join(kind);
-        let mut paths: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "pts"))
-            .collect();
-        paths.sort();
-        paths
+    // The London pairs as the expression prior reads them (`io::expression_sets`).
+    let (pairs, _) = facemimic::io::expression_sets(&repo("data"), &[]).unwrap();
+    let shapes = |k: usize| -> Vec<[f32; 2]> {
+        pairs
             .iter()
-            .map(|p| {
-                let text = std::fs::read_to_string(p).unwrap();
-                mouth_shape(&facemimic::landmarks::parse_pts(&text).unwrap()).unwrap()
-            })
+            .map(|p| mouth_shape(if k == 0 { &p.0 } else { &p.1 }).unwrap())
             .collect()
     };
-    let (rest, smiles) = (read("neutral"), read("smiling"));
+    let (rest, smiles) = (shapes(0), shapes(1));
     assert_eq!((rest.len(), smiles.len()), (60, 60));
     let normal = |v: &[[f32; 2]], k: usize| {
         let n = v.len() as f32;
