@@ -35,8 +35,22 @@ pub fn luma(rgb: &[f32]) -> f32 {
 /// The ratio image's offset (appearance units, 0..1): keeps dark pixels' ratios from
 /// exploding on noise (about ten grey levels).
 pub const RATIO_OFFSET: f32 = 0.04;
-/// The ratio image's range: no pixel is darkened or brightened by more than this factor.
-pub const RATIO_RANGE: [f32; 2] = [0.4, 2.5];
+/// The ratio image's offset grows with the source's skin by this share of its mean skin
+/// luminance (added to [`RATIO_OFFSET`]): dark skin's luminance is small, so its ratios would
+/// otherwise swing with every highlight. A luminance change carries at about `Y0 / (Y0 +
+/// offset)` of itself (0.85 on mid-tone skin). Chosen with [`RATIO_RANGE`]'s upper end among
+/// 0.1-0.6 on the London pairs (every 7th) and franck-dev through his own model
+/// (docs/cloning.md): the creases, raised cheeks and lids' shading of a laugh carry. It was
+/// 0.6 until 29 Nov, when a ratio could brighten 2.5-fold: the London faces then lost more to
+/// another person's highlights than a stronger shading gained.
+pub const RATIO_SKIN_SHARE: f32 = 0.1;
+/// The ratio image's range: no pixel is darkened by more than the first factor or brightened by
+/// more than the second. A smile's shading is mostly shadow (the creases, the raised cheeks'
+/// undersides, the lids), its brightening mostly the shine of the person's own skin in their
+/// own light; carried up to 2.5-fold (until 29 Nov), a source's highlights became pale patches
+/// on a darker target's chin. Chosen among 1.0-2.5 (docs/cloning.md): 1.15 keeps the judge's
+/// figure within 0.01 and every London measure improves; none at all (1.0) loses a fifth of it.
+pub const RATIO_RANGE: [f32; 2] = [0.4, 1.15];
 
 /// Per-region gains of the expressive method: each multiplies the source's shape displacement
 /// of its landmarks and powers its ratio image (1 = as the source does, 0 = none, 2 = twice).
@@ -150,6 +164,9 @@ pub struct SourceSide {
 pub struct SourceFrame {
     /// The region-gained shape displacement `d` (`2n`).
     pub d: Vec<f32>,
+    /// Scratch for holding the head's turn: the source's shape, and the turn split off it.
+    turned: Vec<f32>,
+    turn: Vec<f32>,
     /// The source appearance `A0 + A lambda` (`3N`).
     app: Vec<f32>,
     /// The region-gained ratio image (`N`).
@@ -520,6 +537,8 @@ impl SourceSide {
     pub fn frame_buffer(&self, source: &Model) -> SourceFrame {
         SourceFrame {
             d: vec![0.0; source.shape().base.len()],
+            turned: vec![0.0; source.shape().base.len()],
+            turn: vec![0.0; source.shape().base.len()],
             app: vec![0.0; source.appearance().len()],
             ratio: vec![1.0; self.y0.len()],
             grid: vec![0.0; 2 * self.grid.len()],
@@ -550,8 +569,10 @@ impl SourceFrame {
     /// appearance `A0 + A lambda`, and the ratio image `rho = ((e Y(A) + c) / (Y(A0) + c))^g`
     /// (`e` the skin's mean luminance at neutral over now: the frame's exposure left out)
     /// (Liu, Shan & Zhang 2001, on luminance; `g` the pixel's blend of region gains), limited
-    /// to [`RATIO_RANGE`]. A neutral face (`lambda = 0`) gives `rho = 1` exactly. Allocates
-    /// nothing.
+    /// to [`RATIO_RANGE`]. A neutral face (`lambda = 0`) gives `rho = 1` exactly. With
+    /// `hold_turn` (the target keeps its own pose: [`super::CloneOptions::follow_pose`] off),
+    /// the part of `S p` a turn of the head to the side explains is left out of `d`: a turn is
+    /// pose, not expression. Allocates nothing.
     pub fn prepare(
         &mut self,
         side: &SourceSide,
@@ -559,8 +580,9 @@ impl SourceFrame {
         p: &[f32],
         lambda: &[f32],
         gains: &RegionGains,
+        hold_turn: bool,
     ) {
-        self.displacement(side, source, p, gains);
+        self.displacement(side, source, p, gains, hold_turn);
         source
             .appearance()
             .instance_unchecked(lambda, &mut self.app);
@@ -573,7 +595,10 @@ impl SourceFrame {
     /// displacement (`2n`, times `gain` and the region gains) when it has one: its appearance
     /// and neutral are `3N` RGB values on the source's frame pixels (the caller checks every
     /// length); the ratio is raised to the global `gain` too (the synthesis has it in
-    /// `lambda`). A frame equal to the neutral gives `rho = 1` exactly. Allocates nothing.
+    /// `lambda`). A frame equal to the neutral gives `rho = 1` exactly. `hold_turn` as for
+    /// [`SourceFrame::prepare`] when `d` is the projection (an observed displacement comes
+    /// with the head's turn left out already). Allocates nothing.
+    #[allow(clippy::too_many_arguments)]
     pub fn prepare_observed(
         &mut self,
         side: &SourceSide,
@@ -582,6 +607,7 @@ impl SourceFrame {
         observed: crate::fit::Observed<'_>,
         gains: &RegionGains,
         gain: f32,
+        hold_turn: bool,
     ) {
         let (neutral, displacement) = (observed.neutral, observed.displacement);
         match displacement {
@@ -589,19 +615,42 @@ impl SourceFrame {
                 self.d.iter_mut().zip(d).for_each(|(o, &v)| *o = gain * v);
                 apply_region_gains(side, &mut self.d, gains);
             }
-            None => self.displacement(side, source, p, gains),
+            None => self.displacement(side, source, p, gains, hold_turn),
         }
         self.app.copy_from_slice(observed.appearance);
         self.expression(side, &source.shape().base, Some(neutral), gains, gain);
     }
 
-    /// `d = G (S p)` into `self.d`.
-    fn displacement(&mut self, side: &SourceSide, source: &Model, p: &[f32], gains: &RegionGains) {
+    /// `d = G (S p)` into `self.d`; with `hold_turn` (68 points), less the part a turn of the
+    /// head to the side explains ([`crate::fit::split_head_yaw`] about the source's base).
+    fn displacement(
+        &mut self,
+        side: &SourceSide,
+        source: &Model,
+        p: &[f32],
+        gains: &RegionGains,
+        hold_turn: bool,
+    ) {
         let shape = source.shape();
         self.d.iter_mut().for_each(|v| *v = 0.0);
         for (&pi, mode) in p.iter().zip(shape.modes.chunks_exact(self.d.len().max(1))) {
             if pi != 0.0 {
                 self.d.iter_mut().zip(mode).for_each(|(o, &m)| *o += pi * m);
+            }
+        }
+        if hold_turn && side.scheme68 {
+            let base = &shape.base;
+            for ((x, b), d) in self.turned.iter_mut().zip(base).zip(&self.d) {
+                *x = b + d;
+            }
+            crate::fit::split_head_yaw(
+                &mut self.turned,
+                base,
+                crate::find::IBUG_DEPTH,
+                &mut self.turn,
+            );
+            for ((d, x), b) in self.d.iter_mut().zip(&self.turned).zip(base) {
+                *d = x - b;
             }
         }
         apply_region_gains(side, &mut self.d, gains);
@@ -651,7 +700,7 @@ impl SourceFrame {
         let unit = gains.is_unit() && gain == 1.0;
         // Dark skin's luminance is small, so its ratios would swing with every highlight: the
         // offset grows with the source's skin.
-        let offset = RATIO_OFFSET + 0.6 * skin0;
+        let offset = RATIO_OFFSET + RATIO_SKIN_SHARE * skin0;
         for (k, ((r, rgb), w)) in self
             .ratio
             .iter_mut()

@@ -42,7 +42,7 @@ mod transfer;
 pub use expressive::{
     expressive_appearance, expressive_shape, highlight_knee, limit_mahalanobis, luma, region_of,
     residual_after_limit, ExpressiveOptions, ExpressiveTarget, RegionGains, SourceFrame,
-    SourceSide, KNEE, LIGHT_RATIO, RATIO_OFFSET, RATIO_RANGE,
+    SourceSide, KNEE, LIGHT_RATIO, RATIO_OFFSET, RATIO_RANGE, RATIO_SKIN_SHARE,
 };
 pub use prior::{
     expression_displacement, learn_prior, ExpressionPrior, ShapePairs, SpeakerShapes,
@@ -170,7 +170,9 @@ pub struct CloneOptions {
     pub clamp: Option<f32>,
     /// `true`: the target follows the source's head motion (the source pose relative to the
     /// source's mean pose, applied around the target's mean pose); `false` (default): the
-    /// target stays at its own mean pose.
+    /// target stays at its own mean pose, and with [`Method::Expressive`] keeps its own view
+    /// too: the part of the source's shape a turn of the head to the side explains is left out
+    /// of the expression (the follower leaves it out of its displacement in either case).
     pub follow_pose: bool,
     /// [`Method::Expressive`]: per-region gains (mouth, eyes, brows), multiplied with `gain`.
     pub regions: RegionGains,
@@ -764,7 +766,7 @@ impl Cloner {
                 sub_appearance: vec![0.0; source.appearance().n_modes()],
                 side,
                 frame,
-                frame_key: vec![0.0; source.shape().n_modes() + source.appearance().n_modes() + 4],
+                frame_key: vec![0.0; source.shape().n_modes() + source.appearance().n_modes() + 5],
                 frame_ready: false,
                 observed: Vec::new(),
                 observed_neutral: Vec::new(),
@@ -1033,7 +1035,15 @@ impl Cloner {
             // The same source frame again (the compare view after the main update): its
             // synthesis and ratio image are already there.
             let r = &options.regions;
-            let gains = [r.mouth, r.eyes, r.brows, options.gain];
+            // The head's turn is held out of the expression unless the targets follow the pose.
+            let hold_turn = !options.follow_pose;
+            let gains = [
+                r.mouth,
+                r.eyes,
+                r.brows,
+                options.gain,
+                hold_turn as u8 as f32,
+            ];
             let key = s.shape.iter().chain(&s.appearance).chain(&gains);
             if !(s.frame_ready && s.frame_key.iter().eq(key.clone())) {
                 s.frame_key.iter_mut().zip(key).for_each(|(k, v)| *k = *v);
@@ -1049,6 +1059,7 @@ impl Cloner {
                         },
                         &options.regions,
                         options.gain,
+                        hold_turn,
                     );
                 } else {
                     s.frame.prepare(
@@ -1057,6 +1068,7 @@ impl Cloner {
                         &s.shape,
                         &s.appearance,
                         &options.regions,
+                        hold_turn,
                     );
                 }
                 s.frame_ready = true;

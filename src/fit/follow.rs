@@ -972,6 +972,19 @@ pub fn neutral_update(
 /// Requires 136 values in `shape`, `neutral` and `turn` and 68 in `depth`; leaves `shape`
 /// unchanged and `turn` zero otherwise, or when the neutral is degenerate. Allocates nothing.
 pub fn split_head_turn(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: &mut [f32]) {
+    split_turn(shape, neutral, depth, turn, true);
+}
+
+/// [`split_head_turn`] about the vertical axis only: the head's turn to the side is split off,
+/// its nod is left in `shape`. A nod moves the mouth's corners against its middle much as a
+/// smile lifts them (the corners lie deeper), so where the expression must keep its whole lift
+/// (the expressive method holding a target's own pose) only the turn is taken out.
+pub fn split_head_yaw(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: &mut [f32]) {
+    split_turn(shape, neutral, depth, turn, false);
+}
+
+/// [`split_head_turn`] (`nod`: both directions) or [`split_head_yaw`].
+fn split_turn(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: &mut [f32], nod: bool) {
     turn.iter_mut().for_each(|t| *t = 0.0);
     if shape.len() != 136 || neutral.len() != 136 || turn.len() != 136 || depth.len() != 68 {
         return;
@@ -1013,7 +1026,8 @@ pub fn split_head_turn(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: 
             usable[k] = true;
         }
     }
-    for (b, _) in basis[4..].iter().zip(&usable[4..]).filter(|(_, &u)| u) {
+    let split = if nod { &basis[4..] } else { &basis[4..5] };
+    for (b, _) in split.iter().zip(&usable[4..]).filter(|(_, &u)| u) {
         let c: f32 = shape
             .iter()
             .zip(neutral)

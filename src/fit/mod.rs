@@ -46,8 +46,8 @@ pub use driver::Fitter;
 pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
 pub use follow::{
     bound_neutral_mouth, close_first_neutral, close_mouth, expression_params, mouth_opening,
-    mouth_shape, neutral_update, rest_boundary, split_head_turn, FollowOptions, Follower,
-    REST_CORNER_LIFT, REST_MOUTH_WIDTH,
+    mouth_shape, neutral_update, rest_boundary, split_head_turn, split_head_yaw, FollowOptions,
+    Follower, REST_CORNER_LIFT, REST_MOUTH_WIDTH,
 };
 pub use observe::{
     at_rest, neutral_like, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE, NEUTRAL_STEP,

@@ -344,7 +344,7 @@ test('first load (wasm, JS and the bundled models) is at most 6 MB', async (t) =
   const sum = (re) => got.filter((r) => re.test(r.path)).reduce((a, r) => a + r.bytes, 0);
   const models = got.filter((r) => r.path.endsWith('.fmm'));
   console.log(
-    `first load: ${got.length} responses, ${(total / 1e6).toFixed(3)} MB: ` +
+    `first load: ${got.length} responses, ${(total / 1e6).toFixed(3)} MB (${total} bytes): ` +
       `${models.length} models ${(sum(/\.fmm$/) / 1e6).toFixed(3)} MB, wasm ${(sum(/\.wasm$/) / 1e6).toFixed(3)} MB, ` +
       `JS ${(sum(/\.m?js$/) / 1e6).toFixed(3)} MB, other ${((total - sum(/\.fmm$|\.wasm$|\.m?js$/)) / 1e6).toFixed(3)} MB`,
   );
