@@ -72,7 +72,8 @@ pub struct Args {
     /// No limit on the mapped target parameters.
     #[arg(long)]
     no_clamp: bool,
-    /// The target follows the source's head motion (default: it stays at its mean pose).
+    /// The target follows the source's head motion, its turns included (default: it stays at
+    /// its mean pose and, with the expressive method, keeps its own view).
     #[arg(long)]
     follow_pose: bool,
     /// Canvas width (default: the target's training image width).
