@@ -55,10 +55,13 @@ fn bench(c: &mut Criterion) {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    // The next frame: the same face, its expression a little weaker.
+    // Two frames in turn: the expressive method keeps a frame's source side (its synthesis and
+    // ratio image) for the same frame again, as a video never repeats. The second is the same
+    // face, its expression a little weaker.
     let mut other = params.clone();
     other.shape.iter_mut().for_each(|p| *p *= 0.9);
     other.appearance.iter_mut().for_each(|p| *p *= 0.9);
+    let frames = [params.clone(), other];
     let mut group = c.benchmark_group("clone_frame");
     for n in [1usize, 8] {
         let mut cloner = Cloner::new(source.clone()).unwrap();
@@ -72,9 +75,6 @@ fn bench(c: &mut Criterion) {
                 method,
                 ..CloneOptions::default()
             };
-            // Two frames in turn: the expressive method keeps a frame's source side (its
-            // synthesis and ratio image) for the same frame again, as a video never repeats.
-            let frames = [params.clone(), other.clone()];
             let mut i = 0;
             group.bench_function(format!("{method}/{n}_targets"), |b| {
                 b.iter(|| {

@@ -126,6 +126,9 @@ pub struct SourceSide {
     mouth_w: Vec<f32>,
     /// Frame pixels of the skin away from the eyes and the mouth.
     skin_pixels: Vec<u32>,
+    /// The unit direction in which a turn of the head to the side moves the source's base
+    /// shape ([`crate::fit::split_head_yaw`]'s), for 68 points.
+    yaw: Option<[f32; 136]>,
     /// Per frame pixel: 1 inside the inner lips, 2 and 3 inside each eye, 0 elsewhere.
     inner: Vec<u8>,
     /// Frame pixels inside each eye.
@@ -164,9 +167,6 @@ pub struct SourceSide {
 pub struct SourceFrame {
     /// The region-gained shape displacement `d` (`2n`).
     pub d: Vec<f32>,
-    /// Scratch for holding the head's turn: the source's shape, and the turn split off it.
-    turned: Vec<f32>,
-    turn: Vec<f32>,
     /// The source appearance `A0 + A lambda` (`3N`).
     app: Vec<f32>,
     /// The region-gained ratio image (`N`).
@@ -521,6 +521,11 @@ impl SourceSide {
             mouth,
             mouth_w,
             skin_pixels,
+            yaw: if scheme68 {
+                crate::fit::turn_directions(base, crate::find::IBUG_DEPTH)[0]
+            } else {
+                None
+            },
             eyes,
             eyes_w,
             lids,
@@ -537,8 +542,6 @@ impl SourceSide {
     pub fn frame_buffer(&self, source: &Model) -> SourceFrame {
         SourceFrame {
             d: vec![0.0; source.shape().base.len()],
-            turned: vec![0.0; source.shape().base.len()],
-            turn: vec![0.0; source.shape().base.len()],
             app: vec![0.0; source.appearance().len()],
             ratio: vec![1.0; self.y0.len()],
             grid: vec![0.0; 2 * self.grid.len()],
@@ -622,7 +625,8 @@ impl SourceFrame {
     }
 
     /// `d = G (S p)` into `self.d`; with `hold_turn` (68 points), less the part a turn of the
-    /// head to the side explains ([`crate::fit::split_head_yaw`] about the source's base).
+    /// head to the side explains ([`crate::fit::split_head_yaw`] about the source's base, its
+    /// direction found once per source).
     fn displacement(
         &mut self,
         side: &SourceSide,
@@ -638,19 +642,10 @@ impl SourceFrame {
                 self.d.iter_mut().zip(mode).for_each(|(o, &m)| *o += pi * m);
             }
         }
-        if hold_turn && side.scheme68 {
-            let base = &shape.base;
-            for ((x, b), d) in self.turned.iter_mut().zip(base).zip(&self.d) {
-                *x = b + d;
-            }
-            crate::fit::split_head_yaw(
-                &mut self.turned,
-                base,
-                crate::find::IBUG_DEPTH,
-                &mut self.turn,
-            );
-            for ((d, x), b) in self.d.iter_mut().zip(&self.turned).zip(base) {
-                *d = x - b;
+        if let (true, Some(q)) = (hold_turn, &side.yaw) {
+            let c: f32 = self.d.iter().zip(q).map(|(d, q)| d * q).sum();
+            if c.is_finite() {
+                self.d.iter_mut().zip(q).for_each(|(d, q)| *d -= c * q);
             }
         }
         apply_region_gains(side, &mut self.d, gains);

@@ -986,12 +986,39 @@ pub fn split_head_yaw(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: &
 /// [`split_head_turn`] (`nod`: both directions) or [`split_head_yaw`].
 fn split_turn(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: &mut [f32], nod: bool) {
     turn.iter_mut().for_each(|t| *t = 0.0);
-    if shape.len() != 136 || neutral.len() != 136 || turn.len() != 136 || depth.len() != 68 {
+    if shape.len() != 136 || turn.len() != 136 {
         return;
+    }
+    let [yaw, pitch] = turn_directions(neutral, depth);
+    for b in [yaw, if nod { pitch } else { None }].iter().flatten() {
+        let c: f32 = shape
+            .iter()
+            .zip(neutral)
+            .zip(b)
+            .map(|((x, n), q)| (x - n) * q)
+            .sum();
+        if !c.is_finite() {
+            continue;
+        }
+        for ((s, t), q) in shape.iter_mut().zip(turn.iter_mut()).zip(b) {
+            *s -= c * q;
+            *t += c * q;
+        }
+    }
+}
+
+/// The unit directions in shape space (136 values) along which a small turn and a small nod
+/// of the head move a 68-point `neutral`, made orthogonal to the similarities at it and the nod
+/// to the turn ([`split_head_turn`]'s); `None` for one a similarity (or the turn) nearly
+/// explains, both `None` for another length or a degenerate neutral. They depend on the
+/// neutral alone: a caller whose neutral is fixed computes them once.
+pub(crate) fn turn_directions(neutral: &[f32], depth: &[f32]) -> [Option<[f32; 136]>; 2] {
+    if neutral.len() != 136 || depth.len() != 68 {
+        return [None, None];
     }
     // The neutral's centroid and eye-line direction `u`.
     let Some(([cx, cy], _, ux, uy)) = crate::find::face_frame(neutral) else {
-        return;
+        return [None, None];
     };
     // An orthonormal basis of the similarities at the neutral (two translations, scale,
     // rotation), then the two turn directions made orthogonal to it and to each other.
@@ -1026,22 +1053,7 @@ fn split_turn(shape: &mut [f32], neutral: &[f32], depth: &[f32], turn: &mut [f32
             usable[k] = true;
         }
     }
-    let split = if nod { &basis[4..] } else { &basis[4..5] };
-    for (b, _) in split.iter().zip(&usable[4..]).filter(|(_, &u)| u) {
-        let c: f32 = shape
-            .iter()
-            .zip(neutral)
-            .zip(b)
-            .map(|((x, n), q)| (x - n) * q)
-            .sum();
-        if !c.is_finite() {
-            continue;
-        }
-        for ((s, t), q) in shape.iter_mut().zip(turn.iter_mut()).zip(b) {
-            *s -= c * q;
-            *t += c * q;
-        }
-    }
+    [4, 5].map(|k| usable[k].then_some(basis[k]))
 }
 
 /// Closes the mouth of a 68-point `shape` (model coordinates) the way the model opens one:

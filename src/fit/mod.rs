@@ -44,6 +44,7 @@ pub use anchor::{HeadDamper, PoseAnchor, Sequence};
 pub use confidence::{ConfidenceBounds, Reasons, TrackStatus};
 pub use driver::Fitter;
 pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
+pub(crate) use follow::turn_directions;
 pub use follow::{
     bound_neutral_mouth, close_first_neutral, close_mouth, expression_params, mouth_opening,
     mouth_shape, neutral_update, rest_boundary, split_head_turn, split_head_yaw, FollowOptions,
