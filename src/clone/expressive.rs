@@ -189,12 +189,18 @@ pub struct SourceFrame {
     sclera: f32,
     /// Scratch for [`sclera_luma`] (one value per eye pixel).
     eye_luma: Vec<f32>,
+    /// The brightest of the source's open mouth this frame: the 90th percentile of the inner
+    /// mouth's luminance in `app` (0 when the mouth is closed).
+    teeth: f32,
+    /// Scratch for `teeth` (one value per inner-mouth pixel).
+    mouth_luma: Vec<f32>,
 }
 
 /// The limits of the lights' ratio taken from the eye whites (the 90th percentile of the
 /// luminance inside both eyes, smoothed to one resolution, the target's over the source's
 /// neutral's): the source's mouth is drawn at most this much darker and brighter on the target
-/// than on the source.
+/// than on the source, and never brighter than brings the source's brightest teeth (the 90th
+/// percentile of its inner mouth that frame) to [`KNEE`], so the knee never flattens them.
 pub const LIGHT_RATIO: [f32; 2] = [0.67, 1.5];
 
 /// The 90th percentile of `values` (reordered), `None` when empty, not finite or not positive.
@@ -552,6 +558,8 @@ impl SourceSide {
             skin: self.skin,
             sclera: self.sclera,
             eye_luma: Vec::with_capacity(self.eyes[0].len() + self.eyes[1].len()),
+            teeth: 0.0,
+            mouth_luma: Vec::with_capacity(self.mouth.len()),
         }
     }
 }
@@ -727,6 +735,17 @@ impl SourceFrame {
             let g = gaps_displaced(base, &self.d, side.down);
             self.open =
                 ((g[0] - side.gaps0[0] - 0.03 * side.iod) / (0.09 * side.iod)).clamp(0.0, 1.0);
+            self.teeth = 0.0;
+            if self.open > 0.0 {
+                self.mouth_luma.clear();
+                let app = &self.app;
+                self.mouth_luma.extend(
+                    side.mouth
+                        .iter()
+                        .map(|&k| luma(&app[3 * k as usize..3 * k as usize + 3])),
+                );
+                self.teeth = upper_decile(&mut self.mouth_luma).unwrap_or(0.0);
+            }
             for e in 0..2 {
                 let g0 = side.gaps0[e + 1].max(1e-3);
                 self.closed[e] = (1.0 - g[e + 1] / g0).clamp(0.0, 1.0);
@@ -1183,6 +1202,13 @@ pub fn expressive_appearance(
             (t.sclera / frame.sclera).clamp(LIGHT_RATIO[0], LIGHT_RATIO[1])
         } else {
             1.0
+        };
+        // Never so bright that the knee flattens the teeth: the source's brightest teeth land
+        // at most at the knee, so their separations stay.
+        let light = if frame.teeth > 0.0 {
+            light.min(KNEE / frame.teeth)
+        } else {
+            light
         };
         for (&k, &edge) in side.mouth.iter().zip(&side.mouth_w) {
             let (k, w) = (k as usize, w0 * edge);
