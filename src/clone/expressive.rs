@@ -126,6 +126,10 @@ pub struct SourceSide {
     mouth_w: Vec<f32>,
     /// Frame pixels of the skin away from the eyes and the mouth.
     skin_pixels: Vec<u32>,
+    /// Each skin pixel's column less their mean (frame pixels, as `skin_pixels`).
+    skin_x: Vec<f32>,
+    /// The skin pixels' mean column.
+    skin_x0: f32,
     /// The unit direction in which a turn of the head to the side moves the source's base
     /// shape ([`crate::fit::split_head_yaw`]'s), for 68 points.
     yaw: Option<[f32; 136]>,
@@ -194,6 +198,9 @@ pub struct SourceFrame {
     teeth: f32,
     /// Scratch for `teeth` (one value per inner-mouth pixel).
     mouth_luma: Vec<f32>,
+    /// Scratch: per frame grid column, the factor that takes the light's sideways slope out
+    /// of the ratio image ([`level_sideways_light`]).
+    columns: Vec<f32>,
 }
 
 /// The limits of the lights' ratio taken from the eye whites (the 90th percentile of the
@@ -314,6 +321,37 @@ fn gaps_displaced(base: &[f32], d: &[f32], down: [f32; 2]) -> [f32; 3] {
         EYELIDS[0].iter().map(|&p| gap(p)).sum::<f32>() / 2.0,
         EYELIDS[1].iter().map(|&p| gap(p)).sum::<f32>() / 2.0,
     ]
+}
+
+/// Takes out of the ratio image the slope of the light across the face, from one side to the
+/// other: the least-squares slope of `ln rho` along the frame's columns over the skin pixels,
+/// divided out of every pixel (then limited to [`RATIO_RANGE`] again). A head turned towards
+/// or away from a lamp darkens one cheek and brightens the other; an expression's shading is
+/// local and mirrored (a smile raises both cheeks), so it has next to no such slope. A ratio
+/// image without a slope (a neutral face's, exactly 1) is kept bit for bit. Allocates nothing
+/// (`columns` is the grid's width).
+fn level_sideways_light(side: &SourceSide, ratio: &mut [f32], columns: &mut [f32]) {
+    let (mut sxy, mut sxx) = (0f64, 0f64);
+    for (&k, &x) in side.skin_pixels.iter().zip(&side.skin_x) {
+        let l = ratio[k as usize].max(1e-6).ln();
+        sxy += (x * l) as f64;
+        sxx += (x * x) as f64;
+    }
+    if sxx <= 0.0 || sxy == 0.0 || !sxy.is_finite() {
+        return;
+    }
+    let b = (sxy / sxx) as f32;
+    for (c, v) in columns.iter_mut().enumerate() {
+        *v = (-b * (c as f32 - side.skin_x0)).exp();
+    }
+    for cells in side.grid.chunks_exact(side.grid_width.max(1)) {
+        for (&k, &f) in cells.iter().zip(columns.iter()) {
+            if k != u32::MAX {
+                let r = &mut ratio[k as usize];
+                *r = (*r * f).clamp(RATIO_RANGE[0], RATIO_RANGE[1]);
+            }
+        }
+    }
 }
 
 /// The width, in frame pixels, over which the inner mouth's and the eyes' own colours blend
@@ -507,7 +545,22 @@ impl SourceSide {
         } else {
             0.0
         };
+        let skin_x0 = if skin_pixels.is_empty() {
+            0.0
+        } else {
+            let sum: f64 = skin_pixels
+                .iter()
+                .map(|&k| frame.pixels()[k as usize].x as f64)
+                .sum();
+            (sum / skin_pixels.len() as f64) as f32
+        };
+        let skin_x = skin_pixels
+            .iter()
+            .map(|&k| frame.pixels()[k as usize].x as f32 - skin_x0)
+            .collect();
         let mut side = SourceSide {
+            skin_x,
+            skin_x0,
             sclera: 0.0,
             eyes_at,
             iris0,
@@ -560,6 +613,7 @@ impl SourceSide {
             eye_luma: Vec::with_capacity(self.eyes[0].len() + self.eyes[1].len()),
             teeth: 0.0,
             mouth_luma: Vec::with_capacity(self.mouth.len()),
+            columns: vec![1.0; self.grid_width],
         }
     }
 }
@@ -582,8 +636,9 @@ impl SourceFrame {
     /// (Liu, Shan & Zhang 2001, on luminance; `g` the pixel's blend of region gains), limited
     /// to [`RATIO_RANGE`]. A neutral face (`lambda = 0`) gives `rho = 1` exactly. With
     /// `hold_turn` (the target keeps its own pose: [`super::CloneOptions::follow_pose`] off),
-    /// the part of `S p` a turn of the head to the side explains is left out of `d`: a turn is
-    /// pose, not expression. Allocates nothing.
+    /// the part of `S p` a turn of the head to the side explains is left out of `d`, and the
+    /// light's slope across the face out of `rho` ([`level_sideways_light`]): a turn, and the
+    /// lamp it turns towards, are pose, not expression. Allocates nothing.
     pub fn prepare(
         &mut self,
         side: &SourceSide,
@@ -597,7 +652,7 @@ impl SourceFrame {
         source
             .appearance()
             .instance_unchecked(lambda, &mut self.app);
-        self.expression(side, &source.shape().base, None, gains, 1.0);
+        self.expression(side, &source.shape().base, None, gains, 1.0, hold_turn);
     }
 
     /// [`SourceFrame::prepare`] with the appearance observed in the frame's pixels instead of
@@ -607,8 +662,8 @@ impl SourceFrame {
     /// and neutral are `3N` RGB values on the source's frame pixels (the caller checks every
     /// length); the ratio is raised to the global `gain` too (the synthesis has it in
     /// `lambda`). A frame equal to the neutral gives `rho = 1` exactly. `hold_turn` as for
-    /// [`SourceFrame::prepare`] when `d` is the projection (an observed displacement comes
-    /// with the head's turn left out already). Allocates nothing.
+    /// [`SourceFrame::prepare`] (on `d` only when it is the projection: an observed
+    /// displacement comes with the head's turn left out already). Allocates nothing.
     #[allow(clippy::too_many_arguments)]
     pub fn prepare_observed(
         &mut self,
@@ -629,7 +684,14 @@ impl SourceFrame {
             None => self.displacement(side, source, p, gains, hold_turn),
         }
         self.app.copy_from_slice(observed.appearance);
-        self.expression(side, &source.shape().base, Some(neutral), gains, gain);
+        self.expression(
+            side,
+            &source.shape().base,
+            Some(neutral),
+            gains,
+            gain,
+            hold_turn,
+        );
     }
 
     /// `d = G (S p)` into `self.d`; with `hold_turn` (68 points), less the part a turn of the
@@ -660,7 +722,8 @@ impl SourceFrame {
     }
 
     /// The ratio image, the mouth's opening, the eyes' closing and the gaze of `self.app`
-    /// against `neutral` (the model's base appearance when `None`).
+    /// against `neutral` (the model's base appearance when `None`); with `level`, the light's
+    /// slope across the face taken out of the ratio image.
     fn expression(
         &mut self,
         side: &SourceSide,
@@ -668,6 +731,7 @@ impl SourceFrame {
         neutral: Option<&[f32]>,
         gains: &RegionGains,
         gain: f32,
+        level: bool,
     ) {
         let y0 = |k: usize| match neutral {
             Some(n) => luma(&n[3 * k..3 * k + 3]),
@@ -720,6 +784,10 @@ impl SourceFrame {
                 v = v.max(1e-6).powf(g * gain);
             }
             *r = v.clamp(RATIO_RANGE[0], RATIO_RANGE[1]);
+        }
+        // A lamp to one side of a turned head is pose too (and comes with the turn).
+        if level {
+            level_sideways_light(side, &mut self.ratio, &mut self.columns);
         }
         // Twice: a 9 x 9 tent, about a tenth of the eye distance.
         smooth_ratio(side, &mut self.ratio, &mut self.grid, &mut self.tmp);

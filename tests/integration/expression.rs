@@ -452,6 +452,99 @@ fn bright_teeth_keep_their_separations_in_a_brighter_light() {
     assert!(contrast > 0.25, "the separations are lost: {contrast}");
 }
 
+/// A light falling from one side (a head turned towards a lamp: one cheek brighter, the
+/// other darker) is not expression: it reaches the target neither as a slope nor as a band,
+/// while a mirrored shading (both cheeks darker, as a smile's raised cheeks shade them) still
+/// does. With follow-pose the light comes with the turn.
+#[test]
+fn a_light_from_one_side_never_reaches_the_target() {
+    let source = spk07();
+    let frame = source.frame();
+    let v = frame.vertices();
+    let xs: Vec<f32> = (0..68).map(|i| v[2 * i]).collect();
+    let (x0, x1) = (
+        xs.iter().cloned().fold(f32::MAX, f32::min),
+        xs.iter().cloned().fold(f32::MIN, f32::max),
+    );
+    let mid = (x0 + x1) / 2.0;
+    let half = (x1 - x0) / 2.0;
+    let at = |k: usize| {
+        let px = &frame.pixels()[k];
+        [
+            px.x as f32 - frame.origin()[0],
+            px.y as f32 - frame.origin()[1],
+        ]
+    };
+    // The cheeks: between the nose's and the mouth corners' height, halfway to the outline.
+    let (top, bottom) = (v[2 * 30 + 1], v[2 * 48 + 1]);
+    let cheek = |k: usize, side: f32| {
+        let p = at(k);
+        let u = (p[0] - mid) / half * side;
+        p[1] > top && p[1] < bottom && (0.45..0.8).contains(&u)
+    };
+    let neutral = source.appearance().base().to_vec();
+    let zero = vec![0.0; source.shape().base.len()];
+    let t = target("spk03");
+    let a0 = t.appearance().base();
+    // The target's luminance over its own on each cheek.
+    let run = |now: &[f32], follow_pose: bool| {
+        let mut c = Cloner::new(source.clone()).unwrap();
+        c.add_target(t.clone()).unwrap();
+        c.set_observed(Some(facemimic::fit::Observed {
+            appearance: now,
+            neutral: &neutral,
+            displacement: Some(&zero),
+        }))
+        .unwrap();
+        let options = CloneOptions {
+            follow_pose,
+            ..expressive()
+        };
+        c.clone_frame(&source.base_params(), &options).unwrap();
+        let out = c.target_appearance(0);
+        [-1.0f32, 1.0].map(|side| {
+            let (mut y, mut y0) = (0.0, 0.0);
+            for k in (0..frame.n_pixels()).filter(|&k| cheek(k, side)) {
+                y += luma(&out[3 * k..3 * k + 3]);
+                y0 += luma(&a0[3 * k..3 * k + 3]);
+            }
+            y / y0
+        })
+    };
+    // The light: from 0.7 on the source's one side to 1.3 on the other, across the face.
+    let mut lit = neutral.clone();
+    for (k, rgb) in lit.chunks_exact_mut(3).enumerate() {
+        let f = 1.0 + 0.3 * ((at(k)[0] - mid) / half).clamp(-1.0, 1.0);
+        rgb.iter_mut().for_each(|c| *c = (*c * f).min(1.0));
+    }
+    let [l, r] = run(&lit, false);
+    eprintln!("a sideways light: cheeks {l:.3} and {r:.3} of the target's own");
+    assert!(
+        (l - 1.0).abs() < 0.04 && (r - 1.0).abs() < 0.04,
+        "the light reached the target: {l}, {r}"
+    );
+    let [l, r] = run(&lit, true);
+    eprintln!("with follow-pose: {l:.3} and {r:.3}");
+    assert!(
+        r - l > 0.2,
+        "the light did not come with the pose: {l}, {r}"
+    );
+    // Both cheeks shaded to 0.7: carried on both.
+    let mut shaded = neutral.clone();
+    for (k, rgb) in shaded.chunks_exact_mut(3).enumerate() {
+        if cheek(k, -1.0) || cheek(k, 1.0) {
+            rgb.iter_mut().for_each(|c| *c *= 0.7);
+        }
+    }
+    let [l, r] = run(&shaded, false);
+    eprintln!("both cheeks shaded: {l:.3} and {r:.3}");
+    assert!(l < 0.85 && r < 0.85, "the shading did not carry: {l}, {r}");
+    assert!(
+        (l - r).abs() < 0.03,
+        "the shading became one-sided: {l}, {r}"
+    );
+}
+
 #[test]
 fn the_residual_after_the_limit_is_zero_when_the_target_can_follow() {
     // Two orthonormal modes in 4 dimensions, sigmas 1 and 2.
