@@ -637,8 +637,9 @@ impl SourceFrame {
     /// to [`RATIO_RANGE`]. A neutral face (`lambda = 0`) gives `rho = 1` exactly. With
     /// `hold_turn` (the target keeps its own pose: [`super::CloneOptions::follow_pose`] off),
     /// the part of `S p` a turn of the head to the side explains is left out of `d`, and the
-    /// light's slope across the face out of `rho` ([`level_sideways_light`]): a turn, and the
-    /// lamp it turns towards, are pose, not expression. Allocates nothing.
+    /// light's slope across the face (the least-squares slope of `ln rho` along the frame's
+    /// columns) out of `rho`: a turn, and the lamp it turns towards, are pose, not
+    /// expression. Allocates nothing.
     pub fn prepare(
         &mut self,
         side: &SourceSide,
