@@ -286,6 +286,28 @@ fn a_head_turn_reaches_the_target_only_when_it_follows_the_pose() {
 /// person's skin's shine in their own light: carried 2.5-fold until 29 Nov, a source's became
 /// pale patches on a darker target), while the target's forehead, away from both, stays within
 /// 2% (the frame's exposure is taken out).
+/// `target`'s appearance cloned from spk07 observed as `now` against its `neutral`, with the
+/// whole displacement `d` (`options` as given, the expressive method).
+fn observed_clone(
+    target: &Model,
+    now: &[f32],
+    neutral: &[f32],
+    d: &[f32],
+    options: &CloneOptions,
+) -> Vec<f32> {
+    let source = spk07();
+    let mut c = Cloner::new(source.clone()).unwrap();
+    c.add_target(target.clone()).unwrap();
+    c.set_observed(Some(facemimic::fit::Observed {
+        appearance: now,
+        neutral,
+        displacement: Some(d),
+    }))
+    .unwrap();
+    c.clone_frame(&source.base_params(), options).unwrap();
+    c.target_appearance(0).to_vec()
+}
+
 #[test]
 fn a_shadow_carries_and_a_highlight_only_a_little() {
     use facemimic::clone::RATIO_RANGE;
@@ -329,16 +351,8 @@ fn a_shadow_carries_and_a_highlight_only_a_little() {
     }
     let zero = vec![0.0; source.shape().base.len()];
     let t = target("spk03");
-    let mut c = Cloner::new(source.clone()).unwrap();
-    c.add_target(t.clone()).unwrap();
-    c.set_observed(Some(facemimic::fit::Observed {
-        appearance: &now,
-        neutral: &neutral,
-        displacement: Some(&zero),
-    }))
-    .unwrap();
-    c.clone_frame(&source.base_params(), &expressive()).unwrap();
-    let (out, a0) = (c.target_appearance(0), t.appearance().base());
+    let out = observed_clone(t, &now, &neutral, &zero, &expressive());
+    let a0 = t.appearance().base();
     // The mean luminance ratio of the target's clone to itself within `rad` of `c`.
     let ratio = |c: [f32; 2], rad: f32| {
         let (mut y, mut y0) = (0.0, 0.0);
@@ -421,17 +435,7 @@ fn bright_teeth_keep_their_separations_in_a_brighter_light() {
     for (pi, mode) in p.shape.iter().zip(shape.modes.chunks_exact(d.len())) {
         d.iter_mut().zip(mode).for_each(|(o, m)| *o += pi * m);
     }
-    let t = target("spk03");
-    let mut c = Cloner::new(source.clone()).unwrap();
-    c.add_target(t.clone()).unwrap();
-    c.set_observed(Some(facemimic::fit::Observed {
-        appearance: &now,
-        neutral: &neutral,
-        displacement: Some(&d),
-    }))
-    .unwrap();
-    c.clone_frame(&source.base_params(), &expressive()).unwrap();
-    let out = c.target_appearance(0);
+    let out = observed_clone(target("spk03"), &now, &neutral, &d, &expressive());
     let mean = |want: bool| {
         let (mut y, mut n) = (0.0, 0.0);
         for &(k, tooth) in &stripes {
@@ -488,20 +492,11 @@ fn a_light_from_one_side_never_reaches_the_target() {
     let a0 = t.appearance().base();
     // The target's luminance over its own on each cheek.
     let run = |now: &[f32], follow_pose: bool| {
-        let mut c = Cloner::new(source.clone()).unwrap();
-        c.add_target(t.clone()).unwrap();
-        c.set_observed(Some(facemimic::fit::Observed {
-            appearance: now,
-            neutral: &neutral,
-            displacement: Some(&zero),
-        }))
-        .unwrap();
         let options = CloneOptions {
             follow_pose,
             ..expressive()
         };
-        c.clone_frame(&source.base_params(), &options).unwrap();
-        let out = c.target_appearance(0);
+        let out = observed_clone(t, now, &neutral, &zero, &options);
         [-1.0f32, 1.0].map(|side| {
             let (mut y, mut y0) = (0.0, 0.0);
             for k in (0..frame.n_pixels()).filter(|&k| cheek(k, side)) {
