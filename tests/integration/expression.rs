@@ -210,25 +210,14 @@ fn a_head_turn_reaches_the_target_only_when_it_follows_the_pose() {
         .collect();
     let mut params = open_mouth_params();
     let open = params.clone();
-    for (pi, mode) in params
-        .shape
-        .iter_mut()
-        .zip(shape.modes.chunks_exact(base.len()))
-    {
-        *pi += mode.iter().zip(&turn).map(|(m, t)| m * t).sum::<f32>();
-    }
+    // The turn in the modes: p += S^T turn (the projection of s0 + turn).
+    let turned: Vec<f32> = base.iter().zip(&turn).map(|(b, t)| b + t).collect();
+    let mut dp = vec![0.0; params.shape.len()];
+    shape.project(&turned, &mut dp);
+    params.shape.iter_mut().zip(&dp).for_each(|(p, d)| *p += d);
     params.pose = source.base_params().pose;
     let mut in_source = base.clone();
-    for (pi, mode) in params
-        .shape
-        .iter()
-        .zip(shape.modes.chunks_exact(base.len()))
-    {
-        in_source
-            .iter_mut()
-            .zip(mode)
-            .for_each(|(x, m)| *x += pi * m);
-    }
+    shape.instance(&params.shape, &mut in_source).unwrap();
     let t = target("spk06");
     let mut home = t.shape().base.clone();
     t.home_pose().apply_in_place(&mut home);
@@ -244,12 +233,7 @@ fn a_head_turn_reaches_the_target_only_when_it_follows_the_pose() {
     };
     let (held, followed) = (run(&params, false), run(&params, true));
     let mut open_only = base.clone();
-    for (pi, mode) in open.shape.iter().zip(shape.modes.chunks_exact(base.len())) {
-        open_only
-            .iter_mut()
-            .zip(mode)
-            .for_each(|(x, m)| *x += pi * m);
-    }
+    shape.instance(&open.shape, &mut open_only).unwrap();
     let source_turn = yaw_of(&in_source, base) - yaw_of(&open_only, base);
     let (held_turn, followed_turn) = (yaw_of(&held, &home), yaw_of(&followed, &home));
     eprintln!(
@@ -432,9 +416,8 @@ fn bright_teeth_keep_their_separations_in_a_brighter_light() {
     let p = open_mouth_params();
     let shape = source.shape();
     let mut d = vec![0.0; shape.base.len()];
-    for (pi, mode) in p.shape.iter().zip(shape.modes.chunks_exact(d.len())) {
-        d.iter_mut().zip(mode).for_each(|(o, m)| *o += pi * m);
-    }
+    shape.instance(&p.shape, &mut d).unwrap();
+    d.iter_mut().zip(&shape.base).for_each(|(d, b)| *d -= b);
     let out = observed_clone(target("spk03"), &now, &neutral, &d, &expressive());
     let mean = |want: bool| {
         let (mut y, mut n) = (0.0, 0.0);
