@@ -172,7 +172,8 @@ pub struct CloneOptions {
     /// source's mean pose, applied around the target's mean pose); `false` (default): the
     /// target stays at its own mean pose, and with [`Method::Expressive`] keeps its own view
     /// too: the part of the source's shape a turn of the head to the side explains is left out
-    /// of the expression (the follower leaves it out of its displacement in either case).
+    /// of the expression (the follower leaves it out of its displacement in either case), and
+    /// so is the slope of the light across the face that a turn towards a lamp makes.
     pub follow_pose: bool,
     /// [`Method::Expressive`]: per-region gains (mouth, eyes, brows), multiplied with `gain`.
     pub regions: RegionGains,

@@ -73,7 +73,7 @@ pub struct Args {
     #[arg(long)]
     no_clamp: bool,
     /// The target follows the source's head motion, its turns included (default: it stays at
-    /// its mean pose and, with the expressive method, keeps its own view).
+    /// its mean pose and, with the expressive method, keeps its own view and light).
     #[arg(long)]
     follow_pose: bool,
     /// Canvas width (default: the target's training image width).

@@ -386,7 +386,8 @@ impl JsCloner {
 
     /// `true`: targets follow the source's head motion relative to its mean pose; `false`
     /// (default): each target stays at its own mean pose and, with the expressive method, its
-    /// own view (the source's head turning to the side is not carried as expression).
+    /// own view and light (the source's head turning to the side, and the light falling on it
+    /// from one side, are not carried as expression).
     #[wasm_bindgen(js_name = setFollowPose)]
     pub fn set_follow_pose(&mut self, on: bool) {
         // The current options are valid and the flag has no range: this cannot fail.
