@@ -6,7 +6,10 @@
 //! confident face's landmarks lie within 0.25 of
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
 //! the found frames. Also printed: the convention-free error (each point's mean offset from
-//! dlib's over the set removed, in the face frame: `find::convention_free_errors`).
+//! dlib's over the set removed, in the face frame: `find::convention_free_errors`), and how much
+//! of the mouth's motion the points keep (the spread, p95 - p5, of the mouth's width and
+//! lip-corner lift over dlib's, and their correlation with dlib's, each person's mean removed:
+//! a GRID speaker is the clip folder's name before `_`).
 //!
 //! To compare two builds frame by frame (e.g. MediaPipe's nets with float16 and with int8
 //! weights): `FIND_EVAL_DUMP=FILE` writes each frame's most confident face's 68 points to FILE;
@@ -43,6 +46,35 @@ mod native {
                 (key, it.map(|v| v.parse().unwrap()).collect())
             })
             .collect()
+    }
+
+    /// p95 - p5 of `v` (NaN when empty).
+    fn spread(v: &[f32]) -> f32 {
+        let mut v = v.to_vec();
+        v.sort_by(f32::total_cmp);
+        let at = |q: f32| {
+            v.get(((v.len() as f32 - 1.0) * q).round() as usize)
+                .copied()
+        };
+        match (at(0.95), at(0.05)) {
+            (Some(hi), Some(lo)) => hi - lo,
+            _ => f32::NAN,
+        }
+    }
+
+    /// Pearson's correlation of `a` and `b` (NaN when either is constant).
+    fn pearson(a: &[f32], b: &[f32]) -> f32 {
+        let n = a.len().min(b.len()) as f64;
+        let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / n;
+        let (ma, mb) = (mean(a), mean(b));
+        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+        for (&x, &y) in a.iter().zip(b) {
+            let (x, y) = (x as f64 - ma, y as f64 - mb);
+            ab += x * y;
+            aa += x * x;
+            bb += y * y;
+        }
+        (ab / (aa * bb).sqrt()) as f32
     }
 
     /// The p95 of sorted `errors` (NaN when empty).
@@ -107,6 +139,8 @@ mod native {
         errors: Vec<f32>,
         /// The found frames' points and dlib's, for the convention-free figure.
         pairs: Vec<(Vec<f32>, Vec<f32>)>,
+        /// Whose face each of `pairs` is (a GRID speaker: the folder's name before `_`).
+        people: Vec<String>,
         /// The errors against `FIND_EVAL_AGAINST`'s points.
         versus: Vec<f32>,
         /// Frames where only this run or only `FIND_EVAL_AGAINST` found a face.
@@ -156,6 +190,17 @@ mod native {
                     }
                     self.found += 1;
                     self.pairs.push((faces[0].landmarks.clone(), truth.clone()));
+                    let folder =
+                        p.parent()
+                            .and_then(|d| d.file_name())
+                            .map_or(String::new(), |n| {
+                                n.to_string_lossy()
+                                    .split('_')
+                                    .next()
+                                    .unwrap_or("")
+                                    .to_string()
+                            });
+                    self.people.push(folder);
                     self.errors.push(e);
                     self.err_sum += e;
                     self.worst = self.worst.max(e);
@@ -193,6 +238,57 @@ mod native {
                 "{set}: convention-free mean error {:.5}",
                 cf.iter().sum::<f32>() / cf.len().max(1) as f32
             );
+            // How much of the mouth's motion the points keep: the spread (p95 - p5) of the
+            // mouth's width and lip-corner lift (`fit::mouth_shape`) over dlib's, and their
+            // correlation with dlib's, over the found frames.
+            // Each person's mean removed first (GRID's clips are ten people: their spread
+            // would be their faces', not their motion).
+            let mut shapes: Vec<[[f32; 2]; 2]> = Vec::new();
+            let mut people = self.people.clone();
+            people.sort();
+            people.dedup();
+            for who in people {
+                let mine: Vec<[[f32; 2]; 2]> = self
+                    .pairs
+                    .iter()
+                    .zip(&self.people)
+                    .filter(|(_, w)| **w == who)
+                    .filter_map(|((a, b), _)| {
+                        Some([
+                            facemimic::fit::mouth_shape(a)?,
+                            facemimic::fit::mouth_shape(b)?,
+                        ])
+                    })
+                    .collect();
+                let n = mine.len().max(1) as f32;
+                let mut mean = [[0f32; 2]; 2];
+                for s in &mine {
+                    for (m, v) in mean.iter_mut().flatten().zip(s.iter().flatten()) {
+                        *m += v / n;
+                    }
+                }
+                shapes.extend(mine.iter().map(|s| {
+                    let mut d = *s;
+                    for (x, m) in d.iter_mut().flatten().zip(mean.iter().flatten()) {
+                        *x -= m;
+                    }
+                    d
+                }));
+            }
+            let motion: Vec<String> = ["width", "lift"]
+                .iter()
+                .enumerate()
+                .map(|(k, name)| {
+                    let ours: Vec<f32> = shapes.iter().map(|s| s[0][k]).collect();
+                    let dlib: Vec<f32> = shapes.iter().map(|s| s[1][k]).collect();
+                    format!(
+                        "{name} spread {:.2} of dlib's, r {:.3}",
+                        spread(&ours) / spread(&dlib),
+                        pearson(&ours, &dlib)
+                    )
+                })
+                .collect();
+            println!("{set}: mouth {}", motion.join("; "));
             if against {
                 let versus = &mut self.versus;
                 versus.sort_by(f32::total_cmp);

@@ -182,6 +182,11 @@ mod native {
             args.clip,
             m.frames.len()
         );
+        println!(
+            "the tracked source's spread over the real frames' (p95 - p5): width {:.2}, lift {:.2}",
+            m.tracked_spread_ratio(0),
+            m.tracked_spread_ratio(1)
+        );
         println!("per target, observed off -> on:");
         for t in 0..cloner.n_targets() {
             let r = m.teeth_r(t);

@@ -115,6 +115,8 @@ pub struct FollowedFrame {
     pub teeth: Option<f32>,
     /// The real mouth's width and lip-corner lift ([`mouth_features`]).
     pub real_mouth: [f32; 2],
+    /// The tracked source's mouth width and lift (the tracker's landmarks on the frame).
+    pub tracked_mouth: [f32; 2],
     /// Per target, the clone's inner mouth over its skin, observed off and on.
     pub target_teeth: Vec<[f32; 2]>,
     /// Per target, the clone's mouth width and lift, observed off and on.
@@ -161,6 +163,13 @@ impl FollowedExpressions {
                     .collect(),
             ) / real
         })
+    }
+
+    /// The tracked source's spread (p95 - p5) of mouth feature `k` (0 width, 1 lift) over the
+    /// real frames': how much of the real motion the tracker read, before any cloning.
+    pub fn tracked_spread_ratio(&self, k: usize) -> f32 {
+        let real = spread(self.frames.iter().map(|f| f.real_mouth[k]).collect());
+        spread(self.frames.iter().map(|f| f.tracked_mouth[k]).collect()) / real
     }
 
     /// Target `t`'s mean frame-to-frame appearance change, observed off and on.
@@ -298,6 +307,7 @@ pub fn track_expressions(
             index: i,
             teeth,
             real_mouth: mouth_features(&t.landmarks),
+            tracked_mouth: mouth_features(&fit.landmarks),
             target_teeth,
             target_mouth,
             target_change,
