@@ -12,6 +12,9 @@
 //!   corners' distance apart), the real frame sampled into the frame at dlib's points: the
 //!   inner mouth's mean luminance over the skin's (its teeth showing or not); the same ratio of
 //!   each target's cloned appearance. Printed: their correlation per target, on and off.
+//! - **Motion**: the spread (p95 - p5) of the mouth's width and lip-corner lift over the real
+//!   frames', of the tracked source's landmarks (what the tracker read) and of each target's
+//!   clone (what arrived).
 //! - **Laughs**: the tenth of measured frames with the widest, most lifted real mouths:
 //!   `--dump-dir` writes the source frames and the targets' composited clones (on and off) with
 //!   a manifest for `scripts/eval/fer_judge.py`; `--sheet` draws four of them (targets only:
