@@ -14,7 +14,7 @@
 //!   each target's cloned appearance. Printed: their correlation per target, on and off.
 //! - **Motion**: the spread (p95 - p5) of the mouth's width and lip-corner lift over the real
 //!   frames', of the tracked source's landmarks (what the tracker read) and of each target's
-//!   clone (what arrived).
+//!   clone (what arrived); and the clones' correlation with the real frames' (Pearson r).
 //! - **Laughs**: the tenth of measured frames with the widest, most lifted real mouths:
 //!   `--dump-dir` writes the source frames and the targets' composited clones (on and off) with
 //!   a manifest for `scripts/eval/fer_judge.py`; `--sheet` draws four of them (targets only:
@@ -195,10 +195,11 @@ mod native {
             let r = m.teeth_r(t);
             let (w, l) = (m.spread_ratio(t, 0), m.spread_ratio(t, 1));
             let c = m.change(t);
+            let (rw, rl) = (m.mouth_r(t, 0), m.mouth_r(t, 1));
             println!(
-                "  {}: inner mouth vs the real one r {:.2} -> {:.2}; spread over the real frames' (p95 - p5): width {:.2} -> {:.2}, lift {:.2} -> {:.2}; appearance change between measured frames {:.4} -> {:.4}",
+                "  {}: inner mouth vs the real one r {:.2} -> {:.2}; spread over the real frames' (p95 - p5): width {:.2} -> {:.2}, lift {:.2} -> {:.2}; against the real ones r: width {:.2} -> {:.2}, lift {:.2} -> {:.2}; appearance change between measured frames {:.4} -> {:.4}",
                 cloner.target(t).name(),
-                r[0], r[1], w[0], w[1], l[0], l[1], c[0], c[1]
+                r[0], r[1], w[0], w[1], l[0], l[1], rw[0], rw[1], rl[0], rl[1], c[0], c[1]
             );
         }
         let laughs = m.laughing();

@@ -57,9 +57,9 @@ pub struct Observed<'a> {
     /// The person's neutral appearance.
     pub neutral: &'a [f32],
     /// The frame's shape less the person's neutral shape, in the source model's coordinates
-    /// (aligned to its `s0`, the head's turn left out; `2n`): the whole expression, where the
-    /// fit's `S p` is its projection onto the source model's modes (a speech model's modes
-    /// hold no smile). `None` when the tracker has only the projection.
+    /// (aligned to its `s0`, the head's turn to the side left out, its nod left in; `2n`): the
+    /// whole expression, where the fit's `S p` is its projection onto the source model's modes
+    /// (a speech model's modes hold no smile). `None` when the tracker has only the projection.
     pub displacement: Option<&'a [f32]>,
 }
 

@@ -165,6 +165,20 @@ impl FollowedExpressions {
         })
     }
 
+    /// Target `t`'s mouth feature `k` (0 width, 1 lift) against the real one over the measured
+    /// frames (Pearson r), observed off and on.
+    pub fn mouth_r(&self, t: usize, k: usize) -> [f32; 2] {
+        let real: Vec<f32> = self.frames.iter().map(|f| f.real_mouth[k]).collect();
+        [0, 1].map(|on| {
+            let v: Vec<f32> = self
+                .frames
+                .iter()
+                .map(|f| f.target_mouth[t][on][k])
+                .collect();
+            pearson(&real, &v)
+        })
+    }
+
     /// The tracked source's spread (p95 - p5) of mouth feature `k` (0 width, 1 lift) over the
     /// real frames': how much of the real motion the tracker read, before any cloning.
     pub fn tracked_spread_ratio(&self, k: usize) -> f32 {
