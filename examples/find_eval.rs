@@ -26,6 +26,7 @@ use native::main;
 mod native {
     use facemimic::io::{read_image, read_landmarks};
     use facemimic::FaceFinder;
+    use facemimic_testkit::following::{pearson, spread};
     use std::collections::HashMap;
     use std::io::Write;
     use std::path::{Path, PathBuf};
@@ -46,35 +47,6 @@ mod native {
                 (key, it.map(|v| v.parse().unwrap()).collect())
             })
             .collect()
-    }
-
-    /// p95 - p5 of `v` (NaN when empty).
-    fn spread(v: &[f32]) -> f32 {
-        let mut v = v.to_vec();
-        v.sort_by(f32::total_cmp);
-        let at = |q: f32| {
-            v.get(((v.len() as f32 - 1.0) * q).round() as usize)
-                .copied()
-        };
-        match (at(0.95), at(0.05)) {
-            (Some(hi), Some(lo)) => hi - lo,
-            _ => f32::NAN,
-        }
-    }
-
-    /// Pearson's correlation of `a` and `b` (NaN when either is constant).
-    fn pearson(a: &[f32], b: &[f32]) -> f32 {
-        let n = a.len().min(b.len()) as f64;
-        let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / n;
-        let (ma, mb) = (mean(a), mean(b));
-        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-        for (&x, &y) in a.iter().zip(b) {
-            let (x, y) = (x as f64 - ma, y as f64 - mb);
-            ab += x * y;
-            aa += x * x;
-            bb += y * y;
-        }
-        (ab / (aa * bb).sqrt()) as f32
     }
 
     /// The p95 of sorted `errors` (NaN when empty).
@@ -275,20 +247,22 @@ mod native {
                     d
                 }));
             }
-            let motion: Vec<String> = ["width", "lift"]
-                .iter()
-                .enumerate()
-                .map(|(k, name)| {
-                    let ours: Vec<f32> = shapes.iter().map(|s| s[0][k]).collect();
-                    let dlib: Vec<f32> = shapes.iter().map(|s| s[1][k]).collect();
-                    format!(
-                        "{name} spread {:.2} of dlib's, r {:.3}",
-                        spread(&ours) / spread(&dlib),
-                        pearson(&ours, &dlib)
-                    )
-                })
-                .collect();
-            println!("{set}: mouth {}", motion.join("; "));
+            if !shapes.is_empty() {
+                let motion: Vec<String> = ["width", "lift"]
+                    .iter()
+                    .enumerate()
+                    .map(|(k, name)| {
+                        let ours: Vec<f32> = shapes.iter().map(|s| s[0][k]).collect();
+                        let dlib: Vec<f32> = shapes.iter().map(|s| s[1][k]).collect();
+                        format!(
+                            "{name} spread {:.2} of dlib's, r {:.3}",
+                            spread(ours.clone()) / spread(dlib.clone()),
+                            pearson(&ours, &dlib)
+                        )
+                    })
+                    .collect();
+                println!("{set}: mouth {}", motion.join("; "));
+            }
             if against {
                 let versus = &mut self.versus;
                 versus.sort_by(f32::total_cmp);
