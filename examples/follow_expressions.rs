@@ -29,11 +29,13 @@
 //!   `dlib` (the clip's own landmarks: what a perfect landmarker would give), `finder` (the
 //!   face finder's points on each frame, unsmoothed). An oracle (the rest is taken from the
 //!   whole clip, future frames included), for measuring only.
+//! - **A tracker setting's effect** (`--own --fit-options JSON`): franck's AAM tracker with the
+//!   given `FitOptions` fields over the defaults, e.g. `'{"shape_prior": 0}'`.
 //!
 //! ```text
 //! cargo run --release --example follow_expressions -- [--clip franck-dev2] [--every 2]
 //!     [--sheet docs/img/follow-expressive.jpg] [--dump-dir /tmp/follow-fer]
-//!     [--displacement follower|dlib|finder]
+//!     [--displacement follower|dlib|finder] [--own [--fit-options JSON]]
 //! ```
 #![cfg_attr(target_arch = "wasm32", no_main)]
 #![allow(clippy::needless_range_loop)]
@@ -56,7 +58,7 @@ mod native {
 
     use clap::Parser;
     use facemimic::clone::{CloneOptions, Cloner};
-    use facemimic::fit::{FaceTracker, FollowOptions, Follower};
+    use facemimic::fit::{FaceTracker, FitOptions, FollowOptions, Follower, Tracker};
     use facemimic::{io, picture_view, Compositor, DrawOptions, Error, Model, Result};
     use facemimic_testkit as common;
     use facemimic_testkit::following::{track_expressions, OPEN_MOUTH};
@@ -95,6 +97,11 @@ mod native {
         /// synthesis, "on" the frame observed against the person's neutral look.
         #[arg(long)]
         own: bool,
+        /// With `--own`: the tracker's options, a JSON object of `FitOptions` fields over the
+        /// defaults (e.g. `{"shape_prior": 0}`), to measure a tracker setting's effect on the
+        /// clones.
+        #[arg(long, value_name = "JSON", requires = "own")]
+        fit_options: Option<String>,
         /// The dumped clones' shape displacement: the follower's own, or (an oracle, for
         /// measuring where a laugh is lost) dlib's points or the finder's, each against its
         /// convention's face at rest over the clip. Not with `--own`.
@@ -120,16 +127,37 @@ mod native {
     /// their midpoint, along the eye line ([`frontal`]).
     const REST_TURN: f32 = 0.03;
 
-    /// The tracker of the run: the follower with `source` (spk07), or with `--own` the AAM
-    /// tracker of franck's own model, started on the clip's first frame's landmarks.
-    fn start_tracker(source: &Model, own: bool, paths: &[PathBuf]) -> Result<Box<dyn FaceTracker>> {
-        if !own {
+    /// The tracker of the run: the follower with `source` (spk07), or with `--own` (`Some`
+    /// options) the AAM tracker of franck's own model, started on the clip's first frame's
+    /// landmarks.
+    fn start_tracker(
+        source: &Model,
+        own: Option<&FitOptions>,
+        paths: &[PathBuf],
+    ) -> Result<Box<dyn FaceTracker>> {
+        let Some(options) = own else {
             return Ok(Box::new(Follower::new(source, FollowOptions::default())?));
-        }
+        };
         let first = io::read_training_image(&paths[0])?;
-        let mut tracker = facemimic::fit::tracker_for(source, facemimic::fit::Whose::Own)?;
+        let mut tracker = Tracker::new(source, options.clone())?;
         tracker.start_from_landmarks(&first.landmarks)?;
-        Ok(tracker)
+        Ok(Box::new(tracker))
+    }
+
+    /// `FitOptions::default()` with the fields of the JSON object `json` put over it.
+    fn fit_options(json: &str) -> Result<FitOptions> {
+        let bad = |e: serde_json::Error| Error::Params(format!("--fit-options: {e}"));
+        let patch: serde_json::Value = serde_json::from_str(json).map_err(bad)?;
+        let mut options = serde_json::to_value(FitOptions::default()).map_err(bad)?;
+        match (options.as_object_mut(), patch.as_object()) {
+            (Some(o), Some(p)) => o.extend(p.clone()),
+            _ => {
+                return Err(Error::Params(
+                    "--fit-options: a JSON object expected".into(),
+                ))
+            }
+        }
+        serde_json::from_value(options).map_err(bad)
     }
 
     pub fn run() -> Result<()> {
@@ -170,7 +198,12 @@ mod native {
             },
             ..CloneOptions::default()
         };
-        let mut tracker = start_tracker(&source, args.own, &paths)?;
+        let fit = match &args.fit_options {
+            Some(json) => Some(fit_options(json)?),
+            None => args.own.then(FitOptions::default),
+        };
+        let own = fit.as_ref();
+        let mut tracker = start_tracker(&source, own, &paths)?;
         let m = track_expressions(
             &paths,
             args.every,
@@ -204,7 +237,7 @@ mod native {
         }
         let laughs = m.laughing();
         if let Some(out) = &args.sheet {
-            write_sheet(out, &paths, &laughs, &source, args.own, None, &mut cloner)?;
+            write_sheet(out, &paths, &laughs, &source, own, None, &mut cloner)?;
         }
         if let Some(out) = &args.dump_dir {
             let oracle = match args.displacement {
@@ -216,7 +249,7 @@ mod native {
                 &paths,
                 &laughs,
                 &source,
-                args.own,
+                own,
                 oracle.as_ref(),
                 &mut cloner,
             )?;
@@ -364,7 +397,7 @@ mod native {
         paths: &[PathBuf],
         picks: &[usize],
         source: &facemimic::Model,
-        own: bool,
+        own: Option<&FitOptions>,
         oracle: Option<&Oracle>,
         cloner: &mut Cloner,
         mut each: impl FnMut(usize, &mut Cloner, bool) -> Result<()>,
@@ -410,7 +443,7 @@ mod native {
         paths: &[PathBuf],
         laughs: &[usize],
         source: &facemimic::Model,
-        own: bool,
+        own: Option<&FitOptions>,
         oracle: Option<&Oracle>,
         cloner: &mut Cloner,
     ) -> Result<()> {
@@ -453,7 +486,7 @@ mod native {
         paths: &[PathBuf],
         laughs: &[usize],
         source: &facemimic::Model,
-        own: bool,
+        own: Option<&FitOptions>,
         oracle: Option<&Oracle>,
         cloner: &mut Cloner,
     ) -> Result<()> {
