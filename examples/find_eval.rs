@@ -7,8 +7,8 @@
 //! the inter-ocular (36-45) distance of the dlib points on average; the error is that mean over
 //! the found frames. Also printed: the convention-free error (each point's mean offset from
 //! dlib's over the set removed, in the face frame: `find::convention_free_errors`), and how much
-//! of the mouth's motion the points keep (the spread, p95 - p5, of the mouth's width and
-//! lip-corner lift over dlib's, and their correlation with dlib's, each person's mean removed:
+//! of the mouth's motion the points keep (the spread, p95 - p5, of the mouth's width,
+//! lip-corner lift and inner lips' opening over dlib's, and their correlation with dlib's, each person's mean removed:
 //! a GRID speaker is the clip folder's name before `_`).
 //!
 //! To compare two builds frame by frame (e.g. MediaPipe's nets with float16 and with int8
@@ -211,29 +211,31 @@ mod native {
                 cf.iter().sum::<f32>() / cf.len().max(1) as f32
             );
             // How much of the mouth's motion the points keep: the spread (p95 - p5) of the
-            // mouth's width and lip-corner lift (`fit::mouth_shape`) over dlib's, and their
+            // mouth's width and lip-corner lift (`fit::mouth_shape`) and of the inner lips'
+            // opening (`fit::mouth_opening`) over dlib's, and their
             // correlation with dlib's, over the found frames.
             // Each person's mean removed first (GRID's clips are ten people: their spread
             // would be their faces', not their motion).
-            let mut shapes: Vec<[[f32; 2]; 2]> = Vec::new();
+            let mut shapes: Vec<[[f32; 3]; 2]> = Vec::new();
             let mut people = self.people.clone();
             people.sort();
             people.dedup();
             for who in people {
-                let mine: Vec<[[f32; 2]; 2]> = self
+                let mine: Vec<[[f32; 3]; 2]> = self
                     .pairs
                     .iter()
                     .zip(&self.people)
                     .filter(|(_, w)| **w == who)
                     .filter_map(|((a, b), _)| {
-                        Some([
-                            facemimic::fit::mouth_shape(a)?,
-                            facemimic::fit::mouth_shape(b)?,
-                        ])
+                        let with_opening = |p: &[f32]| {
+                            let [w, l] = facemimic::fit::mouth_shape(p)?;
+                            Some([w, l, facemimic::fit::mouth_opening(p)])
+                        };
+                        Some([with_opening(a)?, with_opening(b)?])
                     })
                     .collect();
                 let n = mine.len().max(1) as f32;
-                let mut mean = [[0f32; 2]; 2];
+                let mut mean = [[0f32; 3]; 2];
                 for s in &mine {
                     for (m, v) in mean.iter_mut().flatten().zip(s.iter().flatten()) {
                         *m += v / n;
@@ -248,7 +250,7 @@ mod native {
                 }));
             }
             if !shapes.is_empty() {
-                let motion: Vec<String> = ["width", "lift"]
+                let motion: Vec<String> = ["width", "lift", "opening"]
                     .iter()
                     .enumerate()
                     .map(|(k, name)| {
