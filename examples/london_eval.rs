@@ -70,6 +70,11 @@ mod native {
     const MOUTH_DILATION: f32 = 0.1;
     /// Smallest real change (face-frame units) an amplitude ratio is taken over.
     const MIN_REAL_CHANGE: f32 = 0.01;
+    /// Y's smile counts as one that moves the mouth when it widens it by at least this (the
+    /// face frame's eye-centre distances; a third of the real smiles' mean): the worst tenth of
+    /// pairs is also printed over those Y alone, since a Y whose "smile" hardly moves the mouth
+    /// makes any clone of X's smile a loss against the neutral photo.
+    const SMILED_WIDTH: f32 = 0.04;
     /// The contact sheet's tile side and the gap between tiles, pixels.
     const TILE: u32 = 160;
     const GAP: u32 = 4;
@@ -904,6 +909,24 @@ mod native {
                 face - n_face,
                 mean(&get(&|r| r.outcome.mouth_de)),
                 mean(&get(&|r| baselines[r.y].neutral.mouth_de)),
+            );
+        }
+        let smiled = |b: &Baseline| b.smile.width - b.neutral.shape.width >= SMILED_WIDTH;
+        let people = baselines.iter().filter(|b| smiled(b)).count();
+        for label in labels {
+            let diff: Vec<f64> = rows_of(rows, label)
+                .filter(|r| smiled(&baselines[r.y]))
+                .map(|r| r.outcome.mouth_psnr - baselines[r.y].neutral.mouth_psnr)
+                .collect();
+            let above = diff.iter().filter(|d| **d > 0.0).count() as f64 / diff.len().max(1) as f64;
+            let _ = writeln!(
+                s,
+                "\n{label}, the {} pairs whose Y's smile widens the mouth by at least {SMILED_WIDTH} \
+                 ({people} of {} people): p10 of Δ mouth {:+.2}, > neutral {:.1}%",
+                diff.len(),
+                baselines.len(),
+                quantile(&diff, 0.1),
+                100.0 * above,
             );
         }
         s
