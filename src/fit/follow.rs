@@ -207,8 +207,8 @@ pub struct Follower {
     /// The face's smoothed points in the frame (the head's turn kept, no mode projection):
     /// where its appearance is observed.
     seen_at: [f32; 136],
-    /// Whether the last frame's expression was neutral-like ([`super::neutral_like`]).
-    at_rest: bool,
+    /// How far the last frame was from rest ([`super::rest_distance`]; at rest up to 1).
+    rest: f32,
     /// The last frame's whole expression: its smoothed shape less the neutral, model
     /// coordinates ([`super::Observed::displacement`]); the head's turn to the side left out
     /// ([`split_head_yaw`]), its nod left in (a nod moves the lip corners against the lips'
@@ -290,7 +290,7 @@ impl FaceTracker for Follower {
                 .chunks_exact(2)
                 .all(|p| p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= w && p[1] <= h);
             if !covered && whole {
-                self.observed.observe(frame, &self.seen_at, self.at_rest)?;
+                self.observed.observe(frame, &self.seen_at, self.rest)?;
             }
         }
         // The follower reads the finder's face on every frame: it is tracking a face, unsure
@@ -484,7 +484,7 @@ impl Follower {
             followed: [0.0; 136],
             turn: [0.0; 136],
             seen_at: [0.0; 136],
-            at_rest: false,
+            rest: f32::INFINITY,
             deviation: [0.0; 136],
             observed: super::ObservedAppearance::new(model.frame()),
             offered: None,
@@ -683,7 +683,7 @@ impl Follower {
             *o = s + t;
         }
         pose.apply_in_place(&mut self.seen_at);
-        self.at_rest = super::at_rest(&self.shape, &self.neutral, o.mouth_margin);
+        self.rest = super::rest_distance(&self.shape, &self.neutral, o.mouth_margin);
         let r = &mut self.result;
         expression_params(
             &self.shape,

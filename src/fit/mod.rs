@@ -51,8 +51,8 @@ pub use follow::{
     Follower, REST_CORNER_LIFT, REST_MOUTH_WIDTH,
 };
 pub use observe::{
-    at_rest, neutral_like, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE, NEUTRAL_STEP,
-    NEUTRAL_WARMUP,
+    at_rest, neutral_like, rest_distance, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE,
+    NEUTRAL_STEP, NEUTRAL_WARMUP,
 };
 pub use options::{FitOptions, LevelSpec, TrackPolicy};
 pub use policy::{tracker_for, tracker_of_kind};

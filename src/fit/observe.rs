@@ -31,8 +31,9 @@ pub const NEUTRAL_MAX_MOVE: f32 = 0.05;
 /// Represents: the source model's reference frame, the last frame's appearance sampled there
 /// (`3N` RGB in `0..=1`, the frame's pixel order) and the person's neutral appearance (until a
 /// neutral-like frame comes, the prior look given to [`ObservedAppearance::with_prior`] (a
-/// person's own model's mean appearance) or else the frame's own; then the mean of the first
-/// [`NEUTRAL_WARMUP`] neutral-like frames; then a running median, [`NEUTRAL_STEP`]).
+/// person's own model's mean appearance) or else the look of the frame nearest rest so far
+/// ([`rest_distance`]); then the mean of the first [`NEUTRAL_WARMUP`] neutral-like frames;
+/// then a running median, [`NEUTRAL_STEP`]).
 ///
 /// Ensures: [`ObservedAppearance::get`] gives both once a frame was observed; each
 /// observation allocates nothing.
@@ -43,6 +44,9 @@ pub struct ObservedAppearance {
     neutral: Vec<f32>,
     neutral_frames: u32,
     seen: bool,
+    /// The [`rest_distance`] of the frame whose look is the neutral before the first
+    /// neutral-like frame (without a prior).
+    nearest: f32,
     /// The neutral until a neutral-like frame comes (empty: the frame's own).
     prior: Vec<f32>,
 }
@@ -73,6 +77,7 @@ impl ObservedAppearance {
             neutral: vec![0.0; n],
             neutral_frames: 0,
             seen: false,
+            nearest: f32::INFINITY,
             prior: Vec::new(),
         }
     }
@@ -100,30 +105,32 @@ impl ObservedAppearance {
     pub fn reset(&mut self) {
         self.seen = false;
         self.neutral_frames = 0;
+        self.nearest = f32::INFINITY;
     }
 
     /// Samples `image` at `points` (the frame's landmarks in image coordinates, `2n`) and,
-    /// when the frame is `neutral_like`, moves the neutral towards it. Fails with
-    /// [`crate::Error::Params`] (changing nothing) when `points` has another length.
-    /// Allocates nothing.
-    pub fn observe(
-        &mut self,
-        image: &ImageRef<'_>,
-        points: &[f32],
-        neutral_like: bool,
-    ) -> Result<()> {
+    /// when the frame is neutral-like (`rest`, its [`rest_distance`], at most 1), moves the
+    /// neutral towards it. Before the first neutral-like frame, without a prior, the neutral
+    /// is the look of the frame nearest rest so far (the first frame's, then any nearer
+    /// one's): a session that opens laughing shows its laugh against its least laughing
+    /// moment instead of nothing. Fails with [`crate::Error::Params`] (changing nothing) when
+    /// `points` has another length. Allocates nothing.
+    pub fn observe(&mut self, image: &ImageRef<'_>, points: &[f32], rest: f32) -> Result<()> {
         sample_rgb(&self.frame, image, points, &mut self.app)?;
+        let neutral_like = rest <= 1.0;
         if !self.seen || self.neutral_frames == 0 {
-            // Until a neutral-like frame comes, the prior is the neutral, or else the frame is
-            // its own (no expression).
+            // Until a neutral-like frame comes, the prior is the neutral, or else the frame
+            // nearest rest so far.
+            let first = !self.seen;
             self.seen = true;
             if neutral_like {
                 self.neutral.copy_from_slice(&self.app);
                 self.neutral_frames = 1;
-            } else if self.prior.is_empty() {
-                self.neutral.copy_from_slice(&self.app);
-            } else {
+            } else if !self.prior.is_empty() {
                 self.neutral.copy_from_slice(&self.prior);
+            } else if first || rest < self.nearest {
+                self.neutral.copy_from_slice(&self.app);
+                self.nearest = if rest.is_nan() { f32::INFINITY } else { rest };
             }
             return Ok(());
         }
@@ -185,6 +192,47 @@ pub fn at_rest(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> bool {
         && neutral_like(shape, neutral)
 }
 
+/// How far a frame is from rest, in units of [`at_rest`]'s limits: the larger of its farthest
+/// landmark's distance from the neutral over [`NEUTRAL_MAX_MOVE`] eye distances and its mouth's
+/// opening beyond the neutral's over `mouth_margin`. At most 1 when the frame is at rest
+/// (up to rounding at the limits); infinite when the neutral has no eye line, or the mouth
+/// is open beyond a zero margin. `shape` and `neutral` as for [`neutral_like`].
+pub fn rest_distance(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> f32 {
+    let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
+        return f32::INFINITY;
+    };
+    let iod = (ex * ex + ey * ey).sqrt();
+    if !(iod > 0.0) {
+        return f32::INFINITY;
+    }
+    let far = shape
+        .chunks_exact(2)
+        .zip(neutral.chunks_exact(2))
+        .map(|(s, n)| (s[0] - n[0]).hypot(s[1] - n[1]))
+        // A point that is not a number is never near rest (`f32::max` would skip it).
+        .fold(0.0f32, |a, d| {
+            if a.is_nan() || d.is_nan() {
+                f32::NAN
+            } else {
+                a.max(d)
+            }
+        });
+    let open = super::mouth_opening(shape) - super::mouth_opening(neutral);
+    let open = if mouth_margin > 0.0 {
+        open / mouth_margin
+    } else if open > 0.0 {
+        f32::INFINITY
+    } else {
+        0.0
+    };
+    let far = far / (NEUTRAL_MAX_MOVE * iod);
+    if far.is_nan() || open.is_nan() {
+        f32::INFINITY
+    } else {
+        far.max(open)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,6 +248,92 @@ mod tests {
     }
 
     #[test]
+    fn the_rest_distance_is_at_most_one_exactly_at_rest() {
+        let neutral: Vec<f32> = crate::canonical_frame().vertices().to_vec();
+        let [ex, ey] = crate::landmarks::eye_line(&neutral).unwrap();
+        let iod = ex.hypot(ey);
+        let margin = 0.02;
+        assert_eq!(rest_distance(&neutral, &neutral, margin), 0.0);
+        let mut rng = 0x5eed_u32;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 17;
+            rng ^= rng << 5;
+            rng as f32 / u32::MAX as f32 - 0.5
+        };
+        let (mut inside, mut outside) = (0, 0);
+        for k in 0..400 {
+            // Each point moved by up to 0.03-0.09 of the eye distance, sometimes the mouth
+            // opened (the lower inner lip down).
+            let reach = 0.06 + 0.12 * next().abs() + 0.06 * (k % 2) as f32;
+            let mut shape: Vec<f32> = neutral.iter().map(|&v| v + reach * iod * next()).collect();
+            if k % 3 == 0 {
+                for p in 65..=67 {
+                    shape[2 * p + 1] += 0.04 * iod * (next() + 0.5);
+                }
+            }
+            let d = rest_distance(&shape, &neutral, margin);
+            assert_eq!(
+                d <= 1.0,
+                at_rest(&shape, &neutral, margin),
+                "shape {k}: {d}"
+            );
+            if d <= 1.0 {
+                inside += 1;
+            } else {
+                outside += 1;
+            }
+        }
+        assert!(
+            inside > 20 && outside > 20,
+            "{inside} at rest, {outside} not"
+        );
+        // One point 1.5 limits away, or the mouth 2 margins more open: 1.5 and 2.
+        let mut far = neutral.clone();
+        far[2 * 30] += 1.5 * NEUTRAL_MAX_MOVE * iod;
+        assert!((rest_distance(&far, &neutral, margin) - 1.5).abs() < 1e-3);
+        // Nothing to measure against, or a value that is not a number: infinitely far.
+        let mut nan = neutral.clone();
+        nan[0] = f32::NAN;
+        assert_eq!(rest_distance(&nan, &neutral, margin), f32::INFINITY);
+        assert_eq!(
+            rest_distance(&neutral, &vec![0.0; 136], margin),
+            f32::INFINITY
+        );
+    }
+
+    #[test]
+    fn before_the_first_rest_the_nearest_frame_is_the_neutral() {
+        let frame = crate::canonical_frame();
+        let (laugh, points) = picture(200);
+        let (smile, _) = picture(150);
+        let (rest, _) = picture(100);
+        let laugh = ImageRef::new(400, 400, &laugh).unwrap();
+        let smile = ImageRef::new(400, 400, &smile).unwrap();
+        let rest = ImageRef::new(400, 400, &rest).unwrap();
+        let mut o = ObservedAppearance::new(frame);
+        let level = |o: &ObservedAppearance| (o.get().unwrap().neutral[0] * 255.0).round();
+        o.observe(&smile, &points, 2.0).unwrap();
+        assert_eq!(level(&o), 150.0);
+        // A farther frame (a broader laugh) does not replace it; a nearer one does.
+        o.observe(&laugh, &points, 4.0).unwrap();
+        assert_eq!(level(&o), 150.0);
+        o.observe(&laugh, &points, 1.5).unwrap();
+        assert_eq!(level(&o), 200.0);
+        assert_eq!(o.neutral_frames(), 0);
+        // The first frame at rest ends it.
+        o.observe(&rest, &points, 0.9).unwrap();
+        assert_eq!(level(&o), 100.0);
+        assert_eq!(o.neutral_frames(), 1);
+        o.observe(&smile, &points, 1.2).unwrap();
+        assert_eq!(level(&o), 100.0);
+        // A new person starts again from their first frame.
+        o.reset();
+        o.observe(&laugh, &points, 5.0).unwrap();
+        assert_eq!(level(&o), 200.0);
+    }
+
+    #[test]
     fn the_prior_is_the_neutral_until_the_person_rests() {
         let frame = crate::canonical_frame();
         let n = 3 * frame.n_pixels();
@@ -211,7 +345,7 @@ mod tests {
         let mut with = ObservedAppearance::with_prior(frame, &prior).unwrap();
         let mut without = ObservedAppearance::new(frame);
         for o in [&mut with, &mut without] {
-            o.observe(&laugh, &points, false).unwrap();
+            o.observe(&laugh, &points, f32::INFINITY).unwrap();
         }
         // A session that starts in a laugh: against the prior, the laugh shows...
         assert_eq!(with.get().unwrap().neutral, &prior[..]);
@@ -219,7 +353,7 @@ mod tests {
         let o = without.get().unwrap();
         assert_eq!(o.neutral, o.appearance);
         // A frame at rest takes over from the prior.
-        with.observe(&rest, &points, true).unwrap();
+        with.observe(&rest, &points, 0.0).unwrap();
         let o = with.get().unwrap();
         assert_eq!(o.neutral, o.appearance);
         assert!(
@@ -229,7 +363,7 @@ mod tests {
         );
         // A new person: the prior again.
         with.reset();
-        with.observe(&laugh, &points, false).unwrap();
+        with.observe(&laugh, &points, f32::INFINITY).unwrap();
         assert_eq!(with.get().unwrap().neutral, &prior[..]);
         // A prior of the wrong size is refused.
         assert!(ObservedAppearance::with_prior(frame, &prior[1..]).is_err());

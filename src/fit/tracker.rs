@@ -215,7 +215,7 @@ impl Observer {
     }
 
     /// A trusted frame: its look, and its shape's part in the neutral (the follower's rules,
-    /// [`super::neutral_update`] and [`super::at_rest`]).
+    /// [`super::neutral_update`] and [`super::rest_distance`]).
     fn observe(&mut self, frame: &ImageRef<'_>, fit: &FitResult) {
         if self
             .shape_model
@@ -225,7 +225,7 @@ impl Observer {
             return;
         }
         let o = &self.rules;
-        let at_rest = super::at_rest(&self.shape, &self.neutral, o.mouth_margin);
+        let rest = super::rest_distance(&self.shape, &self.neutral, o.mouth_margin);
         super::neutral_update(
             &mut self.neutral,
             &self.shape,
@@ -235,7 +235,7 @@ impl Observer {
             o.neutral_step,
             o.mouth_margin,
         );
-        if self.look.observe(frame, &fit.landmarks, at_rest).is_err() {
+        if self.look.observe(frame, &fit.landmarks, rest).is_err() {
             self.look.reset();
         }
     }

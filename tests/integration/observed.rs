@@ -189,17 +189,34 @@ fn the_neutral_appearance_is_the_persons_face_at_rest() {
     let mut o = ObservedAppearance::new(spk07().frame());
     assert!(o.get().is_none());
     // Seen first with the mouth open, not at rest: that frame is its own neutral (no expression).
-    o.observe(&open.image.view().unwrap(), &open.landmarks, false)
+    o.observe(&open.image.view().unwrap(), &open.landmarks, 3.0)
         .unwrap();
     let g = o.get().unwrap();
     assert_eq!(g.appearance, g.neutral);
     assert_eq!(o.neutral_frames(), 0);
-    // The first frame at rest replaces it.
-    o.observe(&closed.image.view().unwrap(), &closed.landmarks, true)
+    // Before the first frame at rest, a frame nearer rest is the neutral (a session that opens
+    // laughing shows its laugh against its least laughing moment); a farther one is not.
+    o.observe(&closed.image.view().unwrap(), &closed.landmarks, 2.0)
+        .unwrap();
+    assert_eq!(o.get().unwrap().neutral, &rest[..]);
+    o.observe(&open.image.view().unwrap(), &open.landmarks, 2.5)
+        .unwrap();
+    assert_eq!(o.get().unwrap().neutral, &rest[..]);
+    assert_eq!(o.get().unwrap().appearance, &laugh[..]);
+    assert_eq!(o.neutral_frames(), 0);
+    // The first frame at rest replaces it, whatever came before.
+    o.observe(&open.image.view().unwrap(), &open.landmarks, 1.0)
+        .unwrap();
+    assert_eq!(o.get().unwrap().neutral, &laugh[..]);
+    assert_eq!(o.neutral_frames(), 1);
+    o.reset();
+    o.observe(&open.image.view().unwrap(), &open.landmarks, 3.0)
+        .unwrap();
+    o.observe(&closed.image.view().unwrap(), &closed.landmarks, 0.0)
         .unwrap();
     assert_eq!(o.get().unwrap().neutral, &rest[..]);
     // An expression does not move it, while it is observed.
-    o.observe(&open.image.view().unwrap(), &open.landmarks, false)
+    o.observe(&open.image.view().unwrap(), &open.landmarks, 3.0)
         .unwrap();
     assert_eq!(o.get().unwrap().neutral, &rest[..]);
     assert_eq!(o.get().unwrap().appearance, &laugh[..]);
@@ -208,7 +225,7 @@ fn the_neutral_appearance_is_the_persons_face_at_rest() {
     assert!(o.get().is_none());
     // Wrong lengths are refused.
     assert!(o
-        .observe(&open.image.view().unwrap(), &open.landmarks[2..], true)
+        .observe(&open.image.view().unwrap(), &open.landmarks[2..], 0.0)
         .is_err());
 }
 
@@ -316,6 +333,7 @@ fn a_session_that_opens_laughing_starts_from_a_closed_mouth() {
         .map(|t| mouth_opening(&cloner.target(t).shape().base))
         .collect();
     let (mut opened, mut n) = (0.0, 0);
+    let (mut shown, mut looks) = (0.0, 0);
     for (i, path) in paths.iter().enumerate().take(51) {
         let t = io::read_training_image(path).unwrap();
         let fit = follower
@@ -330,6 +348,14 @@ fn a_session_that_opens_laughing_starts_from_a_closed_mouth() {
             );
         }
         if i >= 10 && i % 5 == 0 {
+            // The laugh's look against the neutral look: before the person first rests, the
+            // look of the frame nearest rest so far.
+            let seen = follower.observed().unwrap();
+            let luma =
+                |a: &[f32]| -> Vec<f32> { a.chunks_exact(3).map(facemimic::clone::luma).collect() };
+            let (a, b) = (luma(seen.appearance), luma(seen.neutral));
+            shown += a.iter().zip(&b).map(|(x, y)| (x - y).abs()).sum::<f32>() / a.len() as f32;
+            looks += 1;
             cloner.set_observed(follower.observed()).unwrap();
             cloner
                 .clone_frame(&fit.params, &CloneOptions::default())
@@ -341,8 +367,10 @@ fn a_session_that_opens_laughing_starts_from_a_closed_mouth() {
         }
     }
     let opened = opened / n as f32;
-    eprintln!("  franck-dev2's opening laugh (frames 10-50): the targets' mouths open {opened:.3} beyond their base");
+    let shown = shown / looks as f32;
+    eprintln!("  franck-dev2's opening laugh (frames 10-50): the targets' mouths open {opened:.3} beyond their base; the look differs from the neutral look by {shown:.4} in luminance");
     assert!(opened >= OPENING_LAUGH, "{opened}");
+    assert!(shown >= OPENING_LOOK, "{shown}");
 }
 
 /// The least accepted mouth opening (inner lips over the outer eye corners' distance) beyond
@@ -570,3 +598,9 @@ fn a_change_of_light_fades_from_the_targets() {
     eprintln!("  the light's trace on the target: frames 26-35 {early:.4}, the last 10 {late:.4}");
     assert!(late < 0.5 * early, "{early} -> {late}");
 }
+
+/// The least accepted mean luminance difference between the observed look and the neutral
+/// look over franck-dev2's opening laugh (frames 10-50, every 5th), before the person first
+/// rests: 0.0225 measured with the look of the frame nearest rest so far as the neutral (29
+/// Nov), 0.0000 when each frame was its own neutral until then (the laugh showed no shading).
+const OPENING_LOOK: f32 = 0.015;
