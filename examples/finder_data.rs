@@ -7,7 +7,8 @@
 //! these frames give). Run it after `examples/mesh_table.rs` and after any change of weights.
 //!
 //! `cargo run --release --example finder_data -- local` then learns the local correction
-//! (`src/find/local.rs`) from the same frames and their mirror images, the finder's calibrated
+//! (`src/find/local.rs`) from the same frames and the London set's 120 photos
+//! (`find::training_images`: `data/grid` and `data/london`) and their mirror images, the finder's calibrated
 //! points against dlib's (`find::LocalCorrection::learn_from_images` with
 //! `find::LearnOptions::default()`), and writes `data/weights/local_correction.fmlc`
 //! (`find::local`'s test `weights_are_reproducible` checks the committed file against it).
@@ -46,8 +47,8 @@ mod native {
     fn local() {
         let mut finder = FaceFinder::new().expect("the shipped weights");
         let mut frames = Vec::new();
-        for p in annotated_images(&Path::new(ROOT).join("data/grid")).expect("data/grid") {
-            let img = read_image(&p).expect("a GRID frame");
+        for p in find::training_images(Path::new(ROOT)).expect("data/grid and data/london") {
+            let img = read_image(&p).expect("a committed image");
             let truth = read_landmarks(&p.with_extension("pts"), img.width, img.height)
                 .expect("its landmarks");
             frames.push((img, truth));

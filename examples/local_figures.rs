@@ -2,7 +2,8 @@
 //! learned from: the shared GRID frames (../shared/data/grid, 825 frames) split by speaker;
 //! the convention offsets learned on every frame of speakers 1-5 (as
 //! `examples/calibration_figures.rs` does), the local correction on their committed frames
-//! (`data/grid`, as `examples/finder_data.rs local` learns the shipped one), both measured on
+//! and the London set's committed photos (`data/grid`, `data/london`, as
+//! `examples/finder_data.rs local` learns the shipped one), both measured on
 //! every frame of speakers 6-10; and the other way round. One look and the precise mode
 //! (`FindOptions::mirror`: each look calibrated and corrected in its own image, the mirror
 //! image's points mirrored back and averaged; here the mirror image's look starts from its
@@ -114,6 +115,9 @@ mod native {
         };
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
         let grid = frames(&root.join("grid"));
+        // The London set's committed photos, which the shipped correction learns from too
+        // (`find::training_images`); they are no GRID speaker's, so both halves learn from them.
+        let london = frames(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/london"));
         let mut scratch = LocalScratch::default();
         println!("stages' steps {:?}", options.scales);
         for (train, test) in [((1, 5), (6, 10)), ((6, 10), (1, 5))] {
@@ -131,7 +135,9 @@ mod native {
             let mirrored = options.mirror;
             let learn: Vec<(&Image, Vec<f32>, &[f32])> = tr
                 .iter()
+                .copied()
                 .filter(|f| committed(&f.path))
+                .chain(&london)
                 .flat_map(|f| {
                     let mut v = vec![(&f.image, calibrated(&f.raw, &o), f.truth.as_slice())];
                     if mirrored {

@@ -611,8 +611,8 @@ mod reproducible {
 
     #[test]
     fn weights_are_reproducible() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/grid");
-        let frames: Vec<_> = annotated_images(&dir)
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let frames: Vec<_> = super::super::training_images(root)
             .unwrap()
             .into_iter()
             .map(|p| {
@@ -630,7 +630,7 @@ mod reproducible {
             LocalCorrection::learn_from_images(&mut finder, &views, &LearnOptions::default())
                 .unwrap();
         assert!(
-            n >= 640,
+            n >= 890,
             "{n} samples from {} committed frames",
             frames.len()
         );

@@ -30,7 +30,7 @@ pub use calibration::{
 };
 pub use finder::FaceFinder;
 pub use local::{local_descriptor, LocalCorrection, LocalScratch};
-pub use local_learn::{LearnOptions, LearnSample};
+pub use local_learn::{training_images, LearnOptions, LearnSample};
 
 pub use crate::geometry::BBox;
 
