@@ -607,12 +607,12 @@ mod tests {
 mod reproducible {
     use super::*;
     use crate::find::{FaceFinder, LearnOptions};
-    use crate::io::{annotated_images, read_image, read_landmarks};
+    use crate::io::{read_image, read_landmarks};
 
     #[test]
     fn weights_are_reproducible() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let frames: Vec<_> = super::super::training_images(root)
+        let frames: Vec<_> = crate::find::training_images(root)
             .unwrap()
             .into_iter()
             .map(|p| {
