@@ -17,7 +17,8 @@ use nalgebra::{DMatrix, DVector};
 /// London set's 120 photos of 60 people, neutral and smiling (`data/london`), both CC BY 4.0,
 /// in path order. The London photos were added on 29 Nov: GRID never laughs, and with them the
 /// finder reads a laugh's mouth opening nearer dlib's and every held-out clip's mean error is
-/// lower (docs/finding.md, "Learned from London's faces too").
+/// lower (docs/finding.md, "Learned from London's faces too"). Native only (it reads folders).
+#[cfg(not(target_arch = "wasm32"))]
 pub fn training_images(root: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
     let mut paths = crate::io::annotated_images(&root.join("data/grid"))?;
     paths.extend(crate::io::annotated_images(&root.join("data/london"))?);

@@ -30,7 +30,9 @@ pub use calibration::{
 };
 pub use finder::FaceFinder;
 pub use local::{local_descriptor, LocalCorrection, LocalScratch};
-pub use local_learn::{training_images, LearnOptions, LearnSample};
+#[cfg(not(target_arch = "wasm32"))]
+pub use local_learn::training_images;
+pub use local_learn::{LearnOptions, LearnSample};
 
 pub use crate::geometry::BBox;
 
