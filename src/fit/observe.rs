@@ -186,17 +186,16 @@ pub fn neutral_like(shape: &[f32], neutral: &[f32]) -> bool {
 
 /// Whether a frame is at rest: its expression neutral-like ([`neutral_like`]) and its mouth no
 /// more open than the neutral's plus `mouth_margin` ([`super::mouth_opening`]): the frames
-/// whose look enters the person's neutral look.
+/// whose look enters the person's neutral look. Its [`rest_distance`] is at most 1.
 pub fn at_rest(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> bool {
-    super::mouth_opening(shape) <= super::mouth_opening(neutral) + mouth_margin
-        && neutral_like(shape, neutral)
+    rest_distance(shape, neutral, mouth_margin) <= 1.0
 }
 
 /// How far a frame is from rest, in units of [`at_rest`]'s limits: the larger of its farthest
 /// landmark's distance from the neutral over [`NEUTRAL_MAX_MOVE`] eye distances and its mouth's
-/// opening beyond the neutral's over `mouth_margin`. At most 1 when the frame is at rest
-/// (up to rounding at the limits); infinite when the neutral has no eye line, or the mouth
-/// is open beyond a zero margin. `shape` and `neutral` as for [`neutral_like`].
+/// opening beyond the neutral's over `mouth_margin`: at most 1 when the frame is at rest
+/// ([`at_rest`]); infinite when the neutral has no eye line, a value is not a number, or the
+/// mouth is open beyond a zero margin. `shape` and `neutral` as for [`neutral_like`].
 pub fn rest_distance(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> f32 {
     let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
         return f32::INFINITY;
@@ -273,11 +272,12 @@ mod tests {
                 }
             }
             let d = rest_distance(&shape, &neutral, margin);
-            assert_eq!(
-                d <= 1.0,
-                at_rest(&shape, &neutral, margin),
-                "shape {k}: {d}"
-            );
+            // The two rules at rest: neutral-like, the mouth no more open than a margin.
+            let rules = neutral_like(&shape, &neutral)
+                && super::super::mouth_opening(&shape)
+                    <= super::super::mouth_opening(&neutral) + margin;
+            assert_eq!(d <= 1.0, rules, "shape {k}: {d}");
+            assert_eq!(at_rest(&shape, &neutral, margin), rules);
             if d <= 1.0 {
                 inside += 1;
             } else {
@@ -292,6 +292,13 @@ mod tests {
         let mut far = neutral.clone();
         far[2 * 30] += 1.5 * NEUTRAL_MAX_MOVE * iod;
         assert!((rest_distance(&far, &neutral, margin) - 1.5).abs() < 1e-3);
+        let mut open = neutral.clone();
+        for p in 65..=67 {
+            open[2 * p + 1] += 2.0 * margin * iod;
+        }
+        let d = rest_distance(&open, &neutral, margin);
+        assert!(d > 1.9 && d < 2.1, "{d}");
+        assert!(!at_rest(&open, &neutral, margin));
         // Nothing to measure against, or a value that is not a number: infinitely far.
         let mut nan = neutral.clone();
         nan[0] = f32::NAN;
