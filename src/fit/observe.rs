@@ -166,22 +166,35 @@ impl ObservedAppearance {
     }
 }
 
+/// The farthest landmark's distance from the neutral and the neutral-like limit
+/// ([`NEUTRAL_MAX_MOVE`] of the neutral's outer eye corners' distance); the distance is NaN
+/// when a value is not a number, and `None` when the neutral has no eye line.
+fn farthest_move(shape: &[f32], neutral: &[f32]) -> Option<(f32, f32)> {
+    let [ex, ey] = crate::landmarks::eye_line(neutral)?;
+    let iod = (ex * ex + ey * ey).sqrt();
+    if !(iod > 0.0) {
+        return None;
+    }
+    let far = shape
+        .chunks_exact(2)
+        .zip(neutral.chunks_exact(2))
+        .map(|(s, n)| (s[0] - n[0]).hypot(s[1] - n[1]))
+        // A point that is not a number is never near rest (`f32::max` would skip it).
+        .fold(0.0f32, |a, d| {
+            if a.is_nan() || d.is_nan() {
+                f32::NAN
+            } else {
+                a.max(d)
+            }
+        });
+    Some((far, NEUTRAL_MAX_MOVE * iod))
+}
+
 /// Whether a frame's expression is neutral-like ([`NEUTRAL_MAX_MOVE`]): `shape` and `neutral`
 /// are 68-point shapes in one coordinate frame (the follower's model coordinates). Its
 /// mouth opening is not checked here ([`at_rest`] does both).
 pub fn neutral_like(shape: &[f32], neutral: &[f32]) -> bool {
-    let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
-        return false;
-    };
-    let iod = (ex * ex + ey * ey).sqrt();
-    if !(iod > 0.0) {
-        return false;
-    }
-    let lim = NEUTRAL_MAX_MOVE * iod;
-    shape
-        .chunks_exact(2)
-        .zip(neutral.chunks_exact(2))
-        .all(|(s, n)| (s[0] - n[0]).hypot(s[1] - n[1]) <= lim)
+    farthest_move(shape, neutral).is_some_and(|(far, lim)| far <= lim)
 }
 
 /// Whether a frame is at rest: its expression neutral-like ([`neutral_like`]) and its mouth no
@@ -197,25 +210,9 @@ pub fn at_rest(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> bool {
 /// ([`at_rest`]); infinite when the neutral has no eye line, a value is not a number, or the
 /// mouth is open beyond a zero margin. `shape` and `neutral` as for [`neutral_like`].
 pub fn rest_distance(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> f32 {
-    let Some([ex, ey]) = crate::landmarks::eye_line(neutral) else {
+    let Some((far, lim)) = farthest_move(shape, neutral) else {
         return f32::INFINITY;
     };
-    let iod = (ex * ex + ey * ey).sqrt();
-    if !(iod > 0.0) {
-        return f32::INFINITY;
-    }
-    let far = shape
-        .chunks_exact(2)
-        .zip(neutral.chunks_exact(2))
-        .map(|(s, n)| (s[0] - n[0]).hypot(s[1] - n[1]))
-        // A point that is not a number is never near rest (`f32::max` would skip it).
-        .fold(0.0f32, |a, d| {
-            if a.is_nan() || d.is_nan() {
-                f32::NAN
-            } else {
-                a.max(d)
-            }
-        });
     let open = super::mouth_opening(shape) - super::mouth_opening(neutral);
     let open = if mouth_margin > 0.0 {
         open / mouth_margin
@@ -224,7 +221,7 @@ pub fn rest_distance(shape: &[f32], neutral: &[f32], mouth_margin: f32) -> f32 {
     } else {
         0.0
     };
-    let far = far / (NEUTRAL_MAX_MOVE * iod);
+    let far = far / lim;
     if far.is_nan() || open.is_nan() {
         f32::INFINITY
     } else {
