@@ -877,6 +877,11 @@ mod native {
         f[i] + u * (f[(i + 1).min(f.len() - 1)] - f[i])
     }
 
+    /// The share of `diff` above 0 (the pairs whose clone beats the neutral photo).
+    fn share_above(diff: &[f64]) -> f64 {
+        diff.iter().filter(|d| **d > 0.0).count() as f64 / diff.len().max(1) as f64
+    }
+
     /// The rows of `label`.
     fn rows_of<'a>(rows: &'a [Row], label: &'a str) -> impl Iterator<Item = &'a Row> + 'a {
         rows.iter().filter(move |r| r.label == label)
@@ -894,7 +899,7 @@ mod native {
             let mouth = get(&|r| r.outcome.mouth_psnr);
             let n_mouth = get(&|r| baselines[r.y].neutral.mouth_psnr);
             let diff: Vec<f64> = mouth.iter().zip(&n_mouth).map(|(a, b)| a - b).collect();
-            let above = diff.iter().filter(|d| **d > 0.0).count() as f64 / r.len().max(1) as f64;
+            let above = share_above(&diff);
             let face = mean(&get(&|r| r.outcome.face_psnr));
             let n_face = mean(&get(&|r| baselines[r.y].neutral.face_psnr));
             let _ = writeln!(
@@ -918,7 +923,7 @@ mod native {
                 .filter(|r| smiled(&baselines[r.y]))
                 .map(|r| r.outcome.mouth_psnr - baselines[r.y].neutral.mouth_psnr)
                 .collect();
-            let above = diff.iter().filter(|d| **d > 0.0).count() as f64 / diff.len().max(1) as f64;
+            let above = share_above(&diff);
             let _ = writeln!(
                 s,
                 "\n{label}, the {} pairs whose Y's smile widens the mouth by at least {SMILED_WIDTH} \
