@@ -188,36 +188,34 @@ fn the_neutral_appearance_is_the_persons_face_at_rest() {
     let (rest, laugh) = (sampled(&closed), sampled(&open));
     let mut o = ObservedAppearance::new(spk07().frame());
     assert!(o.get().is_none());
+    // The open or the closed frame observed at a rest distance.
+    let see = |o: &mut ObservedAppearance, t: &TrainingImage, rest: f32| {
+        o.observe(&t.image.view().unwrap(), &t.landmarks, rest)
+            .unwrap()
+    };
     // Seen first with the mouth open, not at rest: that frame is its own neutral (no expression).
-    o.observe(&open.image.view().unwrap(), &open.landmarks, 3.0)
-        .unwrap();
+    see(&mut o, &open, 3.0);
     let g = o.get().unwrap();
     assert_eq!(g.appearance, g.neutral);
     assert_eq!(o.neutral_frames(), 0);
     // Before the first frame at rest, a frame nearer rest is the neutral (a session that opens
     // laughing shows its laugh against its least laughing moment); a farther one is not.
-    o.observe(&closed.image.view().unwrap(), &closed.landmarks, 2.0)
-        .unwrap();
+    see(&mut o, &closed, 2.0);
     assert_eq!(o.get().unwrap().neutral, &rest[..]);
-    o.observe(&open.image.view().unwrap(), &open.landmarks, 2.5)
-        .unwrap();
+    see(&mut o, &open, 2.5);
     assert_eq!(o.get().unwrap().neutral, &rest[..]);
     assert_eq!(o.get().unwrap().appearance, &laugh[..]);
     assert_eq!(o.neutral_frames(), 0);
     // The first frame at rest replaces it, whatever came before.
-    o.observe(&open.image.view().unwrap(), &open.landmarks, 1.0)
-        .unwrap();
+    see(&mut o, &open, 1.0);
     assert_eq!(o.get().unwrap().neutral, &laugh[..]);
     assert_eq!(o.neutral_frames(), 1);
     o.reset();
-    o.observe(&open.image.view().unwrap(), &open.landmarks, 3.0)
-        .unwrap();
-    o.observe(&closed.image.view().unwrap(), &closed.landmarks, 0.0)
-        .unwrap();
+    see(&mut o, &open, 3.0);
+    see(&mut o, &closed, 0.0);
     assert_eq!(o.get().unwrap().neutral, &rest[..]);
     // An expression does not move it, while it is observed.
-    o.observe(&open.image.view().unwrap(), &open.landmarks, 3.0)
-        .unwrap();
+    see(&mut o, &open, 3.0);
     assert_eq!(o.get().unwrap().neutral, &rest[..]);
     assert_eq!(o.get().unwrap().appearance, &laugh[..]);
     // A new person: forgotten.
