@@ -24,6 +24,13 @@ pub const MIRROR_68: [usize; 68] = [
 /// and their distance the unit of every landmark error and of the compositor's rings.
 pub const OUTER_EYE_CORNERS: [usize; 2] = [36, 45];
 
+/// The iBUG-68 points an expression hardly moves: the nose (27-35) and the eye corners (36, 39,
+/// 42, 45). The similarity between two shapes of one face fitted on these alone
+/// ([`crate::Similarity::align_points`]) is the head's own motion; fitted on all 68, a laugh's
+/// dropped jaw and widened mouth pull it too, and part of the laugh is taken for the head
+/// growing and moving.
+pub const STABLE_POINTS: [usize; 13] = [27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 39, 42, 45];
+
 /// The vector from the left outer eye corner to the right one of a 68-point shape
 /// (interleaved `x, y`), or `None` for another number of points.
 pub fn eye_line(points: &[f32]) -> Option<[f32; 2]> {

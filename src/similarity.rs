@@ -188,6 +188,23 @@ impl Similarity {
             ty: (dy - (f.b * sx + f.a * sy)) as f32,
         }
     }
+
+    /// [`Similarity::align`] of the points `indices` of `src` onto the same points of `dst`
+    /// (both interleaved; e.g. [`crate::landmarks::STABLE_POINTS`]). Indices past either
+    /// shape's end are skipped, and at most 68 points are used. Allocates nothing.
+    pub fn align_points(src: &[f32], dst: &[f32], indices: &[usize]) -> Similarity {
+        let (mut a, mut b) = ([0f32; 136], [0f32; 136]);
+        let mut n = 0;
+        for &i in indices {
+            if n == 68 || i >= src.len().min(dst.len()) / 2 {
+                continue;
+            }
+            a[2 * n..2 * n + 2].copy_from_slice(&src[2 * i..2 * i + 2]);
+            b[2 * n..2 * n + 2].copy_from_slice(&dst[2 * i..2 * i + 2]);
+            n += 1;
+        }
+        Similarity::align(&a[..2 * n], &b[..2 * n])
+    }
 }
 
 /// The crate's one least-squares similarity fit (Umeyama without reflection), in f64: the

@@ -24,9 +24,7 @@ pub const MAX_PRIOR_MODES: usize = 24;
 /// Share of the displacements' second moment the kept modes explain.
 const KEPT_SHARE: f64 = 0.98;
 
-/// The landmarks a similarity between two faces of one person is fitted on: the nose (27-35)
-/// and the eye corners (36, 39, 42, 45), which an expression hardly moves.
-pub const STABLE_POINTS: [usize; 13] = [27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 39, 42, 45];
+pub use crate::landmarks::STABLE_POINTS;
 
 /// Neutral and expressed shapes of people, a pair each (68 points, image coordinates).
 pub type ShapePairs = Vec<(Vec<f32>, Vec<f32>)>;
@@ -62,15 +60,9 @@ pub fn expression_displacement(
             "an expression displacement needs 68-point shapes".into(),
         ));
     }
-    let pick = |s: &[f32]| -> Vec<f32> {
-        STABLE_POINTS
-            .iter()
-            .flat_map(|&i| [s[2 * i], s[2 * i + 1]])
-            .collect()
-    };
     let mut out = vec![0f32; 136];
     for (shape, sign) in [(expressed, 1.0f32), (neutral, -1.0)] {
-        let sim = Similarity::align(&pick(shape), &pick(base));
+        let sim = Similarity::align_points(shape, base, &STABLE_POINTS);
         if !sim.is_valid() {
             return Err(Error::Landmarks(
                 "degenerate landmarks for an expression displacement".into(),

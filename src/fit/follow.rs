@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use crate::filter::OneEuro;
 use crate::find::{BBox, FaceFinder};
 use crate::image::ImageRef;
+use crate::landmarks::STABLE_POINTS;
 use crate::model::limits::{check_face_box, check_landmarks_len};
 use crate::model::Model;
 use crate::similarity::Similarity;
@@ -134,7 +135,9 @@ impl FollowOptions {
 ///    [`Follower::offer_faces`](crate::fit::FaceTracker::offer_faces) are used) and the face nearest the last one is taken. No face:
 ///    the frame is lost.
 /// 2. **Expression.** The pose `P` is the least-squares similarity from the neutral shape `n`
-///    onto the smoothed points, and the frame's shape in model coordinates is
+///    onto the points, fitted on the nose and the eye corners ([`STABLE_POINTS`], which an
+///    expression hardly moves; over all 68 a laugh's jaw and mouth pulled it, and the laugh
+///    arrived weaker), and the frame's shape in model coordinates is
 ///    `x = P^-1(points)`, smoothed by a One-Euro filter (in model coordinates, so a moving
 ///    head is not lagged; speeds in eye distances per second, [`FollowOptions::min_cutoff`],
 ///    [`FollowOptions::beta`]; restarted when the face is acquired again); the expression is
@@ -627,7 +630,10 @@ impl Follower {
             self.seen = true;
         }
         // The pose of the neutral onto the points, and the points in model coordinates.
-        let pose = Similarity::align(&self.neutral, &self.points);
+        // Fitted on the points an expression hardly moves (the nose and the eye corners): over
+        // all 68, a laugh's dropped jaw and widened mouth pulled the pose, and part of the laugh
+        // was taken for the head growing and moving.
+        let pose = Similarity::align_points(&self.neutral, &self.points, &STABLE_POINTS);
         let Some(inv) = pose.inverse() else {
             // Degenerate points (all in one place): no face.
             self.following = false;
@@ -704,7 +710,12 @@ impl Follower {
                 .zip(mode)
                 .for_each(|(o, s)| *o += pi * s);
         }
-        pose.apply(&self.followed, &mut r.landmarks);
+        // Placed on the points by all 68 of them, as the face the source model can express
+        // fits them best (the pose above is the head's alone: the part of a laugh the model
+        // cannot express would be left as an offset of the jaw).
+        let place = Similarity::align(&self.followed, &self.points);
+        let place = if place.is_valid() { place } else { pose };
+        place.apply(&self.followed, &mut r.landmarks);
         r.params.pose = pose.compose(&Similarity::align(&self.base, &self.neutral));
         r.params.appearance.clear();
         r.params.appearance.resize(self.appearance_modes, 0.0);
