@@ -192,6 +192,9 @@ impl Similarity {
     /// [`Similarity::align`] of the points `indices` of `src` onto the same points of `dst`
     /// (both interleaved; e.g. [`crate::landmarks::STABLE_POINTS`]). Indices past either
     /// shape's end are skipped, and at most 68 points are used. Allocates nothing.
+    ///
+    /// The follower fits a frame's pose so ([`crate::fit::Follower`]), and the expression
+    /// prior aligns a face's two photos so ([`crate::clone::expression_displacement`]).
     pub fn align_points(src: &[f32], dst: &[f32], indices: &[usize]) -> Similarity {
         let (mut a, mut b) = ([0f32; 136], [0f32; 136]);
         let mut n = 0;
@@ -308,6 +311,36 @@ mod tests {
         for (a, b) in [(p.a, q.a), (p.b, q.b), (p.tx, q.tx), (p.ty, q.ty)] {
             assert!((a - b).abs() < 1e-4, "{p:?} != {q:?}");
         }
+    }
+
+    /// A laugh (the jaw 0-16 and the mouth 48-67 dropped by a fifth of the eye distance, the
+    /// mouth widened by a tenth) seen through a known head pose: the pose fitted on the
+    /// stable points is that head pose, while the one fitted on all 68 points is pulled.
+    #[test]
+    fn the_stable_points_give_the_heads_pose_whatever_the_laugh() {
+        use crate::landmarks::STABLE_POINTS;
+        let neutral = crate::canonical_frame().vertices().to_vec();
+        let iod = crate::landmarks::eye_line(&neutral)
+            .map(|[x, y]| x.hypot(y))
+            .unwrap();
+        let mouth_x = (48..68).map(|i| neutral[2 * i]).sum::<f32>() / 20.0;
+        let mut laugh = neutral.clone();
+        for i in (0..17).chain(48..68) {
+            laugh[2 * i + 1] += 0.2 * iod;
+        }
+        for i in 48..68 {
+            laugh[2 * i] = mouth_x + 1.1 * (laugh[2 * i] - mouth_x);
+        }
+        let head = Similarity::from_parts(1.3, 0.2, 40.0, -25.0);
+        let mut seen = laugh.clone();
+        head.apply_in_place(&mut seen);
+        assert_close(&Similarity::align_points(&neutral, &seen, &STABLE_POINTS), &head);
+        let all = Similarity::align(&neutral, &seen);
+        let off = (all.scale() / head.scale() - 1.0).abs() + (all.ty - head.ty).abs() / iod;
+        assert!(off > 0.02, "all 68 points: {all:?} against {head:?}");
+        // Indices past the shapes' end are skipped.
+        let some = Similarity::align_points(&neutral, &seen, &[27, 30, 36, 45, 500, usize::MAX]);
+        assert_close(&some, &head);
     }
 
     #[test]
