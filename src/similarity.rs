@@ -334,7 +334,10 @@ mod tests {
         let head = Similarity::from_parts(1.3, 0.2, 40.0, -25.0);
         let mut seen = laugh.clone();
         head.apply_in_place(&mut seen);
-        assert_close(&Similarity::align_points(&neutral, &seen, &STABLE_POINTS), &head);
+        assert_close(
+            &Similarity::align_points(&neutral, &seen, &STABLE_POINTS),
+            &head,
+        );
         let all = Similarity::align(&neutral, &seen);
         let off = (all.scale() / head.scale() - 1.0).abs() + (all.ty - head.ty).abs() / iod;
         assert!(off > 0.02, "all 68 points: {all:?} against {head:?}");

@@ -63,6 +63,10 @@ pub struct Followed {
     pub landmarks: Vec<Vec<f32>>,
     /// spk02's mouth opening, cloned by `map`, per frame.
     pub target_mouth: Vec<f32>,
+    /// The mouth's width and lip-corner lift ([`mouth_features`]) of the source model's base
+    /// shape moved by the follower's observed displacement (what the expressive method
+    /// clones), per frame; zeros without one.
+    pub displaced_mouth: Vec<[f32; 2]>,
     /// Frames lost.
     pub lost: u32,
     /// Faces found by the finder.
@@ -84,6 +88,8 @@ pub fn follow(source: &Model, frames: &[TrainingImage], options: FollowOptions) 
     };
     let mut landmarks = Vec::with_capacity(frames.len());
     let mut target_mouth = Vec::with_capacity(frames.len());
+    let mut displaced_mouth = Vec::with_capacity(frames.len());
+    let mut displaced = source.shape().base.clone();
     let mut secs = 0.0;
     for t in frames {
         let view = t.image.view().unwrap();
@@ -91,12 +97,23 @@ pub fn follow(source: &Model, frames: &[TrainingImage], options: FollowOptions) 
         let r = f.track(&view, 1.0 / 25.0).unwrap();
         secs += t0.elapsed().as_secs_f64();
         landmarks.push(r.landmarks.clone());
-        cloner.clone_frame(&r.params, &clone_options).unwrap();
+        let params = r.params.clone();
+        displaced_mouth.push(match f.observed().and_then(|o| o.displacement) {
+            Some(d) => {
+                for ((o, b), d) in displaced.iter_mut().zip(&source.shape().base).zip(d) {
+                    *o = b + d;
+                }
+                mouth_features(&displaced)
+            }
+            None => [0.0; 2],
+        });
+        cloner.clone_frame(&params, &clone_options).unwrap();
         target_mouth.push(mouth_opening(cloner.target_shape(0)));
     }
     Followed {
         landmarks,
         target_mouth,
+        displaced_mouth,
         lost: f.sequence().lost_count(),
         reacquisitions: f.sequence().reacquisitions(),
         ms_per_frame: 1e3 * secs / frames.len() as f64,
