@@ -25,10 +25,15 @@
 //!   points, each against that convention's own face at rest (the per-coordinate median of
 //!   the clip's closed-mouth frontal frames, by dlib's points: the inner lips under 0.03 of
 //!   the eye corners' distance apart, the nose tip within 0.03 of it from their midpoint;
-//!   each aligned onto the follower's neutral by a similarity of all 68 points):
+//!   the rest aligned onto the follower's neutral by a similarity of all 68 points, each frame
+//!   onto the rest by one of the nose and the eye corners, `STABLE_POINTS`, as the follower
+//!   poses a frame):
 //!   `dlib` (the clip's own landmarks: what a perfect landmarker would give), `finder` (the
 //!   face finder's points on each frame, unsmoothed). An oracle (the rest is taken from the
-//!   whole clip, future frames included), for measuring only.
+//!   whole clip, future frames included), for measuring only. With `--own`, `dlib` replaces the
+//!   AAM tracker's shape parameters with dlib's points projected into franck's model
+//!   (`Model::project`), the tracker's pose, appearance and observed look kept: what the
+//!   tracker's reading of the shape costs.
 //! - **A tracker setting's effect** (`--own --fit-options JSON`): franck's AAM tracker with the
 //!   given `FitOptions` fields over the defaults, e.g. `'{"shape_prior": 0}'`.
 //!
@@ -104,7 +109,8 @@ mod native {
         fit_options: Option<String>,
         /// The dumped clones' shape displacement: the follower's own, or (an oracle, for
         /// measuring where a laugh is lost) dlib's points or the finder's, each against its
-        /// convention's face at rest over the clip. Not with `--own`.
+        /// convention's face at rest over the clip. With `--own`, `dlib` only: the tracker's
+        /// shape parameters replaced by dlib's points projected into the model.
         #[arg(long, value_enum, default_value_t = Displacement::Follower)]
         displacement: Displacement,
     }
@@ -165,9 +171,9 @@ mod native {
         if args.every == 0 {
             return Err(Error::Params("--every must be at least 1".into()));
         }
-        if args.own && args.displacement != Displacement::Follower {
+        if args.own && args.displacement == Displacement::Finder {
             return Err(Error::Params(
-                "--displacement is for the follower, not --own".into(),
+                "--displacement finder is for the follower, not --own".into(),
             ));
         }
         let data = args
@@ -242,7 +248,13 @@ mod native {
         if let Some(out) = &args.dump_dir {
             let oracle = match args.displacement {
                 Displacement::Follower => None,
-                d => Some(Oracle::new(&paths, &laughs, d, &source.shape().base)?),
+                Displacement::Dlib if args.own => Some(Oracle::Projected),
+                d => Some(Oracle::Rest(RestOracle::new(
+                    &paths,
+                    &laughs,
+                    d,
+                    &source.shape().base,
+                )?)),
             };
             dump(
                 out,
@@ -271,18 +283,25 @@ mod native {
         ((nx * ex + ny * ey) / d2).abs() <= REST_TURN
     }
 
+    /// Where the dumped clones' shape comes from instead of the tracker's.
+    enum Oracle {
+        /// Another convention's points against their face at rest (the follower's path).
+        Rest(RestOracle),
+        /// dlib's points projected into the person's own model (`--own`): the tracker's shape
+        /// parameters replaced.
+        Projected,
+    }
+
     /// Shapes of the clip in one convention (dlib's or the finder's): each laughing frame's,
     /// and the face at rest (the median of the closed-mouth frontal frames').
-    struct Oracle {
+    struct RestOracle {
         /// The laughing frames' points (image coordinates), by frame index.
         frames: Vec<(usize, Vec<f32>)>,
         /// The face at rest, aligned onto the source model's base.
         rest: Vec<f32>,
-        /// The source model's base shape (model coordinates).
-        base: Vec<f32>,
     }
 
-    impl Oracle {
+    impl RestOracle {
         /// Reads (or, for [`Displacement::Finder`], finds) the points of `laughs` and of every
         /// closed-mouth frontal frame of the clip; `base` is the source model's base shape.
         fn new(
@@ -290,7 +309,7 @@ mod native {
             laughs: &[usize],
             whose: Displacement,
             base: &[f32],
-        ) -> Result<Oracle> {
+        ) -> Result<RestOracle> {
             let finder = whose == Displacement::Finder;
             let mut find = if finder {
                 Some(facemimic::FaceFinder::new()?)
@@ -353,20 +372,18 @@ mod native {
                 aligned.len(),
                 frames.len()
             );
-            Ok(Oracle {
-                frames,
-                rest,
-                base: base.to_vec(),
-            })
+            Ok(RestOracle { frames, rest })
         }
 
-        /// Frame `i`'s displacement from the rest, both aligned onto the source model's base
-        /// (its coordinates, as the follower's neutral) by a similarity of all their points;
-        /// `None` when the frame has none.
+        /// Frame `i`'s displacement from the rest, in the source model's coordinates (the rest
+        /// aligned onto its base, as the follower's neutral is): the frame aligned onto the rest
+        /// by a similarity of the points an expression hardly moves (`STABLE_POINTS`, as the
+        /// follower poses a frame); `None` when the frame has none.
         fn displacement(&self, i: usize) -> Option<Vec<f32>> {
             let (_, p) = self.frames.iter().find(|(j, _)| *j == i)?;
             let mut x = vec![0f32; p.len()];
-            facemimic::Similarity::align(p, &self.base).apply(p, &mut x);
+            let stable = &facemimic::landmarks::STABLE_POINTS;
+            facemimic::Similarity::align_points(p, &self.rest, stable).apply(p, &mut x);
             Some(x.iter().zip(&self.rest).map(|(a, b)| a - b).collect())
         }
     }
@@ -407,13 +424,21 @@ mod native {
         let options = CloneOptions::default();
         for (i, path) in paths.iter().enumerate().take(last + 1) {
             let t = io::read_training_image(path)?;
-            let fit = follower.track(&t.image.view()?, 1.0 / 25.0)?.clone();
+            let mut fit = follower.track(&t.image.view()?, 1.0 / 25.0)?.clone();
             if !picks.contains(&i) {
                 continue;
             }
             // With an oracle, the follower's look and the oracle's displacement, in the source
-            // model's coordinates (aligned onto its base, as the follower's neutral is).
-            let replaced = oracle.and_then(|o| o.displacement(i));
+            // model's coordinates (aligned onto its base, as the follower's neutral is); or the
+            // tracker's shape parameters from dlib's points.
+            let replaced = match oracle {
+                Some(Oracle::Rest(o)) => o.displacement(i),
+                Some(Oracle::Projected) => {
+                    fit.params.shape = source.project(&t.image.view()?, &t.landmarks)?.shape;
+                    None
+                }
+                None => None,
+            };
             for on in [false, true] {
                 let seen = follower.observed().map(|seen| match &replaced {
                     Some(d) => facemimic::fit::Observed {
