@@ -51,9 +51,7 @@ struct Figures {
     /// Pearson correlation of spk02's cloned mouth opening with the person's (dlib's).
     r_mouth: f32,
     /// The follower's observed displacement (on spk07's base shape): its mouth width's and
-    /// lip-corner lift's spread (p95 - p5) over the person's (dlib's points), and their
-    /// correlation with the person's (Pearson).
-    displaced_spread: [f32; 2],
+    /// lip-corner lift's correlation with the person's (dlib's points; Pearson).
     displaced_r: [f32; 2],
     lost: u32,
 }
@@ -144,7 +142,6 @@ fn measure(clip: &str, range: std::ops::RangeInclusive<usize>) -> Option<Figures
         raw,
         finder_free,
         r_mouth,
-        displaced_spread,
         displaced_r,
         lost: followed.lost,
     })
