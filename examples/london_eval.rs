@@ -61,9 +61,6 @@ mod native {
         Similarity, TrainingImage,
     };
 
-    /// The points the smiling photo is aligned on: the nose (27-35) and the eye corners
-    /// (36, 39, 42, 45), which a smile barely moves.
-    const ALIGN_POINTS: [usize; 13] = [27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 39, 42, 45];
     /// The outer lips, in order around the mouth.
     const OUTER_LIPS: RangeInclusive<usize> = 48..=59;
     /// The mouth region's dilation, in eye-centre distances.
@@ -666,15 +663,10 @@ mod native {
         })
     }
 
-    /// The least-squares similarity taking `from`'s nose and eye corners onto `onto`'s.
+    /// The least-squares similarity taking `from`'s nose and eye corners onto `onto`'s
+    /// (`landmarks::STABLE_POINTS`, which a smile barely moves).
     fn alignment(from: &[f32], onto: &[f32]) -> Result<Similarity> {
-        let pick = |lm: &[f32]| -> Vec<f32> {
-            ALIGN_POINTS
-                .iter()
-                .flat_map(|&i| [lm[2 * i], lm[2 * i + 1]])
-                .collect()
-        };
-        let s = Similarity::align(&pick(from), &pick(onto));
+        let s = Similarity::align_points(from, onto, &facemimic::landmarks::STABLE_POINTS);
         if s.is_valid() {
             Ok(s)
         } else {

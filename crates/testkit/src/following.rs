@@ -97,7 +97,8 @@ pub fn follow(source: &Model, frames: &[TrainingImage], options: FollowOptions) 
         let r = f.track(&view, 1.0 / 25.0).unwrap();
         secs += t0.elapsed().as_secs_f64();
         landmarks.push(r.landmarks.clone());
-        let params = r.params.clone();
+        cloner.clone_frame(&r.params, &clone_options).unwrap();
+        target_mouth.push(mouth_opening(cloner.target_shape(0)));
         displaced_mouth.push(match f.observed().and_then(|o| o.displacement) {
             Some(d) => {
                 for ((o, b), d) in displaced.iter_mut().zip(&source.shape().base).zip(d) {
@@ -107,8 +108,6 @@ pub fn follow(source: &Model, frames: &[TrainingImage], options: FollowOptions) 
             }
             None => [0.0; 2],
         });
-        cloner.clone_frame(&params, &clone_options).unwrap();
-        target_mouth.push(mouth_opening(cloner.target_shape(0)));
     }
     Followed {
         landmarks,
