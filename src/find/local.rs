@@ -571,6 +571,13 @@ mod tests {
                 },
                 "0 stages",
             ),
+            (
+                LearnOptions {
+                    stage_points: vec![None, Some(vec![48, 48])],
+                    ..d.clone()
+                },
+                "increasing",
+            ),
             (LearnOptions { ..d.clone() }, "no usable samples"),
         ] {
             let e = LocalCorrection::learn(&[], &options)
@@ -639,6 +646,12 @@ mod reproducible {
             "the finder's setting is put back"
         );
         let shipped = LocalCorrection::shipped().unwrap();
+        // The coarse first stage moves the mouth alone; the finer two every point but the
+        // jaw's and the outer lips' middles.
+        let points: Vec<Vec<u8>> = shipped.stages.iter().map(|s| s.points.clone()).collect();
+        let all: Vec<u8> = (17..68).filter(|&p| p != 51 && p != 57).collect();
+        let mouth: Vec<u8> = all.iter().copied().filter(|&p| p >= 48).collect();
+        assert_eq!(points, [mouth, all.clone(), all]);
         assert_eq!(learned.stages.len(), shipped.stages.len());
         for (a, b) in learned.stages.iter().zip(&shipped.stages) {
             assert_eq!((a.scale, &a.points), (b.scale, &b.points));

@@ -50,6 +50,10 @@ pub struct LearnOptions {
     pub points: Vec<u8>,
     /// Seed of the perturbations.
     pub seed: u64,
+    /// Per stage (entry `k` for stage `k`), the points it moves instead of
+    /// [`points`](Self::points); `None`, or no entry, for all of them. A stage of fewer points
+    /// costs less to ship and to run.
+    pub stage_points: Vec<Option<Vec<u8>>>,
     /// [`LocalCorrection::learn_from_images`] also learns from each image's mirror image (the
     /// finder run on it, dlib's points mirrored), so a face and its mirror image get mirrored
     /// corrections.
@@ -57,23 +61,44 @@ pub struct LearnOptions {
 }
 
 impl Default for LearnOptions {
-    /// Two stages (sample steps 0.06 and 0.04 of the radius), four perturbed copies, ridge
-    /// 0.01, every point but the jaw's (0-16), the mirror images too: chosen on GRID's speakers 1-5 against 6-10 and
-    /// the reverse (`examples/local_figures.rs`; docs/finding.md, "The local correction").
+    /// Three stages (sample steps 0.1, 0.06 and 0.04 of the radius), four perturbed copies,
+    /// ridge 0.01, every point but the jaw's (0-16), the mirror images too: chosen on GRID's
+    /// speakers 1-5 against 6-10 and the reverse (`examples/local_figures.rs`; docs/finding.md,
+    /// "The local correction").
     ///
     /// Nor the outer lips' middles (51, 57): learned from GRID's speech, which never laughs,
     /// their correction drew a laughing mouth's lips towards a speaking one's and took away
     /// almost half of the lip corners' lift (franck-dev's spread of it, p95 - p5 against
     /// dlib's: 0.74 with no correction, 0.59 with every point's, 0.76 without these two),
     /// for 0.0001 of the eye distance of mean error (docs/finding.md).
+    ///
+    /// The first, coarsest stage moves the mouth's points alone (48-67 but 51 and 57): a
+    /// wider patch sees a laugh's whole mouth, which the two finer stages then refine
+    /// (franck-dev's inner lips' opening 0.81 -> 0.86 of dlib's spread, since 29 Nov). For
+    /// every point it read as much but cost 25 kB of weights where the page's first load has
+    /// 13 kB to spare; for the mouth's 18 it costs 9 kB.
     fn default() -> Self {
+        let points: Vec<u8> = (17..68).filter(|&p| p != 51 && p != 57).collect();
+        let mouth = points.iter().copied().filter(|&p| p >= 48).collect();
         LearnOptions {
-            scales: vec![0.06, 0.04],
+            scales: vec![0.1, 0.06, 0.04],
             perturb: 4,
             ridge: 0.01,
-            points: (17..68).filter(|&p| p != 51 && p != 57).collect(),
+            points,
             seed: 0x9e37_79b9_7f4a_7c15,
             mirror: true,
+            stage_points: vec![Some(mouth)],
+        }
+    }
+}
+
+impl LearnOptions {
+    /// The points stage `k` moves ([`LearnOptions::stage_points`], else
+    /// [`LearnOptions::points`]).
+    pub fn points_of(&self, k: usize) -> &[u8] {
+        match self.stage_points.get(k) {
+            Some(Some(p)) => p,
+            _ => &self.points,
         }
     }
 }
@@ -120,8 +145,8 @@ impl LocalCorrection {
     /// its prediction (with the weights as the file stores them, float16) for the next stage.
     pub fn learn(samples: &[LearnSample<'_>], options: &LearnOptions) -> Result<LocalCorrection> {
         let bad = |m: String| Error::Weights(format!("local correction: {m}"));
-        for &scale in &options.scales {
-            check_stage(scale, &options.points).map_err(bad)?;
+        for (k, &scale) in options.scales.iter().enumerate() {
+            check_stage(scale, options.points_of(k)).map_err(bad)?;
         }
         if !(1..=MAX_STAGES).contains(&options.scales.len()) {
             return Err(bad(format!(
@@ -147,10 +172,11 @@ impl LocalCorrection {
         }
         let mut stages = Vec::new();
         let mut scratch = LocalScratch::default();
-        for &scale in &options.scales {
-            let weights = solve_stage(samples, &starts, scale, options)?;
+        for (k, &scale) in options.scales.iter().enumerate() {
+            let points = options.points_of(k);
+            let weights = solve_stage(samples, &starts, scale, points, options.ridge)?;
             // The weights as stored (float16), so the next stage learns from what ships.
-            let stage = Stage::stored(scale, options.points.clone(), &weights).map_err(bad)?;
+            let stage = Stage::stored(scale, points.to_vec(), &weights).map_err(bad)?;
             for (k, p) in starts.iter_mut() {
                 stage.step(&samples[*k].image, p, &mut scratch);
             }
@@ -253,16 +279,17 @@ struct Look {
     truth: Vec<f32>,
 }
 
-/// One stage's weights: per point of `options.points`, `(DIM + 1) x 2` values (x and y
-/// interleaved per feature, the constant last).
+/// One stage's weights: per point of `points`, `(DIM + 1) x 2` values (x and y interleaved
+/// per feature, the constant last), each point's ridge regression weighted by `ridge` per start.
 fn solve_stage(
     samples: &[LearnSample<'_>],
     starts: &[(usize, Vec<f32>)],
     scale: f32,
-    options: &LearnOptions,
+    points: &[u8],
+    ridge: f64,
 ) -> Result<Vec<f32>> {
     let d = DIM + 1;
-    let np = options.points.len();
+    let np = points.len();
     let mut xtx = vec![DMatrix::<f64>::zeros(d, d); np];
     let mut xty = vec![DMatrix::<f64>::zeros(d, 2); np];
     let mut patch = Vec::new();
@@ -275,7 +302,7 @@ fn solve_stage(
             continue;
         };
         n += 1;
-        for (q, &i) in options.points.iter().enumerate() {
+        for (q, &i) in points.iter().enumerate() {
             let i = i as usize;
             local_descriptor(
                 &s.image,
@@ -304,7 +331,7 @@ fn solve_stage(
     for (a, b) in xtx.into_iter().zip(&xty) {
         let mut a = a;
         for j in 0..DIM {
-            a[(j, j)] += options.ridge * n as f64;
+            a[(j, j)] += ridge * n as f64;
         }
         let sol = a
             .cholesky()

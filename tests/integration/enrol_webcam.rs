@@ -23,11 +23,13 @@
 //! what is left is how the model follows the face. The raw error (mean landmark distance /
 //! outer-eye-corner distance against dlib) is printed beside it.
 //!
-//! Asserted on each clip: the enrolled model's convention-free mean error is at most 1.3x the
-//! dlib model's, and its frames over 0.1 (convention-free) are at most the dlib model's plus 1%
-//! of the measured frames. Skips with a message when ../shared is absent; fails then if the CI
+//! Five enrolments per clip (the searched frames starting one frame later each time; with no
+//! second opinions a tracker drifts onto webcam-dev's hand under the chin or not by chance,
+//! `ENROLMENTS`). Asserted on each clip, on the medians over the enrolments: the enrolled
+//! models' convention-free mean error is at most 1.3x the dlib models', and their frames over
+//! 0.1 (convention-free) are at most the dlib models' plus 1% of the measured frames. Skips with a message when ../shared is absent; fails then if the CI
 //! variable is set. `cargo test --release --test integration enrol_webcam:: -- --nocapture` prints the
-//! figures (about a minute in release).
+//! figures (a few minutes in release).
 
 use facemimic::fit::FaceTracker;
 use facemimic_testkit as common;
@@ -143,98 +145,128 @@ struct Figures {
     dlib: Track,
 }
 
-/// Builds both models of `clip` from every 5th frame of `build_from` and tracks `measure_on`.
-fn measure(clip: &str, build_from: Range<usize>, measure_on: Range<usize>) -> Option<Figures> {
+/// Enrolments per clip: the searched frames start at each of the first `ENROLMENTS` frames
+/// of the building range (every 5th frame from there), so each enrolment sees other frames.
+const ENROLMENTS: usize = 5;
+
+/// Builds both models of `clip` from every 5th frame of `build_from` (starting `ENROLMENTS`
+/// times, one frame later each time) and tracks `measure_on` with each; the figures of every
+/// enrolment, in order.
+///
+/// Why several: a tracker with no second opinions drifts onto webcam-dev's hand under the
+/// chin (frames 1213-1291) or not by chance. Over offsets 0-11 (29 Nov), 2 of 12 enrolled
+/// models and 2 of 12 dlib-built ones drifted with the finder's two-stage correction, 4 and 4
+/// with its coarse mouth stage, where the dlib-built models see the finder only in the start
+/// on the first measured frame. One enrolment's figure was a coin flip; the median of five is
+/// the enrolment's quality.
+fn measure(clip: &str, build_from: Range<usize>, measure_on: Range<usize>) -> Option<Vec<Figures>> {
     let dir = shared_data(clip)?;
     let mut finder = EnrolFinder::new(1).unwrap();
-    let mut dlib = Vec::new();
-    let mut found = Vec::new();
-    let searched = build_from.clone().step_by(5).count();
-    for i in build_from.clone().step_by(5) {
-        let f = frame(&dir, i);
-        if let Some(face) = finder.find(&f.image.view().unwrap(), 0.0).unwrap() {
-            let mut g = f.clone();
-            g.landmarks = face.landmarks;
-            found.push((f.landmarks.clone(), g));
-        }
-        dlib.push(f);
-    }
-    assert!(
-        found.len() * 100 >= searched * 95,
-        "{clip}: a face in only {} of {searched} frames",
-        found.len()
-    );
-    let finder_error = found
-        .iter()
-        .map(|(d, g)| landmark_error(&g.landmarks, d))
-        .sum::<f32>()
-        / found.len() as f32;
-    let enrolled_frames: Vec<TrainingImage> = found.iter().map(|(_, g)| g.clone()).collect();
-
     let test: Vec<TrainingImage> = measure_on.clone().map(|i| frame(&dir, i)).collect();
     let init = common::first_face(finder.finder(), &test[0].image)
         .expect("a face on the first measured frame");
-    let figures = Figures {
-        measured: test.len(),
-        enrolled: track(&build("enrolled", &enrolled_frames), &test, &init),
-        dlib: track(&build("dlib20", &dlib), &test, &init),
-    };
-    println!(
-        "{clip}, built from {build_from:?} (finder found {}/{searched} faces, error against \
-         dlib {finder_error:.4}), tracked over the unseen {measure_on:?} ({} frames):\n  \
-         enrolled model: {}\n  dlib model:     {}\n  enrolled / dlib: convention-free {:.2}x, \
-         raw {:.2}x",
-        found.len(),
-        figures.measured,
-        figures.enrolled,
-        figures.dlib,
-        figures.enrolled.free / figures.dlib.free,
-        figures.enrolled.raw / figures.dlib.raw,
-    );
-    Some(figures)
+    let mut all = Vec::new();
+    for offset in 0..ENROLMENTS {
+        let frames = build_from.start + offset..build_from.end;
+        let mut dlib = Vec::new();
+        let mut found = Vec::new();
+        let searched = frames.clone().step_by(5).count();
+        for i in frames.clone().step_by(5) {
+            let f = frame(&dir, i);
+            if let Some(face) = finder.find(&f.image.view().unwrap(), 0.0).unwrap() {
+                let mut g = f.clone();
+                g.landmarks = face.landmarks;
+                found.push((f.landmarks.clone(), g));
+            }
+            dlib.push(f);
+        }
+        assert!(
+            found.len() * 100 >= searched * 95,
+            "{clip}: a face in only {} of {searched} frames",
+            found.len()
+        );
+        let finder_error = found
+            .iter()
+            .map(|(d, g)| landmark_error(&g.landmarks, d))
+            .sum::<f32>()
+            / found.len() as f32;
+        let enrolled_frames: Vec<TrainingImage> = found.iter().map(|(_, g)| g.clone()).collect();
+        let figures = Figures {
+            measured: test.len(),
+            enrolled: track(&build("enrolled", &enrolled_frames), &test, &init),
+            dlib: track(&build("dlib20", &dlib), &test, &init),
+        };
+        println!(
+            "{clip}, built from every 5th frame of {frames:?} (finder found {}/{searched} faces, \
+             error against dlib {finder_error:.4}), tracked over the unseen {measure_on:?} ({} \
+             frames):\n  enrolled model: {}\n  dlib model:     {}\n  enrolled / dlib: \
+             convention-free {:.2}x, raw {:.2}x",
+            found.len(),
+            figures.measured,
+            figures.enrolled,
+            figures.dlib,
+            figures.enrolled.free / figures.dlib.free,
+            figures.enrolled.raw / figures.dlib.raw,
+        );
+        all.push(figures);
+    }
+    Some(all)
 }
 
-/// The issue's two conditions on one clip.
-fn check(clip: &str, f: &Figures) {
-    assert!(
-        f.enrolled.free <= 1.3 * f.dlib.free,
-        "{clip}: the enrolled model tracks at {:.4} convention-free, more than 1.3x the dlib \
-         model's {:.4} (raw {:.4} against {:.4})",
-        f.enrolled.free,
-        f.dlib.free,
-        f.enrolled.raw,
-        f.dlib.raw
+/// The median of `v`.
+fn median(mut v: Vec<f32>) -> f32 {
+    v.sort_by(f32::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The issue's two conditions on one clip, on the median over its enrolments.
+fn check(clip: &str, all: &[Figures]) {
+    let med = |f: &dyn Fn(&Figures) -> f32| median(all.iter().map(f).collect());
+    let (enrolled, dlib) = (med(&|f| f.enrolled.free), med(&|f| f.dlib.free));
+    let (enrolled_raw, dlib_raw) = (med(&|f| f.enrolled.raw), med(&|f| f.dlib.raw));
+    let enrolled_over = med(&|f| f.enrolled.free_over as f32);
+    let dlib_over = med(&|f| f.dlib.free_over as f32);
+    let drifted = |f: &dyn Fn(&Figures) -> usize| all.iter().filter(|x| f(x) > 0).count();
+    println!(
+        "{clip}, median of {} enrolments: enrolled convention-free {enrolled:.4} ({enrolled_over} \
+         frames over 0.1), dlib {dlib:.4} ({dlib_over}); {:.2}x; raw {enrolled_raw:.4} against \
+         {dlib_raw:.4}; enrolments with a frame over 0.1: enrolled {}, dlib {}",
+        all.len(),
+        enrolled / dlib,
+        drifted(&|f| f.enrolled.free_over),
+        drifted(&|f| f.dlib.free_over),
     );
-    let allowed = f.dlib.free_over as f32 + 0.01 * f.measured as f32;
     assert!(
-        f.enrolled.free_over as f32 <= allowed,
-        "{clip}: the enrolled model has {} frames over 0.1 convention-free, more than the dlib \
-         model's {} plus 1% of {} frames (raw: {} against {})",
-        f.enrolled.free_over,
-        f.dlib.free_over,
-        f.measured,
-        f.enrolled.raw_over,
-        f.dlib.raw_over
+        enrolled <= 1.3 * dlib,
+        "{clip}: the enrolled models track at {enrolled:.4} convention-free (median), more than \
+         1.3x the dlib models' {dlib:.4} (raw {enrolled_raw:.4} against {dlib_raw:.4})"
+    );
+    let allowed = dlib_over + 0.01 * all[0].measured as f32;
+    assert!(
+        enrolled_over <= allowed,
+        "{clip}: the enrolled models have {enrolled_over} frames over 0.1 convention-free \
+         (median), more than the dlib models' {dlib_over} plus 1% of {} frames",
+        all[0].measured
     );
 }
 
 /// webcam-dev: built from frames 0-599, measured on the unseen frames 600-1336.
 #[test]
 fn enrolled_model_follows_webcam_dev_like_a_dlib_model() {
-    let Some(f) = measure("webcam-dev", 0..600, 600..1337) else {
+    let Some(all) = measure("webcam-dev", 0..600, 600..1337) else {
         return;
     };
-    check("webcam-dev", &f);
+    check("webcam-dev", &all);
 }
 
 /// franck-dev2: built from its first half (3800-4299), measured on the unseen second half
 /// (4300-4799).
 #[test]
 fn enrolled_model_follows_franck_dev2_like_a_dlib_model() {
-    let Some(f) = measure("franck-dev2", 3800..4300, 4300..4800) else {
+    let Some(all) = measure("franck-dev2", 3800..4300, 4300..4800) else {
         return;
     };
-    check("franck-dev2", &f);
+    check("franck-dev2", &all);
 }
 
 /// The tracker's second opinion ([`TrackPolicy::recheck_frames`]) on webcam-dev's hand under
