@@ -115,6 +115,18 @@ mod native {
         /// Write clones, sources and a manifest for an external expression classifier here.
         #[arg(long, value_name = "DIR")]
         dump_dir: Option<PathBuf>,
+        /// Instead of pairs of different people, each person's own smile cloned onto their
+        /// own neutral photo (X = Y; the expression prior still learned without them): the
+        /// ceiling of the pipeline when the source's smile is the target's own, which
+        /// separates what cloning costs from another person's smile not being Y's.
+        #[arg(long)]
+        own_smiles: bool,
+        /// An oracle of how much Y smiles: each pair's expressive clone takes the global gain
+        /// (0, 0.25, ..., 1.5) whose mouth (points 48-67, the true smile aligned on the nose
+        /// and eye corners) lies nearest Y's own smile. Chosen on landmarks, never on pixels;
+        /// for measuring what the smile's amount alone costs the pixel measures.
+        #[arg(long)]
+        oracle_gain: bool,
         /// Pairs written to --dump-dir.
         #[arg(long, default_value_t = 24, value_name = "N")]
         dump_pairs: usize,
@@ -213,7 +225,14 @@ mod native {
             .collect::<Result<Vec<_>>>()?;
         let built = start.elapsed().as_secs_f64();
         print_setup(&people, &sources, &targets, &methods);
-        let pairs = pair_list(people.len(), args.stride);
+        let pairs = if args.own_smiles {
+            (0..people.len())
+                .step_by(args.stride)
+                .map(|y| (y, y))
+                .collect()
+        } else {
+            pair_list(people.len(), args.stride)
+        };
         let mut scratch = Scratch {
             pixmap: None,
             rgba: Vec::new(),
@@ -226,6 +245,7 @@ mod native {
             &methods,
             &baselines,
             &mut scratch,
+            args.oracle_gain,
         )?;
         let measured = start.elapsed().as_secs_f64() - built;
         let mut labels: Vec<String> = methods.iter().map(|m| m.to_string()).collect();
@@ -467,7 +487,9 @@ mod native {
         methods: &[Method],
         baselines: &[Baseline],
         scratch: &mut Scratch,
+        oracle_gain: bool,
     ) -> Result<Vec<Row>> {
+        let mut gains_chosen = vec![0usize; ORACLE_GAINS.len()];
         let mut rows = Vec::with_capacity(pairs.len() * (methods.len() + 1));
         let start = Instant::now();
         for (x, source) in sources.iter().enumerate() {
@@ -492,7 +514,28 @@ mod native {
                         let mut out = cloner
                             .target_frame(k)
                             .ok_or_else(|| Error::Params("internal: no target frame".into()))?;
-                        cloner.clone_target(k, &source.smile, &options, &mut out)?;
+                        if oracle_gain {
+                            let mut best = (f32::INFINITY, 1.0, 0);
+                            for (j, &g) in ORACLE_GAINS.iter().enumerate() {
+                                let o = CloneOptions {
+                                    gain: g,
+                                    ..options.clone()
+                                };
+                                cloner.clone_target(k, &source.smile, &o, &mut out)?;
+                                let d = mouth_distance(out.shape(), &people[y].smile.landmarks)?;
+                                if d < best.0 {
+                                    best = (d, g, j);
+                                }
+                            }
+                            gains_chosen[best.2] += 1;
+                            let o = CloneOptions {
+                                gain: best.1,
+                                ..options.clone()
+                            };
+                            cloner.clone_target(k, &source.smile, &o, &mut out)?;
+                        } else {
+                            cloner.clone_target(k, &source.smile, &options, &mut out)?;
+                        }
                         let (w, h) =
                             composite(&mut targets[y], out.appearance(), out.shape(), scratch)?;
                         let outcome = evaluate(scratch, w, h, out.shape(), &people[y].smile)?;
@@ -542,6 +585,9 @@ mod native {
                 sources.len(),
                 start.elapsed().as_secs_f64()
             );
+        }
+        if oracle_gain {
+            eprintln!("oracle gains {ORACLE_GAINS:?} chosen {gains_chosen:?} times");
         }
         Ok(rows)
     }
@@ -665,6 +711,26 @@ mod native {
 
     /// The least-squares similarity taking `from`'s nose and eye corners onto `onto`'s
     /// (`landmarks::STABLE_POINTS`, which a smile barely moves).
+    /// The global gains `--oracle-gain` chooses from.
+    const ORACLE_GAINS: [f32; 7] = [0.0, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5];
+
+    /// The mean distance of the mouth's points (48-67) of `clone` from those of `smile`
+    /// aligned onto it ([`alignment`]), over the clone's outer eye corners' distance.
+    fn mouth_distance(clone: &[f32], smile: &[f32]) -> Result<f32> {
+        let to = alignment(smile, clone)?;
+        let mut aligned = smile.to_vec();
+        to.apply_in_place(&mut aligned);
+        let (a, b) = (point(clone, 36), point(clone, 45));
+        let iod = (a.0 - b.0).hypot(a.1 - b.1).max(1e-6);
+        let d: f32 = (48..68)
+            .map(|i| {
+                let (p, q) = (point(clone, i), point(&aligned, i));
+                (p.0 - q.0).hypot(p.1 - q.1)
+            })
+            .sum();
+        Ok(d / 20.0 / iod)
+    }
+
     fn alignment(from: &[f32], onto: &[f32]) -> Result<Similarity> {
         let s = Similarity::align_points(from, onto, &facemimic::landmarks::STABLE_POINTS);
         if s.is_valid() {
