@@ -1250,6 +1250,7 @@ mod native {
             appearance: &app,
             neutral: &neutral,
             displacement: None,
+            turn: None,
         }))
     }
 

@@ -430,12 +430,28 @@ mod native {
             }
             // With an oracle, the follower's look and the oracle's displacement, in the source
             // model's coordinates (aligned onto its base, as the follower's neutral is); or the
-            // tracker's shape parameters from dlib's points.
+            // tracker's shape parameters from dlib's points, and its displacement against the
+            // person's neutral moved by what they change (`S (p_dlib - p_fit)`).
             let replaced = match oracle {
                 Some(Oracle::Rest(o)) => o.displacement(i),
                 Some(Oracle::Projected) => {
-                    fit.params.shape = source.project(&t.image.view()?, &t.landmarks)?.shape;
-                    None
+                    let p = source.project(&t.image.view()?, &t.landmarks)?.shape;
+                    let base = &source.shape().base;
+                    let mut d = match follower.observed().and_then(|o| o.displacement) {
+                        Some(d) => d.to_vec(),
+                        None => vec![0.0; base.len()],
+                    };
+                    for ((pd, pf), mode) in p
+                        .iter()
+                        .zip(&fit.params.shape)
+                        .zip(source.shape().modes.chunks_exact(base.len()))
+                    {
+                        d.iter_mut()
+                            .zip(mode)
+                            .for_each(|(o, m)| *o += (pd - pf) * m);
+                    }
+                    fit.params.shape = p;
+                    Some(d)
                 }
                 None => None,
             };

@@ -680,6 +680,13 @@ impl SourceFrame {
         match displacement {
             Some(d) => {
                 self.d.iter_mut().zip(d).for_each(|(o, &v)| *o = gain * v);
+                // A target that follows the pose turns its head with the person's.
+                if let (false, Some(turn)) = (hold_turn, observed.turn) {
+                    self.d
+                        .iter_mut()
+                        .zip(turn)
+                        .for_each(|(o, &v)| *o += gain * v);
+                }
                 apply_region_gains(side, &mut self.d, gains);
             }
             None => self.displacement(side, source, p, gains, hold_turn),

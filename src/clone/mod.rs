@@ -740,6 +740,9 @@ struct Prepared {
     /// The observed whole shape displacement (`2n`), when `observed_shape`.
     observed_displacement: Vec<f32>,
     observed_shape: bool,
+    /// The head's turn the observed displacement leaves out (`2n`), when `observed_turn_on`.
+    observed_turn: Vec<f32>,
+    observed_turn_on: bool,
     /// The prior that bounds the expressive method's displacements.
     prior: ExpressionPrior,
 }
@@ -774,6 +777,8 @@ impl Cloner {
                 observed_on: false,
                 observed_displacement: Vec::new(),
                 observed_shape: false,
+                observed_turn: Vec::new(),
+                observed_turn_on: false,
                 prior: ExpressionPrior::builtin().clone(),
             },
             acc: vec![0.0; source.shape().base.len()],
@@ -824,11 +829,16 @@ impl Cloner {
         if o.displacement.is_some() {
             check_len("observed displacement", d, self.source.shape().base.len())?;
         }
+        let turn = o.turn.unwrap_or(&[]);
+        if o.turn.is_some() {
+            check_len("observed head turn", turn, self.source.shape().base.len())?;
+        }
         if !o
             .appearance
             .iter()
             .chain(o.neutral)
             .chain(d)
+            .chain(turn)
             .all(|v| v.is_finite())
         {
             return Err(Error::Params(
@@ -842,6 +852,9 @@ impl Cloner {
         s.observed_displacement.resize(d.len(), 0.0);
         s.observed_displacement.copy_from_slice(d);
         s.observed_shape = o.displacement.is_some();
+        s.observed_turn.resize(turn.len(), 0.0);
+        s.observed_turn.copy_from_slice(turn);
+        s.observed_turn_on = o.turn.is_some();
         s.observed_on = true;
         s.frame_ready = false;
         Ok(())
@@ -1057,6 +1070,7 @@ impl Cloner {
                             appearance: &s.observed,
                             neutral: &s.observed_neutral,
                             displacement: s.observed_shape.then_some(&s.observed_displacement[..]),
+                            turn: s.observed_turn_on.then_some(&s.observed_turn[..]),
                         },
                         &options.regions,
                         options.gain,

@@ -44,12 +44,12 @@ pub use anchor::{HeadDamper, PoseAnchor, Sequence};
 pub use confidence::{ConfidenceBounds, Reasons, TrackStatus};
 pub use driver::Fitter;
 pub use face_tracker::{FaceTracker, TrackerKind, Whose, WORK_SIDE};
-pub(crate) use follow::turn_directions;
 pub use follow::{
     bound_neutral_mouth, close_first_neutral, close_mouth, expression_params, mouth_opening,
     mouth_shape, neutral_update, rest_boundary, split_head_turn, split_head_yaw, FollowOptions,
     Follower, REST_CORNER_LIFT, REST_MOUTH_WIDTH,
 };
+pub(crate) use follow::{split_head_turn_keeping_nod, turn_directions};
 pub use observe::{
     at_rest, neutral_like, rest_distance, Observed, ObservedAppearance, NEUTRAL_MAX_MOVE,
     NEUTRAL_STEP, NEUTRAL_WARMUP,

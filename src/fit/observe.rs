@@ -65,6 +65,12 @@ pub struct Observed<'a> {
     /// whole expression, where the fit's `S p` is its projection onto the source model's modes
     /// (a speech model's modes hold no smile). `None` when the tracker has only the projection.
     pub displacement: Option<&'a [f32]>,
+    /// The head's turn to the side that `displacement` leaves out (`2n`, the same
+    /// coordinates), when the tracker keeps it: the expressive method adds it back when the
+    /// target follows the source's pose ([`crate::CloneOptions::follow_pose`]), so the avatar
+    /// turns its head with the person's. `None`: the target keeps its view either way (the
+    /// [`super::Follower`]'s).
+    pub turn: Option<&'a [f32]>,
 }
 
 impl ObservedAppearance {
@@ -157,6 +163,7 @@ impl ObservedAppearance {
             appearance: &self.app,
             neutral: &self.neutral,
             displacement: None,
+            turn: None,
         })
     }
 

@@ -174,6 +174,11 @@ struct Observer {
     count: u32,
     /// The follower's neutral rules (warm-up, step, mouth margin).
     rules: super::FollowOptions,
+    /// The frame's whole expression (its shape less the neutral, the head's turn to the side
+    /// left out, its nod left in) and that turn, model coordinates
+    /// ([`super::split_head_turn_keeping_nod`], as the follower splits its own).
+    deviation: Vec<f32>,
+    turn: Vec<f32>,
 }
 
 impl Observer {
@@ -194,6 +199,8 @@ impl Observer {
             neutral: vec![0.0; 136],
             count: 0,
             rules: super::FollowOptions::default(),
+            deviation: vec![0.0; 136],
+            turn: vec![0.0; 136],
         };
         o.reset();
         Some(o)
@@ -226,7 +233,7 @@ impl Observer {
         }
         let o = &self.rules;
         let rest = super::rest_distance(&self.shape, &self.neutral, o.mouth_margin);
-        super::neutral_update(
+        let moved = super::neutral_update(
             &mut self.neutral,
             &self.shape,
             &self.shape_model.base,
@@ -238,6 +245,18 @@ impl Observer {
         if self.look.observe(frame, &fit.landmarks, rest).is_err() {
             self.look.reset();
         }
+        // The expression against the person's neutral shape, not against the model's mean:
+        // the mean of a person's enrolment frames is part speech and part smile, and a laugh
+        // measured from it arrived weaker (docs/cloning.md, "The own model's expression
+        // against the person's neutral").
+        moved.apply_in_place(&mut self.shape);
+        super::split_head_turn_keeping_nod(
+            &mut self.shape,
+            &self.neutral,
+            crate::find::IBUG_DEPTH,
+            &mut self.turn,
+            &mut self.deviation,
+        );
     }
 }
 
@@ -783,10 +802,18 @@ impl FaceTracker for Tracker {
 
     /// The last trusted frame's pixels sampled at its fit, against the person's neutral look
     /// kept from their frames at rest (a 68-landmark model; as the follower's, so a change of
-    /// light since the enrolment does not read as expression); no displacement (the fit's
-    /// `S p` is the person's own). `None` before the sequence's first trusted frame.
+    /// light since the enrolment does not read as expression), and the fitted shape less the
+    /// person's neutral shape as the whole displacement (the head's turn to the side left
+    /// out and given beside it; the fit's `S p` is measured from the model's mean, which is
+    /// not the person at rest). `None` before the sequence's first trusted frame.
     fn observed(&self) -> Option<super::Observed<'_>> {
-        self.observed.as_ref().and_then(|o| o.look.get())
+        self.observed.as_ref().and_then(|o| {
+            o.look.get().map(|look| super::Observed {
+                displacement: Some(&o.deviation[..]),
+                turn: Some(&o.turn[..]),
+                ..look
+            })
+        })
     }
 
     /// The last frame's result.

@@ -286,6 +286,7 @@ fn observed_clone(
         appearance: now,
         neutral,
         displacement: Some(d),
+        turn: None,
     }))
     .unwrap();
     c.clone_frame(&source.base_params(), options).unwrap();

@@ -77,6 +77,7 @@ fn an_observed_face_at_rest_gives_the_target_itself_exactly() {
         appearance: &x,
         neutral: &x,
         displacement: Some(&zero),
+        turn: None,
     }))
     .unwrap();
     assert!(c.has_observed());
@@ -88,6 +89,68 @@ fn an_observed_face_at_rest_gives_the_target_itself_exactly() {
     target("spk02").home_pose().apply_in_place(&mut posed);
     for (a, b) in c.target_shape(0).iter().zip(&posed) {
         assert!((a - b).abs() < 1e-3, "{a} vs {b}");
+    }
+}
+
+/// The head's turn a tracker gives beside the displacement (`Observed::turn`, the AAM
+/// tracker's) moves a target that follows the pose and no other: at rest with the head turned,
+/// the target keeps its own face unless `follow_pose` is on.
+#[test]
+fn the_turn_beside_the_displacement_reaches_only_a_target_that_follows_the_pose() {
+    let (closed, _) = closed_and_open();
+    let x = sampled(&closed);
+    let zero = vec![0.0; spk07().shape().base.len()];
+    // A turn to the side: every point moved sideways by its depth.
+    let depth = facemimic::find::IBUG_DEPTH;
+    let turn: Vec<f32> = (0..zero.len())
+        .map(|k| if k % 2 == 0 { 5.0 * depth[k / 2] } else { 0.0 })
+        .collect();
+    assert!(turn.iter().any(|v| v.abs() > 1.0), "a visible turn");
+    let shape_with = |follow_pose: bool| {
+        let mut c = Cloner::new(spk07().clone()).unwrap();
+        c.add_target(target("spk02").clone()).unwrap();
+        c.set_observed(Some(Observed {
+            appearance: &x,
+            neutral: &x,
+            displacement: Some(&zero),
+            turn: Some(&turn),
+        }))
+        .unwrap();
+        let options = CloneOptions {
+            follow_pose,
+            ..CloneOptions::default()
+        };
+        c.clone_frame(&spk07().base_params(), &options).unwrap();
+        c.target_shape(0).to_vec()
+    };
+    let mut posed = target("spk02").shape().base.clone();
+    target("spk02").home_pose().apply_in_place(&mut posed);
+    let moved = |s: &[f32]| {
+        s.iter()
+            .zip(&posed)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max)
+    };
+    assert!(
+        moved(&shape_with(false)) < 1e-3,
+        "held pose: the target's own face"
+    );
+    assert!(
+        moved(&shape_with(true)) > 1.0,
+        "followed pose: the head turns"
+    );
+    // A turn of another length, or not a number, is refused.
+    let mut c = Cloner::new(spk07().clone()).unwrap();
+    let short = vec![0.0; 10];
+    let nan = vec![f32::NAN; zero.len()];
+    for bad in [&short, &nan] {
+        let e = c.set_observed(Some(Observed {
+            appearance: &x,
+            neutral: &x,
+            displacement: Some(&zero),
+            turn: Some(bad),
+        }));
+        assert!(e.is_err());
     }
 }
 
@@ -114,6 +177,7 @@ fn a_tint_of_the_observed_person_never_reaches_the_target() {
             appearance: a,
             neutral: n,
             displacement: Some(&d),
+            turn: None,
         }))
         .unwrap();
         c.clone_frame(&spk07().base_params(), &CloneOptions::default())
@@ -140,6 +204,7 @@ fn bad_observed_faces_are_refused_and_change_nothing() {
                 appearance: &good[1..],
                 neutral: &good,
                 displacement: None,
+                turn: None,
             },
         ),
         (
@@ -148,6 +213,7 @@ fn bad_observed_faces_are_refused_and_change_nothing() {
                 appearance: &good,
                 neutral: &good[..n - 3],
                 displacement: None,
+                turn: None,
             },
         ),
         (
@@ -156,6 +222,7 @@ fn bad_observed_faces_are_refused_and_change_nothing() {
                 appearance: &good,
                 neutral: &good,
                 displacement: Some(&good),
+                turn: None,
             },
         ),
         (
@@ -164,6 +231,7 @@ fn bad_observed_faces_are_refused_and_change_nothing() {
                 appearance: &nan,
                 neutral: &good,
                 displacement: Some(&zero),
+                turn: None,
             },
         ),
     ] {
@@ -175,6 +243,7 @@ fn bad_observed_faces_are_refused_and_change_nothing() {
         appearance: &good,
         neutral: &good,
         displacement: None,
+        turn: None,
     }))
     .unwrap();
     assert!(c.has_observed());
