@@ -67,7 +67,7 @@ pub struct Observed<'a> {
     pub displacement: Option<&'a [f32]>,
     /// The head's turn to the side that `displacement` leaves out (`2n`, the same
     /// coordinates), when the tracker keeps it: the expressive method adds it back when the
-    /// target follows the source's pose ([`crate::CloneOptions::follow_pose`]), so the avatar
+    /// target follows the source's pose ([`crate::clone::CloneOptions::follow_pose`]), so the avatar
     /// turns its head with the person's. `None`: the target keeps its view either way (the
     /// [`super::Follower`]'s).
     pub turn: Option<&'a [f32]>,

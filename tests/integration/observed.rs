@@ -92,6 +92,72 @@ fn an_observed_face_at_rest_gives_the_target_itself_exactly() {
     }
 }
 
+/// The AAM tracker's observed displacement is measured from the person's neutral shape, not
+/// from the model's mean: spk07's model (from `spk07_pwij3p/train20.txt`, speech) has parted
+/// lips on average, so on the unseen clip `spk07_id2_vcd_swwp2s`, at its most closed mouth
+/// (dlib's points, after the first ten frames), `S p` reads the lips closing from the mean
+/// while the displacement reads them near the neutral (its inner-lip opening under half of
+/// `S p`'s). The turn comes beside it.
+#[test]
+fn the_aam_trackers_displacement_is_measured_from_the_persons_neutral() {
+    use facemimic::fit::{FitOptions, Tracker};
+    let model = spk07();
+    let dir = common::repo("data/grid/spk07_id2_vcd_swwp2s");
+    let frames: Vec<TrainingImage> = common::clip_frames(&dir)
+        .iter()
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect();
+    let mut t = Tracker::new(model, FitOptions::default()).unwrap();
+    t.start_from_landmarks(&frames[0].landmarks).unwrap();
+    // The inner lips' opening change of a displacement (lower lip down minus upper lip down).
+    let opening = |d: &[f32]| {
+        [(61, 67), (62, 66), (63, 65)]
+            .iter()
+            .map(|&(u, l)| d[2 * l + 1] - d[2 * u + 1])
+            .sum::<f32>()
+            / 3.0
+    };
+    let n = model.shape().base.len();
+    let mut at_closed = None;
+    let mut closed = f32::INFINITY;
+    for (i, f) in frames.iter().enumerate() {
+        let r = t
+            .track(&f.image.view().unwrap(), facemimic::fit::DEFAULT_TIME_STEP)
+            .unwrap()
+            .clone();
+        let o = t.observed().expect("a 68-landmark model observes the face");
+        let d = o.displacement.expect("the tracker's whole displacement");
+        assert_eq!(o.turn.map(|t| t.len()), Some(n), "the turn beside it");
+        let m = facemimic::fit::mouth_opening(&f.landmarks);
+        if i >= 10 && m < closed {
+            closed = m;
+            let mut sp = vec![0.0; n];
+            for (p, mode) in r
+                .params
+                .shape
+                .iter()
+                .zip(model.shape().modes.chunks_exact(n))
+            {
+                sp.iter_mut().zip(mode).for_each(|(o, v)| *o += p * v);
+            }
+            at_closed = Some((i, opening(d), opening(&sp)));
+        }
+    }
+    let (i, from_neutral, from_mean) = at_closed.unwrap();
+    println!(
+        "spk07's most closed mouth (frame {i}): opening change from the neutral {from_neutral:.2}, \
+         from the model's mean (S p) {from_mean:.2} (model units)"
+    );
+    assert!(
+        from_mean < -0.5,
+        "the model's mean has parted lips: {from_mean:.2}"
+    );
+    assert!(
+        from_neutral.abs() < 0.5 * from_mean.abs(),
+        "from the neutral {from_neutral:.2}, from the mean {from_mean:.2}"
+    );
+}
+
 /// The head's turn a tracker gives beside the displacement (`Observed::turn`, the AAM
 /// tracker's) moves a target that follows the pose and no other: at rest with the head turned,
 /// the target keeps its own face unless `follow_pose` is on.
