@@ -66,20 +66,27 @@ fn displacement(rest: &TrainingImage, now: &TrainingImage) -> Vec<f32> {
     b.iter().zip(&a).map(|(x, y)| x - y).collect()
 }
 
+/// A cloner of spk07 onto spk02 given a face at rest: `look` as both the frame's and the
+/// neutral appearance, the displacement `d` and the head's `turn` beside it.
+fn at_rest_onto_spk02(look: &[f32], d: &[f32], turn: Option<&[f32]>) -> Cloner {
+    let mut c = Cloner::new(spk07().clone()).unwrap();
+    c.add_target(target("spk02").clone()).unwrap();
+    c.set_observed(Some(Observed {
+        appearance: look,
+        neutral: look,
+        displacement: Some(d),
+        turn,
+    }))
+    .unwrap();
+    c
+}
+
 #[test]
 fn an_observed_face_at_rest_gives_the_target_itself_exactly() {
     let (closed, _) = closed_and_open();
     let x = sampled(&closed);
     let zero = vec![0.0; spk07().shape().base.len()];
-    let mut c = Cloner::new(spk07().clone()).unwrap();
-    c.add_target(target("spk02").clone()).unwrap();
-    c.set_observed(Some(Observed {
-        appearance: &x,
-        neutral: &x,
-        displacement: Some(&zero),
-        turn: None,
-    }))
-    .unwrap();
+    let mut c = at_rest_onto_spk02(&x, &zero, None);
     assert!(c.has_observed());
     c.clone_frame(&spk07().base_params(), &CloneOptions::default())
         .unwrap();
@@ -173,15 +180,7 @@ fn the_turn_beside_the_displacement_reaches_only_a_target_that_follows_the_pose(
         .collect();
     assert!(turn.iter().any(|v| v.abs() > 1.0), "a visible turn");
     let shape_with = |follow_pose: bool| {
-        let mut c = Cloner::new(spk07().clone()).unwrap();
-        c.add_target(target("spk02").clone()).unwrap();
-        c.set_observed(Some(Observed {
-            appearance: &x,
-            neutral: &x,
-            displacement: Some(&zero),
-            turn: Some(&turn),
-        }))
-        .unwrap();
+        let mut c = at_rest_onto_spk02(&x, &zero, Some(&turn));
         let options = CloneOptions {
             follow_pose,
             ..CloneOptions::default()
