@@ -34,13 +34,16 @@
 //!   AAM tracker's shape parameters with dlib's points projected into franck's model
 //!   (`Model::project`), the tracker's pose, appearance and observed look kept: what the
 //!   tracker's reading of the shape costs.
+//! - **The own model's reference** (`--own --reference rest|mean`): franck's model built about
+//!   his training frame most at rest (`ReferenceChoice::Rest`, the default, as the page's
+//!   enrolment builds) or about the mean of his 20 frames (the paper's default).
 //! - **A tracker setting's effect** (`--own --fit-options JSON`): franck's AAM tracker with the
 //!   given `FitOptions` fields over the defaults, e.g. `'{"shape_prior": 0}'`.
 //!
 //! ```text
 //! cargo run --release --example follow_expressions -- [--clip franck-dev2] [--every 2]
 //!     [--sheet docs/img/follow-expressive.jpg] [--dump-dir /tmp/follow-fer]
-//!     [--displacement follower|dlib|finder] [--own [--fit-options JSON]]
+//!     [--displacement follower|dlib|finder] [--own [--reference rest|mean] [--fit-options JSON]]
 //! ```
 #![cfg_attr(target_arch = "wasm32", no_main)]
 #![allow(clippy::needless_range_loop)]
@@ -102,6 +105,11 @@ mod native {
         /// synthesis, "on" the frame observed against the person's neutral look.
         #[arg(long)]
         own: bool,
+        /// With `--own`: the face franck's model is built about, `rest` (his training frame
+        /// most at rest, as the page's enrolment builds a person's model) or `mean` (the
+        /// paper's default).
+        #[arg(long, default_value = "rest", value_name = "REF")]
+        reference: String,
         /// With `--own`: the tracker's options, a JSON object of `FitOptions` fields over the
         /// defaults (e.g. `{"shape_prior": 0}`), to measure a tracker setting's effect on the
         /// clones.
@@ -187,7 +195,27 @@ mod native {
         }
         let source = if args.own {
             let list = data.join("franck-dev/train20.txt");
-            common::path_list_model(&list, "franck", false).clone()
+            let train: Vec<facemimic::TrainingImage> = io::read_list(&list)?
+                .iter()
+                .map(|p| io::read_training_image(p))
+                .collect::<Result<_>>()?;
+            let reference = match args.reference.as_str() {
+                "mean" => facemimic::ReferenceChoice::Mean,
+                "rest" => facemimic::ReferenceChoice::Rest,
+                r => return Err(Error::Params(format!("--reference: mean or rest, not {r}"))),
+            };
+            let m = facemimic::Builder::new(facemimic::BuildOptions {
+                name: "franck".into(),
+                reference,
+                ..facemimic::BuildOptions::default()
+            })
+            .build(&train, None)?;
+            println!(
+                "franck's model from {} about {:?}",
+                list.display(),
+                m.reference()
+            );
+            m
         } else {
             common::following::spk07()
         };

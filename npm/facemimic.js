@@ -337,6 +337,7 @@ export const lerpPose = guard("lerpPose", glue.lerpPose);
 export const meanPose = guard("meanPose", glue.meanPose);
 export const methods = guard("methods", glue.methods);
 export const modelSummary = guard("modelSummary", glue.modelSummary);
+export const mostAtRest = guard("mostAtRest", glue.mostAtRest);
 export const parsePts = guard("parsePts", glue.parsePts);
 export const policy = guard("policy", glue.policy);
 export const recentrePose = guard("recentrePose", glue.recentrePose);

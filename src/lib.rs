@@ -79,7 +79,7 @@ pub use train::canonical;
 pub use train::canonical::{canonical_frame, CANONICAL_FINGERPRINT};
 pub use train::consistency::{identity_split, same_picture};
 pub use train::enrol::{EnrolFace, EnrolFinder};
-pub use train::expression::{expression_coverage, ExpressionCoverage};
+pub use train::expression::{expression_coverage, most_at_rest, ExpressionCoverage};
 pub use train::photo::{
     closest_to_mean, photo_model, with_default_backdrop, MIN_PHOTO_FACE, PHOTO_FIT_PASSES,
     PHOTO_MAX_SIDE,

@@ -21,6 +21,12 @@ pub enum ReferenceChoice {
     /// The training image whose aligned shape is closest to the frame model's base shape
     /// (requires building in another model's frame).
     ClosestToFrame,
+    /// The training image most at rest ([`crate::most_at_rest`]: mouth closed, no smile, brows
+    /// level, eyes open, facing the camera; 68-point landmarks): a person's own model, whose
+    /// base is then their face at rest, the neutral a tracker measures their expressions from
+    /// (section 5: cloning assumes the bases show a similar expression, and a target's
+    /// reference is usually a face at rest too).
+    Rest,
 }
 
 /// Which reference frame a model is built in when no frame model is given to
@@ -308,6 +314,14 @@ fn reference_index(
                     "reference image '{name}' is not among the training images"
                 ))
             })?)
+        }
+        ReferenceChoice::Rest => {
+            let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+            Some(
+                crate::train::expression::most_at_rest(&shapes).map_err(|e| {
+                    Error::Training(format!("the reference at rest needs 68-point faces: {e}"))
+                })?,
+            )
         }
         ReferenceChoice::ClosestToFrame => {
             let (_, base) = target.ok_or_else(|| {

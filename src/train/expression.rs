@@ -112,14 +112,14 @@ impl Measures {
     pub(crate) fn of(lm: &[f32]) -> Result<Measures> {
         if lm.len() != 136 || lm.iter().any(|v| !v.is_finite()) {
             return Err(Error::Training(
-                "expression coverage: 68 finite landmarks a face are needed".into(),
+                "a face's expression is measured on 68 finite landmarks".into(),
             ));
         }
         let e = crate::landmarks::eye_line(lm).unwrap_or([1.0, 0.0]);
         let iod = e[0].hypot(e[1]);
         if !(iod > 1e-3) {
             return Err(Error::Training(
-                "expression coverage: the eye corners coincide".into(),
+                "a face's expression: the eye corners coincide".into(),
             ));
         }
         let (ex, ey) = ([e[0] / iod, e[1] / iod], [-e[1] / iod, e[0] / iod]);
@@ -196,6 +196,62 @@ pub fn expression_coverage(shapes: &[&[f32]]) -> Result<ExpressionCoverage> {
     Ok(c)
 }
 
+/// The face most at rest among `shapes` (each a face's 68 landmarks, image pixels): the one
+/// least far, in all, towards the expressions the guide counts, each measure over the amount
+/// that counts as showing it (so no one measure's unit weighs more than another's):
+/// - the smile: the mouth's width plus its corners' rise over the least of the faces', over
+///   `SMILE`;
+/// - the mouth: the inner lips' gap over `MOUTH_OPEN_GAP`;
+/// - the brows: their height over the eyes from the faces' median, either way, over
+///   `BROW_RISE`;
+/// - the eyes: how far their lids' gap has closed from the widest of the faces', over
+///   `1 - EYES_CLOSED_RATIO`;
+/// - the head: its turn (the yaw proxy; 0 frontal) over `TURN_YAW`.
+///
+/// A model built about this face (`ReferenceChoice::Rest`) starts its person's neutral there:
+/// the mean of frames that smile, laugh, talk and blink is not the face at rest (its eyes half
+/// closed, its lips parted), and an expression measured from it arrives as only what it adds.
+/// Among each London person's neutral and smiling photo it picks the neutral, 60 of 60 (unit
+/// test); among franck's 20 training frames (`franck-dev/train20.txt`) his frontal closed-mouth
+/// frame 850 (`tests/integration/observed.rs`). Ties go to the earlier face.
+///
+/// Fails with [`Error::Training`] when `shapes` is empty or a shape has not 68 finite points.
+pub fn most_at_rest(shapes: &[&[f32]]) -> Result<usize> {
+    let all: Vec<Measures> = shapes
+        .iter()
+        .map(|s| Measures::of(s))
+        .collect::<Result<_>>()?;
+    if all.is_empty() {
+        return Err(Error::Training(
+            "the face most at rest: no faces to choose from".into(),
+        ));
+    }
+    let smile = |m: &Measures| m.mouth_width + m.lift;
+    let least_smile = all.iter().map(smile).fold(f32::INFINITY, f32::min);
+    let widest_eyes = all.iter().map(|m| m.eye_gap).fold(0.0f32, f32::max);
+    let brow = Measures::median(&all).brow;
+    let away = |m: &Measures| {
+        let eyes = if widest_eyes > 0.0 {
+            (1.0 - m.eye_gap / widest_eyes) / (1.0 - EYES_CLOSED_RATIO)
+        } else {
+            0.0
+        };
+        (smile(m) - least_smile) / SMILE
+            + m.mouth_gap / MOUTH_OPEN_GAP
+            + (m.brow - brow).abs() / BROW_RISE
+            + eyes
+            + m.yaw.abs() / TURN_YAW
+    };
+    let mut best = (0, f32::INFINITY);
+    for (i, m) in all.iter().enumerate() {
+        let a = away(m);
+        if a < best.1 {
+            best = (i, a);
+        }
+    }
+    Ok(best.0)
+}
+
 // Native only: the tests read landmark files from disk.
 #[cfg(all(test, not(target_arch = "wasm32")))]
 mod tests {
@@ -223,6 +279,33 @@ mod tests {
             ));
         }
         out
+    }
+
+    #[test]
+    fn the_face_most_at_rest_is_each_london_persons_neutral_photo() {
+        let people = london();
+        assert_eq!(people.len(), 60);
+        for (k, (neutral, smiling)) in people.iter().enumerate() {
+            assert_eq!(most_at_rest(&[neutral, smiling]).unwrap(), 0, "person {k}");
+            assert_eq!(most_at_rest(&[smiling, neutral]).unwrap(), 1, "person {k}");
+        }
+        // All 120 photos: a neutral one.
+        let all: Vec<&[f32]> = people
+            .iter()
+            .flat_map(|(n, s)| [n.as_slice(), s.as_slice()])
+            .collect();
+        assert_eq!(most_at_rest(&all).unwrap() % 2, 0);
+    }
+
+    #[test]
+    fn the_face_most_at_rest_needs_faces_of_68_finite_points() {
+        assert!(most_at_rest(&[]).is_err());
+        let (neutral, _) = &london()[0];
+        let mut bad = neutral.clone();
+        bad[10] = f32::NAN;
+        assert!(most_at_rest(&[neutral, &bad]).is_err());
+        assert!(most_at_rest(&[&neutral[..100]]).is_err());
+        assert_eq!(most_at_rest(&[neutral]).unwrap(), 0);
     }
 
     #[test]

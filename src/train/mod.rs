@@ -10,7 +10,8 @@
 //!   backdrop) that the CLI and the wasm layer both call.
 //! - `quality.rs`: which enrolment frames are good enough ([`crate::FrameQuality`]:
 //!   occluded, blurred, dark, turned, outside the picture).
-//! - `expression.rs`: which expressions the kept frames cover ([`crate::expression_coverage`]).
+//! - `expression.rs`: which expressions the kept frames cover ([`crate::expression_coverage`]),
+//!   and which of them is most at rest ([`crate::most_at_rest`], a person's reference face).
 //! - `photo.rs`: a target from a single photo.
 
 pub(crate) mod builder;

@@ -251,8 +251,20 @@ pub fn enrol(
             .collect();
         expression_coverage(&shapes)
     };
+    // The face most at rest among the usable frames, kept through the selection and named to
+    // the builder (the varied frames chosen need not include it).
+    let mut build = options.build.clone();
+    let reference = match build.reference {
+        ReferenceChoice::Rest => {
+            let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+            let r = crate::train::expression::most_at_rest(&shapes)?;
+            build.reference = ReferenceChoice::Named(images[r].name.clone());
+            Some(used[r])
+        }
+        _ => reference,
+    };
     let (images, used) = select(images, used, options.select, reference)?;
-    let model = Builder::new(options.build.clone()).build_refined(
+    let model = Builder::new(build).build_refined(
         &images,
         frame_of,
         options.refine_rounds,

@@ -217,4 +217,13 @@ test('selection, cancelling and bad input', async () => {
   const ok = fm.buildModel({ ...base(), reference: 2 });
   assert.equal(ok.info().reference, 'frame2');
   ok.free();
+  // "rest": the frame most at rest (mostAtRest) is the reference.
+  const rest = fm.mostAtRest(shapes);
+  assert.ok(Number.isInteger(rest) && rest >= 0 && rest < shapes.length, `mostAtRest ${rest}`);
+  const atRest = fm.buildModel({ ...base(), reference: 'rest' });
+  assert.equal(atRest.info().reference, `frame${rest}`);
+  atRest.free();
+  assert.throws(() => fm.buildModel({ ...base(), reference: 'smile' }), /reference/);
+  assert.throws(() => fm.mostAtRest([]), /no faces/);
+  assert.throws(() => fm.mostAtRest([shapes[0].slice(0, 10)]), /68/);
 });

@@ -65,3 +65,54 @@ fn enrol_finder_places_grid_faces_and_is_mirror_consistent() {
         );
     }
 }
+
+/// `enrol` about the face at rest (`ReferenceChoice::Rest`): among a GRID clip's 30 landmarked
+/// frames, 6 varied ones kept, the model's bases are the frame `most_at_rest` picks among all
+/// 30, kept through the selection though farthest-point sampling did not choose it.
+#[test]
+fn enrolment_about_the_face_at_rest_keeps_that_face() {
+    use facemimic::{enrol, BuildOptions, EnrolFrame, EnrolOptions, QualityScope, Reference};
+    let dir = facemimic_testkit::repo("data/grid/spk03_lbax4n");
+    let frames: Vec<facemimic::TrainingImage> = io::annotated_images(&dir)
+        .unwrap()
+        .iter()
+        .take(30)
+        .map(|p| io::read_training_image(p).unwrap())
+        .collect();
+    let shapes: Vec<&[f32]> = frames.iter().map(|t| t.landmarks.as_slice()).collect();
+    let rest = facemimic::most_at_rest(&shapes).unwrap();
+    let varied = facemimic::select_varied(&shapes, 6).unwrap();
+    let given = frames
+        .iter()
+        .map(|t| EnrolFrame {
+            name: t.name.clone(),
+            image: t.image.clone(),
+            landmarks: Some(t.landmarks.clone()),
+        })
+        .collect();
+    let options = EnrolOptions {
+        build: BuildOptions {
+            name: "rest".into(),
+            reference: facemimic::ReferenceChoice::Rest,
+            ..BuildOptions::default()
+        },
+        select: Some(6),
+        quality: QualityScope::Off,
+        ..EnrolOptions::default()
+    };
+    let e = enrol(given, &options, None, None, &mut |_| true).unwrap();
+    eprintln!(
+        "  spk03's 30 frames: most at rest {}, varied {varied:?}",
+        frames[rest].name
+    );
+    assert!(
+        !varied.contains(&rest),
+        "the sampling chose it anyway: {varied:?}"
+    );
+    assert_eq!(e.used.len(), 6);
+    assert!(e.used.contains(&rest), "{:?}", e.used);
+    assert_eq!(
+        e.model.reference(),
+        &Reference::Training(frames[rest].name.clone())
+    );
+}

@@ -401,7 +401,14 @@ export class Enrolment {
     }
     this.stopCapture();
     const name = this.els.name.value.trim() || 'My face';
-    const pick = [...this.page.fm.selectVaried(this.candidates.map((c) => c.landmarks), Math.min(enrolPolicy().want, n))].sort((a, b) => a - b);
+    const shapes = this.candidates.map((c) => c.landmarks);
+    const pick = [...this.page.fm.selectVaried(shapes, Math.min(enrolPolicy().want, n))];
+    // The model is built about the person's face at rest (buildModel's reference "rest": their
+    // expressions are measured from it when they are tracked with it): the face most at rest
+    // among all kept faces goes in, in place of the last varied one.
+    const rest = this.page.fm.mostAtRest(shapes);
+    if (!pick.includes(rest)) pick[pick.length - 1] = rest;
+    pick.sort((a, b) => a - b);
     const frames = pick.map((i) => {
       const c = this.candidates[i];
       return { rgba: c.rgba.slice(), width: c.width, height: c.height, landmarks: c.landmarks };
@@ -416,7 +423,7 @@ export class Enrolment {
     const t0 = performance.now();
     const refine = this.els.refine.checked ? 1 : 0;
     try {
-      const r = await buildInWorker({ frames, name, refine, quality: 'all', minFrames: Math.min(enrolPolicy().minFrames, frames.length) }, {
+      const r = await buildInWorker({ frames, name, refine, reference: 'rest', quality: 'all', minFrames: Math.min(enrolPolicy().minFrames, frames.length) }, {
         signal: this.abort.signal,
         onProgress: (done, total, stage) => {
           p.value = done / total;

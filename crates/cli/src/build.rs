@@ -28,8 +28,10 @@ pub struct Args {
     /// Face width in reference-frame pixels (--own-frame, or landmarks other than 68, only).
     #[arg(long, default_value_t = 150.0, value_name = "PX")]
     face_width: f32,
-    /// The reference face: `mean` (default), `closest` (the training image closest to the
-    /// --frame model's reference) or the name (file stem) of a training image.
+    /// The reference face: `mean` (default), `rest` (the training image most at rest: mouth
+    /// closed, no smile, eyes open, facing the camera; a person's own model to track them
+    /// with), `closest` (the training image closest to the --frame model's reference) or the
+    /// name (file stem) of a training image.
     #[arg(long, default_value = "mean", value_name = "REF")]
     reference: String,
     /// How the file stores the appearance: `i6` (compact, about a fifth of `f32`), `i8`, `f16`
@@ -236,6 +238,7 @@ fn enrol_options(a: &Args) -> Result<EnrolOptions> {
     let reference = match a.reference.as_str() {
         "mean" => ReferenceChoice::Mean,
         "closest" => ReferenceChoice::ClosestToFrame,
+        "rest" => ReferenceChoice::Rest,
         name => ReferenceChoice::Named(name.to_string()),
     };
     Ok(EnrolOptions {

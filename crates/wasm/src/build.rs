@@ -50,8 +50,11 @@ export interface BuildModelOptions {
   select?: number;
   /** The model's name. */
   name: string;
-  /** The face the bases show: "mean" (default) or the index of a frame in `frames`. */
-  reference?: "mean" | number;
+  /** The face the bases show: "mean" (default), "rest" (the usable frame most at rest:
+   *  mouth closed, no smile, eyes open, facing the camera; the page's enrolment builds so, and
+   *  a person tracked with their model has their expressions measured from it) or the index
+   *  of a frame in `frames`. */
+  reference?: "mean" | "rest" | number;
   /** Rounds of refinement (0 = none, the default; at most 3): fit the model to its own training
    *  frames and rebuild from the fitted landmarks. Measured to halve finder-like landmark noise
    *  but to track unseen frames worse (docs/fitting.md), hence off by default. */
@@ -371,8 +374,10 @@ fn read_options(options: &JsValue, frames: usize) -> Result<EnrolOptions, JsErro
 
     // The reference, as an index into the frames given (before skipping and selection).
     let reference = get(options, "reference")?;
+    let at_rest = reference.as_string().as_deref() == Some("rest");
     let reference_index = if reference.is_undefined()
         || reference.is_null()
+        || at_rest
         || reference.as_string().as_deref() == Some("mean")
     {
         None
@@ -381,7 +386,7 @@ fn read_options(options: &JsValue, frames: usize) -> Result<EnrolOptions, JsErro
             Some(x) if x >= 0.0 && x.fract() == 0.0 && (x as usize) < frames => Some(x as usize),
             _ => {
                 return Err(JsError::new(&format!(
-                    "buildModel: 'reference' must be \"mean\" or a frame index below {}, got {}",
+                    "buildModel: 'reference' must be \"mean\", \"rest\" or a frame index below {}, got {}",
                     frames,
                     describe(&reference)
                 )))
@@ -420,6 +425,7 @@ fn read_options(options: &JsValue, frames: usize) -> Result<EnrolOptions, JsErro
         name,
         reference: match reference_index {
             Some(i) => ReferenceChoice::Named(format!("frame{i}")),
+            None if at_rest => ReferenceChoice::Rest,
             None => ReferenceChoice::Mean,
         },
         ..BuildOptions::default()
@@ -516,6 +522,19 @@ pub fn shape_coverage_js(
     let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
     let chosen: Vec<usize> = chosen.into_iter().map(|i| i as usize).collect();
     facemimic::coverage(&refs, &chosen).map_err(|e| JsError::core("shapeCoverage", e))
+}
+
+/// The index of the face most at rest among `shapes` (each a face's 68 landmarks, image
+/// pixels; the core's `most_at_rest`: mouth closed, no smile, brows level, eyes open, facing the
+/// camera): the face a person's model is best built about (`buildModel`'s `reference: "rest"`).
+#[wasm_bindgen(js_name = mostAtRest)]
+pub fn most_at_rest_js(shapes: Vec<js_sys::Float32Array>) -> Result<u32, JsError> {
+    install_panic_hook();
+    let owned: Vec<Vec<f32>> = shapes.iter().map(|s| s.to_vec()).collect();
+    let refs: Vec<&[f32]> = owned.iter().map(Vec::as_slice).collect();
+    facemimic::most_at_rest(&refs)
+        .map(|i| i as u32)
+        .map_err(|e| JsError::core("mostAtRest", e))
 }
 
 /// How many of `shapes` (each a face's 68 landmarks, image pixels) show each expression the

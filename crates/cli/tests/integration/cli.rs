@@ -195,6 +195,33 @@ fn assert_render_matches_frame(img: &facemimic::Image, pts: &Path, frame: &Path)
     );
 }
 
+/// `build --reference rest`: the model's bases are its training frame most at rest (the core's
+/// `most_at_rest` over the frames' landmarks), as `inspect` reports.
+#[test]
+fn build_about_the_face_at_rest() {
+    let dir = scratch("rest");
+    let list = grid("spk07_pwij3p/train20.txt");
+    let model = dir.join("rest.fmm");
+    ok(&[
+        &"build",
+        &"--out",
+        &model,
+        &"--list",
+        &list,
+        &"--reference",
+        &"rest",
+    ]);
+    let images: Vec<facemimic::TrainingImage> = facemimic::io::read_list(&list)
+        .unwrap()
+        .iter()
+        .map(|p| facemimic::io::read_training_image(p).unwrap())
+        .collect();
+    let shapes: Vec<&[f32]> = images.iter().map(|t| t.landmarks.as_slice()).collect();
+    let rest = facemimic::most_at_rest(&shapes).unwrap();
+    let info = json(&ok(&[&"inspect", &model]));
+    assert_eq!(info["reference"], images[rest].name.as_str(), "{info}");
+}
+
 #[test]
 fn build_inspect_project_render() {
     let model = spk07_model();
