@@ -1103,6 +1103,10 @@ pub struct ExpressiveOptions<'a> {
     pub prior: &'a ExpressionPrior,
 }
 
+/// The least share of its own area on the target's base a frame triangle keeps in an
+/// expressive shape ([`expressive_shape`] scales the displacement back until every one does).
+const FOLD_MARGIN: f32 = 1e-3;
+
 /// The expressive shape (see the module docs) of one frame into `acc` (`2n`, model
 /// coordinates, unposed) and the target's own parameters `p*` into `params`:
 /// `x = s0* + S* p* + style (u - S* p*)` with `u = L d` bounded by the prior, then the lips and
@@ -1163,8 +1167,10 @@ pub fn expressive_shape(
             if side.scheme68 && tri.iter().filter(|&&v| (60..=67).contains(&v)).count() >= 2 {
                 return false;
             }
+            // Collapsing to a thousandth of its area counts as folding: a triangle left at
+            // exactly zero turns over in the rounding of the pose applied after.
             let a = signed_area(x, tri);
-            a0 != 0.0 && a * a0.signum() < 0.0
+            a0 != 0.0 && a * a0.signum() < FOLD_MARGIN * a0.abs()
         })
     };
     let mut x = std::mem::take(&mut t.x);

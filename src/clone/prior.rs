@@ -17,8 +17,9 @@ use crate::similarity::Similarity;
 
 /// Magic of the prior file.
 const MAGIC: &[u8; 4] = b"FMEP";
-/// Version of the prior file.
-const VERSION: u32 = 1;
+/// Version of the prior file (2: the modes as `f16`, half the bytes of version 1's `f32`; the
+/// page's first load is counted to the byte).
+const VERSION: u32 = 2;
 /// Most modes a prior keeps.
 pub const MAX_PRIOR_MODES: usize = 24;
 /// Share of the displacements' second moment the kept modes explain.
@@ -206,10 +207,12 @@ impl ExpressionPrior {
         self.variances.len()
     }
 
-    /// The prior as the bytes of its `FMEP` file: magic, version, dimension, modes, residual
-    /// variance, limit, variances, modes (little-endian `u32` / `f32`).
+    /// The prior as the bytes of its `FMEP` file: magic, version, dimension, modes (`u32`),
+    /// residual variance, limit, variances (`f32`), then the modes (`f16`: unit vectors, whose
+    /// components keep about three significant digits), all little-endian. What
+    /// [`ExpressionPrior::from_bytes`] reads back has its modes rounded so.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(24 + 4 * (self.variances.len() + self.modes.len()));
+        let mut out = Vec::with_capacity(24 + 4 * self.variances.len() + 2 * self.modes.len());
         out.extend_from_slice(MAGIC);
         for v in [VERSION, self.dim as u32, self.variances.len() as u32] {
             out.extend_from_slice(&v.to_le_bytes());
@@ -217,9 +220,11 @@ impl ExpressionPrior {
         for v in [self.residual_variance, self.limit]
             .iter()
             .chain(&self.variances)
-            .chain(&self.modes)
         {
             out.extend_from_slice(&v.to_le_bytes());
+        }
+        for &v in &self.modes {
+            out.extend_from_slice(&half::f16::from_f32(v).to_le_bytes());
         }
         out
     }
@@ -244,23 +249,28 @@ impl ExpressionPrior {
         if dim != 136 || k > MAX_PRIOR_MODES {
             return Err(bad(&format!("dimension {dim} with {k} modes")));
         }
-        let want = 16 + 4 * (2 + k + k * dim);
+        let head = 16 + 4 * (2 + k);
+        let want = head + 2 * k * dim;
         if bytes.len() != want {
             return Err(bad(&format!("{} bytes, {want} expected", bytes.len())));
         }
-        let f: Vec<f32> = bytes[16..]
+        let f: Vec<f32> = bytes[16..head]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
             .collect();
-        if f.iter().any(|v| !v.is_finite()) || f[..2 + k].iter().any(|v| *v <= 0.0) {
+        let modes: Vec<f32> = bytes[head..]
+            .chunks_exact(2)
+            .map(|c| half::f16::from_le_bytes([c[0], c[1]]).to_f32())
+            .collect();
+        if f.iter().chain(&modes).any(|v| !v.is_finite()) || f.iter().any(|v| *v <= 0.0) {
             return Err(bad("a value is not finite, or a variance not positive"));
         }
         Ok(ExpressionPrior {
             dim,
             residual_variance: f[0],
             limit: f[1],
-            variances: f[2..2 + k].to_vec(),
-            modes: f[2 + k..].to_vec(),
+            variances: f[2..].to_vec(),
+            modes,
         })
     }
 }

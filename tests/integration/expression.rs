@@ -696,7 +696,7 @@ fn lips_never_cross_and_nothing_folds() {
             if 0.5 * a0.abs() >= 0.1 * longest {
                 assert!(
                     a * a0.signum() >= -1e-3,
-                    "round {round}: triangle {t:?} folded"
+                    "round {round}: triangle {t:?} folded ({a} against {a0})"
                 );
             }
         }
