@@ -200,7 +200,7 @@ test('a model built in the worker while the page draws is kept and drives a targ
   assert.deepEqual(errors, []);
 });
 
-/** The dialog's preview after a build: a drawn mean face, a mode that moves, another mode picked
+/** The dialog's preview after a build: a drawn reference face (the face at rest), a mode that moves, another mode picked
  *  with the keyboard and another kind; the page keeps drawing meanwhile. */
 async function checkPreview(page) {
   const P = '#enrol .enrol-preview';
@@ -209,7 +209,9 @@ async function checkPreview(page) {
   await page.waitForFunction(() => window.facemimicEnrol.preview.drawn > 2);
   const mean = await canvasStats(page, `${P} canvas >> nth=0`);
   assert.ok(mean.width > 100 && mean.variance > 60 && mean.distinct > 200, `the preview's mean face is blank (${JSON.stringify(mean)})`);
-  assert.equal(await page.getAttribute(`${P} canvas >> nth=0`, 'aria-label'), 'Mean face of the new model');
+  // The page's enrolment builds about the face at rest: the preview names its bases so.
+  assert.equal(await page.getAttribute(`${P} canvas >> nth=0`, 'aria-label'), 'Reference face of the model');
+  assert.equal(await page.textContent(`${P} figcaption >> nth=0`), 'Reference face');
   // The mode animates, and the page keeps drawing meanwhile (rAF gaps over one second).
   const frames = await page.evaluate(() => new Promise((resolve) => {
     const t0 = performance.now();

@@ -42,6 +42,14 @@ export class Inspector {
     const n = this.count();
     if (this.mode >= n) this.mode = 0;
     this.meanDirty = true;
+    // The bases are the training mean or a chosen face (the page's enrolment: the face at rest).
+    const mean = !info?.reference || info.reference === 'mean';
+    const fig = this.els.mean.parentElement?.querySelector('figcaption');
+    if (fig) {
+      fig.textContent = mean ? 'Mean' : 'Reference face';
+      fig.title = mean ? 'the mean of the training faces' : `the training face ${info.reference} (the modes are about it)`;
+    }
+    this.els.mean.setAttribute('aria-label', mean ? 'Mean face of the model' : 'Reference face of the model');
     this.bars();
     this.details();
     this.caption();
