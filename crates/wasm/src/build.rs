@@ -374,11 +374,11 @@ fn read_options(options: &JsValue, frames: usize) -> Result<EnrolOptions, JsErro
 
     // The reference, as an index into the frames given (before skipping and selection).
     let reference = get(options, "reference")?;
-    let at_rest = reference.as_string().as_deref() == Some("rest");
+    let named = reference.as_string();
+    let at_rest = named.as_deref() == Some("rest");
     let reference_index = if reference.is_undefined()
         || reference.is_null()
-        || at_rest
-        || reference.as_string().as_deref() == Some("mean")
+        || matches!(named.as_deref(), Some("mean" | "rest"))
     {
         None
     } else {
