@@ -103,11 +103,21 @@ test('the status never says tracking over a broken fit, and the targets hold whi
     patch();
   }, READ_MARKER);
 
-  // Over a loop and a half of the clip, with a screenshot while the face is covered.
+  // Over a loop and a half of the clip, with a screenshot while the face is covered; longer
+  // (up to four loops) while fewer fits than a loop's frames have come: the page fits as fast
+  // as the machine lets it, and this test counts what the status says, not how fast (a loaded
+  // 2-core machine once gave 278 fits in the loop and a half where 300 were needed; speed is
+  // measured in www/bench.html).
   const loop = (SEGMENTS.length * n) / 30;
+  const want = SEGMENTS.length * n + Math.ceil(n / 4);
   let shot = false;
-  const until = Date.now() + 1500 * loop;
-  while (Date.now() < until) {
+  const start = Date.now();
+  const until = start + 1500 * loop;
+  const cap = start + 4000 * loop;
+  for (;;) {
+    const now = Date.now();
+    if (now >= cap) break;
+    if (now >= until && (await page.evaluate(() => window.confidenceLog.length)) >= want) break;
     await page.waitForTimeout(250);
     if (!shot) {
       const last = await page.evaluate(() => window.confidenceLog.at(-1));
