@@ -5,7 +5,7 @@
 //   their .pts files) is made while the page keeps drawing, is kept, survives a reload and drives
 //   as a target; a build cancelled half way stores nothing. Prints the build time (Chromium).
 // - "Create a face" from photos: after the build, and only then, the dialog previews the new
-//   model (its mean face and an animated mode, another mode picked from the bars or the kind);
+//   model (its reference face, the face at rest, and an animated mode, another mode picked from the bars or the kind);
 //   the page draws on meanwhile; closing the dialog stops the preview's drawing; the dialog fits
 //   a desktop and a phone viewport (screenshots artifacts/enrol-built*.png).
 //   node --test tests/e2e/store.test.mjs   (after scripts/build-wasm.sh and scripts/build-models.sh)
@@ -207,8 +207,8 @@ async function checkPreview(page) {
   await page.waitForSelector(P, { state: 'visible' });
   const drawn = () => page.evaluate(() => window.facemimicEnrol.preview.drawn);
   await page.waitForFunction(() => window.facemimicEnrol.preview.drawn > 2);
-  const mean = await canvasStats(page, `${P} canvas >> nth=0`);
-  assert.ok(mean.width > 100 && mean.variance > 60 && mean.distinct > 200, `the preview's mean face is blank (${JSON.stringify(mean)})`);
+  const face = await canvasStats(page, `${P} canvas >> nth=0`);
+  assert.ok(face.width > 100 && face.variance > 60 && face.distinct > 200, `the preview's reference face is blank (${JSON.stringify(face)})`);
   // The page's enrolment builds about the face at rest: the preview names its bases so.
   assert.equal(await page.getAttribute(`${P} canvas >> nth=0`, 'aria-label'), 'Reference face of the model');
   assert.equal(await page.textContent(`${P} figcaption >> nth=0`), 'Reference face');
@@ -334,8 +334,8 @@ test('"Create a face" on a phone (390x844): the dialog fits, the preview comes i
     const r = await box(sel);
     assert.ok(r.top >= dialog.top && r.bottom <= dialog.bottom, `${sel} is not in view after the build: ${JSON.stringify(r)} in ${JSON.stringify(dialog)}`);
   }
-  const mean = await canvasStats(page, '#enrol .enrol-preview canvas >> nth=0');
-  assert.ok(mean.variance > 60 && mean.distinct > 200, `the preview's mean face is blank (${JSON.stringify(mean)})`);
+  const face = await canvasStats(page, '#enrol .enrol-preview canvas >> nth=0');
+  assert.ok(face.variance > 60 && face.distinct > 200, `the preview's reference face is blank (${JSON.stringify(face)})`);
   // Nothing wider than the dialog, no sideways scrolling.
   const fit = await page.$eval('#enrol', (d) => {
     const r = d.getBoundingClientRect();
