@@ -23,9 +23,10 @@ const HAVE_PKG = fs.existsSync(path.join(ROOT, 'www', 'pkg', 'facemimic_bg.wasm'
 const skip = !haveChromium() ? 'chromium is absent' : !HAVE_PKG ? 'www/pkg or www/models is missing (scripts/build-wasm.sh, scripts/build-models.sh)' : false;
 
 /**
- * Each condition's length, in seconds. The loop below looks at both pages within each condition
- * (and takes two screenshots in the second), so a condition must outlast a loaded 2-core
- * machine's slowest look: at 2 s, CI once reached the third condition's wait after it had gone.
+ * Each condition's length, in seconds. The loop below looks at both pages within each condition,
+ * so a condition must outlast a loaded 2-core machine's slowest look: at 2 s (with two
+ * screenshots in the loop, now taken in the long condition of the next test), CI once reached
+ * the third condition's wait after it had gone.
  */
 const D = 4;
 const SCHEDULE = {
@@ -66,25 +67,38 @@ after(async () => {
   for (const fn of cleanups) fn();
 });
 
-/** What a participant could learn from page B: every text in its DOM, and what is on its screen. */
+/**
+ * What a participant could learn from page B: every text in its DOM, and what is on its screen.
+ * Runs in the page; with `want` (settings and an avatar), false until B is set to them, so the
+ * view is read in the same look as the settings it is checked against.
+ */
+function viewInPage(want) {
+  if (want && !(Object.entries(want.settings).every(([k, v]) => window.facemimicCall.settings[k] === v) && window.facemimicCall.avatar === want.avatar)) return false;
+  const visible = (id) => {
+    const el = document.getElementById(id);
+    return Boolean(el && el.offsetParent !== null && getComputedStyle(el).visibility !== 'hidden');
+  };
+  return {
+    blind: document.body.classList.contains('blind'),
+    html: document.documentElement.outerHTML,
+    text: document.body.innerText,
+    outputs: [...document.querySelectorAll('output[id$="-out"]')].map((o) => o.textContent), // the settings' values
+    shown: Object.fromEntries(['gain', 'head', 'avatar-model', 'peer-gain', 'peer-avatar', 'schedule-group', 'download-log', 'allow-remote', 'blind-note'].map((id) => [id, visible(id)])),
+    cover: getComputedStyle(document.querySelector('.self-cover')).display !== 'none',
+    settings: { ...window.facemimicCall.settings },
+    schedule: window.facemimicCall.schedule,
+    popOut: [...document.querySelectorAll('.self .output-menu')].some((e) => e.offsetParent !== null), // the avatar in a window of its own
+  };
+}
+
+/** Page B's view now. */
 function participantView(page) {
-  return page.evaluate(() => {
-    const visible = (id) => {
-      const el = document.getElementById(id);
-      return Boolean(el && el.offsetParent !== null && getComputedStyle(el).visibility !== 'hidden');
-    };
-    return {
-      blind: document.body.classList.contains('blind'),
-      html: document.documentElement.outerHTML,
-      text: document.body.innerText,
-      outputs: [...document.querySelectorAll('output[id$="-out"]')].map((o) => o.textContent), // the settings' values
-      shown: Object.fromEntries(['gain', 'head', 'avatar-model', 'peer-gain', 'peer-avatar', 'schedule-group', 'download-log', 'allow-remote', 'blind-note'].map((id) => [id, visible(id)])),
-      cover: getComputedStyle(document.querySelector('.self-cover')).display !== 'none',
-      settings: { ...window.facemimicCall.settings },
-      schedule: window.facemimicCall.schedule,
-      popOut: [...document.querySelectorAll('.self .output-menu')].some((e) => e.offsetParent !== null), // the avatar in a window of its own
-    };
-  });
+  return page.evaluate(viewInPage, null);
+}
+
+/** Page B's view once it is set to `want` ({ settings, avatar }), waiting at most `timeout` ms. */
+async function participantViewWhenSet(page, want, timeout) {
+  return (await page.waitForFunction(viewInPage, want, { timeout, polling: 50 })).jsonValue();
 }
 
 function assertBlind(v, label) {
@@ -155,25 +169,15 @@ test('a schedule of 3 conditions of 4 s switches both sides; the other page is b
     assert.match(va.total, /^0:\d\d of 0:12$/);
     assert.match(va.remote, new RegExp(want.bAvatar));
     assert.ok(va.shown);
-    // B, set by A's page over the data channel (settings at once, the avatar once loaded), shows nothing of it.
-    await waitCall(b, `Object.entries(${JSON.stringify(want.b)}).every(([k, v]) => window.facemimicCall.settings[k] === v) && window.facemimicCall.avatar === '${want.bAvatar}'`, D * 1000 - 100).catch(async (e) => {
+    // B, set by A's page over the data channel (settings at once, the avatar once loaded), shows
+    // nothing of it: its view is read in the same look as the settings it is checked against.
+    const vb = await participantViewWhenSet(b, { settings: want.b, avatar: want.bAvatar }, D * 1000 - 100).catch(async (e) => {
       const [sa, sb] = [await status(a), await status(b)];
       throw new Error(`condition ${k + 1}: B has ${JSON.stringify(sb.settings)} as ${sb.avatar}; A is in ${JSON.stringify(sa.schedule)} (${e.message})`);
     });
-    const vb = await participantView(b);
     assert.deepEqual(settingsOf(vb), want.b, `B's settings in condition ${k + 1}`);
     assert.equal(vb.schedule.state, 'blind');
     assertBlind(vb, `condition ${k + 1}`);
-    if (k === 1) {
-      // The experimenter's panel scrolled to the schedule (the page itself at its top).
-      await a.evaluate(() => {
-        const panel = document.getElementById('controls');
-        panel.scrollTop += document.getElementById('schedule-group').getBoundingClientRect().top - panel.getBoundingClientRect().top;
-        window.scrollTo(0, 0);
-      });
-      await screenshot(a, 'call-schedule-experimenter', { fullPage: false });
-      await screenshot(b, 'call-schedule-participant', { fullPage: true });
-    }
     seen.push(k + 1);
   }
   assert.deepEqual(seen, [1, 2, 3]);
@@ -249,6 +253,15 @@ test('Stop brings both sides back at once; "Participant view" hides the experime
   assert.equal(await a.isDisabled('#gain'), true, "A's own controls are the schedule's while it runs");
   assert.equal(await a.isDisabled('#peer-gain'), true);
   assertBlind(await participantView(b), 'a long condition');
+  // The screenshots, in a condition long enough for both: the experimenter's panel scrolled to
+  // the schedule (the page itself at its top), and the participant's page.
+  await a.evaluate(() => {
+    const panel = document.getElementById('controls');
+    panel.scrollTop += document.getElementById('schedule-group').getBoundingClientRect().top - panel.getBoundingClientRect().top;
+    window.scrollTo(0, 0);
+  });
+  await screenshot(a, 'call-schedule-experimenter', { fullPage: false });
+  await screenshot(b, 'call-schedule-participant', { fullPage: true });
   // B reloads mid-condition: it comes back blind, and A's page sets it to the condition again.
   await b.reload();
   await waitCall(b, () => window.facemimicCall.state === 'connected', 45000);
