@@ -1408,7 +1408,9 @@ fn hostile_header_is_rejected_before_any_allocation_of_its_arrays() {
             peak <= 1024,
             "rejecting a 200-byte hostile file allocated {peak} bytes"
         );
-        assert!(elapsed.as_millis() < 50, "took {elapsed:?}");
+        // No work in proportion to the claim (12 GB would take minutes): a bound far above the
+        // microseconds it takes, so a loaded machine that pauses the thread cannot fail it.
+        assert!(elapsed.as_millis() < 2000, "took {elapsed:?}");
         eprintln!("hostile 200-byte header claiming {implied} bytes: rejected in {elapsed:?}, peak allocation {peak} bytes");
     }
     #[cfg(target_arch = "wasm32")]
