@@ -4,10 +4,10 @@
 // - a model built in the worker from 20 GRID frames (spk02, decoded by the browser; landmarks from
 //   their .pts files) is made while the page keeps drawing, is kept, survives a reload and drives
 //   as a target; a build cancelled half way stores nothing. Prints the build time (Chromium).
-// - "Create a face" from photos: after the build, and only then, the dialog previews the new
-//   model (its reference face, the face at rest, and an animated mode, another mode picked from the bars or the kind);
-//   the page draws on meanwhile; closing the dialog stops the preview's drawing; the dialog fits
-//   a desktop and a phone viewport (screenshots artifacts/enrol-built*.png).
+// - "Create a face" from photos: after the build, and only then, the dialog previews the new model
+//   (its reference face, the face at rest, and an animated mode, another mode picked from the bars
+//   or the kind); the page draws on meanwhile; closing the dialog stops the preview's drawing; the
+//   dialog fits a desktop and a phone viewport (screenshots artifacts/enrol-built*.png).
 //   node --test tests/e2e/store.test.mjs   (after scripts/build-wasm.sh and scripts/build-models.sh)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
